@@ -1,0 +1,328 @@
+"""Fast simulation of an :class:`~eddi.model.EquationOfMotion`.
+
+A fixed-step classical Runge-Kutta (RK4) integrator compiled with numba. The force is
+sampled on the output grid and interpolated linearly between samples (as MATLAB's
+``interp1`` in the paper's validation). Each output interval can be split into several
+sub-steps; :func:`auto_substeps` picks enough of them that ``h * omega_max <= 0.1`` for the
+stiffest state the model is expected to reach, which keeps RK4's relative error per cycle
+well below 1e-6.
+
+The compiled kernel evaluates terms from their exponent table (see :mod:`eddi.terms`), so
+one compilation serves every model; numba caches it on disk.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from eddi.errors import ModelError, SignalError
+from eddi.model import EquationOfMotion
+from eddi.terms import exponent_table, parse_term
+
+# Layout of the effect parameter vector handed to the kernel.
+_E_COULOMB, _E_VS, _E_QUAD, _E_GAP, _E_KC, _E_K2, _E_K4 = 0, 1, 2, 3, 4, 5, 6
+_E_M2, _E_K2M, _E_C2M, _E_KCM, _E_HAS_MODE, _E_HAS_CLEAR = 7, 8, 9, 10, 11, 12
+_N_EFFECT = 13
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """Simulated response on the output grid.
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,), [s]
+    x : ndarray, shape (n,)
+        Coordinate.
+    v : ndarray, shape (n,)
+        Rate.
+    a : ndarray, shape (n,)
+        Second derivative (from the equation of motion).
+    y : ndarray, shape (n,) or None
+        Second-mode coordinate, when the model has a ``second_mode`` effect.
+    diverged : bool
+        True when the state blew up; samples after that are NaN.
+    substeps : int
+        RK4 sub-steps used per output interval.
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    y: np.ndarray | None
+    diverged: bool
+    substeps: int
+
+
+@numba.njit(cache=True, fastmath=False)
+def _internal(x, v, y, exps, coefs, eff):  # pragma: no cover - compiled
+    total = 0.0
+    for j in range(exps.shape[0]):
+        val = coefs[j]
+        px = exps[j, 0]
+        pv = exps[j, 1]
+        pax = exps[j, 2]
+        pav = exps[j, 3]
+        if px > 0:
+            val *= x**px
+        if pv > 0:
+            val *= v**pv
+        if pax > 0:
+            val *= abs(x) ** pax
+        if pav > 0:
+            val *= abs(v) ** pav
+        if exps[j, 4] % 2 == 1:
+            val *= (x > 0) - (x < 0)
+        if exps[j, 5] % 2 == 1:
+            val *= (v > 0) - (v < 0)
+        total += val
+    if eff[_E_COULOMB] != 0.0:
+        total += eff[_E_COULOMB] * math.tanh(v / eff[_E_VS])
+    if eff[_E_QUAD] != 0.0:
+        total += eff[_E_QUAD] * abs(v) * v
+    if eff[_E_HAS_CLEAR] != 0.0:
+        ax = abs(x) - eff[_E_GAP]
+        if ax > 0.0:
+            total += eff[_E_KC] * ax * ((x > 0) - (x < 0))
+    if eff[_E_K2] != 0.0 or eff[_E_K4] != 0.0:
+        x2 = x * x
+        total += eff[_E_K2] * x2 + eff[_E_K4] * x2 * x2
+    if eff[_E_HAS_MODE] != 0.0:
+        total += eff[_E_KCM] * (x - y)
+    return total
+
+
+@numba.njit(cache=True)
+def _rk4(force, dt, substeps, state0, inv_m, exps, coefs, eff, out):  # pragma: no cover
+    n = out.shape[0]
+    x = state0[0]
+    v = state0[1]
+    y = state0[2]
+    w = state0[3]
+    has_mode = eff[_E_HAS_MODE] != 0.0
+    m2inv = 1.0 / eff[_E_M2] if has_mode else 0.0
+    k2m = eff[_E_K2M]
+    c2m = eff[_E_C2M]
+    kcm = eff[_E_KCM]
+    h = dt / substeps
+    nf = force.shape[0]
+    diverged = -1
+    for i in range(n):
+        f_i = force[i] if i < nf else 0.0
+        a = (f_i - _internal(x, v, y, exps, coefs, eff)) * inv_m
+        out[i, 0] = x
+        out[i, 1] = v
+        out[i, 2] = a
+        out[i, 3] = y
+        if i == n - 1:
+            break
+        f_next = force[i + 1] if i + 1 < nf else 0.0
+        for s in range(substeps):
+            fa = f_i + (f_next - f_i) * (s / substeps)
+            fm = f_i + (f_next - f_i) * ((s + 0.5) / substeps)
+            fb = f_i + (f_next - f_i) * ((s + 1.0) / substeps)
+            # k1
+            a1 = (fa - _internal(x, v, y, exps, coefs, eff)) * inv_m
+            b1 = (-c2m * w - k2m * y - kcm * (y - x)) * m2inv if has_mode else 0.0
+            x2 = x + 0.5 * h * v
+            v2 = v + 0.5 * h * a1
+            y2 = y + 0.5 * h * w
+            w2 = w + 0.5 * h * b1
+            a2 = (fm - _internal(x2, v2, y2, exps, coefs, eff)) * inv_m
+            b2 = (-c2m * w2 - k2m * y2 - kcm * (y2 - x2)) * m2inv if has_mode else 0.0
+            x3 = x + 0.5 * h * v2
+            v3 = v + 0.5 * h * a2
+            y3 = y + 0.5 * h * w2
+            w3 = w + 0.5 * h * b2
+            a3 = (fm - _internal(x3, v3, y3, exps, coefs, eff)) * inv_m
+            b3 = (-c2m * w3 - k2m * y3 - kcm * (y3 - x3)) * m2inv if has_mode else 0.0
+            x4 = x + h * v3
+            v4 = v + h * a3
+            y4 = y + h * w3
+            w4 = w + h * b3
+            a4 = (fb - _internal(x4, v4, y4, exps, coefs, eff)) * inv_m
+            b4 = (-c2m * w4 - k2m * y4 - kcm * (y4 - x4)) * m2inv if has_mode else 0.0
+            x = x + h / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4)
+            v = v + h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+            y = y + h / 6.0 * (w + 2.0 * w2 + 2.0 * w3 + w4)
+            w = w + h / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4)
+        if not (math.isfinite(x) and math.isfinite(v)) or abs(x) > 1e12 or abs(v) > 1e15:
+            diverged = i + 1
+            break
+    if diverged >= 0:
+        for j in range(diverged, n):
+            out[j, 0] = np.nan
+            out[j, 1] = np.nan
+            out[j, 2] = np.nan
+            out[j, 3] = np.nan
+    return diverged
+
+
+def _effect_vector(eom: EquationOfMotion) -> np.ndarray:
+    eff = np.zeros(_N_EFFECT)
+    eff[_E_VS] = 1.0
+    eff[_E_M2] = 1.0
+    for e in eom.effects:
+        p = e.params
+        if e.name == "coulomb_friction":
+            eff[_E_COULOMB] = p["force_n"]
+            eff[_E_VS] = p["velocity_scale"]
+        elif e.name == "quadratic_damping":
+            eff[_E_QUAD] = p["coefficient"]
+        elif e.name == "clearance":
+            eff[_E_GAP] = p["gap_m"]
+            eff[_E_KC] = p["stiffness_n_per_m"]
+            eff[_E_HAS_CLEAR] = 1.0
+        elif e.name == "asymmetric_stiffness":
+            eff[_E_K2] = p["k2"]
+            eff[_E_K4] = p["k4"]
+        elif e.name == "second_mode":
+            eff[_E_M2] = p["mass_kg"]
+            eff[_E_K2M] = p["stiffness_n_per_m"]
+            eff[_E_C2M] = p["damping_n_s_per_m"]
+            eff[_E_KCM] = p["coupling_n_per_m"]
+            eff[_E_HAS_MODE] = 1.0
+        else:  # pragma: no cover - validated by the model
+            raise ModelError(f"unknown effect {e.name!r}")
+    return eff
+
+
+def max_angular_frequency(eom: EquationOfMotion, x_scale: float = 0.0, v_scale: float = 0.0) -> float:
+    """Largest local angular frequency [rad/s] the model reaches for ``|x| <= x_scale``.
+
+    Uses the tangent stiffness ``|dK/dx|`` and the tangent damping ``|dB/dv| / m`` of every
+    term at the given scales; the second mode's own frequency is included.
+    """
+    k_tan = 0.0
+    c_tan = 0.0
+    xs = max(abs(x_scale), 0.0)
+    vs = max(abs(v_scale), 0.0)
+    for text, c in eom.stiffness.items():
+        t = parse_term(text)
+        deg = t.x_degree
+        if deg >= 1:
+            k_tan += abs(c) * deg * (xs ** (deg - 1) if deg > 1 else 1.0)
+    for text, c in eom.damping.items():
+        t = parse_term(text)
+        dv = t.v_degree
+        dx = t.x_degree
+        if dv >= 1:
+            c_tan += abs(c) * dv * (vs ** (dv - 1) if dv > 1 else 1.0) * (xs**dx if dx else 1.0)
+    omega2 = 0.0
+    for e in eom.effects:
+        p = e.params
+        if e.name == "clearance":
+            k_tan += abs(p["stiffness_n_per_m"])
+        elif e.name == "asymmetric_stiffness":
+            k_tan += abs(p["k2"]) * 2 * xs + abs(p["k4"]) * 4 * xs**3
+        elif e.name == "second_mode":
+            k_tan += abs(p["coupling_n_per_m"])
+            omega2 = (abs(p["stiffness_n_per_m"]) + abs(p["coupling_n_per_m"])) / p["mass_kg"]
+            c_tan = max(c_tan, 0.0)
+        elif e.name == "quadratic_damping":
+            c_tan += abs(p["coefficient"]) * 2 * vs
+        elif e.name == "coulomb_friction":
+            c_tan += abs(p["force_n"]) / p["velocity_scale"] * 0.0  # smoothed; not a rate limit
+    omega = math.sqrt(k_tan / eom.mass) if k_tan > 0 else 0.0
+    omega = max(omega, math.sqrt(omega2), c_tan / eom.mass)
+    return omega
+
+
+def auto_substeps(eom: EquationOfMotion, dt: float, x_scale: float = 0.0, v_scale: float = 0.0,
+                  h_omega: float = 0.1, max_substeps: int = 64) -> int:
+    """Sub-steps per sample so that ``h * omega_max <= h_omega``."""
+    omega = max_angular_frequency(eom, x_scale, v_scale)
+    return int(min(max_substeps, max(1, math.ceil(dt * omega / h_omega))))
+
+
+def simulate(
+    eom: EquationOfMotion,
+    t: np.ndarray | None = None,
+    *,
+    rate_hz: float | None = None,
+    n_samples: int | None = None,
+    force: np.ndarray | None = None,
+    x0: float = 0.0,
+    v0: float = 0.0,
+    x_scale: float | None = None,
+    v_scale: float | None = None,
+    substeps: int | None = None,
+) -> SimulationResult:
+    """Simulate the equation of motion on a uniform grid.
+
+    Give either ``t`` (uniform, increasing) or ``rate_hz`` and ``n_samples``.
+
+    Parameters
+    ----------
+    eom : EquationOfMotion
+    t : ndarray, shape (n,), [s], optional
+        Output times (uniform). The state at ``t[0]`` is ``(x0, v0)``.
+    rate_hz : float, optional
+        Sample rate, when ``t`` is not given.
+    n_samples : int, optional
+        Number of output samples, when ``t`` is not given.
+    force : ndarray, shape (m,), [N], optional
+        External force sampled on the same grid; taken as 0 beyond its end.
+    x0, v0 : float
+        Initial state.
+    x_scale, v_scale : float, optional
+        Expected amplitudes, used to choose sub-steps (default: from ``x0, v0`` and the
+        force, using the linear stiffness).
+    substeps : int, optional
+        Force a number of RK4 sub-steps per output interval.
+
+    Returns
+    -------
+    SimulationResult
+    """
+    if t is not None:
+        t = np.asarray(t, dtype=float)
+        if t.ndim != 1 or t.size < 2:
+            raise SignalError("time must be a 1-D array of at least 2 samples")
+        dt = float(t[1] - t[0])
+        if not dt > 0 or not np.allclose(np.diff(t), dt, rtol=1e-6, atol=1e-12):
+            raise SignalError("time must be uniform and increasing")
+        n = t.size
+    else:
+        if rate_hz is None or n_samples is None or rate_hz <= 0 or n_samples < 2:
+            raise SignalError("give t, or rate_hz > 0 and n_samples >= 2")
+        dt = 1.0 / float(rate_hz)
+        n = int(n_samples)
+        t = np.arange(n) * dt
+    f = np.zeros(0) if force is None else np.ascontiguousarray(force, dtype=float)
+    if f.ndim != 1:
+        raise SignalError("force must be 1-D")
+    if not np.all(np.isfinite(f)):
+        raise SignalError("force contains NaN or infinite values")
+    if substeps is None:
+        k1 = abs(eom.linear_stiffness()) or 1.0
+        omega1 = math.sqrt(k1 / eom.mass)
+        # an impulse I gives a rate of about I/m; its largest peak bounds the rate reached
+        v_force = float(np.max(np.abs(np.cumsum(f)))) * dt / eom.mass if f.size else 0.0
+        vs = v_scale if v_scale is not None else max(abs(v0) + v_force, abs(x0) * omega1)
+        xs = x_scale if x_scale is not None else max(abs(x0), vs / omega1)
+        substeps = auto_substeps(eom, dt, xs, vs)
+    substeps = int(substeps)
+    if substeps < 1:
+        raise SignalError("substeps must be >= 1")
+    exps = exponent_table(eom.damping_terms() + eom.stiffness_terms())
+    coefs = np.array(list(eom.damping.values()) + list(eom.stiffness.values()), dtype=float)
+    eff = _effect_vector(eom)
+    out = np.empty((n, 4))
+    state0 = np.array([float(x0), float(v0), 0.0, 0.0])
+    div = _rk4(f, dt, substeps, state0, 1.0 / eom.mass, exps, coefs, eff, out)
+    has_mode = eom.effect("second_mode") is not None
+    return SimulationResult(
+        t=t,
+        x=out[:, 0].copy(),
+        v=out[:, 1].copy(),
+        a=out[:, 2].copy(),
+        y=out[:, 3].copy() if has_mode else None,
+        diverged=bool(div >= 0),
+        substeps=substeps,
+    )
