@@ -1,0 +1,203 @@
+"""EDDI identification: phase one (damping), phase two (stiffness), joined.
+
+:func:`identify` takes a measured free response ``(t, x, v)`` of a generalized coordinate
+and the known mass (or inertia) and returns an :class:`IdentifiedModel` holding the
+equation of motion, the route used in phase two and everything both phases measured.
+It adds no numerics of its own: it checks inputs, cuts the window, calls
+:func:`eddi.phase_one.phase_one` and a route of :mod:`eddi.phase_two`, and (for
+``route="auto"``) keeps the route whose model reproduces the measured response best.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from eddi.energy import check_series
+from eddi.errors import ModelError, SignalError, TermError
+from eddi.model import EquationOfMotion
+from eddi.phase_one import PhaseOneResult, phase_one
+from eddi.phase_two import ROUTES, PhaseTwoResult, lagrangian_route, potential_route
+from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, Term, parse_terms
+
+
+@dataclass(frozen=True)
+class IdentifiedModel:
+    """The result of :func:`identify`.
+
+    Attributes
+    ----------
+    eom : EquationOfMotion
+        ``mass x'' + sum b_j B_j + sum k_n K_n = F``.
+    route : str
+        Phase-two route used: ``"potential"`` or ``"lagrangian"``.
+    phase_one : PhaseOneResult
+        Crossings, ``T(gamma_i)``, ``Q``, ``R``, dissipated and mechanical energies.
+    phase_two : PhaseTwoResult
+        Samples and fit of the route used.
+    window : tuple of int
+        ``[start, stop)`` sample indices of the caller's arrays that were used.
+    route_scores : dict of str to float
+        For ``route="auto"``: the free-response NRMSE of the model of each route tried,
+        over the span of the crossings (lower is better); empty otherwise.
+    alternatives : dict of str to PhaseTwoResult
+        Phase-two results of the routes tried.
+    """
+
+    eom: EquationOfMotion
+    route: str
+    phase_one: PhaseOneResult
+    phase_two: PhaseTwoResult
+    window: tuple[int, int]
+    route_scores: dict[str, float] = field(default_factory=dict)
+    alternatives: dict[str, PhaseTwoResult] = field(default_factory=dict)
+
+
+def _terms(spec: str | tuple[str, ...] | list[str], what: str) -> tuple[Term, ...]:
+    terms = parse_terms(spec)
+    if not terms:
+        raise TermError(f"{what} library is empty; give at least one term")
+    return terms
+
+
+def _window(window: tuple[int, int] | None, n: int) -> tuple[int, int]:
+    if window is None:
+        return 0, n
+    try:
+        start, stop = int(window[0]), int(window[1])
+    except (TypeError, ValueError, IndexError):
+        raise SignalError(f"window must be (start, stop) sample indices, got {window!r}") from None
+    if start < 0:
+        start += n
+    if stop < 0:
+        stop += n
+    if not 0 <= start < stop <= n or stop - start < 4:
+        raise SignalError(f"window must satisfy 0 <= start < stop <= {n} with >= 4 samples, got {tuple(window)}")
+    return start, stop
+
+
+def identify(
+    t: np.ndarray,
+    x: np.ndarray,
+    v: np.ndarray,
+    mass: float,
+    *,
+    damping: str | tuple[str, ...] | list[str] = DEFAULT_DAMPING,
+    stiffness: str | tuple[str, ...] | list[str] = DEFAULT_STIFFNESS,
+    route: str = "auto",
+    a: np.ndarray | None = None,
+    window: tuple[int, int] | None = None,
+    coordinate: str = "displacement [m]",
+    weighting: str = "relative",
+    energy_floor: float = 1e-6,
+    v_fraction: float = 0.2,
+    anchored: bool = True,
+) -> IdentifiedModel:
+    """Identify an equation of motion from a free response with the EDDI method.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,), [s]
+        Uniform, increasing sample times.
+    x : ndarray, shape (n,)
+        Generalized coordinate, measured from static equilibrium ([m], [rad]...).
+    v : ndarray, shape (n,)
+        Its rate ([m/s], [rad/s]...).
+    mass : float
+        Mass [kg], or inertia for an angle (pendulum: ``m l^2``), > 0.
+    damping : str or sequence of str
+        Damping candidates ``B_j(x, v)`` (e.g. ``"v,x^2*v,v^3"``).
+    stiffness : str or sequence of str
+        Stiffness candidates ``K_n(x)`` (functions of ``x`` only).
+    route : {"auto", "potential", "lagrangian"}
+        Phase-two route. ``"auto"`` fits both and keeps the one whose model's free
+        response from the first crossing matches the measurement best (ties: potential).
+    a : ndarray, shape (n,), optional
+        Measured acceleration: sharpens ``v`` at the crossings, and the Lagrangian route
+        uses it instead of differentiating ``v``.
+    window : tuple of int, optional
+        ``[start, stop)`` sample indices of the free response to use (default: all).
+    coordinate : str
+        What ``x`` is, stored in the model for people.
+    weighting : {"relative", "paper"}
+        Phase-one row weighting (see :mod:`eddi.phase_one`).
+    energy_floor : float
+        Smallest energy, relative to ``E(gamma_0)``, used in phase-two row weights.
+    v_fraction : float
+        Lagrangian route: samples with ``|v|`` below this fraction of the velocity
+        amplitude at the current energy are left out.
+    anchored : bool
+        Phase two uses the mechanical energy re-anchored on ``T(gamma_i)`` at every
+        crossing (default) instead of the paper's Eq. 12 (accumulated from ``gamma_0``).
+
+    Returns
+    -------
+    IdentifiedModel
+
+    Raises
+    ------
+    ModelError
+        If ``mass`` is not a finite positive number.
+    SignalError
+        On NaN, length mismatch, non-uniform or non-increasing time, bad window.
+    TermError
+        On an unknown term, a duplicated term, or a stiffness term that depends on ``v``.
+    IdentificationError
+        If the window holds too few zero crossings.
+    """
+    try:
+        mass_f = float(mass)
+    except (TypeError, ValueError):
+        raise ModelError(f"mass must be a number > 0, got {mass!r}") from None
+    if not (math.isfinite(mass_f) and mass_f > 0):
+        raise ModelError(f"mass must be > 0, got {mass!r}")
+    if route not in ("auto",) + ROUTES:
+        raise SignalError(f"route must be one of auto, {', '.join(ROUTES)}; got {route!r}")
+    d_terms = _terms(damping, "damping")
+    k_terms = _terms(stiffness, "stiffness")
+    for tm in k_terms:
+        if tm.depends_on_v:
+            raise TermError(f"stiffness term {tm.text!r} depends on v; put it in the damping library")
+    t, sig = check_series(t, {"x": x, "v": v, "a": a})
+    w0, w1 = _window(window, t.size)
+    tw, xw, vw = t[w0:w1], sig["x"][w0:w1], sig["v"][w0:w1]
+    aw = sig["a"][w0:w1] if sig["a"] is not None else None
+
+    p1 = phase_one(tw, xw, vw, mass_f, d_terms, a=aw, weighting=weighting, offset=w0)
+    i0, i1 = p1.sample_slice[0] - w0, p1.sample_slice[1] - w0
+    xs, vs = xw[i0:i1], vw[i0:i1]
+    a_s = aw[i0:i1] if aw is not None else None
+    b = p1.as_dict()
+
+    def model(p2: PhaseTwoResult) -> EquationOfMotion:
+        return EquationOfMotion.create(
+            mass=mass_f, damping=b, stiffness=p2.as_dict(), coordinate=coordinate,
+            notes=f"identified by EDDI (phase two: {p2.route} route) from samples {w0}..{w1}",
+        )
+
+    results: dict[str, PhaseTwoResult] = {}
+    if route in ("auto", "potential"):
+        results["potential"] = potential_route(p1, xs, k_terms, energy_floor=energy_floor,
+                                               anchored=anchored)
+    if route in ("auto", "lagrangian"):
+        results["lagrangian"] = lagrangian_route(p1, xs, vs, mass_f, k_terms, a=a_s,
+                                                 v_fraction=v_fraction, energy_floor=energy_floor,
+                                                 anchored=anchored)
+    scores: dict[str, float] = {}
+    if route == "auto":
+        from eddi.validate import validate  # local: validate imports the simulator
+
+        ts = p1.t
+        for name, p2 in results.items():
+            val = validate(model(p2), ts, xs, v=vs)
+            scores[name] = val.nrmse
+        chosen = min(results, key=lambda k: (scores[k], k != "potential"))
+    else:
+        chosen = route
+    p2 = results[chosen]
+    return IdentifiedModel(
+        eom=model(p2), route=chosen, phase_one=p1, phase_two=p2, window=(w0, w1),
+        route_scores=scores, alternatives=results,
+    )

@@ -1,0 +1,196 @@
+"""Phase two of EDDI: the stiffness model from the mechanical energy of phase one.
+
+Two routes, both fed by ``E(t) = T(gamma_0) - D(t)`` from phase one:
+
+``"potential"`` (never divides by ``v``)
+    ``V(x(t)) = E(t) - T(t)`` at every sample, and ``V(x) = sum_n k_n integral_0^x K_n``
+    is linear in the stiffness coefficients (``x^(n+1)/(n+1)`` for ``x^n``). Rows are
+    weighted by ``1 / E(t)`` (relative energy error), floored at ``energy_floor * E(gamma_0)``.
+``"lagrangian"`` (paper Eqs. 13-16)
+    ``L = 2T - E``; the conservative force is ``dL/dq - p qdd / qd`` with ``p = m qd``,
+    ``dL/dq = (dL/dt) / qd``. Samples near turning points, where ``|v|`` is below
+    ``v_fraction`` of the velocity amplitude at the current energy, are excluded; the
+    force is regressed on ``-K_n(x)``, rows weighted by ``1 / sqrt(E)``.
+
+Sign convention: the equation of motion is ``m x'' + B + K(x) = F`` with
+``K = sum k_n K_n``; the conservative force is ``F_c = -K(x) = -dV/dx``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from eddi.energy import integrated_term, kinetic_energy
+from eddi.phase_one import PhaseOneResult, scaled_lstsq
+from eddi.terms import Term, evaluate
+
+ROUTES = ("potential", "lagrangian")
+
+
+@dataclass(frozen=True)
+class PhaseTwoResult:
+    """What phase two found.
+
+    Attributes
+    ----------
+    route : str
+        ``"potential"`` or ``"lagrangian"``.
+    terms : tuple of str
+        Stiffness terms, in the order of ``coefficients``.
+    coefficients : ndarray, shape (m,)
+        Identified ``k_n``.
+    x : ndarray, shape (k,)
+        Coordinate at the samples used in the regression.
+    potential : ndarray, shape (k,) or None, [J]
+        ``V = E - T`` at those samples (potential route).
+    conservative_force : ndarray, shape (k,) or None, [N]
+        ``F_c = -K(x)`` samples from Eq. 16 (Lagrangian route).
+    residual : float
+        Weighted RMS misfit of the regression, relative (potential: of ``V`` over ``E``;
+        Lagrangian: of the force over its RMS).
+    condition_number : float
+        Of the column-scaled, weighted regression matrix.
+    samples_used : int
+        Rows of the regression.
+    """
+
+    route: str
+    terms: tuple[str, ...]
+    coefficients: np.ndarray
+    x: np.ndarray
+    potential: np.ndarray | None
+    conservative_force: np.ndarray | None
+    residual: float
+    condition_number: float
+    samples_used: int
+
+    def as_dict(self) -> dict[str, float]:
+        """Coefficients by term."""
+        return {name: float(c) for name, c in zip(self.terms, self.coefficients)}
+
+
+def mechanical_energy(p1: PhaseOneResult, anchored: bool) -> np.ndarray:
+    """``E(t)`` of phase one: re-anchored at every crossing, or from ``gamma_0`` (Eq. 12)."""
+    return p1.mechanical_anchored if anchored else p1.mechanical
+
+
+def _floor(energy: np.ndarray, p1: PhaseOneResult, energy_floor: float) -> np.ndarray:
+    e0 = float(p1.kinetic_at_gamma[0])
+    return np.maximum(energy, energy_floor * e0)
+
+
+def potential_route(
+    p1: PhaseOneResult,
+    x: np.ndarray,
+    terms: tuple[Term, ...],
+    *,
+    energy_floor: float = 1e-6,
+    anchored: bool = True,
+) -> PhaseTwoResult:
+    """Stiffness from ``V(x) = E - T`` (no division by ``v``).
+
+    Parameters
+    ----------
+    p1 : PhaseOneResult
+        Phase-one result; its ``mechanical`` and ``kinetic`` energies are used.
+    x : ndarray, shape (k,)
+        Coordinate at the samples of ``p1.t``.
+    terms : tuple of Term
+        Stiffness candidates ``K_n(x)``.
+    energy_floor : float
+        Smallest energy used in the row weights, relative to ``E(gamma_0)``.
+    anchored : bool
+        Use ``E`` re-anchored at every crossing (default) rather than Eq. 12.
+
+    Returns
+    -------
+    PhaseTwoResult
+    """
+    x = np.asarray(x, dtype=float)
+    energy = mechanical_energy(p1, anchored)
+    pot = energy - p1.kinetic
+    cols = np.column_stack([integrated_term(tm, x) for tm in terms])
+    w = 1.0 / _floor(energy, p1, energy_floor)
+    coef, cond = scaled_lstsq(cols * w[:, None], pot * w)
+    resid = float(np.sqrt(np.mean(((cols @ coef - pot) * w) ** 2)))
+    return PhaseTwoResult(
+        route="potential",
+        terms=tuple(tm.text for tm in terms),
+        coefficients=coef,
+        x=x,
+        potential=pot,
+        conservative_force=None,
+        residual=resid,
+        condition_number=cond,
+        samples_used=int(x.size),
+    )
+
+
+def lagrangian_route(
+    p1: PhaseOneResult,
+    x: np.ndarray,
+    v: np.ndarray,
+    mass: float,
+    terms: tuple[Term, ...],
+    *,
+    a: np.ndarray | None = None,
+    v_fraction: float = 0.2,
+    energy_floor: float = 1e-6,
+    anchored: bool = True,
+) -> PhaseTwoResult:
+    """Stiffness from the conservative force of the reformulated Lagrangian (paper Eq. 16).
+
+    Parameters
+    ----------
+    p1 : PhaseOneResult
+    x, v : ndarray, shape (k,)
+        Coordinate and rate at the samples of ``p1.t``.
+    mass : float
+        Mass or inertia; the momentum is ``p = mass * v``.
+    terms : tuple of Term
+        Stiffness candidates.
+    a : ndarray, shape (k,), optional
+        Acceleration; when absent it is the derivative of a cubic spline of ``v``.
+    v_fraction : float
+        Samples with ``|v| < v_fraction * sqrt(2 E / m)`` (near turning points) are left out.
+    energy_floor : float
+        Smallest energy used in the row weights, relative to ``E(gamma_0)``.
+    anchored : bool
+        Use ``E`` re-anchored at every crossing (default) rather than Eq. 12.
+
+    Returns
+    -------
+    PhaseTwoResult
+    """
+    t = p1.t
+    energy = mechanical_energy(p1, anchored)
+    x = np.asarray(x, dtype=float)
+    v = np.asarray(v, dtype=float)
+    lag = 2.0 * kinetic_energy(mass, v) - energy
+    dl_dt = CubicSpline(t, lag).derivative()(t)
+    acc = np.asarray(a, dtype=float) if a is not None else CubicSpline(t, v).derivative()(t)
+    e = _floor(energy, p1, energy_floor)
+    keep = np.abs(v) >= v_fraction * np.sqrt(2.0 * e / mass)
+    keep &= np.abs(v) > 0
+    fc = np.full(t.size, np.nan)
+    fc[keep] = dl_dt[keep] / v[keep] - mass * acc[keep]
+    cols = -evaluate(terms, x[keep], v[keep])
+    w = 1.0 / np.sqrt(e[keep])
+    coef, cond = scaled_lstsq(cols * w[:, None], fc[keep] * w)
+    fit = cols @ coef
+    rms = float(np.sqrt(np.mean((fc[keep] * w) ** 2))) or 1.0
+    resid = float(np.sqrt(np.mean(((fit - fc[keep]) * w) ** 2)) / rms)
+    return PhaseTwoResult(
+        route="lagrangian",
+        terms=tuple(tm.text for tm in terms),
+        coefficients=coef,
+        x=x[keep],
+        potential=None,
+        conservative_force=fc[keep],
+        residual=resid,
+        condition_number=cond,
+        samples_used=int(keep.sum()),
+    )
