@@ -1,0 +1,536 @@
+"""Measurement conditioning: what a bench measures -> ``x, v, a`` and the free-response window.
+
+A hammer test measures force and acceleration (or a laser vibrometer measures velocity).
+EDDI needs the coordinate ``x``, its rate ``v`` and (for phase two) ``a``, over the part of
+the record where the structure rings down freely and the response is above the noise.
+
+Drift-free integration (``acc`` -> ``v``, ``x``), see ``docs/conditioning.md``
+---------------------------------------------------------------------------------
+1. Integrate the (bias-corrected) acceleration from rest: the pre-trigger proves
+   ``x = v = 0`` there, so nothing is filtered and the impulse response keeps all of its
+   low-frequency content (the mean of an impulse response is the impulse times the
+   compliance, which a high-pass removes).
+2. The integrated ``x`` carries a smooth drift ``d(t)`` (noise random walk, sensor bias,
+   IEPE coupling). ``d`` is estimated only where the true ``x`` is known to be zero: at the
+   zero crossings of the acceleration in the free response (``a = 0`` means
+   ``K(x) = -B(x, v)``, i.e. ``x ~ 0`` for a restoring force with its only zero at 0; the
+   small damping offset alternates in sign and averages out), and in the tail where the
+   response has sunk into the noise. ``d`` is a cubic spline with knots every two of the
+   longest periods, clamped to ``d = d' = 0`` at the start of the motion.
+3. ``x = x_int - d`` and ``v = v_int - d'``; ``a`` is the measured acceleration.
+
+Velocity-only input (laser vibrometer) is integrated the same way (``v`` is kept as
+measured) and differentiated with a Savitzky-Golay filter (zero phase) for ``a``.
+
+:func:`integrate_highpass` is the paper's procedure (integrate, then a zero-phase
+third-order Butterworth high-pass at 2-3 Hz; paper Sec. 4.1 and 4.2), kept for comparison.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import signal as sps
+from scipy.integrate import cumulative_trapezoid
+from scipy.interpolate import BSpline
+
+from eddi.errors import SignalError
+
+#: Minimum number of acceleration zero crossings in the free response.
+MIN_CROSSINGS = 6
+
+
+@dataclass(frozen=True)
+class ConditionedSignal:
+    """Signals ready for identification.
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,), [s]
+        Uniform time.
+    x : ndarray, shape (n,), [m] (or [rad])
+        Coordinate, from rest (0 before the impact when a pre-trigger was seen).
+    v : ndarray, shape (n,), [m/s]
+        Rate.
+    a : ndarray, shape (n,), [m/s^2]
+        Second derivative.
+    force : ndarray, shape (n,), [N], or None
+        Measured force with its pre-trigger offset removed.
+    rate_hz : float
+        Sample rate [Hz].
+    free_start, free_stop : int
+        Free-response window ``[free_start, free_stop)``: after the impact has ended, until
+        the response sinks into the noise.
+    method : str
+        How ``x``, ``v`` and ``a`` were obtained.
+    notes : tuple of str
+        Facts found on the way (noise floor, knots, impact indices...).
+    impact_start : int
+        First sample of the motion (rest before it), 0 when no rest was seen.
+    impact_end : int
+        First sample after the impact force is back within the noise (== ``free_start``
+        when there is a force channel).
+    noise_rms : float
+        Noise RMS of the measured response channel (units of that channel).
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    force: np.ndarray | None
+    rate_hz: float
+    free_start: int
+    free_stop: int
+    method: str
+    notes: tuple[str, ...] = field(default_factory=tuple)
+    impact_start: int = 0
+    impact_end: int = 0
+    noise_rms: float = 0.0
+
+    def __post_init__(self) -> None:
+        n = self.t.size
+        for name in ("x", "v", "a"):
+            if getattr(self, name).shape != (n,):
+                raise SignalError(f"conditioned {name} has shape {getattr(self, name).shape}, expected ({n},)")
+        if not 0 <= self.free_start < self.free_stop <= n:
+            raise SignalError(
+                f"free-response window [{self.free_start}, {self.free_stop}) is not inside 0..{n}"
+            )
+
+    @property
+    def window(self) -> tuple[int, int]:
+        """``(free_start, free_stop)``."""
+        return (self.free_start, self.free_stop)
+
+
+# ----------------------------------------------------------------------------------------
+# checks
+# ----------------------------------------------------------------------------------------
+def check_time(t: np.ndarray) -> float:
+    """Check a time vector and return its sample rate [Hz].
+
+    Raises
+    ------
+    SignalError
+        If ``t`` is not 1-D, has fewer than 16 samples, is not finite, not increasing or
+        not uniform (relative spread of the steps above 1e-4).
+    """
+    t = np.asarray(t, dtype=float)
+    if t.ndim != 1 or t.size < 16:
+        raise SignalError(f"time must be a 1-D array of at least 16 samples, got shape {t.shape}")
+    bad = np.nonzero(~np.isfinite(t))[0]
+    if bad.size:
+        raise SignalError(f"time is NaN or infinite at sample {int(bad[0])}")
+    dt = np.diff(t)
+    if np.any(dt <= 0):
+        i = int(np.nonzero(dt <= 0)[0][0])
+        raise SignalError(f"time must increase; t[{i + 1}] = {t[i + 1]:g} after t[{i}] = {t[i]:g}")
+    step = (t[-1] - t[0]) / (t.size - 1)
+    dev = np.abs(dt - step)
+    if np.max(dev) > 1e-4 * step:
+        i = int(np.argmax(dev))
+        raise SignalError(
+            f"time must be uniformly sampled; step {dt[i]:g} s at sample {i + 1}, expected {step:g} s"
+        )
+    return 1.0 / step
+
+
+def check_channel(name: str, y: np.ndarray, n: int) -> np.ndarray:
+    """A channel as a float array of length ``n``, finite everywhere.
+
+    Raises
+    ------
+    SignalError
+        Wrong length, or a NaN / infinite value (the message names the sample).
+    """
+    y = np.asarray(y, dtype=float)
+    if y.shape != (n,):
+        raise SignalError(f"channel {name!r} has shape {y.shape}, expected ({n},) like the time")
+    bad = np.nonzero(~np.isfinite(y))[0]
+    if bad.size:
+        raise SignalError(f"channel {name!r} is NaN or infinite at sample {int(bad[0])}")
+    return y
+
+
+def clipped_run(y: np.ndarray, min_run: int = 5) -> int | None:
+    """Index where ``y`` sits flat at its global maximum or minimum for ``min_run`` samples.
+
+    A clipped channel is flat-topped at its extreme value; a smooth signal sampled with
+    enough resolution does not repeat its extreme value several samples in a row.
+
+    Returns
+    -------
+    int or None
+        First sample of the first such run, or None when the signal is not clipped.
+    """
+    y = np.asarray(y, dtype=float)
+    if y.size < min_run or np.ptp(y) == 0:
+        return None
+    for extreme in (np.max(y), np.min(y)):
+        if extreme == 0:
+            continue
+        hit = (y == extreme).astype(np.int8)
+        if hit.sum() < min_run:
+            continue
+        # run lengths of consecutive hits
+        edges = np.diff(np.concatenate(([0], hit, [0])))
+        starts = np.nonzero(edges == 1)[0]
+        stops = np.nonzero(edges == -1)[0]
+        long = np.nonzero(stops - starts >= min_run)[0]
+        if long.size:
+            return int(starts[long[0]])
+    return None
+
+
+# ----------------------------------------------------------------------------------------
+# building blocks
+# ----------------------------------------------------------------------------------------
+def integrate_highpass(t: np.ndarray, acc: np.ndarray, cutoff_hz: float = 2.0,
+                       order: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """The paper's integration: integrate, then zero-phase Butterworth high-pass, twice.
+
+    Paper Sec. 4.1: "numerically integrating the accelerations and high-pass filtering the
+    output using a third-order Butterworth filter with a cutoff frequency of 2 Hz" (3 Hz in
+    Sec. 4.2). Kept as the reference that :func:`condition` is measured against.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,), [s]
+    acc : ndarray, shape (n,), [m/s^2]
+    cutoff_hz : float
+    order : int
+
+    Returns
+    -------
+    x, v : ndarray, shape (n,)
+        Displacement [m] and velocity [m/s].
+    """
+    rate = check_time(t)
+    sos = sps.butter(order, cutoff_hz, btype="highpass", fs=rate, output="sos")
+    v = sps.sosfiltfilt(sos, cumulative_trapezoid(acc, t, initial=0.0))
+    x = sps.sosfiltfilt(sos, cumulative_trapezoid(v, t, initial=0.0))
+    return x, v
+
+
+def noise_rms(y: np.ndarray, rest_stop: int) -> float:
+    """Noise RMS of a channel: from its rest part ``y[:rest_stop]`` or, without one, its tail.
+
+    The tail estimate uses first differences (``std(diff) / sqrt 2``), which ignores a slow
+    residual response.
+    """
+    y = np.asarray(y, float)
+    if rest_stop >= 32:
+        seg = y[:rest_stop]
+        return float(np.std(seg - np.mean(seg)))
+    tail = y[-max(32, y.size // 10):]
+    return float(np.std(np.diff(tail)) / math.sqrt(2.0))
+
+
+def crossings(y: np.ndarray, hysteresis: float, start: int = 0, stop: int | None = None) -> np.ndarray:
+    """Zero crossings of ``y`` with hysteresis, as fractional sample indices.
+
+    A crossing counts only when ``y`` has gone beyond ``+-hysteresis`` on both sides; its
+    position is the linear interpolation of the last sign change before reaching the other
+    side.
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        Fractional indices (``i + frac``) in ``[start, stop)``.
+    """
+    stop = y.size if stop is None else stop
+    seg = np.asarray(y[start:stop], float)
+    if seg.size < 3:
+        return np.zeros(0)
+    state = np.where(seg > hysteresis, 1, np.where(seg < -hysteresis, -1, 0))
+    nz = np.nonzero(state)[0]
+    if nz.size < 2:
+        return np.zeros(0)
+    s = state[nz]
+    flips = nz[1:][s[1:] != s[:-1]]  # first sample beyond threshold on the new side
+    sign_change = np.nonzero(np.signbit(seg[:-1]) != np.signbit(seg[1:]))[0]
+    if flips.size == 0 or sign_change.size == 0:
+        return np.zeros(0)
+    pos = np.searchsorted(sign_change, flips, side="left") - 1
+    ok = pos >= 0
+    i = sign_change[pos[ok]]
+    y0, y1 = seg[i], seg[i + 1]
+    frac = np.where(y1 != y0, y0 / (y0 - y1), 0.5)
+    return start + i + np.clip(frac, 0.0, 1.0)
+
+
+def _onset(r: np.ndarray, head: int) -> tuple[int, float]:
+    """Start of the run of ``|r|`` above the noise that leads to its peak, and the peak.
+
+    ``r`` has its rest offset removed; ``head`` samples at the start give a (robust) noise
+    scale. The level is the larger of 5 % of the peak and 6 noise RMS.
+    """
+    peak_i = int(np.argmax(np.abs(r)))
+    peak = abs(float(r[peak_i]))
+    h = r[: max(8, head)]
+    sigma = 1.4826 * float(np.median(np.abs(h - np.median(h))))
+    level = max(0.05 * peak, 6.0 * sigma)
+    below = np.nonzero(np.abs(r[: peak_i + 1]) <= level)[0]
+    return (int(below[-1]) + 1 if below.size else 0), peak
+
+
+def _sg_derivative(y: np.ndarray, rate_hz: float, period_s: float, deriv: int) -> np.ndarray:
+    """Zero-phase Savitzky-Golay derivative with a window of about a tenth of a period."""
+    win = int(round(period_s * rate_hz / 10.0)) | 1
+    win = max(7, min(win, 201))
+    if win > y.size:
+        win = (y.size - 1) | 1
+    return sps.savgol_filter(y, win, polyorder=3, deriv=deriv, delta=1.0 / rate_hz)
+
+
+def _drift_spline(
+    t: np.ndarray, x_int: np.ndarray, anchors: np.ndarray, knot_s: float, start: int, clamped: bool
+) -> BSpline:
+    """Least-squares cubic spline through ``x_int`` at fractional indices ``anchors``.
+
+    With ``clamped``, the spline and its slope are 0 at ``t[start]`` (rest).
+    """
+    t0, t1 = float(t[start]), float(t[-1])
+    dt = float(t[1] - t[0])
+    n_int = max(1, int(math.ceil((t1 - t0) / knot_s)))
+    inner = np.linspace(t0, t1, n_int + 1)
+    knots = np.concatenate(([t0] * 3, inner, [t1] * 3))
+    ta = t0 + (anchors - start) * dt
+    idx = np.floor(anchors).astype(int)
+    frac = anchors - idx
+    nxt = np.minimum(idx + 1, x_int.size - 1)
+    ya = x_int[idx] * (1 - frac) + x_int[nxt] * frac
+    basis = BSpline.design_matrix(np.clip(ta, t0, t1), knots, 3).toarray()
+    first = 2 if clamped else 0
+    coef = np.zeros(basis.shape[1])
+    b = basis[:, first:]
+    # a light second-difference penalty keeps intervals without anchors well posed
+    d2 = np.diff(np.eye(b.shape[1]), 2, axis=0)
+    lam = 1e-3 * float(np.mean(np.sum(b * b, axis=0)))
+    sol = np.linalg.solve(b.T @ b + lam * d2.T @ d2 + 1e-12 * np.eye(b.shape[1]), b.T @ ya)
+    coef[first:] = sol
+    return BSpline(knots, coef, 3, extrapolate=False)
+
+
+# ----------------------------------------------------------------------------------------
+# the conditioner
+# ----------------------------------------------------------------------------------------
+def condition(
+    t: np.ndarray,
+    *,
+    acc: np.ndarray | None = None,
+    vel: np.ndarray | None = None,
+    disp: np.ndarray | None = None,
+    force: np.ndarray | None = None,
+    pretrigger_samples: int | None = None,
+    ac_coupling_s: float | None = None,
+    noise_factor: float = 10.0,
+) -> ConditionedSignal:
+    """Turn measured channels into ``x, v, a`` and find the free-response window.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,), [s]
+        Uniform, increasing time.
+    acc, vel, disp : ndarray, shape (n,), optional
+        Measured acceleration [m/s^2], velocity [m/s], displacement [m]; at least one. Given
+        ``disp`` and ``vel`` are used as they are.
+    force : ndarray, shape (n,), [N], optional
+        Measured hammer force; used to find the impact and its end.
+    pretrigger_samples : int, optional
+        Samples of rest before the trigger (default: detected).
+    ac_coupling_s : float, optional
+        Time constant [s] of a first-order AC coupling (IEPE) on ``acc``; when given, the
+        coupling is inverted before integration.
+    noise_factor : float
+        The free response stops where the envelope of the measured response falls below
+        ``noise_factor`` times its noise RMS.
+
+    Returns
+    -------
+    ConditionedSignal
+
+    Raises
+    ------
+    SignalError
+        Bad time base, NaN, no response channel, no motion, too few zero crossings.
+    """
+    rate = check_time(t)
+    t = np.asarray(t, dtype=float)
+    n = t.size
+    if acc is None and vel is None and disp is None:
+        raise SignalError("need at least one of acc, vel, disp; got none")
+    acc = None if acc is None else check_channel("acc", acc, n)
+    vel = None if vel is None else check_channel("vel", vel, n)
+    disp = None if disp is None else check_channel("disp", disp, n)
+    force = None if force is None else check_channel("force", force, n)
+    notes: list[str] = []
+
+    # the measured response channel that says where the motion is
+    if acc is not None:
+        resp_name, resp = "acc", acc
+    elif vel is not None:
+        resp_name, resp = "vel", vel
+    else:
+        resp_name, resp = "disp", disp  # type: ignore[assignment]
+
+    # -- onset of the motion and the rest before it --------------------------------------
+    margin = max(2, int(round(2e-4 * rate)))
+    head = max(8, min(pretrigger_samples or n // 20, n // 5))
+    if force is not None and np.ptp(force) > 0:
+        onset, _ = _onset(force - np.median(force[:head]), head)
+    else:
+        onset, _ = _onset(resp - np.median(resp[:head]), head)
+    if pretrigger_samples is not None:
+        if not 0 <= pretrigger_samples < n:
+            raise SignalError(f"pretrigger_samples must be in 0..{n - 1}, got {pretrigger_samples}")
+        onset = min(onset, int(pretrigger_samples)) if pretrigger_samples > 0 else onset
+    start = max(0, onset - margin)
+    rest = start >= 32 if pretrigger_samples is None else (pretrigger_samples > 0 and start > 0)
+    if rest and pretrigger_samples is None:
+        # rest means quiet: the head must be small compared with the response
+        head = resp[:start]
+        if np.std(head) > 0.02 * np.max(np.abs(resp - np.mean(head))):
+            rest = False
+    if not rest:
+        start = 0
+    noise_stop = max(0, start - margin) if rest else 0
+    sigma = noise_rms(resp, noise_stop)
+    notes.append(f"motion starts at sample {start} ({'rest before' if rest else 'no rest seen'})")
+
+    # remove offsets seen at rest
+    if force is not None:
+        f_off = float(np.mean(force[:noise_stop])) if noise_stop >= 8 else float(np.median(force[: max(8, n // 50)]))
+        force = force - f_off
+    if acc is not None and rest and noise_stop >= 8:
+        acc = acc - float(np.mean(acc[:noise_stop]))
+    if acc is not None and ac_coupling_s is not None:
+        if not ac_coupling_s > 0:
+            raise SignalError(f"ac_coupling_s must be > 0, got {ac_coupling_s}")
+        acc = acc + cumulative_trapezoid(acc, t, initial=0.0) / ac_coupling_s
+        notes.append(f"AC coupling ({ac_coupling_s:g} s) inverted")
+
+    # -- impact end --------------------------------------------------------------------
+    if force is not None and np.ptp(force) > 0:
+        f_sigma = noise_rms(force, noise_stop)
+        f_peak_i = int(np.argmax(np.abs(force)))
+        thr = max(5.0 * f_sigma, 0.01 * abs(float(force[f_peak_i])))
+        look = force[f_peak_i: min(n, f_peak_i + int(0.1 * rate))]
+        above = np.nonzero(np.abs(look) > thr)[0]
+        impact_end = min(n - 1, f_peak_i + int(above[-1]) + 1 + margin)
+        notes.append(f"impact ends at sample {impact_end} (force within {thr:.3g} N of zero)")
+    else:
+        impact_end = -1  # decided after integration (first extremum of x)
+
+    # -- period and crossings of the measured response -----------------------------------
+    hyst = max(3.0 * sigma, 1e-9 * float(np.max(np.abs(resp))))
+    base = resp if resp_name == "acc" else resp - np.median(resp[start:])
+    crs = crossings(base, hyst, start=max(start, impact_end))
+    if crs.size < MIN_CROSSINGS:
+        raise SignalError(
+            f"too few zero crossings of {resp_name} in the response: {crs.size}, expected >= {MIN_CROSSINGS}"
+        )
+    half = np.diff(crs)
+    period_s = 2.0 * float(np.percentile(half[: max(4, half.size // 2)], 90)) / rate
+    knot_s = 2.0 * period_s
+    notes.append(f"longest period {period_s:.4g} s; drift knots every {knot_s:.4g} s")
+
+    # -- x, v, a -----------------------------------------------------------------------
+    def anchored(x_int: np.ndarray, a_for_anchor: np.ndarray, first: int) -> BSpline:
+        a_sigma = noise_rms(a_for_anchor, noise_stop)
+        h = max(3.0 * a_sigma, 1e-9 * float(np.max(np.abs(a_for_anchor))))
+        anc = crossings(a_for_anchor, h, start=first)
+        if impact_end < 0 and anc.size:
+            anc = anc[1:]  # no force: the first crossing is at the end of the impact
+        stop = _envelope_stop(a_for_anchor, first, a_sigma, noise_factor, period_s, rate)
+        anc = anc[anc < stop]
+        step = max(1, int(round(period_s * rate / 2.0)))
+        tail = np.arange(stop, n - 1, step, dtype=float)
+        pts = np.concatenate((anc, tail))
+        if anc.size < MIN_CROSSINGS:
+            raise SignalError(
+                f"too few zero crossings of the acceleration above the noise: {anc.size}, expected >= {MIN_CROSSINGS}"
+            )
+        return _drift_spline(t, x_int, pts, knot_s, start, clamped=rest)
+
+    first_anchor = max(start, impact_end)
+    if disp is not None and vel is not None:
+        x, v = disp, vel
+        a = acc if acc is not None else _sg_derivative(v, rate, period_s, 1)
+        method = "disp and vel as measured" + (", acc as measured" if acc is not None else ", acc by Savitzky-Golay derivative of vel")
+    elif disp is not None:
+        x = disp
+        v = _sg_derivative(x, rate, period_s, 1) if vel is None else vel
+        a = acc if acc is not None else _sg_derivative(x, rate, period_s, 2)
+        method = "disp as measured; vel and acc by Savitzky-Golay derivatives"
+    elif vel is not None:
+        v = vel
+        a = acc if acc is not None else _sg_derivative(v, rate, period_s, 1)
+        v0 = v - (float(np.mean(v[:noise_stop])) if rest and noise_stop >= 8 else 0.0)
+        x_int = np.zeros(n)
+        x_int[start:] = cumulative_trapezoid(v0[start:], t[start:], initial=0.0)
+        d = _drift_spline_eval(anchored(x_int, a, first_anchor), t, start)
+        x = x_int - d[0]
+        method = "vel as measured; disp by integration from rest with drift anchored at acc zero crossings"
+    else:
+        assert acc is not None
+        a = acc
+        v_int = np.zeros(n)
+        x_int = np.zeros(n)
+        v_int[start:] = cumulative_trapezoid(a[start:], t[start:], initial=0.0)
+        x_int[start:] = cumulative_trapezoid(v_int[start:], t[start:], initial=0.0)
+        d, dd = _drift_spline_eval(anchored(x_int, a, first_anchor), t, start)
+        x = x_int - d
+        v = v_int - dd
+        method = ("acc integrated from rest" if rest else "acc integrated") + \
+            "; drift anchored at acc zero crossings (x = 0) and the noise tail"
+
+    # -- free-response window -------------------------------------------------------------
+    if impact_end < 0:
+        # without force: from the first extremum of x after the motion starts
+        vx = crossings(v, max(3.0 * noise_rms(v, noise_stop), 1e-12), start=start)
+        impact_end = int(math.ceil(vx[0])) if (rest and vx.size) else start
+    free_start = min(impact_end, n - 2)
+    free_stop = _envelope_stop(resp if resp_name != "disp" else x, free_start, sigma, noise_factor, period_s, rate)
+    free_stop = max(free_stop, min(n, free_start + 2))
+    notes.append(f"noise RMS of {resp_name}: {sigma:.3g}; free response [{free_start}, {free_stop})")
+    return ConditionedSignal(
+        t=t, x=np.ascontiguousarray(x), v=np.ascontiguousarray(v), a=np.ascontiguousarray(a),
+        force=force, rate_hz=rate, free_start=int(free_start), free_stop=int(free_stop),
+        method=method, notes=tuple(notes), impact_start=int(start), impact_end=int(impact_end),
+        noise_rms=sigma,
+    )
+
+
+def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int) -> tuple[np.ndarray, np.ndarray]:
+    d = np.zeros(t.size)
+    dd = np.zeros(t.size)
+    d[start:] = spl(t[start:])
+    dd[start:] = spl.derivative()(t[start:])
+    return np.nan_to_num(d), np.nan_to_num(dd)
+
+
+def _envelope_stop(y: np.ndarray, first: int, sigma: float, factor: float, period_s: float,
+                   rate: float) -> int:
+    """End of the last block (one period long) whose peak exceeds ``factor * sigma``.
+
+    Without noise (``sigma == 0``) the floor is 1e-4 of the peak after ``first``.
+    """
+    n = y.size
+    seg = np.abs(y[first:])
+    if seg.size == 0:
+        return n
+    floor = max(factor * sigma, 1e-4 * float(np.max(seg)))
+    block = max(4, int(round(period_s * rate)))
+    nb = seg.size // block
+    if nb == 0:
+        return n
+    peaks = seg[: nb * block].reshape(nb, block).max(axis=1)
+    above = np.nonzero(peaks > floor)[0]
+    if above.size == 0:
+        return min(n, first + block)
+    last = int(above[-1])
+    return n if last == nb - 1 else first + (last + 1) * block
