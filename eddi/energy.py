@@ -8,17 +8,22 @@ Accuracy notes
 * Zero crossings ``gamma_i`` are located to sub-sample accuracy on the cubic Hermite
   interpolant built from ``x`` and its derivative ``v`` (fourth-order accurate), by
   bisection, so a root is always bracketed.
-* Values at crossings (``v(gamma_i)``) come from a cubic spline of ``v``, or from the
-  cubic Hermite interpolant of ``v`` and ``a`` when the acceleration is known.
-* Time integrals (dissipated energy) use the antiderivative of a cubic spline of the
-  integrand, so partial intervals between a crossing and a sample boundary are integrated
-  exactly on the same interpolant as whole intervals.
+* Values at crossings (``v(gamma_i)``) come from a quintic interpolating spline of ``v``,
+  or from the cubic Hermite interpolant of ``v`` and ``a`` when the acceleration is known.
+* Time integrals (dissipated energy) use the antiderivative of a quintic interpolating
+  spline of the integrand (sixth-order accurate), so partial intervals between a crossing
+  and a sample boundary are integrated exactly on the same interpolant as whole intervals.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline, CubicSpline
+from scipy.interpolate import BSpline, CubicHermiteSpline, make_interp_spline
+
+#: Degree of the interpolating splines used for quadrature and for values at crossings.
+#: Quintic: on the paper Duffing (60 samples per period at the start) the energy balance of
+#: the first half cycle closes to 6e-9 J instead of 3e-6 J with cubic splines.
+SPLINE_DEGREE = 5
 
 from eddi.terms import Term
 
@@ -102,7 +107,7 @@ def zero_crossings(t: np.ndarray, x: np.ndarray, v: np.ndarray, iterations: int 
 
 
 def rate_interpolant(t: np.ndarray, v: np.ndarray, a: np.ndarray | None = None):
-    """An interpolant of the rate: cubic Hermite with ``a`` when given, else a cubic spline.
+    """An interpolant of the rate: cubic Hermite with ``a`` when given, else a quintic spline.
 
     Parameters
     ----------
@@ -118,7 +123,7 @@ def rate_interpolant(t: np.ndarray, v: np.ndarray, a: np.ndarray | None = None):
     """
     if a is not None:
         return CubicHermiteSpline(t, v, a)
-    return CubicSpline(t, v)
+    return make_interp_spline(t, v, k=SPLINE_DEGREE)
 
 
 def integrated_term(term: Term, x: np.ndarray) -> np.ndarray:
@@ -148,8 +153,8 @@ def integrated_term(term: Term, x: np.ndarray) -> np.ndarray:
     return out
 
 
-def cumulative_energy(t: np.ndarray, power: np.ndarray) -> CubicSpline:
-    """Antiderivative of a power signal, as a callable exact on the spline interpolant.
+def cumulative_energy(t: np.ndarray, power: np.ndarray) -> BSpline:
+    """Antiderivative of a power signal, exact on its quintic spline interpolant.
 
     Parameters
     ----------
@@ -158,10 +163,26 @@ def cumulative_energy(t: np.ndarray, power: np.ndarray) -> CubicSpline:
 
     Returns
     -------
-    PPoly
-        ``A(tq)``: integral of the cubic spline of ``power`` from ``t[0]`` to ``tq`` [J].
+    BSpline
+        ``A(tq)``: integral of the spline of ``power`` from ``t[0]`` to ``tq`` [J].
     """
-    return CubicSpline(t, power, axis=0).antiderivative()
+    return make_interp_spline(t, power, k=SPLINE_DEGREE, axis=0).antiderivative()
+
+
+def derivative(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Time derivative of a sampled signal, from its quintic interpolating spline.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,), [s]
+    y : ndarray, shape (n,)
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``dy/dt`` at ``t``.
+    """
+    return make_interp_spline(t, y, k=SPLINE_DEGREE).derivative()(t)
 
 
 def check_series(t: np.ndarray, named: dict[str, np.ndarray | None], min_samples: int = 4) -> tuple[np.ndarray, dict[str, np.ndarray | None]]:

@@ -21,9 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline
-
-from eddi.energy import integrated_term, kinetic_energy
+from eddi.energy import derivative, integrated_term, kinetic_energy
 from eddi.phase_one import PhaseOneResult, scaled_lstsq
 from eddi.terms import Term, evaluate
 
@@ -153,7 +151,7 @@ def lagrangian_route(
     terms : tuple of Term
         Stiffness candidates.
     a : ndarray, shape (k,), optional
-        Acceleration; when absent it is the derivative of a cubic spline of ``v``.
+        Acceleration; when absent it is the derivative of a quintic spline of ``v``.
     v_fraction : float
         Samples with ``|v| < v_fraction * sqrt(2 E / m)`` (near turning points) are left out.
     energy_floor : float
@@ -170,8 +168,8 @@ def lagrangian_route(
     x = np.asarray(x, dtype=float)
     v = np.asarray(v, dtype=float)
     lag = 2.0 * kinetic_energy(mass, v) - energy
-    dl_dt = CubicSpline(t, lag).derivative()(t)
-    acc = np.asarray(a, dtype=float) if a is not None else CubicSpline(t, v).derivative()(t)
+    dl_dt = derivative(t, lag)
+    acc = np.asarray(a, dtype=float) if a is not None else derivative(t, v)
     e = _floor(energy, p1, energy_floor)
     keep = np.abs(v) >= v_fraction * np.sqrt(2.0 * e / mass)
     keep &= np.abs(v) > 0
