@@ -3,7 +3,7 @@
 The format is specified in ``docs/protocol.md``; this module is its reference implementation.
 In short, every frame is::
 
-    COBS( version:u8 | type:u8 | seq:u32 | body | crc32:u32 ) 0x00
+    0x00 COBS( version:u8 | type:u8 | seq:u32 | body | crc32:u32 ) 0x00
 
 all integers little-endian, CRC-32 (zlib polynomial) over everything before it. Data frames
 carry the device's sample counter, so every lost sample is counted exactly from the next
@@ -226,7 +226,10 @@ def cobs_encode(payload: bytes) -> bytes:
 
 
 def encode_frame(frame_type: int, seq: int, body: bytes = b"", *, version: int = PROTOCOL_VERSION) -> bytes:
-    """One frame on the wire: COBS(header | body | CRC) followed by 0x00.
+    """One frame on the wire: 0x00, COBS(header | body | CRC), 0x00.
+
+    The leading 0x00 makes a frame that follows a truncated one arrive intact; empty
+    segments between delimiters mean nothing.
 
     Parameters
     ----------
@@ -243,7 +246,7 @@ def encode_frame(frame_type: int, seq: int, body: bytes = b"", *, version: int =
     raw += CRC.pack(crc32(raw))
     if len(raw) > MAX_FRAME_BYTES:
         raise ProtocolError(f"frame of {len(raw)} bytes exceeds the limit of {MAX_FRAME_BYTES} bytes")
-    return cobs_encode(raw)
+    return b"\x00" + cobs_encode(raw)
 
 
 def sample_width(adc_bits: int) -> int:
