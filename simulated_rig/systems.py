@@ -34,7 +34,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from eddi.model import Effect, EquationOfMotion
+import numpy as np
+
+from eddi.model import EFFECTS, Effect, EquationOfMotion
 from simulated_rig.errors import ScenarioError
 
 
@@ -163,3 +165,114 @@ def system_info(name: str) -> SystemInfo:
 def get_system(name: str) -> EquationOfMotion:
     """The true equation of motion of a named system (see the module docstring)."""
     return system_info(name).eom
+
+
+# -- hidden effects ------------------------------------------------------------------------
+
+#: Frequency ratio of a hidden second mode to the first (non-integer: no internal resonance).
+SECOND_MODE_RATIO = 2.7
+#: Mass of a hidden second mode relative to the main mass.
+SECOND_MODE_MASS_RATIO = 0.1
+#: Damping ratio of a hidden second mode.
+SECOND_MODE_ZETA = 0.02
+
+
+def typical_state(system: str | EquationOfMotion, *, rate_hz: float = 19200.0) -> tuple[float, float]:
+    """Peak displacement and velocity of a named system under its middle demo blow.
+
+    Simulated without noise from rest for three linear periods (at least 50 ms) with the
+    system's suggested tip.
+
+    Returns
+    -------
+    amplitude_m : float
+        Peak ``|x|`` [m] (rad for the pendulum).
+    velocity_m_s : float
+        Peak ``|v|`` [m/s].
+    """
+    from eddi.simulate import simulate  # local: keeps the catalogue import cheap
+    from simulated_rig.hammer import HammerSpec, hammer_force
+
+    if isinstance(system, EquationOfMotion):
+        raise ScenarioError("hide_effect: give amplitude_m for a system that is not named")
+    info = system_info(system)
+    k1 = info.eom.linear_stiffness()
+    period = 2 * math.pi * math.sqrt(info.eom.mass / k1) if k1 > 0 else 1.0
+    n = int(max(0.05, 3 * period) * rate_hz)
+    t = np.arange(n) / rate_hz
+    f = hammer_force(t, info.demo_forces_n[len(info.demo_forces_n) // 2], HammerSpec(tip=info.tip))
+    res = simulate(info.eom, t, force=f)
+    return float(np.max(np.abs(res.x))), float(np.max(np.abs(res.v)))
+
+
+def hide_effect(system: str | EquationOfMotion, name: str, magnitude: float, seed: int = 0, *,
+                amplitude_m: float | None = None, velocity_m_s: float | None = None
+                ) -> EquationOfMotion:
+    """The system with one hidden effect of the catalogue :data:`eddi.model.EFFECTS` added.
+
+    ``magnitude`` is the effect's force at the typical state as a fraction of the linear
+    spring force there, ``k1 * A`` (``A``, ``V``: peak displacement and velocity under the
+    system's middle demo blow, :func:`typical_state`). Each value is then multiplied by a
+    factor drawn uniformly in [0.8, 1.2] from ``seed``, so different seeds hide different
+    (but equally sized) effects:
+
+    - ``coulomb_friction``: ``force_n = mag k1 A``; ``velocity_scale = 1e-3 V``.
+    - ``quadratic_damping``: ``coefficient = mag k1 A / V^2``.
+    - ``clearance``: ``gap_m = A / 2``, ``stiffness_n_per_m = 2 mag k1`` (so the contact force
+      at ``|x| = A`` is ``mag k1 A``).
+    - ``asymmetric_stiffness``: ``k2 = mag k1 / A``, ``k4 = 0``.
+    - ``second_mode``: ``mass_kg = 0.1 m``, coupling ``mag k1``, own stiffness so that its
+      frequency is 2.7 times the first linear one, 2 % damping.
+
+    Parameters
+    ----------
+    system : str or EquationOfMotion
+        A named system, or a model together with ``amplitude_m``.
+    name : str
+        Effect name.
+    magnitude : float
+        In (0, 10].
+    seed : int
+    amplitude_m, velocity_m_s : float, optional
+        Typical state; default from :func:`typical_state` (velocity: ``A sqrt(k1/m)``
+        when only the amplitude is given).
+
+    Raises
+    ------
+    ScenarioError
+        Unknown effect, magnitude out of range, unnamed system without amplitude.
+    """
+    if name not in EFFECTS:
+        raise ScenarioError(f"hidden effect {name!r} is unknown; known: {', '.join(EFFECTS)}")
+    if not (0.0 < magnitude <= 10.0):
+        raise ScenarioError(f"hidden effect {name!r}: magnitude must be in (0, 10], got {magnitude}")
+    eom = system if isinstance(system, EquationOfMotion) else get_system(system)
+    k1 = eom.linear_stiffness()
+    if k1 <= 0:
+        raise ScenarioError(f"hidden effect {name!r}: the system has no positive linear stiffness")
+    w1 = math.sqrt(k1 / eom.mass)
+    if amplitude_m is None:
+        amplitude_m, v_typ = typical_state(system)
+        velocity_m_s = velocity_m_s or v_typ
+    if velocity_m_s is None:
+        velocity_m_s = amplitude_m * w1
+    a, v = float(amplitude_m), float(velocity_m_s)
+    jitter = float(np.random.default_rng(seed).uniform(0.8, 1.2))
+    mag = magnitude * jitter
+    if name == "coulomb_friction":
+        params = {"force_n": mag * k1 * a, "velocity_scale": 1e-3 * v}
+    elif name == "quadratic_damping":
+        params = {"coefficient": mag * k1 * a / v**2}
+    elif name == "clearance":
+        params = {"gap_m": 0.5 * a, "stiffness_n_per_m": 2.0 * mag * k1}
+    elif name == "asymmetric_stiffness":
+        params = {"k2": mag * k1 / a, "k4": 0.0}
+    else:  # second_mode
+        m2 = SECOND_MODE_MASS_RATIO * eom.mass
+        kc = mag * k1
+        k_total = m2 * (SECOND_MODE_RATIO * w1) ** 2
+        k_own = max(k_total - kc, 0.1 * k_total)
+        c2 = 2 * SECOND_MODE_ZETA * math.sqrt((k_own + kc) * m2)
+        params = {"mass_kg": m2, "stiffness_n_per_m": k_own, "damping_n_s_per_m": c2,
+                  "coupling_n_per_m": kc}
+    return eom.with_effect(Effect(name=name, params=params))
