@@ -1,0 +1,321 @@
+"""Acquisition loop: device blocks -> trigger -> checks -> session file, with live status.
+
+:func:`acquire` arms the trigger, reads blocks from a :class:`drivers.daq.Daq` (or anything
+with the same ``info``/``start``/``stop``/``read_block``/``stats`` methods), saves every
+accepted capture as soon as it completes (crash-safe, see :mod:`station.storage`) and stops
+after ``n_impacts`` saved captures, on Ctrl-C, on a lost device or on a failed save. Whatever
+ends the run, the captures saved before are kept, and a capture in progress is saved too,
+flagged ``partial``. With a simulated rig (``sim://``) the loop asks the rig for each impact
+(:class:`ImpactPlan`), so a run needs no operator.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Protocol
+
+import numpy as np
+
+from drivers.channels import ChannelInfo
+from drivers.errors import DriverError
+from station.config import BenchConfig
+from station.errors import StationError
+from station.storage import CaptureWriter
+from station.trigger import Capture, Trigger, TriggerSettings
+
+
+class DaqLike(Protocol):
+    """The driver surface :func:`acquire` uses (``drivers.daq.Daq``)."""
+
+    url: str
+    info: Any
+
+    def start(self) -> None: ...
+    def stop(self) -> None: ...
+    def read_block(self, timeout_s: float | None = None) -> Any: ...
+    def stats(self) -> Any: ...
+
+
+@dataclass(frozen=True)
+class ImpactPlan:
+    """Impacts a simulated rig delivers: peak forces [N] and double-hit flags, in order.
+
+    Attributes
+    ----------
+    peaks_n : tuple of float
+        Peak force of each impact [N].
+    double_hits : tuple of bool
+        Whether each impact is a double hit.
+    """
+
+    peaks_n: tuple[float, ...]
+    double_hits: tuple[bool, ...]
+
+    @classmethod
+    def varied(cls, n: int, low_n: float, high_n: float, double_hit_every: int = 0, seed: int = 0) -> "ImpactPlan":
+        """``n`` peaks spread geometrically over [low, high] N, in a shuffled (seeded) order.
+
+        Enough entries are made for retries (3 n + 3): rejected or missed impacts are repeated.
+        """
+        m = 3 * n + 3
+        base = np.geomspace(low_n, high_n, max(n, 1))
+        rng = np.random.default_rng(seed)
+        order = np.concatenate([rng.permutation(base) for _ in range(math.ceil(m / max(n, 1)))])[:m]
+        dh = tuple(bool(double_hit_every) and (i + 1) % double_hit_every == 0 for i in range(m))
+        return cls(tuple(float(p) for p in order), dh)
+
+
+@dataclass(frozen=True)
+class Status:
+    """What the live display shows.
+
+    Attributes
+    ----------
+    state : str
+        ``waiting`` (filling the pre-trigger), ``armed``, ``triggered``, ``holdoff``,
+        ``saved``, ``rejected``.
+    saved, target, rejected : int
+        Captures saved, wanted and rejected so far.
+    progress : float
+        Fraction of the capture in progress [0, 1].
+    levels : dict of str to float
+        Largest magnitude of each channel in the last block [SI units].
+    units : dict of str to str
+    dropped_samples : int
+        Samples lost by the device or link since the start.
+    message : str
+        Last event in words (``"capture 3 saved"``, ``"rejected: double hit"``).
+    """
+
+    state: str
+    saved: int
+    target: int
+    rejected: int
+    progress: float
+    levels: dict[str, float]
+    units: dict[str, str]
+    dropped_samples: int
+    message: str = ""
+
+
+@dataclass
+class AcquireResult:
+    """Outcome of :func:`acquire` (one per run)."""
+
+    file: Path
+    indices: list[int] = field(default_factory=list)
+    rejected: list[str] = field(default_factory=list)
+    missed_impacts: int = 0
+    dropped_samples: int = 0
+    partial_index: int | None = None
+    interrupted: bool = False
+    error: str | None = None
+
+    @property
+    def captures(self) -> int:
+        """Captures saved in this run (a partial one included)."""
+        return len(self.indices)
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready summary."""
+        return {
+            "file": str(self.file),
+            "captures": self.captures,
+            "indices": list(self.indices),
+            "rejected": len(self.rejected),
+            "rejected_reasons": list(self.rejected),
+            "missed_impacts": self.missed_impacts,
+            "dropped_samples": self.dropped_samples,
+            "partial_index": self.partial_index,
+            "interrupted": self.interrupted,
+            "error": self.error,
+        }
+
+
+def configure_device(daq: Any, config: BenchConfig) -> None:
+    """Apply the configured rate, channels and block size to the device (when any is set)."""
+    dev = config.device
+    names = [c.name for c in config.channels] or None
+    rate = dev.rate_hz if dev is not None else None
+    block = dev.block_size if dev is not None else None
+    if rate is not None or names is not None or block is not None:
+        daq.configure(rate_hz=rate, channels=names, block_size=block)
+
+
+def default_impacts(config: BenchConfig, settings: TriggerSettings, channels: tuple[ChannelInfo, ...], n: int) -> ImpactPlan:
+    """The impacts a simulated rig delivers: configured range, else 4..12 x the trigger level."""
+    sim = config.simulation
+    if sim.peak_force_n is not None:
+        low, high = sim.peak_force_n
+    else:
+        level = abs(settings.level)
+        low, high = 4.0 * level, 12.0 * level
+        rng = channels[settings.channel].range_si
+        if rng > 0:
+            high = min(high, 0.6 * rng)
+            low = min(low, high)
+    return ImpactPlan.varied(n, low, high, sim.double_hit_every, sim.seed)
+
+
+def acquire(
+    daq: DaqLike,
+    config: BenchConfig,
+    writer: CaptureWriter,
+    n_impacts: int,
+    *,
+    impacts: ImpactPlan | None = None,
+    on_status: Callable[[Status], None] | None = None,
+    idle_timeout_s: float | None = None,
+    read_timeout_s: float = 0.25,
+    device_meta: dict[str, Any] | None = None,
+) -> AcquireResult:
+    """Record ``n_impacts`` accepted captures into ``writer``'s session file.
+
+    Parameters
+    ----------
+    daq : Daq
+        Opened (and configured) device; started and stopped here.
+    config : BenchConfig
+        Trigger, channel overrides, policies, mass and notes.
+    writer : CaptureWriter
+    n_impacts : int
+        Accepted captures wanted (>= 1).
+    impacts : ImpactPlan, optional
+        Impacts to ask the simulated rig for (``daq.impact``); None waits for real hammer blows.
+    on_status : callable, optional
+        Called with a :class:`Status` after every block and event.
+    idle_timeout_s : float, optional
+        Give up (error) when no block comes for this long [s]; None waits for ever.
+    read_timeout_s : float
+        Wait per :meth:`read_block` call [s] (bounds the Ctrl-C latency).
+    device_meta : dict, optional
+        Stored as each capture's ``device`` group (default: from ``daq.info``).
+
+    Returns
+    -------
+    AcquireResult
+        Never raises for a lost device, a failed save or Ctrl-C: they end the run and are
+        reported in ``error`` / ``interrupted``.
+    """
+    if n_impacts < 1:
+        raise StationError(f"--impacts: expected at least 1, got {n_impacts}")
+    info = daq.info
+    channels = config.resolve_channels(info.channels)
+    rate = float(info.rate_hz)
+    settings = config.trigger_settings(channels, rate)
+    scale = np.array([c.scale for c in channels])
+    offset = np.array([c.offset for c in channels])
+    trig = Trigger(settings, channels, rate)
+    policy = (config.trigger.on_double_hit, config.trigger.on_overload)
+    units = {c.name: c.unit for c in channels}
+    dev = device_meta if device_meta is not None else {
+        "model": info.model, "serial": info.serial, "firmware": info.firmware,
+        "protocol_version": info.protocol_version, "url": getattr(daq, "url", ""),
+    }
+    scenario = getattr(info, "scenario_json", None)
+    result = AcquireResult(file=writer.path)
+    levels: dict[str, float] = {c.name: 0.0 for c in channels}
+    message = "arming"
+    next_impact = 0
+    impact_at: int | None = None  # sample position when the pending impact was requested
+    last_peak: tuple[float, bool] | None = None
+    idle_s = 0.0
+
+    def report() -> None:
+        if on_status is not None:
+            on_status(Status(trig.state, len(result.indices), n_impacts, len(result.rejected), trig.progress,
+                             dict(levels), units, trig.dropped_total, message))
+
+    def save(cap: Capture) -> None:
+        nonlocal message
+        rig = None
+        if scenario is not None or last_peak is not None:
+            rig = {"scenario": scenario or ""}
+            if last_peak is not None:
+                rig["requested_peak_force_n"] = last_peak[0]
+                rig["requested_double_hit"] = last_peak[1]
+        idx = writer.append(
+            cap, device=dev, rig=rig, notes=config.notes, mass_kg=config.specimen.mass_kg,
+            source=str(dev.get("url", "")), dropped_before_total=trig.dropped_total,
+            extra={"peak_force": float(np.nanmax(np.abs(cap.si[:, settings.channel]))) if cap.n_samples else 0.0},
+        )
+        result.indices.append(idx)
+        if cap.partial:
+            result.partial_index = idx
+        message = f"capture {idx} saved" + (" (partial)" if cap.partial else "")
+
+    daq.start()
+    report()
+    try:
+        while len(result.indices) < n_impacts:
+            # a simulated rig: ask for the next impact once the trigger is armed
+            if impacts is not None and impact_at is None and trig.state == "armed":
+                if next_impact >= len(impacts.peaks_n):
+                    raise StationError(f"the simulated rig gave {result.missed_impacts} impacts that did not trigger "
+                                       f"(level {settings.level:g}) and {len(result.rejected)} rejected; giving up")
+                last_peak = (impacts.peaks_n[next_impact], impacts.double_hits[next_impact])
+                daq.impact(last_peak[0], double_hit=last_peak[1])  # type: ignore[attr-defined]
+                next_impact += 1
+                impact_at = trig.next_sample or 0
+                message = f"impact {next_impact} requested ({last_peak[0]:.1f} N)"
+            block = daq.read_block(timeout_s=read_timeout_s)
+            if block is None:
+                idle_s += read_timeout_s
+                if idle_timeout_s is not None and idle_s >= idle_timeout_s:
+                    raise StationError(f"no data from {dev.get('url', 'the device')} for {idle_s:.1f} s; expected a sample stream")
+                continue
+            idle_s = 0.0
+            si = block.counts * scale + offset
+            if block.counts.shape[0]:
+                peaks = np.max(np.abs(si), axis=0)
+                levels = {c.name: float(p) for c, p in zip(channels, peaks)}
+            for cap in trig.feed(_Block(block.first_sample, block.counts, si)):
+                reason = cap.rejection(*policy)
+                if reason is not None:
+                    result.rejected.append(reason)
+                    message = f"rejected: {reason}"
+                else:
+                    save(cap)
+                impact_at = None
+                if len(result.indices) >= n_impacts:
+                    break
+            if impact_at is not None and trig.state != "triggered" and trig.next_sample is not None:
+                # an impact that has not triggered within a record length: count it missed
+                if trig.next_sample - impact_at > settings.record_samples + settings.holdoff_samples:
+                    result.missed_impacts += 1
+                    message = f"impact {next_impact} did not reach the trigger level {settings.level:g}"
+                    impact_at = None
+            report()
+    except KeyboardInterrupt:
+        result.interrupted = True
+        message = "interrupted"
+    except (DriverError, StationError) as exc:
+        result.error = str(exc)
+        message = f"stopped: {exc}"
+    finally:
+        result.dropped_samples = trig.dropped_total
+        partial = trig.flush()
+        if partial is not None and partial.n_samples > 0:
+            try:
+                save(partial)
+            except (StationError, OSError) as exc:
+                result.error = result.error or str(exc)
+            except KeyboardInterrupt:
+                result.interrupted = True
+        try:
+            daq.stop()
+        except (DriverError, OSError):
+            pass
+        except KeyboardInterrupt:
+            result.interrupted = True
+        report()
+    return result
+
+
+@dataclass(frozen=True)
+class _Block:
+    first_sample: int
+    counts: np.ndarray
+    si: np.ndarray
