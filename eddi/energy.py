@@ -46,12 +46,37 @@ def kinetic_energy(mass: float, v: np.ndarray) -> np.ndarray:
     return 0.5 * float(mass) * v * v
 
 
-def zero_crossings(t: np.ndarray, x: np.ndarray, v: np.ndarray, iterations: int = 60) -> np.ndarray:
+def noise_level(y: np.ndarray) -> float:
+    """Standard deviation of white noise on a smooth, densely sampled signal.
+
+    Robust estimate from third differences (which cancel a smooth signal up to
+    ``O(h^3)``): ``median(|diff(y, 3)|) / 0.6745 / sqrt(20)``.
+
+    Parameters
+    ----------
+    y : ndarray, shape (n,)
+
+    Returns
+    -------
+    float
+        Same unit as ``y`` (0 for fewer than 4 samples).
+    """
+    y = np.asarray(y, dtype=float)
+    if y.size < 4:
+        return 0.0
+    return float(np.median(np.abs(np.diff(y, 3))) / 0.6745 / np.sqrt(20.0))
+
+
+def zero_crossings(t: np.ndarray, x: np.ndarray, v: np.ndarray, hysteresis: float = 0.0,
+                   iterations: int = 60) -> np.ndarray:
     """Times where ``x`` crosses zero, to sub-sample accuracy.
 
-    A crossing is an interval ``[t_k, t_k+1]`` with ``x_k <= 0 < x_k+1`` or
-    ``x_k >= 0 > x_k+1`` (both directions). Its time is the root of the cubic Hermite
-    interpolant of ``(x_k, v_k, x_k+1, v_k+1)`` found by bisection.
+    A candidate is an interval ``[t_k, t_k+1]`` with ``x_k <= 0 < x_k+1`` or
+    ``x_k >= 0 > x_k+1`` (both directions). With ``hysteresis = h > 0`` a crossing counts
+    only when ``x`` travels from beyond ``-h`` to beyond ``+h`` (or back), and the last
+    candidate of that passage is kept, so noise chattering around zero adds no crossing.
+    The time is the root of the cubic Hermite interpolant of ``(x_k, v_k, x_k+1, v_k+1)``,
+    found by bisection.
 
     Parameters
     ----------
@@ -61,6 +86,8 @@ def zero_crossings(t: np.ndarray, x: np.ndarray, v: np.ndarray, iterations: int 
         Coordinate.
     v : ndarray, shape (n,)
         Its rate (derivative of ``x``).
+    hysteresis : float
+        Half-width of the dead band, same unit as ``x`` (0: every sign change).
     iterations : int
         Bisection steps (60 reaches double precision on any interval).
 
@@ -73,7 +100,26 @@ def zero_crossings(t: np.ndarray, x: np.ndarray, v: np.ndarray, iterations: int 
     x = np.asarray(x, dtype=float)
     v = np.asarray(v, dtype=float)
     x0, x1 = x[:-1], x[1:]
-    k = np.flatnonzero(((x0 <= 0) & (x1 > 0)) | ((x0 >= 0) & (x1 < 0)))
+    up = (x0 <= 0) & (x1 > 0)
+    down = (x0 >= 0) & (x1 < 0)
+    k = np.flatnonzero(up | down)
+    if k.size and hysteresis > 0:
+        state = np.where(x > hysteresis, 1, np.where(x < -hysteresis, -1, 0))
+        idx = np.flatnonzero(state)
+        if idx.size < 2:
+            return np.zeros(0)
+        st = state[idx]
+        change = np.flatnonzero(st[1:] != st[:-1])  # run ends at idx[change], next starts idx[change+1]
+        q = idx[change + 1]
+        rising = st[change + 1] > 0
+        k_up, k_down = np.flatnonzero(up), np.flatnonzero(down)
+        # the record may start inside the band: its first exit counts too
+        q = np.concatenate(([idx[0]], q))
+        rising = np.concatenate(([st[0] > 0], rising))
+        pos_up = np.searchsorted(k_up, q[rising], side="left") - 1
+        pos_down = np.searchsorted(k_down, q[~rising], side="left") - 1
+        chosen = np.concatenate((k_up[pos_up[pos_up >= 0]], k_down[pos_down[pos_down >= 0]]))
+        k = np.unique(chosen)
     if k.size == 0:
         return np.zeros(0)
     h = t[k + 1] - t[k]

@@ -129,6 +129,9 @@ def phase_one(
     a: np.ndarray | None = None,
     weighting: str = "relative",
     offset: int = 0,
+    noise_x: float = 0.0,
+    noise_v: float = 0.0,
+    relative_accuracy: float = 1e-6,
 ) -> PhaseOneResult:
     """Identify the damping coefficients from the energy lost between zero crossings.
 
@@ -150,6 +153,14 @@ def phase_one(
         Row weighting (see the module notes).
     offset : int
         Index of ``t[0]`` in the caller's arrays (reported in ``sample_slice``).
+    noise_x, noise_v : float
+        Standard deviation of the noise on ``x`` and ``v`` (0 for clean signals). ``noise_x``
+        sets the zero-crossing dead band (4 sigma); ``noise_v`` enters the row weights of
+        the ``"relative"`` weighting: each half-cycle row is divided by
+        ``sqrt((relative_accuracy * T(gamma_i-1))^2 + var)`` where ``var`` is the variance
+        of ``T(gamma_i-1) - T(gamma_i)`` due to the noise on ``v``.
+    relative_accuracy : float
+        Relative accuracy of a half-cycle energy balance on clean data (quadrature).
 
     Returns
     -------
@@ -163,7 +174,7 @@ def phase_one(
     if weighting not in WEIGHTINGS:
         raise IdentificationError(f"weighting must be one of {', '.join(WEIGHTINGS)}, got {weighting!r}")
     m = len(terms)
-    gamma = zero_crossings(t, x, v)
+    gamma = zero_crossings(t, x, v, hysteresis=4.0 * noise_x)
     need = m + 1
     if gamma.size < need:
         raise IdentificationError(
@@ -182,7 +193,9 @@ def phase_one(
     else:
         dq = np.diff(a_gamma, axis=0)
         dr = -np.diff(t_gamma)
-        w = 1.0 / np.maximum(t_gamma[:-1], 1e-300)
+        vg = np.sqrt(2.0 * t_gamma / mass)
+        var = (mass * noise_v) ** 2 * (vg[:-1] ** 2 + vg[1:] ** 2) + 0.5 * (mass * noise_v**2) ** 2
+        w = 1.0 / np.maximum(np.sqrt((relative_accuracy * t_gamma[:-1]) ** 2 + var), 1e-300)
         coef, cond = scaled_lstsq(dq * w[:, None], dr * w)
     d_model_gamma = q @ coef
     # samples between the first and last crossing

@@ -87,6 +87,10 @@ def potential_route(
     *,
     energy_floor: float = 1e-6,
     anchored: bool = True,
+    noise_v: float = 0.0,
+    v: np.ndarray | None = None,
+    mass: float = 1.0,
+    relative_accuracy: float = 1e-6,
 ) -> PhaseTwoResult:
     """Stiffness from ``V(x) = E - T`` (no division by ``v``).
 
@@ -102,6 +106,16 @@ def potential_route(
         Smallest energy used in the row weights, relative to ``E(gamma_0)``.
     anchored : bool
         Use ``E`` re-anchored at every crossing (default) rather than Eq. 12.
+    noise_v : float
+        Standard deviation of the noise on ``v``; with ``v`` and ``mass`` it adds the
+        variance ``(mass noise_v)^2 (v^2 + 2E/mass)`` of ``V`` to the row weights.
+    v : ndarray, shape (k,), optional
+        Rate at the samples (only for the noise weighting).
+    mass : float
+        Mass or inertia (only for the noise weighting).
+    relative_accuracy : float
+        Relative accuracy of ``E`` on clean data; rows are weighted by
+        ``1 / sqrt((relative_accuracy E)^2 + var_noise)``.
 
     Returns
     -------
@@ -111,7 +125,13 @@ def potential_route(
     energy = mechanical_energy(p1, anchored)
     pot = energy - p1.kinetic
     cols = np.column_stack([integrated_term(tm, x) for tm in terms])
-    w = 1.0 / _floor(energy, p1, energy_floor)
+    scale = _floor(energy, p1, energy_floor)
+    if noise_v > 0 and v is not None:
+        # noise of V = E - T: T through v, and E through the T(gamma_i) it is anchored on
+        v2 = np.asarray(v, dtype=float) ** 2 + 2.0 * np.abs(energy) / mass
+        sd = mass * noise_v * np.sqrt(v2)
+        scale = np.sqrt(scale**2 + (sd / relative_accuracy) ** 2)
+    w = 1.0 / scale
     coef, cond = scaled_lstsq(cols * w[:, None], pot * w)
     resid = float(np.sqrt(np.mean(((cols @ coef - pot) * w) ** 2)))
     return PhaseTwoResult(
