@@ -1,0 +1,881 @@
+"""The discrepancy loop: where a model's simulation departs from measurements, and why.
+
+:func:`diagnose` takes measured records (free responses, optionally with the measured force)
+and a baseline (an equation of motion, or term libraries to fit), and
+
+1. **shows** what the baseline gets wrong: each held-out part is simulated (with its measured
+   force from rest, or from its measured initial state) and compared with the measurement;
+   :func:`energy_per_cycle`, :func:`backbone`, :func:`residual_force` and :func:`spectrum`
+   give the views a test engineer reads;
+2. **names** the cause: every mechanism of :func:`eddi.mechanisms.catalogue` is added to the
+   baseline, refitted on the training parts only, and judged by its simulation error on the
+   held-out parts (leave-one-record-out with several records, leave-one-amplitude-band-out with
+   one record). The winner must beat the baseline on every held-out part *and* lower the mean
+   held-out nrmse by more than a relative margin; otherwise the verdict is ``"none"``;
+3. **extends** the model with the winner, refitted on all the data;
+4. **measures** the gain: held-out nrmse before and after, and the spread of the parameter
+   estimates over the folds.
+
+How models are fitted
+---------------------
+Every model (baseline and extensions) is fitted the same way, so a candidate cannot win by
+being fitted better rather than by being right: linear least squares on the equation of
+motion over the free-response samples of the training parts, pooled over records::
+
+    F - m a = sum_j b_j B_j(x, v) + sum_n k_n K_n(x) + sum_i c_i C_i(x, v; h)
+
+EDDI's libraries are linear in their coefficients; so is each mechanism once its few shape
+parameters ``h`` (a gap, a second frequency) are fixed; ``h`` is chosen by a small search on
+the training parts (in-sample least squares). With a given baseline model (``base``) its
+coefficients are kept and only the mechanism's are fitted, on the residual force.
+
+Everything here is pure numerics: arrays in, a frozen :class:`Diagnosis` out.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+from scipy import optimize
+
+from eddi.energy import zero_crossings
+from eddi.errors import ModelError, SignalError, TermError
+from eddi.mechanisms import (
+    MECHANISM_NAMES, Context, Mechanism, MechanismFit, Signal, catalogue, extend,
+)
+from eddi.model import EquationOfMotion
+from eddi.simulate import simulate
+from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, evaluate, parse_terms
+
+#: Default relative margin: the winner must cut the mean held-out nrmse by more than this.
+DEFAULT_MARGIN = 0.15
+#: Held-out nrmse above this counts as "lost" (a diverged or meaningless simulation).
+NRMSE_CAP = 2.0
+#: Zero crossings each amplitude band must hold when a single record is split.
+MIN_BAND_CROSSINGS = 6
+
+
+# ----------------------------------------------------------------------------- inputs
+@dataclass(frozen=True)
+class Record:
+    """One measured response, ready for diagnosis.
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,), [s]
+        Uniform sample times.
+    x, v, a : ndarray, shape (n,)
+        Coordinate [m], rate [m/s], acceleration [m/s^2].
+    force : ndarray, shape (n,), [N] or None
+        Measured external force, when there is a force channel.
+    free_start, free_stop : int
+        ``[start, stop)`` samples of the free response (after the impact).
+    label : str
+        A name for people (file name).
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    force: np.ndarray | None
+    free_start: int
+    free_stop: int
+    label: str = ""
+
+    @property
+    def rate_hz(self) -> float:
+        return 1.0 / float(self.t[1] - self.t[0])
+
+    @classmethod
+    def create(cls, t: np.ndarray, x: np.ndarray, v: np.ndarray, a: np.ndarray | None = None, *,
+               force: np.ndarray | None = None, free_start: int | None = None,
+               free_stop: int | None = None, label: str = "") -> "Record":
+        """Check and build a record.
+
+        ``a`` defaults to the gradient of ``v``; ``free_start`` defaults to the first sample
+        after the force last exceeds 2 % of its peak (0 without force); ``free_stop`` to ``n``.
+
+        Raises
+        ------
+        SignalError
+            On mismatched lengths, NaN, non-uniform time or a bad window.
+        """
+        t = np.asarray(t, float)
+        if t.ndim != 1 or t.size < 16:
+            raise SignalError(f"a record needs at least 16 samples, got {t.size}")
+        dt = float(t[1] - t[0])
+        if not dt > 0 or not np.allclose(np.diff(t), dt, rtol=1e-6, atol=1e-12):
+            raise SignalError(f"record {label or ''} time is not uniform and increasing".replace("  ", " "))
+        arrays = {"x": x, "v": v, "a": a, "force": force}
+        out: dict[str, np.ndarray | None] = {}
+        for name, arr in arrays.items():
+            if arr is None:
+                out[name] = None
+                continue
+            arr = np.asarray(arr, float)
+            if arr.shape != t.shape:
+                raise SignalError(f"{name} has {arr.size} samples, expected {t.size} like the time")
+            if not np.all(np.isfinite(arr)):
+                raise SignalError(f"{name} of record {label!r} contains NaN or infinite values")
+            out[name] = arr
+        if out["a"] is None:
+            out["a"] = np.gradient(out["v"], t)
+        n = t.size
+        f = out["force"]
+        if free_start is None:
+            free_start = 0
+            if f is not None and np.max(np.abs(f)) > 0:
+                hit = np.flatnonzero(np.abs(f) > 0.02 * np.max(np.abs(f)))
+                free_start = int(min(n - 1, hit[-1] + 1))
+        free_stop = n if free_stop is None else int(free_stop)
+        if not 0 <= free_start < free_stop <= n:
+            raise SignalError(f"free response [{free_start}, {free_stop}) is not inside 0..{n}")
+        return cls(t=t, x=out["x"], v=out["v"], a=out["a"], force=f,  # type: ignore[arg-type]
+                   free_start=int(free_start), free_stop=int(free_stop), label=label)
+
+    @classmethod
+    def from_conditioned(cls, sig: Any, label: str = "") -> "Record":
+        """Build from any object with ``t, x, v, a, force`` (and optionally ``free_start``,
+        ``free_stop``), such as :class:`eddi.conditioning.ConditionedSignal`."""
+        return cls.create(sig.t, sig.x, sig.v, getattr(sig, "a", None),
+                          force=getattr(sig, "force", None),
+                          free_start=getattr(sig, "free_start", None),
+                          free_stop=getattr(sig, "free_stop", None), label=label)
+
+    def signal(self) -> Signal:
+        f = self.force if self.force is not None else np.zeros_like(self.x)
+        return Signal(t=self.t, x=self.x, v=self.v, a=self.a, force=f)
+
+
+# ----------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class Part:
+    """A held-out part: a record, the samples simulated, and the training samples of its fold.
+
+    Attributes
+    ----------
+    record : int
+        Index of the record.
+    start, stop : int
+        Samples simulated and compared, ``[start, stop)``.
+    from_rest : bool
+        True when the simulation starts from rest driven by the measured force; False when it
+        starts from the measured state at ``start``.
+    label : str
+    """
+
+    record: int
+    start: int
+    stop: int
+    from_rest: bool
+    label: str
+
+
+@dataclass(frozen=True)
+class Score:
+    """A model and its held-out error.
+
+    Attributes
+    ----------
+    model : EquationOfMotion
+        Fitted on all the data.
+    nrmse : float
+        Mean over held-out parts of ``||x_sim - x|| / ||x||`` (capped at :data:`NRMSE_CAP`).
+    fold_nrmse : tuple of float
+        One value per held-out part.
+    """
+
+    model: EquationOfMotion
+    nrmse: float
+    fold_nrmse: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One mechanism tried.
+
+    Attributes
+    ----------
+    name : str
+        Mechanism name (:data:`eddi.mechanisms.MECHANISM_NAMES`).
+    nrmse : float
+        Mean held-out nrmse of the extended model (NaN when skipped).
+    fold_nrmse : tuple of float
+    gain : float
+        ``1 - nrmse / baseline nrmse`` (NaN when skipped).
+    wins_every_part : bool
+        Lower held-out nrmse than the baseline on every part.
+    params : dict of str to float
+        Mechanism parameters fitted on all the data (SI units).
+    spread : dict of str to float
+        Standard deviation of each parameter over the folds.
+    model : EquationOfMotion or None
+        The extended model fitted on all the data.
+    symptom : str
+        What the baseline got wrong if this mechanism is the cause.
+    skipped : str
+        Why the mechanism was not tried (empty when tried).
+    """
+
+    name: str
+    nrmse: float
+    fold_nrmse: tuple[float, ...]
+    gain: float
+    wins_every_part: bool
+    params: dict[str, float]
+    spread: dict[str, float]
+    model: EquationOfMotion | None
+    symptom: str = ""
+    skipped: str = ""
+
+
+@dataclass(frozen=True)
+class HeldOut:
+    """Simulations of one held-out part (for figures).
+
+    Attributes
+    ----------
+    part : Part
+    t : ndarray, shape (k,), [s]
+    x_measured, x_baseline, x_extended : ndarray, shape (k,)
+        Measured coordinate and the simulations of the baseline and extended models
+        fitted without this part.
+    """
+
+    part: Part
+    t: np.ndarray
+    x_measured: np.ndarray
+    x_baseline: np.ndarray
+    x_extended: np.ndarray
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """The verdict of :func:`diagnose`.
+
+    Attributes
+    ----------
+    cause : str
+        The winning mechanism, or ``"none"``.
+    baseline, extended : Score
+        The baseline and the extended model (same as the baseline when the cause is none).
+    gain : float
+        Relative reduction of the mean held-out nrmse, ``1 - extended / baseline``.
+    candidates : tuple of Candidate
+        Every mechanism, best first (skipped ones last).
+    scheme : str
+        ``"leave-one-record-out"`` or ``"amplitude-bands"``.
+    parts : tuple of Part
+    margin : float
+        Relative margin the winner had to beat.
+    verdict : str
+        The verdict in one sentence.
+    symptom : str
+        What the baseline got wrong, in a test engineer's words.
+    held_out : tuple of HeldOut
+    baseline_spread : dict of str to float
+        Spread of the baseline coefficients over the folds (fitted baselines only).
+    """
+
+    cause: str
+    baseline: Score
+    extended: Score
+    gain: float
+    candidates: tuple[Candidate, ...]
+    scheme: str
+    parts: tuple[Part, ...]
+    margin: float
+    verdict: str
+    symptom: str
+    held_out: tuple[HeldOut, ...] = field(repr=False, default=())
+    baseline_spread: dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (no arrays)."""
+        def score(s: Score) -> dict[str, Any]:
+            return {"nrmse": s.nrmse, "fold_nrmse": list(s.fold_nrmse), "model": s.model.to_dict(),
+                    "equation": s.model.equation_text()}
+        return {
+            "cause": self.cause,
+            "verdict": self.verdict,
+            "symptom": self.symptom,
+            "gain": self.gain,
+            "margin": self.margin,
+            "scheme": self.scheme,
+            "parts": [{"record": p.record, "start": p.start, "stop": p.stop,
+                       "from_rest": p.from_rest, "label": p.label} for p in self.parts],
+            "baseline": {**score(self.baseline), "spread": self.baseline_spread},
+            "extended": score(self.extended),
+            "candidates": [{
+                "name": c.name, "nrmse": c.nrmse, "fold_nrmse": list(c.fold_nrmse),
+                "gain": c.gain, "wins_every_part": c.wins_every_part, "params": c.params,
+                "spread": c.spread, "skipped": c.skipped,
+            } for c in self.candidates],
+        }
+
+
+# ----------------------------------------------------------------------------- fitting
+@dataclass(frozen=True)
+class _Setup:
+    mass: float
+    damping: tuple[str, ...]
+    stiffness: tuple[str, ...]
+    base: EquationOfMotion | None  # fixed baseline (its coefficients are kept)
+    coordinate: str
+
+
+@dataclass(frozen=True)
+class _Fit:
+    eom: EquationOfMotion
+    mech: MechanismFit | None
+    residual: tuple[np.ndarray, ...]  # per record, NaN outside training samples
+
+
+def _rows(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: _Setup) -> tuple[np.ndarray, np.ndarray]:
+    """Base regressors and target over the training samples."""
+    cols, ys = [], []
+    terms = parse_terms(list(setup.damping) + list(setup.stiffness)) if setup.base is None else ()
+    for s, m in zip(sigs, masks):
+        x, v = s.x[m], s.v[m]
+        y = s.force[m] - setup.mass * s.a[m]
+        if setup.base is not None:
+            y = y - setup.base.restoring_force(x, v)
+        ys.append(y)
+        cols.append(evaluate(terms, x, v) if terms else np.zeros((x.size, 0)))
+    return np.vstack(cols), np.concatenate(ys)
+
+
+class _Projector:
+    """Least squares of ``y`` on ``[a0, e]`` for many extra blocks ``e``, sharing one QR of ``a0``."""
+
+    def __init__(self, a0: np.ndarray, y: np.ndarray) -> None:
+        self.y = y
+        self.scale = _col_scale(a0)
+        if a0.shape[1]:
+            self.q, self.r = np.linalg.qr(a0 / self.scale)
+            self.r0 = y - self.q @ (self.q.T @ y)
+        else:
+            self.q = np.zeros((y.size, 0))
+            self.r = np.zeros((0, 0))
+            self.r0 = y
+
+    def base(self, y: np.ndarray | None = None) -> np.ndarray:
+        yy = self.y if y is None else y
+        if self.q.shape[1] == 0:
+            return np.zeros(0)
+        return np.linalg.solve(self.r, self.q.T @ yy) / self.scale
+
+    def fit(self, e: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """Coefficients of the base block, of ``e``, and the residual sum of squares."""
+        se = _col_scale(e)
+        es = e / se
+        ep = es - self.q @ (self.q.T @ es)
+        c, *_ = np.linalg.lstsq(ep, self.r0, rcond=None)
+        res = self.r0 - ep @ c
+        b = self.base(self.y - es @ c)
+        return b, c / se, float(res @ res)
+
+
+def _col_scale(a: np.ndarray) -> np.ndarray:
+    scale = np.sqrt(np.mean(a * a, axis=0)) if a.shape[0] else np.ones(a.shape[1])
+    scale[~(scale > 0)] = 1.0
+    return scale
+
+
+def _fit(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: _Setup,
+         mech: Mechanism | None, base_fit: _Fit | None = None) -> _Fit | None:
+    """Fit the baseline (``mech`` None) or the baseline plus one mechanism on training samples.
+
+    Returns None when no physical fit of the mechanism exists.
+    """
+    a0, y = _rows(sigs, masks, setup)
+    nb = a0.shape[1]
+    best: tuple[float, np.ndarray, dict[str, float], MechanismFit] | None = None
+    proj = _Projector(a0, y)
+    if mech is None:
+        coef = proj.base()
+        mfit = None
+    else:
+        ctx = _context(sigs, masks, setup, base_fit)
+        for shape in mech.shape_grid(ctx):
+            extra = np.vstack([mech.columns(s, shape, setup.stiffness)[m] for s, m in zip(sigs, masks)])
+            b, c, ssr = proj.fit(extra)
+            mf = mech.to_fit(c, shape, setup.mass, setup.stiffness)
+            if mf is None:
+                continue
+            if best is None or ssr < best[0]:
+                best = (ssr, b, shape, mf)
+        if best is None:
+            return None
+        if mech.refine:
+            best = _refine(mech, best, sigs, masks, setup, proj)
+        coef, mfit = best[1], best[3]
+    if setup.base is None:
+        nd = len(setup.damping)
+        try:
+            eom = EquationOfMotion.create(
+                mass=setup.mass,
+                damping={t: float(c) for t, c in zip(setup.damping, coef[:nd])},
+                stiffness={t: float(c) for t, c in zip(setup.stiffness, coef[nd:])},
+                coordinate=setup.coordinate,
+                notes="fitted by eddi.diagnose (least squares on the equation of motion)")
+        except ModelError:
+            return None
+    else:
+        eom = setup.base
+    if mfit is not None:
+        eom = extend(eom, mfit)
+    # residual of this fit on every record (NaN outside training samples)
+    residual = []
+    for s, m in zip(sigs, masks):
+        r = np.full(s.x.size, np.nan)
+        if mfit is None:
+            r[m] = s.force[m] - setup.mass * s.a[m] - eom.restoring_force(s.x[m], s.v[m])
+        residual.append(r)
+    return _Fit(eom=eom, mech=mfit, residual=tuple(residual))
+
+
+def _refine(mech: Mechanism, best: tuple, sigs: Sequence[Signal], masks: Sequence[np.ndarray],
+            setup: _Setup, proj: "_Projector") -> tuple:
+    """Polish the best grid shape with Nelder-Mead on the log of the refined parameters."""
+    keys = mech.refine
+    shape0 = dict(best[2])
+    p0 = np.log([shape0[k] for k in keys])
+    found = [best]
+
+    def cost(p: np.ndarray) -> float:
+        shape = {**shape0, **{k: float(np.exp(v)) for k, v in zip(keys, p)}}
+        extra = np.vstack([mech.columns(s, shape, setup.stiffness)[m] for s, m in zip(sigs, masks)])
+        b, c, ssr = proj.fit(extra)
+        mf = mech.to_fit(c, shape, setup.mass, setup.stiffness)
+        if mf is None:
+            return float(best[0]) * 10.0
+        if ssr < found[-1][0]:
+            found.append((ssr, b, shape, mf))
+        return ssr / float(best[0])
+
+    optimize.minimize(cost, p0, method="Nelder-Mead",
+                      options={"maxfev": 30 * len(keys), "xatol": 1e-3, "fatol": 1e-6,
+                               "initial_simplex": np.vstack([p0] + [p0 + 0.05 * np.eye(len(keys))[i]
+                                                                    for i in range(len(keys))])})
+    return found[-1]
+
+
+def _context(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: _Setup,
+             base_fit: _Fit | None) -> Context:
+    used = [(s, m) for s, m in zip(sigs, masks) if np.any(m)]
+    xp = max(float(np.max(np.abs(s.x[m]))) for s, m in used)
+    vp = max(float(np.max(np.abs(s.v[m]))) for s, m in used)
+    eom = base_fit.eom if base_fit is not None else setup.base
+    k1 = eom.linear_stiffness() if eom is not None else 0.0
+    f1 = math.sqrt(max(k1, 0.0) / setup.mass) / (2 * math.pi)
+    if f1 <= 0:
+        f1 = _crossing_frequency(*used[0])
+    residual = base_fit.residual if base_fit is not None else tuple(np.full(s.x.size, np.nan) for s in sigs)
+    return Context(signals=tuple(sigs), masks=tuple(masks), residual=residual, mass=setup.mass,
+                   x_peak=xp, v_peak=vp, base_frequency_hz=f1)
+
+
+def _crossing_frequency(sig: Signal, mask: np.ndarray) -> float:
+    idx = np.flatnonzero(mask)
+    g = zero_crossings(sig.t[idx], sig.x[idx], sig.v[idx])
+    if g.size < 3:
+        return 1.0
+    return float(1.0 / (2 * np.median(np.diff(g))))
+
+
+# ----------------------------------------------------------------------------- judging
+def _simulate_part(eom: EquationOfMotion, rec: Record, part: Part) -> np.ndarray:
+    s, e = part.start, part.stop
+    t = rec.t[s:e] - rec.t[s]
+    xm = rec.x[s:e]
+    xs = float(np.max(np.abs(xm))) or None
+    vs = float(np.max(np.abs(rec.v[s:e]))) or None
+    if part.from_rest and rec.force is not None:
+        sim = simulate(eom, t, force=rec.force[s:e], x0=float(rec.x[s]), v0=float(rec.v[s]),
+                       x_scale=xs, v_scale=vs)
+    else:
+        f = rec.force[s:e] if rec.force is not None else None
+        sim = simulate(eom, t, force=f, x0=float(rec.x[s]), v0=float(rec.v[s]),
+                       x_scale=xs, v_scale=vs)
+    return sim.x
+
+
+def nrmse(x_sim: np.ndarray, x_meas: np.ndarray) -> float:
+    """``||x_sim - x_meas||_2 / ||x_meas||_2``, capped at :data:`NRMSE_CAP` (inf/NaN -> cap).
+
+    The same figure of merit as :func:`eddi.validate.validate`.
+    """
+    den = float(np.linalg.norm(x_meas)) or 1.0
+    if not np.all(np.isfinite(x_sim)):
+        return NRMSE_CAP
+    return float(min(NRMSE_CAP, np.linalg.norm(x_sim - x_meas) / den))
+
+
+# ----------------------------------------------------------------------------- splitting
+def _bands(rec: Record, n_bands: int) -> list[tuple[int, int]]:
+    """Split the free response of one record into amplitude bands (contiguous in time)."""
+    s0, s1 = rec.free_start, rec.free_stop
+    ax = np.abs(rec.x[s0:s1])
+    env = np.maximum.accumulate(ax[::-1])[::-1]  # largest |x| from here to the end
+    peak = float(env[0])
+    if peak <= 0:
+        raise SignalError(f"record {rec.label!r} has no motion to diagnose")
+    tail = ax[int(0.9 * ax.size):]
+    noise = float(np.sqrt(np.mean(tail**2))) if tail.size else 0.0
+    floor = min(max(0.03 * peak, 3.0 * noise), 0.5 * peak)
+    levels = [peak * (floor / peak) ** (k / n_bands) for k in range(1, n_bands + 1)]
+    bounds = [0]
+    for lv in levels[:-1]:
+        below = np.flatnonzero(env < lv)
+        bounds.append(int(below[0]) if below.size else ax.size)
+    below = np.flatnonzero(env < levels[-1])
+    bounds.append(int(below[0]) if below.size else ax.size)
+    out = []
+    for k in range(n_bands):
+        a, b = s0 + bounds[k], s0 + bounds[k + 1]
+        nz = zero_crossings(rec.t[a:b], rec.x[a:b], rec.v[a:b]).size if b - a > 2 else 0
+        if nz < MIN_BAND_CROSSINGS:
+            raise SignalError(
+                f"record {rec.label!r} is too short to split into {n_bands} amplitude bands: band "
+                f"{k + 1} holds {nz} zero crossings, need {MIN_BAND_CROSSINGS}")
+        out.append((a, b))
+    return out
+
+
+def _parts(records: Sequence[Record], n_bands: int) -> tuple[str, list[Part], list[list[np.ndarray]]]:
+    """Held-out parts and, for each, the training masks of every record."""
+    parts: list[Part] = []
+    masks: list[list[np.ndarray]] = []
+    free = []
+    for r in records:
+        m = np.zeros(r.t.size, bool)
+        m[r.free_start:r.free_stop] = True
+        free.append(m)
+    if len(records) >= 2:
+        for i, r in enumerate(records):
+            nz = zero_crossings(r.t[r.free_start:r.free_stop], r.x[r.free_start:r.free_stop],
+                                r.v[r.free_start:r.free_stop]).size
+            if nz < MIN_BAND_CROSSINGS:
+                raise SignalError(f"record {r.label!r} has {nz} zero crossings in its free response, "
+                                  f"need at least {MIN_BAND_CROSSINGS}")
+            from_rest = r.force is not None and r.free_start > 0
+            start = 0 if from_rest else r.free_start
+            parts.append(Part(i, start, r.free_stop, from_rest, r.label or f"record {i + 1}"))
+            masks.append([f if j != i else np.zeros_like(f) for j, f in enumerate(free)])
+        return "leave-one-record-out", parts, masks
+    r = records[0]
+    for k, (a, b) in enumerate(_bands(r, n_bands)):
+        parts.append(Part(0, a, b, False, f"{r.label or 'record'} band {k + 1}/{n_bands}"))
+        m = free[0].copy()
+        m[a:b] = False
+        masks.append([m])
+    return "amplitude-bands", parts, masks
+
+
+# ----------------------------------------------------------------------------- the loop
+def diagnose(
+    records: Sequence[Record],
+    mass: float | None = None,
+    *,
+    damping: str | Sequence[str] = DEFAULT_DAMPING,
+    stiffness: str | Sequence[str] = DEFAULT_STIFFNESS,
+    base: EquationOfMotion | None = None,
+    mechanisms: Sequence[str] | None = None,
+    margin: float = DEFAULT_MARGIN,
+    n_bands: int = 3,
+) -> Diagnosis:
+    """Find what the baseline model gets wrong, name the mechanism, extend and measure the gain.
+
+    Parameters
+    ----------
+    records : sequence of Record
+        Measured responses (same sample rate). With two or more, each is held out in turn
+        (the others train); with one, its free response is split into ``n_bands`` amplitude
+        bands and each band is held out in turn.
+    mass : float, optional
+        Mass [kg] (or inertia). Required unless ``base`` is given.
+    damping, stiffness : str or sequence of str
+        Baseline term libraries (comma-separated text or a sequence), fitted when ``base``
+        is None.
+    base : EquationOfMotion, optional
+        A given baseline; its coefficients are kept and only mechanisms are fitted.
+    mechanisms : sequence of str, optional
+        Subset of :data:`eddi.mechanisms.MECHANISM_NAMES` to try (default: all).
+    margin : float
+        Relative reduction of the mean held-out nrmse the winner must exceed (besides
+        winning on every held-out part).
+    n_bands : int
+        Amplitude bands of a single record.
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    SignalError
+        No records, inconsistent sample rates, too few zero crossings, a record too short to
+        split.
+    ModelError
+        Bad mass.
+    TermError
+        Bad terms or unknown mechanism.
+    """
+    records = list(records)
+    if not records:
+        raise SignalError("no records to diagnose")
+    rates = [r.rate_hz for r in records]
+    for r, fs in zip(records, rates):
+        if abs(fs - rates[0]) > 1e-6 * rates[0]:
+            raise SignalError(f"records have different sample rates: {rates[0]:.6g} Hz and "
+                              f"{fs:.6g} Hz ({r.label}); resample them first")
+    if base is not None:
+        mass = base.mass if mass is None else mass
+    if mass is None or not (math.isfinite(float(mass)) and float(mass) > 0):
+        raise ModelError(f"mass must be a number > 0, got {mass!r}")
+    if base is not None:
+        if abs(float(mass) - base.mass) > 1e-9 * base.mass:
+            raise ModelError(f"mass {mass} differs from the model's mass {base.mass}")
+        if base.effect("second_mode") is not None:
+            raise ModelError("a base model with a second_mode effect cannot be diagnosed "
+                             "(its hidden coordinate is not measured)")
+        d_terms = tuple(base.damping)
+        k_terms = tuple(base.stiffness)
+        coordinate = base.coordinate
+    else:
+        d_terms = tuple(t.text for t in parse_terms(damping if isinstance(damping, str) else list(damping)))
+        k_terms = tuple(t.text for t in parse_terms(stiffness if isinstance(stiffness, str) else list(stiffness)))
+        for t in parse_terms(list(k_terms)):
+            if t.depends_on_v:
+                raise TermError(f"stiffness term {t.text!r} depends on v; put it in damping")
+        coordinate = "displacement [m]"
+    setup = _Setup(mass=float(mass), damping=d_terms, stiffness=k_terms, base=base,
+                   coordinate=coordinate)
+    chosen = list(MECHANISM_NAMES if mechanisms is None else mechanisms)
+    for name in chosen:
+        if name not in MECHANISM_NAMES:
+            raise TermError(f"unknown mechanism {name!r}; known: {', '.join(MECHANISM_NAMES)}")
+    cat = [m for m in catalogue() if m.name in chosen]
+
+    sigs = [r.signal() for r in records]
+    scheme, parts, fold_masks = _parts(records, n_bands)
+    effects = tuple(e.name for e in base.effects) if base is not None else ()
+
+    # --- per fold: baseline and every mechanism, judged on the held-out part
+    base_fold: list[float] = []
+    base_sims: list[np.ndarray] = []
+    base_coefs: list[dict[str, float]] = []
+    cand_fold: dict[str, list[float]] = {m.name: [] for m in cat}
+    cand_params: dict[str, list[dict[str, float]]] = {m.name: [] for m in cat}
+    cand_sims: dict[str, list[np.ndarray]] = {m.name: [] for m in cat}
+    skipped = {m.name: m.skip_reason(d_terms, k_terms, effects) for m in cat}
+    for part, masks in zip(parts, fold_masks):
+        rec = records[part.record]
+        xm = rec.x[part.start:part.stop]
+        bfit = _fit(sigs, masks, setup, None)
+        if bfit is None:
+            raise ModelError("the baseline could not be fitted on the training parts")
+        xb = _simulate_part(bfit.eom, rec, part)
+        base_fold.append(nrmse(xb, xm))
+        base_sims.append(xb)
+        base_coefs.append({**{f"b[{k}]": v for k, v in bfit.eom.damping.items()},
+                           **{f"k[{k}]": v for k, v in bfit.eom.stiffness.items()}})
+        for mech in cat:
+            if skipped[mech.name]:
+                continue
+            fit = _fit(sigs, masks, setup, mech, base_fit=bfit)
+            if fit is None:
+                cand_fold[mech.name].append(NRMSE_CAP)
+                cand_sims[mech.name].append(np.full_like(xm, np.nan))
+                continue
+            xe = _simulate_part(fit.eom, rec, part)
+            cand_fold[mech.name].append(nrmse(xe, xm))
+            cand_sims[mech.name].append(xe)
+            assert fit.mech is not None
+            cand_params[mech.name].append(dict(fit.mech.effect.params))
+
+    # --- final fits on all the data
+    all_masks = []
+    for r in records:
+        m = np.zeros(r.t.size, bool)
+        m[r.free_start:r.free_stop] = True
+        all_masks.append(m)
+    bfit_all = _fit(sigs, all_masks, setup, None)
+    assert bfit_all is not None
+    base_nrmse = float(np.mean(base_fold))
+    baseline = Score(model=bfit_all.eom, nrmse=base_nrmse, fold_nrmse=tuple(base_fold))
+
+    candidates: list[Candidate] = []
+    finals: dict[str, _Fit] = {}
+    for mech in cat:
+        if skipped[mech.name]:
+            candidates.append(Candidate(mech.name, float("nan"), (), float("nan"), False, {}, {},
+                                        None, "", skipped[mech.name]))
+            continue
+        folds = cand_fold[mech.name]
+        mean = float(np.mean(folds))
+        wins = all(c < b for c, b in zip(folds, base_fold))
+        fit = _fit(sigs, all_masks, setup, mech, base_fit=bfit_all)
+        params: dict[str, float] = {}
+        symptom = ""
+        model = None
+        if fit is not None and fit.mech is not None:
+            finals[mech.name] = fit
+            params = dict(fit.mech.effect.params)
+            symptom = mech.symptom(fit.mech)
+            model = fit.eom
+        plist = cand_params[mech.name]
+        spread = {k: float(np.std([p[k] for p in plist], ddof=1)) if len(plist) > 1 else float("nan")
+                  for k in params}
+        gain = 1.0 - mean / base_nrmse if base_nrmse > 0 else 0.0
+        candidates.append(Candidate(mech.name, mean, tuple(folds), gain, wins, params, spread,
+                                    model, symptom, ""))
+    candidates.sort(key=lambda c: (bool(c.skipped), c.nrmse if math.isfinite(c.nrmse) else math.inf))
+
+    winner = None
+    for c in candidates:
+        if c.skipped or c.model is None:
+            continue
+        if c.wins_every_part and c.gain > margin:
+            winner = c
+        break  # only the best-ranked candidate may win
+    b_spread = {k: float(np.std([c[k] for c in base_coefs], ddof=1)) if len(base_coefs) > 1 else float("nan")
+                for k in base_coefs[0]} if setup.base is None else {}
+
+    if winner is None:
+        extended = baseline
+        cause = "none"
+        gain = 0.0
+        best = next((c for c in candidates if not c.skipped), None)
+        if best is None:
+            verdict = "Cause: none (no mechanism could be tried)."
+        else:
+            verdict = (f"Cause: none. The best mechanism, {best.name}, changes the held-out error by "
+                       f"{100 * best.gain:+.0f} % (needs more than {100 * margin:.0f} % and a win on every "
+                       "held-out part): nothing beats the noise.")
+        symptom = ("the baseline's simulation matches the held-out measurements as well as any "
+                   "extended model: no mechanism of the catalogue is missing")
+        ext_sims = base_sims
+    else:
+        extended = Score(model=winner.model, nrmse=winner.nrmse, fold_nrmse=winner.fold_nrmse)  # type: ignore[arg-type]
+        cause = winner.name
+        gain = winner.gain
+        symptom = f"the baseline {winner.symptom}"
+        verdict = (f"Cause: {cause}. Adding it cuts the held-out error from {base_nrmse:.3g} to "
+                   f"{winner.nrmse:.3g} ({100 * gain:.0f} % less), better on every held-out part.")
+        ext_sims = cand_sims[cause]
+    held = tuple(HeldOut(part=p, t=records[p.record].t[p.start:p.stop],
+                         x_measured=records[p.record].x[p.start:p.stop], x_baseline=xb, x_extended=xe)
+                 for p, xb, xe in zip(parts, base_sims, ext_sims))
+    return Diagnosis(cause=cause, baseline=baseline, extended=extended, gain=float(gain),
+                     candidates=tuple(candidates), scheme=scheme, parts=tuple(parts),
+                     margin=float(margin), verdict=verdict, symptom=symptom, held_out=held,
+                     baseline_spread=b_spread)
+
+
+# ----------------------------------------------------------------------------- views
+def energy_per_cycle(t: np.ndarray, x: np.ndarray, v: np.ndarray, mass: float) -> tuple[np.ndarray, np.ndarray]:
+    """Energy lost per cycle versus amplitude, from the kinetic energy at zero crossings.
+
+    At a zero crossing the potential energy is zero, so ``E = m v^2 / 2`` there; the energy
+    lost over one cycle is the drop between crossings ``i`` and ``i + 2``.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,), [s]
+    x, v : ndarray, shape (n,)
+    mass : float, [kg]
+
+    Returns
+    -------
+    amplitude : ndarray, shape (k,), [m]
+        Largest ``|x|`` over each cycle.
+    energy_lost : ndarray, shape (k,), [J]
+    """
+    t = np.asarray(t, float)
+    x = np.asarray(x, float)
+    v = np.asarray(v, float)
+    ok = np.isfinite(x) & np.isfinite(v)
+    if not np.all(ok):
+        n = int(np.argmin(ok))
+        t, x, v = t[:n], x[:n], v[:n]
+    if t.size < 4:
+        return np.zeros(0), np.zeros(0)
+    g = zero_crossings(t, x, v)
+    if g.size < 3:
+        return np.zeros(0), np.zeros(0)
+    vg = np.interp(g, t, v)
+    e = 0.5 * mass * vg**2
+    idx = np.searchsorted(t, g)
+    amp = np.array([np.max(np.abs(x[idx[i]:max(idx[i + 2], idx[i] + 1)])) for i in range(g.size - 2)])
+    return amp, e[:-2] - e[2:]
+
+
+def backbone(t: np.ndarray, x: np.ndarray, v: np.ndarray, mass: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Instantaneous frequency and damping ratio versus amplitude, cycle by cycle.
+
+    Returns
+    -------
+    amplitude : ndarray, shape (k,), [m]
+    frequency_hz : ndarray, shape (k,), [Hz]
+        ``1 / (gamma_i+2 - gamma_i)``.
+    damping_ratio : ndarray, shape (k,)
+        ``dE / (4 pi E)`` with ``E`` the energy at the start of the cycle.
+    """
+    t = np.asarray(t, float)
+    x = np.asarray(x, float)
+    v = np.asarray(v, float)
+    ok = np.isfinite(x) & np.isfinite(v)
+    if not np.all(ok):
+        n = int(np.argmin(ok))
+        t, x, v = t[:n], x[:n], v[:n]
+    if t.size < 4:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    g = zero_crossings(t, x, v)
+    if g.size < 3:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    vg = np.interp(g, t, v)
+    e = 0.5 * mass * vg**2
+    amp, de = energy_per_cycle(t, x, v, mass)
+    freq = 1.0 / (g[2:] - g[:-2])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        zeta = np.where(e[:-2] > 0, de / (4 * np.pi * e[:-2]), np.nan)
+    return amp, freq, zeta
+
+
+def residual_force(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray, a: np.ndarray,
+                   force: np.ndarray | None = None) -> np.ndarray:
+    """Force the model misses: ``F - m a - (internal force of the model)``.
+
+    Parameters
+    ----------
+    eom : EquationOfMotion
+    x, v, a : ndarray, shape (n,)
+    force : ndarray, shape (n,), [N], optional
+
+    Returns
+    -------
+    ndarray, shape (n,), [N]
+    """
+    f = np.zeros_like(np.asarray(x, float)) if force is None else np.asarray(force, float)
+    return f - eom.mass * np.asarray(a, float) - eom.restoring_force(x, v)
+
+
+def spectrum(x: np.ndarray, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """Amplitude spectrum (Hann window).
+
+    Returns
+    -------
+    freqs_hz : ndarray, shape (n // 2 + 1,)
+    amplitude : ndarray, shape (n // 2 + 1,)
+        Same unit as ``x``.
+    """
+    x = np.nan_to_num(np.asarray(x, float))
+    w = np.hanning(x.size)
+    amp = np.abs(np.fft.rfft(x * w)) * 2.0 / max(np.sum(w), 1e-300)
+    return np.fft.rfftfreq(x.size, 1.0 / rate_hz), amp
