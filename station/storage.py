@@ -594,3 +594,32 @@ def read_measurement(path: str | os.PathLike[str], capture: str | None = None) -
         source=f"{path}:{cap.index}",
         metadata=meta,
     )
+
+
+def import_measurement(writer: CaptureWriter, measurement: Any, notes: str = "") -> int:
+    """Append a :class:`station.readers.Measurement` (e.g. read from CSV) as an SI capture.
+
+    Parameters
+    ----------
+    writer : CaptureWriter
+    measurement : Measurement
+        ``t`` (n,) [s] uniform, ``channels`` keyed force/acc/vel/disp [SI], ``rate_hz``,
+        ``pretrigger_samples``, ``mass`` [kg] or None, ``source``.
+
+    Returns
+    -------
+    int
+        Index of the new capture.
+    """
+    t = np.asarray(measurement.t, dtype=float)
+    chans = {k: np.asarray(v, dtype=float) for k, v in measurement.channels.items() if v is not None}
+    meta = dict(getattr(measurement, "metadata", None) or {})
+    return writer.append_si(
+        chans,
+        rate_hz=float(measurement.rate_hz),
+        pretrigger_samples=int(measurement.pretrigger_samples or 0),
+        mass_kg=measurement.mass,
+        source=str(measurement.source),
+        notes=notes,
+        extra={"t0_s": float(t[0]) if t.size else 0.0, "import_metadata": json.dumps(meta, default=str)},
+    )
