@@ -40,6 +40,10 @@ from eddi.errors import SignalError
 
 #: Minimum number of acceleration zero crossings in the free response.
 MIN_CROSSINGS = 6
+#: Knot spacing of the drift spline, in (longest) periods of the response.
+KNOT_PERIODS = 2.0
+#: Half width of the sample groups around each acceleration zero crossing, in periods.
+ANCHOR_HALF_WIDTH = 0.02
 
 
 @dataclass(frozen=True)
@@ -104,6 +108,19 @@ class ConditionedSignal:
     def window(self) -> tuple[int, int]:
         """``(free_start, free_stop)``."""
         return (self.free_start, self.free_stop)
+
+    @property
+    def impact_force(self) -> np.ndarray | None:
+        """The force during the impact ``[impact_start, impact_end)``, zero elsewhere [N].
+
+        Outside the impact a hammer's force sensor shows only its noise; this is the force
+        a validation simulation should be driven with.
+        """
+        if self.force is None:
+            return None
+        f = np.zeros_like(self.force)
+        f[self.impact_start: self.impact_end] = self.force[self.impact_start: self.impact_end]
+        return f
 
 
 # ----------------------------------------------------------------------------------------
@@ -286,32 +303,45 @@ def _sg_derivative(y: np.ndarray, rate_hz: float, period_s: float, deriv: int) -
     return sps.savgol_filter(y, win, polyorder=3, deriv=deriv, delta=1.0 / rate_hz)
 
 
-def _drift_spline(
-    t: np.ndarray, x_int: np.ndarray, anchors: np.ndarray, knot_s: float, start: int, clamped: bool
-) -> BSpline:
-    """Least-squares cubic spline through ``x_int`` at fractional indices ``anchors``.
+def _at(y: np.ndarray, pos: np.ndarray) -> np.ndarray:
+    """``y`` linearly interpolated at fractional sample indices ``pos``."""
+    idx = np.floor(pos).astype(int)
+    frac = pos - idx
+    nxt = np.minimum(idx + 1, y.size - 1)
+    return y[idx] * (1 - frac) + y[nxt] * frac
 
-    With ``clamped``, the spline and its slope are 0 at ``t[start]`` (rest).
+
+def _drift_spline(
+    t: np.ndarray, x_int: np.ndarray, pts: np.ndarray, knot_s: float, start: int, clamped: bool,
+    local: np.ndarray,
+) -> BSpline:
+    """Least-squares cubic spline ``d`` with ``x_int = d(t) + local @ c`` at samples ``pts``.
+
+    ``local`` holds, per sample, signals to which the true ``x`` is locally proportional
+    near its zeros (``-a`` and ``-v``: near ``x = 0``, ``k1 x = -m a - b1 v``); their
+    coefficients ``c`` are fitted with the spline. With ``clamped``, ``d`` and its slope
+    are 0 at ``t[start]`` (rest).
     """
     t0, t1 = float(t[start]), float(t[-1])
-    dt = float(t[1] - t[0])
     n_int = max(1, int(math.ceil((t1 - t0) / knot_s)))
     inner = np.linspace(t0, t1, n_int + 1)
     knots = np.concatenate(([t0] * 3, inner, [t1] * 3))
-    ta = t0 + (anchors - start) * dt
-    idx = np.floor(anchors).astype(int)
-    frac = anchors - idx
-    nxt = np.minimum(idx + 1, x_int.size - 1)
-    ya = x_int[idx] * (1 - frac) + x_int[nxt] * frac
-    basis = BSpline.design_matrix(np.clip(ta, t0, t1), knots, 3).toarray()
+    basis = BSpline.design_matrix(t[pts], knots, 3)
     first = 2 if clamped else 0
-    coef = np.zeros(basis.shape[1])
-    b = basis[:, first:]
-    # a light second-difference penalty keeps intervals without anchors well posed
-    d2 = np.diff(np.eye(b.shape[1]), 2, axis=0)
+    b = basis[:, first:].toarray()
+    m = b.shape[1]
+    # a light second-difference penalty keeps intervals without samples well posed
+    d2 = np.diff(np.eye(m), 2, axis=0)
     lam = 1e-3 * float(np.mean(np.sum(b * b, axis=0)))
-    sol = np.linalg.solve(b.T @ b + lam * d2.T @ d2 + 1e-12 * np.eye(b.shape[1]), b.T @ ya)
-    coef[first:] = sol
+    scale = np.max(np.abs(local), axis=0)
+    scale[scale == 0] = 1.0
+    design = np.hstack((b, local / scale))
+    pen = np.zeros((design.shape[1],) * 2)
+    pen[:m, :m] = lam * d2.T @ d2
+    sol = np.linalg.solve(design.T @ design + pen + 1e-12 * np.eye(design.shape[1]),
+                          design.T @ x_int[pts])
+    coef = np.zeros(basis.shape[1])
+    coef[first:] = sol[:m]
     return BSpline(knots, coef, 3, extrapolate=False)
 
 
@@ -348,7 +378,6 @@ def condition(
     noise_factor : float
         The free response stops where the envelope of the measured response falls below
         ``noise_factor`` times its noise RMS.
-
     Returns
     -------
     ConditionedSignal
@@ -435,11 +464,11 @@ def condition(
         )
     half = np.diff(crs)
     period_s = 2.0 * float(np.percentile(half[: max(4, half.size // 2)], 90)) / rate
-    knot_s = 2.0 * period_s
+    knot_s = KNOT_PERIODS * period_s
     notes.append(f"longest period {period_s:.4g} s; drift knots every {knot_s:.4g} s")
 
     # -- x, v, a -----------------------------------------------------------------------
-    def anchored(x_int: np.ndarray, a_for_anchor: np.ndarray, first: int) -> BSpline:
+    def anchored(x_int: np.ndarray, v_int: np.ndarray, a_for_anchor: np.ndarray, first: int) -> BSpline:
         a_sigma = noise_rms(a_for_anchor, noise_stop)
         h = max(3.0 * a_sigma, 1e-9 * float(np.max(np.abs(a_for_anchor))))
         anc = crossings(a_for_anchor, h, start=first)
@@ -447,14 +476,20 @@ def condition(
             anc = anc[1:]  # no force: the first crossing is at the end of the impact
         stop = _envelope_stop(a_for_anchor, first, a_sigma, noise_factor, period_s, rate)
         anc = anc[anc < stop]
-        step = max(1, int(round(period_s * rate / 2.0)))
-        tail = np.arange(stop, n - 1, step, dtype=float)
-        pts = np.concatenate((anc, tail))
         if anc.size < MIN_CROSSINGS:
             raise SignalError(
                 f"too few zero crossings of the acceleration above the noise: {anc.size}, expected >= {MIN_CROSSINGS}"
             )
-        return _drift_spline(t, x_int, pts, knot_s, start, clamped=rest)
+        # samples within +-2 % of a period of each crossing (|x| below ~12 % of its amplitude)
+        half_w = max(1, int(round(ANCHOR_HALF_WIDTH * period_s * rate)))
+        centre = np.rint(anc).astype(int)
+        near = (centre[:, None] + np.arange(-half_w, half_w + 1)[None, :]).ravel()
+        near = near[(near > max(first, start)) & (near < stop)]
+        step = max(1, int(round(period_s * rate / (2 * half_w + 1) / 2.0)))
+        tail = np.arange(stop, n, step)
+        pts = np.unique(np.concatenate((near, tail)))
+        local = -np.column_stack((a_for_anchor[pts], v_int[pts]))
+        return _drift_spline(t, x_int, pts, knot_s, start, clamped=rest, local=local)
 
     first_anchor = max(start, impact_end)
     if disp is not None and vel is not None:
@@ -472,7 +507,7 @@ def condition(
         v0 = v - (float(np.mean(v[:noise_stop])) if rest and noise_stop >= 8 else 0.0)
         x_int = np.zeros(n)
         x_int[start:] = cumulative_trapezoid(v0[start:], t[start:], initial=0.0)
-        d = _drift_spline_eval(anchored(x_int, a, first_anchor), t, start)
+        d = _drift_spline_eval(anchored(x_int, v0, a, first_anchor), t, start)
         x = x_int - d[0]
         method = "vel as measured; disp by integration from rest with drift anchored at acc zero crossings"
     else:
@@ -482,7 +517,7 @@ def condition(
         x_int = np.zeros(n)
         v_int[start:] = cumulative_trapezoid(a[start:], t[start:], initial=0.0)
         x_int[start:] = cumulative_trapezoid(v_int[start:], t[start:], initial=0.0)
-        d, dd = _drift_spline_eval(anchored(x_int, a, first_anchor), t, start)
+        d, dd = _drift_spline_eval(anchored(x_int, v_int, a, first_anchor), t, start)
         x = x_int - d
         v = v_int - dd
         method = ("acc integrated from rest" if rest else "acc integrated") + \

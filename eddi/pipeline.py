@@ -1,0 +1,96 @@
+"""From conditioned measurements to a validated equation of motion.
+
+A straight line, no numerics of its own: :func:`identify_measurement` takes a
+:class:`~eddi.conditioning.ConditionedSignal`, runs :func:`eddi.identify.identify` on its
+free-response window and :func:`eddi.validate.validate` on the same window:
+
+* with a measured force and a rest seen before the impact: the identified equation is
+  simulated from rest at the start of the motion, driven by the measured hammer force
+  (zero after the impact has ended: what the force sensor shows then is its noise);
+* otherwise: a free response from the measured state at the start of the window.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from eddi.conditioning import ConditionedSignal
+from eddi.identify import IdentifiedModel, identify
+from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
+from eddi.validate import Validation, validate
+
+
+@dataclass(frozen=True)
+class PipelineResult:
+    """An identified and validated model.
+
+    Attributes
+    ----------
+    conditioned : ConditionedSignal
+        The signals identification ran on.
+    model : IdentifiedModel
+        What :func:`eddi.identify.identify` returned (``model.eom`` is the equation).
+    validation : Validation
+        Simulation of ``model.eom`` against ``conditioned.x`` over the free-response window
+        (``validation.window`` is in the indices of ``conditioned``).
+    driven_by_force : bool
+        True when the validation was driven by the measured force from rest.
+    """
+
+    conditioned: ConditionedSignal
+    model: IdentifiedModel
+    validation: Validation
+    driven_by_force: bool
+
+
+def identify_measurement(
+    cond: ConditionedSignal,
+    mass: float,
+    *,
+    damping: str | tuple[str, ...] | list[str] = DEFAULT_DAMPING,
+    stiffness: str | tuple[str, ...] | list[str] = DEFAULT_STIFFNESS,
+    route: str = "auto",
+) -> PipelineResult:
+    """Identify and validate an equation of motion from a conditioned measurement.
+
+    Parameters
+    ----------
+    cond : ConditionedSignal
+        From :func:`eddi.conditioning.condition`.
+    mass : float
+        Mass [kg] (or inertia), > 0.
+    damping, stiffness : str or sequence of str
+        Candidate terms (see :func:`eddi.identify.identify`).
+    route : {"auto", "potential", "lagrangian"}
+        Phase-two route.
+
+    Returns
+    -------
+    PipelineResult
+
+    Raises
+    ------
+    ModelError, TermError, SignalError, IdentificationError
+        As :func:`eddi.identify.identify`.
+    """
+    model = identify(cond.t, cond.x, cond.v, mass, damping=damping, stiffness=stiffness,
+                     route=route, a=cond.a, window=cond.window)
+    force = cond.impact_force
+    if force is not None and cond.impact_start > 0:
+        s = cond.impact_start
+        val = validate(model.eom, cond.t[s:], cond.x[s:], v=cond.v[s:], force=force[s:],
+                       window=(cond.free_start - s, cond.free_stop - s))
+        val = _shift(val, s)
+        return PipelineResult(cond, model, val, True)
+    val = validate(model.eom, cond.t, cond.x, v=cond.v, window=cond.window)
+    return PipelineResult(cond, model, val, False)
+
+
+def _shift(val: Validation, offset: int) -> Validation:
+    """The same validation with its window in the indices of the whole record."""
+    w0, w1 = val.window
+    return Validation(
+        nrmse=val.nrmse, nmte=val.nmte, t=val.t, x_measured=val.x_measured,
+        x_simulated=val.x_simulated, v_measured=val.v_measured, v_simulated=val.v_simulated,
+        window=(w0 + offset, w1 + offset), diverged=val.diverged,
+    )
