@@ -84,7 +84,7 @@ class TriggerConfig(_Strict):
     channel: str = Field(default="force", min_length=1)
     level_n: float | None = Field(default=None, description="trigger level [SI unit of the channel]; 5 % of its range when absent")
     slope: Literal["rising", "falling", "either"] = "rising"
-    pretrigger_s: float = Field(default=1.0, ge=0, description="paper: 1 s")  # paper section 5 (pre-trigger 1 s)
+    pretrigger_s: float = Field(default=1.0, ge=0, description="paper: 1 s")  # paper Sec. 3.3.1 (pre-trigger length of 1 s)
     record_s: float = Field(default=4.0, gt=0, description="record length from the trigger on [s]")
     holdoff_s: float = Field(default=0.0, ge=0, description="wait after a record before re-arming [s]")
     release_fraction: float = Field(default=0.5, gt=0, lt=1)
