@@ -16,7 +16,7 @@ from drivers.transport import Transport, open_transport
 __all__ = ["Block", "ChannelInfo", "Daq", "DeviceInfo", "Stats", "Transport", "open_device"]
 
 
-def open_device(url: str, *, timeout_s: float = 2.0, queue_blocks: int = 1024) -> Daq:
+def open_device(url: str, *, timeout_s: float = 2.0, queue_blocks: int = 1024, usb_backend: object = None) -> Daq:
     """Open the DAQ at ``url`` and identify it.
 
     Parameters
@@ -29,6 +29,9 @@ def open_device(url: str, *, timeout_s: float = 2.0, queue_blocks: int = 1024) -
         Reply timeout of every command, [s].
     queue_blocks : int
         Bound of the queue of received blocks.
+    usb_backend : pyusb backend or None
+        For ``usb://``: the backend to enumerate with (default libusb 1.0; tests hand in
+        ``simulated_rig.usb.EmulatedUsbBackend``).
 
     Raises
     ------
@@ -38,7 +41,7 @@ def open_device(url: str, *, timeout_s: float = 2.0, queue_blocks: int = 1024) -
     """
     if isinstance(url, str) and url.lower().startswith("sim://"):
         raise BadUrlError(f"{url}: sim:// URLs are opened by station.devices.open_device (which starts the rig)")
-    transport = open_transport(url)
+    transport = open_transport(url, usb_backend=usb_backend)
     try:
         return Daq(transport, timeout_s=timeout_s, queue_blocks=queue_blocks)
     except BaseException:

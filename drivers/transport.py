@@ -128,8 +128,10 @@ def parse_serial_url(url: str) -> tuple[str, dict[str, object]]:
     return path, options
 
 
-def open_transport(url: str) -> Transport:
+def open_transport(url: str, *, usb_backend: object = None) -> Transport:
     """Open the transport a URL names.
+
+    ``usb_backend`` is a pyusb backend for ``usb://`` URLs (default libusb 1.0).
 
     Raises
     ------
@@ -144,7 +146,7 @@ def open_transport(url: str) -> Transport:
     if scheme == "usb":
         from drivers.usb import open_usb_transport
 
-        return open_usb_transport(url)
+        return open_usb_transport(url, backend=usb_backend)
     if scheme == "serial":
         path, options = parse_serial_url(url)
         try:

@@ -197,7 +197,7 @@ class EmulatedDaq:
 
     def _impact(self, msg: Message) -> bytes:
         deliver = getattr(self.source, "deliver_impact", None)
-        if deliver is None:
+        if not callable(deliver):
             return self._reply(msg, ReplyStatus.UNSUPPORTED, {"error": "this device has no hammer"})
         if len(msg.body) != IMPACT_BODY.size:
             return self._reply(
