@@ -25,6 +25,7 @@ from station.errors import StationError
 #: Modules that provide sub-commands, in the order ``station --help`` lists them.
 COMMAND_MODULES: tuple[str, ...] = (
     "station.commands.acquire", "station.commands.export",
+    "station.commands.diagnose",
 )
 
 #: Errors that are the user's or the world's, not the program's: one line, exit code 2.
