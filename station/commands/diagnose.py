@@ -1,0 +1,144 @@
+"""``station diagnose``: what the model gets wrong, why, the extended model and the gain.
+
+    station diagnose CAPTURE... --mass M [--damping TERMS] [--stiffness TERMS]
+                     [--model BASE.json] [--save-model OUT.json] [--report DIR] [--json]
+
+Each capture (CSV or HDF5, with or without a force channel) is read, conditioned (drift-free
+integration of the acceleration) and handed to :func:`eddi.diagnose.diagnose`. With several
+captures each one is held out in turn; with one, its ring-down is split into amplitude bands.
+The baseline is ``--model`` or EDDI's term libraries fitted to the data; every mechanism of
+the catalogue (``docs/effects.md``) is added, refitted on the training captures and judged on
+the held-out ones. See ``docs/diagnosis.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any
+
+from eddi.diagnose import DEFAULT_MARGIN, Diagnosis, Record, diagnose
+from eddi.errors import ModelError
+from eddi.mechanisms import MECHANISM_NAMES
+from eddi.model import EquationOfMotion
+from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
+from station.errors import InputFileError
+from station.output import emit
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``diagnose`` sub-command."""
+    p = subparsers.add_parser(
+        "diagnose", help="find what a model gets wrong, name the mechanism, extend it, measure the gain",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("captures", nargs="+", metavar="CAPTURE",
+                   help="capture files (CSV or HDF5; FILE.h5:N picks capture N of a session)")
+    p.add_argument("--mass", type=float, metavar="KG",
+                   help="oscillating mass [kg] (default: the model's, or the capture's metadata)")
+    p.add_argument("--damping", default=",".join(DEFAULT_DAMPING), metavar="TERMS",
+                   help="baseline damping terms (default: %(default)s)")
+    p.add_argument("--stiffness", default=",".join(DEFAULT_STIFFNESS), metavar="TERMS",
+                   help="baseline stiffness terms (default: %(default)s)")
+    p.add_argument("--model", metavar="BASE.json", help="baseline equation of motion (JSON); its "
+                   "coefficients are kept and only the mechanisms are fitted")
+    p.add_argument("--mechanisms", metavar="NAMES", help="comma-separated subset of: "
+                   + ", ".join(MECHANISM_NAMES))
+    p.add_argument("--margin", type=float, default=DEFAULT_MARGIN, metavar="FRACTION",
+                   help="relative cut of the held-out error the winner must exceed (default: %(default)s)")
+    p.add_argument("--save-model", metavar="OUT.json", help="write the extended equation of motion")
+    p.add_argument("--report", metavar="DIR", help="write figures (PNG) into DIR")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=handle)
+
+
+def load_records(specs: list[str]) -> tuple[list[Record], float | None]:
+    """Read and condition every capture; returns the records and the mass found in metadata."""
+    from eddi.conditioning import condition
+    from station.readers import read_measurement
+
+    records: list[Record] = []
+    mass: float | None = None
+    rate0: float | None = None
+    first = ""
+    for spec in specs:
+        m = read_measurement(spec)
+        rate = float(m.rate_hz)
+        if rate0 is None:
+            rate0, first = rate, spec
+        elif abs(rate - rate0) > 1e-6 * rate0:
+            raise InputFileError(f"captures have different sample rates: {first} at {rate0:g} Hz, "
+                                 f"{spec} at {rate:g} Hz; resample them to one rate first")
+        ch = m.channels
+        if not any(k in ch for k in ("acc", "vel", "disp")):
+            raise InputFileError(f"{spec}: no response channel (expected acc, vel or disp; got "
+                                 f"{', '.join(ch) or 'none'})")
+        c = condition(m.t, acc=ch.get("acc"), vel=ch.get("vel"), disp=ch.get("disp"),
+                      force=ch.get("force"), pretrigger_samples=getattr(m, "pretrigger_samples", None))
+        records.append(Record.from_conditioned(c, label=Path(spec).name))
+        if mass is None and getattr(m, "mass", None):
+            mass = float(m.mass)
+    return records, mass
+
+
+def handle(args: argparse.Namespace) -> int:
+    base = None
+    if args.model:
+        text = Path(args.model).read_text()
+        try:
+            base = EquationOfMotion.from_json(text)
+        except ModelError as exc:
+            raise ModelError(f"{args.model}: {exc}") from None
+    if args.mass is not None and not (math.isfinite(args.mass) and args.mass > 0):
+        raise ModelError(f"--mass must be > 0, got {args.mass}")
+    mechanisms = None
+    if args.mechanisms:
+        mechanisms = [s.strip() for s in args.mechanisms.split(",") if s.strip()]
+    records, meta_mass = load_records(list(args.captures))
+    mass = args.mass if args.mass is not None else (base.mass if base is not None else meta_mass)
+    if mass is None:
+        raise InputFileError("no mass: give --mass KG (or --model, or captures with a mass in their metadata)")
+    if base is not None and args.mass is not None and abs(args.mass - base.mass) > 1e-9 * base.mass:
+        raise ModelError(f"--mass {args.mass} differs from the model's mass {base.mass}")
+    diag = diagnose(records, mass, damping=args.damping, stiffness=args.stiffness, base=base,
+                    mechanisms=mechanisms, margin=args.margin)
+    obj = diag.to_dict()
+    obj["captures"] = [r.label for r in records]
+    if args.save_model:
+        Path(args.save_model).write_text(diag.extended.model.to_json() + "\n")
+        obj["saved_model"] = args.save_model
+    if args.report:
+        from station.diagnosis_report import write_report
+
+        files = write_report(diag, records, args.report)
+        obj["report"] = [str(f) for f in files]
+    emit(args.json, render_text(diag, obj), obj)
+    return 0
+
+
+def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
+    """People-friendly summary: ranked table, verdict, what the baseline got wrong."""
+    lines = [f"Held-out judging: {diag.scheme} ({len(diag.parts)} parts: "
+             + ", ".join(p.label for p in diag.parts) + ")",
+             "",
+             f"{'rank':>4}  {'mechanism':<22} {'held-out nrmse':>14} {'gain':>7}  {'every part':<10} parameters",
+             f"{'':>4}  {'(baseline)':<22} {diag.baseline.nrmse:>14.4g} {'':>7}  {'':<10}"]
+    rank = 0
+    for c in diag.candidates:
+        if c.skipped:
+            lines.append(f"{'-':>4}  {c.name:<22} {'skipped':>14} {'':>7}  {'':<10} {c.skipped}")
+            continue
+        rank += 1
+        params = ", ".join(f"{k}={v:.4g}" + (f"±{c.spread[k]:.2g}" if math.isfinite(c.spread.get(k, math.nan)) else "")
+                           for k, v in c.params.items())
+        lines.append(f"{rank:>4}  {c.name:<22} {c.nrmse:>14.4g} {100 * c.gain:>6.0f}%  "
+                     f"{'yes' if c.wins_every_part else 'no':<10} {params or '(no physical fit)'}")
+    lines += ["", diag.verdict, f"What the baseline got wrong: {diag.symptom}.", "",
+              f"Baseline: {diag.baseline.model.equation_text()}"]
+    if diag.cause != "none":
+        lines.append(f"Extended: {diag.extended.model.equation_text()}")
+    if "saved_model" in obj:
+        lines.append(f"Extended model written to {obj['saved_model']}")
+    if "report" in obj:
+        lines.append(f"Report: {len(obj['report'])} figures in {Path(obj['report'][0]).parent if obj['report'] else ''}")
+    return "\n".join(lines)
