@@ -26,6 +26,7 @@ from station.errors import StationError
 COMMAND_MODULES: tuple[str, ...] = (
     "station.commands.acquire", "station.commands.export",
     "station.commands.diagnose",
+    "station.commands.identify",
 )
 
 #: Errors that are the user's or the world's, not the program's: one line, exit code 2.
