@@ -27,6 +27,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "station.commands.acquire", "station.commands.export",
     "station.commands.diagnose",
     "station.commands.identify",
+    "station.commands.devices", "station.commands.rig",
 )
 
 #: Errors that are the user's or the world's, not the program's: one line, exit code 2.
