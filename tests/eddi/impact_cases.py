@@ -42,8 +42,8 @@ SYSTEMS: dict[str, dict] = {
     "paper_do": dict(mass=0.815, damping={"v": 1.0}, stiffness={"x": 390.0, "x^3": 1.3e7},
                      peak_n=200.0),
     # a stiffer, lighter, lightly damped oscillator (~20 Hz)
-    "light_stiff": dict(mass=0.05, damping={"v": 0.1}, stiffness={"x": 800.0, "x^3": 2.0e8},
-                        peak_n=60.0),
+    "light_stiff": dict(mass=0.05, damping={"v": 0.15}, stiffness={"x": 800.0, "x^3": 2.0e8},
+                        peak_n=35.0),
     # a heavy, soft one with a quadratic term (~5 Hz)
     "heavy_asym": dict(mass=2.0, damping={"v": 3.0},
                        stiffness={"x": 2000.0, "x^2": 2.0e5, "x^3": 4.0e7}, peak_n=700.0),

@@ -1,0 +1,122 @@
+"""``station identify PATH --mass M``: identify an equation of motion from a measured record.
+
+Reads the record (:func:`station.readers.read_measurement`), conditions it
+(:func:`eddi.conditioning.condition`: drift-free integration, impact end, noise floor),
+identifies with EDDI and validates by simulation (:func:`eddi.pipeline.identify_measurement`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import Any
+
+from eddi.conditioning import condition
+from eddi.pipeline import PipelineResult, identify_measurement
+from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
+from station.errors import ConfigError
+from station.output import emit
+from station.readers import Measurement, read_measurement
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "identify",
+        help="identify an equation of motion from a measured impact record (CSV or HDF5 capture)",
+        description=(
+            "Identify m x'' + sum b_j B_j(x, v) + sum k_n K_n(x) = F(t) from a record of force and "
+            "acceleration (or velocity / displacement) with the EDDI method, and validate it by "
+            "simulation. PATH is a CSV with a header among t,force,acc,vel,disp (SI units) or "
+            "FILE.h5[:CAPTURE]."
+        ),
+    )
+    p.add_argument("path", metavar="PATH", help="CSV file, or HDF5 file with optional :CAPTURE")
+    p.add_argument("--mass", type=float, default=None,
+                   help="mass [kg] (or inertia); required unless the file records it")
+    p.add_argument("--damping", default=",".join(DEFAULT_DAMPING), metavar="TERMS",
+                   help="damping candidates, comma-separated (default: %(default)s)")
+    p.add_argument("--stiffness", default=",".join(DEFAULT_STIFFNESS), metavar="TERMS",
+                   help="stiffness candidates, comma-separated (default: %(default)s)")
+    p.add_argument("--route", choices=("auto", "potential", "lagrangian"), default="auto",
+                   help="phase-two route (default: %(default)s)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=handler)
+
+
+def _mass(arg: float | None, meas: Measurement) -> float:
+    mass = arg if arg is not None else meas.mass
+    if mass is None:
+        raise ConfigError(f"--mass is required: {meas.source} does not record the mass")
+    if not (math.isfinite(mass) and mass > 0):
+        raise ConfigError(f"--mass must be a number > 0 [kg], got {mass:g}")
+    return float(mass)
+
+
+def run_identify(meas: Measurement, mass: float, damping: str, stiffness: str,
+                 route: str = "auto") -> PipelineResult:
+    """Condition, identify and validate one measurement."""
+    ch = meas.channels
+    cond = condition(meas.t, acc=ch.get("acc"), vel=ch.get("vel"), disp=ch.get("disp"),
+                     force=ch.get("force"), pretrigger_samples=meas.pretrigger_samples,
+                     ac_coupling_s=meas.metadata.get("ac_coupling_s"))
+    return identify_measurement(cond, mass, damping=damping, stiffness=stiffness, route=route)
+
+
+def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
+    """The ``--json`` object."""
+    eom = res.model.eom
+    cond = res.conditioned
+    val = res.validation
+    t = cond.t
+    return {
+        "source": meas.source,
+        "mass": eom.mass,
+        "damping": dict(eom.damping),
+        "stiffness": dict(eom.stiffness),
+        "route": res.model.route,
+        "route_scores": dict(res.model.route_scores),
+        "equation": eom.equation_text(),
+        "validation": {
+            "nrmse": val.nrmse,
+            "nmte": val.nmte,
+            "driven_by": "measured force from rest" if res.driven_by_force else "measured initial state",
+            "window_s": [float(t[val.window[0]]), float(t[val.window[1] - 1])],
+            "diverged": val.diverged,
+        },
+        "conditioning": {
+            "method": cond.method,
+            "rate_hz": cond.rate_hz,
+            "free_window_s": [float(t[cond.free_start]), float(t[cond.free_stop - 1])],
+            "free_window_samples": [cond.free_start, cond.free_stop],
+            "noise_rms": cond.noise_rms,
+            "notes": list(cond.notes),
+        },
+        "crossings_used": int(res.model.phase_one.gamma.size),
+        "model": eom.to_dict(),
+    }
+
+
+def _text(obj: dict[str, Any]) -> str:
+    lines = [f"{obj['source']}: {obj['equation']}", ""]
+    lines.append(f"  mass        {obj['mass']:.6g} kg")
+    for title, key in (("damping", "damping"), ("stiffness", "stiffness")):
+        for term, c in obj[key].items():
+            lines.append(f"  {title:<11} {term:<10} {c:+.6g}")
+    v = obj["validation"]
+    c = obj["conditioning"]
+    lines += [
+        "",
+        f"  phase two: {obj['route']} route",
+        f"  free response: {c['free_window_s'][0]:.4g} s .. {c['free_window_s'][1]:.4g} s ({c['method']})",
+        f"  validation ({v['driven_by']}): nrmse {v['nrmse']:.4g}",
+    ]
+    return "\n".join(lines)
+
+
+def handler(args: argparse.Namespace) -> int:
+    meas = read_measurement(args.path)
+    mass = _mass(args.mass, meas)
+    res = run_identify(meas, mass, args.damping, args.stiffness, args.route)
+    obj = result_object(meas, res)
+    emit(args.json, _text(obj), obj)
+    return 0
