@@ -11,6 +11,7 @@ flagged ``partial``. With a simulated rig (``sim://``) the loop asks the rig for
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -144,11 +145,30 @@ def configure_device(daq: Any, config: BenchConfig) -> None:
         daq.configure(rate_hz=rate, channels=names, block_size=block)
 
 
-def default_impacts(config: BenchConfig, settings: TriggerSettings, channels: tuple[ChannelInfo, ...], n: int) -> ImpactPlan:
-    """The impacts a simulated rig delivers: configured range, else 4..12 x the trigger level."""
+def default_impacts(
+    config: BenchConfig,
+    settings: TriggerSettings,
+    channels: tuple[ChannelInfo, ...],
+    n: int,
+    scenario_json: str | None = None,
+) -> ImpactPlan:
+    """The impacts a simulated rig delivers.
+
+    The configured ``simulation.peak_force_n`` range; else the span of the rig scenario's own
+    impact levels (its ``impacts`` list); else 4..12 times the trigger level, at most 60 % of
+    the force channel's range.
+    """
     sim = config.simulation
+    levels: list[float] = []
+    if scenario_json:
+        try:
+            levels = [float(x) for x in json.loads(scenario_json).get("impacts") or []]
+        except (ValueError, TypeError, AttributeError):
+            levels = []
     if sim.peak_force_n is not None:
         low, high = sim.peak_force_n
+    elif levels:
+        low, high = min(levels), max(levels)
     else:
         level = abs(settings.level)
         low, high = 4.0 * level, 12.0 * level

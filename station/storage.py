@@ -585,8 +585,9 @@ def read_measurement(path: str | os.PathLike[str], capture: str | None = None) -
         "units": {MEASUREMENT_KEYS[c.info.quantity]: c.info.unit for c in cap.channels.values() if c.info.quantity in MEASUREMENT_KEYS},
         "sensitivities": {c.info.name: [c.info.sensitivity, c.info.sensitivity_unit] for c in cap.channels.values()},
     }
+    t0 = float(cap.attrs.get("t0_s", 0.0))  # imported records keep their first time stamp
     return Measurement(
-        t=cap.t,
+        t=t0 + cap.t,
         channels=chans,
         rate_hz=cap.rate_hz,
         pretrigger_samples=cap.pretrigger_samples,

@@ -104,7 +104,8 @@ def handle(args: argparse.Namespace) -> int:
         configure_device(daq, cfg)
         channels = cfg.resolve_channels(daq.info.channels)
         settings = cfg.trigger_settings(channels, daq.info.rate_hz)
-        plan = default_impacts(cfg, settings, channels, args.impacts) if simulated else None
+        plan = (default_impacts(cfg, settings, channels, args.impacts, daq.info.scenario_json)
+                if simulated else None)
         idle = args.idle_timeout if args.idle_timeout is not None else (10.0 if simulated else None)
         result = acquire(daq, cfg, writer, args.impacts, impacts=plan, on_status=live, idle_timeout_s=idle)
         stats = daq.stats()
