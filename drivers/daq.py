@@ -297,15 +297,20 @@ class Daq:
         """The device's STATUS reply (streaming flag, sample counter...)."""
         return self._command(FrameType.STATUS)
 
-    def impact(self, peak_force_n: float, double_hit: bool = False) -> None:
+    def impact(self, peak_force_n: float, double_hit: bool = False) -> int | None:
         """Deliver a hammer impact of ``peak_force_n`` [N] (simulated rig only).
+
+        Returns the device sample counter when the command took effect (the blow follows
+        the rig's own delay), or None if the device does not say.
 
         Raises
         ------
         DeviceError
             On a real DAQ (no hammer) or a refused force.
         """
-        self._command(FrameType.IMPACT, peak_force_n=float(peak_force_n), double_hit=double_hit)
+        reply = self._command(FrameType.IMPACT, peak_force_n=float(peak_force_n), double_hit=double_hit)
+        at = reply.get("at_sample")
+        return int(at) if isinstance(at, int) else None
 
     # ------------------------------------------------------------------ data
     def read_block(self, timeout_s: float | None = None) -> Block | None:
