@@ -78,6 +78,10 @@ class ConditionedSignal:
         when there is a force channel).
     noise_rms : float
         Noise RMS of the measured response channel (units of that channel).
+    force_noise_rms : float
+        Noise RMS of the force channel [N] (0 without force).
+    acc_measured : bool
+        True when ``a`` is the measured acceleration (not a derivative).
     """
 
     t: np.ndarray
@@ -93,6 +97,8 @@ class ConditionedSignal:
     impact_start: int = 0
     impact_end: int = 0
     noise_rms: float = 0.0
+    force_noise_rms: float = 0.0
+    acc_measured: bool = False
 
     def __post_init__(self) -> None:
         n = self.t.size
@@ -294,13 +300,26 @@ def _onset(r: np.ndarray, head: int) -> tuple[int, float]:
     return (int(below[-1]) + 1 if below.size else 0), peak
 
 
-def _sg_derivative(y: np.ndarray, rate_hz: float, period_s: float, deriv: int) -> np.ndarray:
-    """Zero-phase Savitzky-Golay derivative with a window of about a tenth of a period."""
-    win = int(round(period_s * rate_hz / 10.0)) | 1
-    win = max(7, min(win, 201))
-    if win > y.size:
-        win = (y.size - 1) | 1
-    return sps.savgol_filter(y, win, polyorder=3, deriv=deriv, delta=1.0 / rate_hz)
+def _sg_derivative(y: np.ndarray, rate_hz: float, period_s: float, deriv: int,
+                   split: int = 0) -> np.ndarray:
+    """Zero-phase Savitzky-Golay derivative with a window of about a tenth of a period.
+
+    The record is differentiated in two pieces, ``[:split]`` and ``[split:]``, so that the
+    jump of the rate at an impact is not smeared into the free response.
+    """
+    out = np.zeros_like(y)
+    for lo, hi in ((0, split), (split, y.size)):
+        seg = y[lo:hi]
+        if seg.size < 5:
+            out[lo:hi] = np.gradient(seg, 1.0 / rate_hz) if seg.size > 1 and deriv == 1 else 0.0
+            continue
+        win = int(round(period_s * rate_hz / 10.0)) | 1
+        win = max(5, min(win, 201))
+        if win > seg.size:
+            win = seg.size if seg.size % 2 else seg.size - 1
+        out[lo:hi] = sps.savgol_filter(seg, win, polyorder=min(3, win - 1), deriv=deriv,
+                                       delta=1.0 / rate_hz)
+    return out
 
 
 def _at(y: np.ndarray, pos: np.ndarray) -> np.ndarray:
@@ -443,6 +462,7 @@ def condition(
         notes.append(f"AC coupling ({ac_coupling_s:g} s) inverted")
 
     # -- impact end --------------------------------------------------------------------
+    f_sigma = 0.0
     if force is not None and np.ptp(force) > 0:
         f_sigma = noise_rms(force, noise_stop)
         f_peak_i = int(np.argmax(np.abs(force)))
@@ -492,18 +512,19 @@ def condition(
         return _drift_spline(t, x_int, pts, knot_s, start, clamped=rest, local=local)
 
     first_anchor = max(start, impact_end)
+    split = impact_end if impact_end >= 0 else start
     if disp is not None and vel is not None:
         x, v = disp, vel
-        a = acc if acc is not None else _sg_derivative(v, rate, period_s, 1)
+        a = acc if acc is not None else _sg_derivative(v, rate, period_s, 1, split)
         method = "disp and vel as measured" + (", acc as measured" if acc is not None else ", acc by Savitzky-Golay derivative of vel")
     elif disp is not None:
         x = disp
-        v = _sg_derivative(x, rate, period_s, 1) if vel is None else vel
-        a = acc if acc is not None else _sg_derivative(x, rate, period_s, 2)
+        v = _sg_derivative(x, rate, period_s, 1, split) if vel is None else vel
+        a = acc if acc is not None else _sg_derivative(x, rate, period_s, 2, split)
         method = "disp as measured; vel and acc by Savitzky-Golay derivatives"
     elif vel is not None:
         v = vel
-        a = acc if acc is not None else _sg_derivative(v, rate, period_s, 1)
+        a = acc if acc is not None else _sg_derivative(v, rate, period_s, 1, split)
         v0 = v - (float(np.mean(v[:noise_stop])) if rest and noise_stop >= 8 else 0.0)
         x_int = np.zeros(n)
         x_int[start:] = cumulative_trapezoid(v0[start:], t[start:], initial=0.0)
@@ -536,7 +557,7 @@ def condition(
         t=t, x=np.ascontiguousarray(x), v=np.ascontiguousarray(v), a=np.ascontiguousarray(a),
         force=force, rate_hz=rate, free_start=int(free_start), free_stop=int(free_stop),
         method=method, notes=tuple(notes), impact_start=int(start), impact_end=int(impact_end),
-        noise_rms=sigma,
+        noise_rms=sigma, force_noise_rms=f_sigma, acc_measured=acc is not None,
     )
 
 

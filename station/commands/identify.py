@@ -79,7 +79,9 @@ def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
         "validation": {
             "nrmse": val.nrmse,
             "nmte": val.nmte,
-            "driven_by": "measured force from rest" if res.driven_by_force else "measured initial state",
+            "nrmse_force_sensor_only": res.nrmse_force_sensor,
+            "driven_by": ("measured impact force from rest (force sensor fused with m*a)"
+                          if res.driven_by_force else "measured initial state"),
             "window_s": [float(t[val.window[0]]), float(t[val.window[1] - 1])],
             "diverged": val.diverged,
         },

@@ -1,0 +1,125 @@
+"""Conditioning: drift-free integration, impact end, noise floor, velocity-only input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import signal as sps
+
+from eddi.conditioning import clipped_run, condition, crossings, integrate_highpass
+from eddi.errors import SignalError
+from tests.eddi.impact_cases import half_sine_pulse, impact_record
+
+
+def _rel(a: np.ndarray, b: np.ndarray, w: tuple[int, int]) -> float:
+    s, e = w
+    return float(np.linalg.norm(a[s:e] - b[s:e]) / np.linalg.norm(b[s:e]))
+
+
+def test_noise_free_acc_integrates_to_exact_x_and_v() -> None:
+    r = impact_record("paper_do", snr_db=None)
+    c = condition(r.t, acc=r.acc, force=r.force)
+    assert _rel(c.x, r.x, c.window) < 1e-3
+    assert _rel(c.v, r.v, c.window) < 1e-3
+    # the motion starts from rest: nothing before the impact
+    assert np.all(c.x[: c.impact_start] == 0.0)
+
+
+@pytest.mark.parametrize("system", ["paper_do", "heavy_asym", "nl_damping"])
+def test_45db_beats_the_papers_highpass_by_a_wide_margin(system: str) -> None:
+    r = impact_record(system, snr_db=45.0, seed=5)
+    c = condition(r.t, acc=r.acc, force=r.force)
+    x_hp, v_hp = integrate_highpass(r.t, r.acc, cutoff_hz=2.0)  # paper Sec. 3.3.1: 3rd order, 2 Hz
+    ours, theirs = _rel(c.x, r.x, c.window), _rel(x_hp, r.x, c.window)
+    assert ours < 0.01
+    assert ours < theirs / 4
+    assert _rel(c.v, r.v, c.window) < 0.005
+
+
+def test_impact_end_and_noise_floor_window() -> None:
+    r = impact_record("light_stiff", snr_db=45.0, seed=2)
+    c = condition(r.t, acc=r.acc, force=r.force)
+    pulse = np.nonzero(r.force > 0.5 * r.force.max())[0]
+    pulse_end = r.pretrigger_samples + 10  # 1 ms at 10 kHz
+    assert pulse_end <= c.free_start <= pulse_end + 5
+    assert c.impact_start <= pulse[0]
+    # the window stops where the true acceleration envelope is about 10 noise RMS
+    period = int(1e4 / 20.0)
+    env_at_stop = np.max(np.abs(r.a[c.free_stop - period: c.free_stop]))
+    assert 5 * c.noise_rms < env_at_stop < 20 * c.noise_rms
+    assert c.free_stop < r.t.size  # this record sinks into the noise before its end
+
+
+def test_impact_force_is_zero_outside_the_impact() -> None:
+    r = impact_record("paper_do", snr_db=45.0, seed=1)
+    c = condition(r.t, acc=r.acc, force=r.force)
+    f = c.impact_force
+    assert np.all(f[: c.impact_start] == 0) and np.all(f[c.impact_end:] == 0)
+    impulse_true = np.sum(half_sine_pulse(r.t, 1.0, 1e-3, 200.0))
+    assert abs(np.sum(f) / impulse_true - 1) < 0.01
+
+
+def test_velocity_only_ringdown_without_pretrigger() -> None:
+    # a laser-vibrometer ring-down that starts mid-oscillation: no rest, no force
+    r = impact_record("paper_do", snr_db=None)
+    start = r.pretrigger_samples + 1234
+    t, v, x, a = r.t[start:], r.v[start:], r.x[start:], r.a[start:]
+    rng = np.random.default_rng(0)
+    v_meas = v + 10 ** (-50 / 20) * np.std(v) * rng.standard_normal(v.size)
+    c = condition(t, vel=v_meas)
+    assert c.impact_start == 0
+    np.testing.assert_array_equal(c.v, v_meas)  # given vel is used as it is
+    assert _rel(c.x, x, c.window) < 0.01
+    assert _rel(c.a, a, c.window) < 0.03
+
+
+def test_given_disp_and_vel_are_used_as_they_are() -> None:
+    r = impact_record("paper_do", snr_db=None)
+    c = condition(r.t, disp=r.x, vel=r.v, force=r.force)
+    np.testing.assert_array_equal(c.x, r.x)
+    np.testing.assert_array_equal(c.v, r.v)
+    assert _rel(c.a, r.a, c.window) < 0.01
+
+
+def test_ac_coupling_is_inverted() -> None:
+    r = impact_record("heavy_asym", snr_db=None)
+    fc = 0.5
+    b, a = sps.butter(1, fc, btype="highpass", fs=1e4)  # IEPE coupling, bilinear
+    acc_ac = sps.lfilter(b, a, r.acc)
+    plain = condition(r.t, acc=acc_ac, force=r.force)
+    fixed = condition(r.t, acc=acc_ac, force=r.force, ac_coupling_s=1 / (2 * np.pi * fc))
+    assert _rel(fixed.v, r.v, fixed.window) < 0.002
+    assert _rel(plain.v, r.v, plain.window) > 5 * _rel(fixed.v, r.v, fixed.window)
+
+
+def test_crossings_with_hysteresis_ignore_noise_chatter() -> None:
+    t = np.arange(10_000) / 1e4
+    y = np.sin(2 * np.pi * 5 * t) + 0.01 * np.random.default_rng(1).standard_normal(t.size)
+    c = crossings(y, 0.05)
+    assert c.size == 9  # 5 Hz over 1 s: zeros at k/10 s, k = 1..9
+    np.testing.assert_allclose(c / 1e4, np.arange(1, 10) / 10, atol=1e-3)
+
+
+def test_clipped_run() -> None:
+    y = np.sin(np.linspace(0, 20, 2000))
+    assert clipped_run(y) is None
+    yc = np.clip(y, -0.9, 0.9)
+    assert clipped_run(yc) is not None
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(t=np.arange(100) * 1e-4 + np.r_[np.zeros(50), 3e-5, np.zeros(49)]), "uniform"),
+        (dict(t=np.r_[np.arange(50), np.arange(49, -1, -1)] * 1e-4), "increase"),
+        (dict(acc=np.r_[np.nan, np.zeros(99)]), "NaN"),
+        (dict(acc=None), "at least one of acc, vel, disp"),
+        (dict(acc=np.random.default_rng(0).standard_normal(100) * 1e-6 + 1.0), "zero crossings"),
+    ],
+)
+def test_bad_signals_raise_signal_error(kwargs: dict, match: str) -> None:
+    args = dict(t=np.arange(100) * 1e-4, acc=np.sin(np.arange(100) * 0.3))
+    args.update(kwargs)
+    t = args.pop("t")
+    with pytest.raises(SignalError, match=match):
+        condition(t, **args)
