@@ -210,6 +210,38 @@ def _unpack_samples(out, offsets, n, nch, width):  # pragma: no cover - compiled
     return res
 
 
+@numba.njit(cache=True, nogil=True)
+def _parse_headers(out, starts, lengths):  # pragma: no cover - compiled
+    """Header fields of every decoded frame: (version, type, seq, first, n, nch, width, mask)."""
+    g = starts.shape[0]
+    version = np.empty(g, dtype=np.int64)
+    ftype = np.empty(g, dtype=np.int64)
+    seq = np.empty(g, dtype=np.int64)
+    first = np.zeros(g, dtype=np.int64)
+    n = np.zeros(g, dtype=np.int64)
+    nch = np.zeros(g, dtype=np.int64)
+    width = np.zeros(g, dtype=np.int64)
+    mask = np.zeros(g, dtype=np.int64)
+    for k in range(g):
+        p = starts[k]
+        version[k] = out[p]
+        ftype[k] = out[p + 1]
+        seq[k] = np.int64(out[p + 2]) | (np.int64(out[p + 3]) << 8) | (np.int64(out[p + 4]) << 16) | (
+            np.int64(out[p + 5]) << 24)
+        if ftype[k] == 1 and lengths[k] >= 26:
+            q = p + 6
+            v = np.int64(0)
+            for j in range(8):  # u64, kept below 2**63
+                v |= np.int64(out[q + j]) << (8 * j)
+            first[k] = v
+            n[k] = np.int64(out[q + 8]) | (np.int64(out[q + 9]) << 8)
+            nch[k] = out[q + 10]
+            width[k] = out[q + 11]
+            mask[k] = np.int64(out[q + 12]) | (np.int64(out[q + 13]) << 8) | (np.int64(out[q + 14]) << 16) | (
+                np.int64(out[q + 15]) << 24)
+    return version, ftype, seq, first, n, nch, width, mask
+
+
 def crc32(data: bytes | np.ndarray) -> int:
     """CRC-32 as used by the protocol (same as :func:`zlib.crc32`)."""
     arr = np.frombuffer(bytes(data), dtype=np.uint8)
@@ -494,29 +526,41 @@ class StreamDecoder:
     def _interpret(self, out: np.ndarray, starts: np.ndarray, lengths: np.ndarray) -> list[DataFrame | Message]:
         st = self.stats
         st.frames += starts.size
-        version = out[starts]
+        version, ftype, seq, first, n, nch, width, mask = _parse_headers(out, starts, lengths)
         if np.any(version != PROTOCOL_VERSION):
             other = int(version[np.flatnonzero(version != PROTOCOL_VERSION)[0]])
             raise ProtocolVersionError(
                 f"device speaks protocol version {other}, this driver speaks version {PROTOCOL_VERSION}"
             )
-        ftype = out[starts + 1]
-        seq = _u32(out, starts + 2)
         results: list[DataFrame | Message | None] = [None] * starts.size
         is_data = ftype == FrameType.DATA
-        data_idx = np.flatnonzero(is_data)
-        if data_idx.size:
-            self._unpack_data(out, starts, lengths, seq, data_idx, results)
-        for k in np.flatnonzero(~is_data):
+        if np.any(is_data):
+            ok = is_data & ((width == 2) | (width == 3)) & (nch > 0) & (n > 0) & (nch <= 32)
+            ok &= lengths == DATA_OFFSET + n * nch * width + CRC.size
+            st.malformed += int(np.count_nonzero(is_data & ~ok))
+            idx_ok = np.flatnonzero(ok)
+            if idx_ok.size:
+                key = (n * 256 + nch) * 4 + width
+                keys = key[idx_ok]
+                groups = [keys[0]] if keys.min() == keys.max() else np.unique(keys)
+                for kv in groups:
+                    sel = idx_ok if len(groups) == 1 else idx_ok[keys == kv]
+                    k0 = int(sel[0])
+                    vals = _unpack_samples(out, starts[sel] + DATA_OFFSET, int(n[k0]), int(nch[k0]), int(width[k0]))
+                    for j, i in enumerate(sel.tolist()):
+                        results[i] = DataFrame(seq=int(seq[i]), first_sample=int(first[i]), counts=vals[j],
+                                               channel_mask=int(mask[i]))
+        for k in np.flatnonzero(~is_data).tolist():
             s = int(starts[k])
             results[k] = Message(int(ftype[k]), int(seq[k]), out[s + HEADER.size : s + int(lengths[k]) - CRC.size].tobytes())
         frames: list[DataFrame | Message] = []
+        seqs = seq.tolist()
         for k, r in enumerate(results):
             if r is None:
                 continue
-            if self._expected_seq is not None and int(seq[k]) != self._expected_seq:
-                st.lost_frames += (int(seq[k]) - self._expected_seq) & 0xFFFFFFFF
-            self._expected_seq = (int(seq[k]) + 1) & 0xFFFFFFFF
+            if self._expected_seq is not None and seqs[k] != self._expected_seq:
+                st.lost_frames += (seqs[k] - self._expected_seq) & 0xFFFFFFFF
+            self._expected_seq = (seqs[k] + 1) & 0xFFFFFFFF
             if isinstance(r, DataFrame):
                 r = self._account(r)
                 if r is None:
@@ -542,42 +586,6 @@ class StreamDecoder:
         except (ProtocolError, KeyError, TypeError, ValueError):
             self.stats.malformed += 1
 
-    def _unpack_data(self, out, starts, lengths, seq, data_idx, results) -> None:
-        st = self.stats
-        s = starts[data_idx]
-        ln = lengths[data_idx]
-        short = ln < DATA_OFFSET + CRC.size
-        if np.any(short):
-            st.malformed += int(np.count_nonzero(short))
-            keep = ~short
-            data_idx, s, ln = data_idx[keep], s[keep], ln[keep]
-        if data_idx.size == 0:
-            return
-        h = HEADER.size
-        first = _u32(out, s + h).astype(np.uint64) | (_u32(out, s + h + 4).astype(np.uint64) << np.uint64(32))
-        n = out[s + h + 8].astype(np.int64) | (out[s + h + 9].astype(np.int64) << 8)
-        nch = out[s + h + 10].astype(np.int64)
-        width = out[s + h + 11].astype(np.int64)
-        mask = _u32(out, s + h + 12)
-        ok = ((width == 2) | (width == 3)) & (ln == DATA_OFFSET + n * nch * width + CRC.size)
-        ok &= (nch > 0) & (n > 0) & (nch <= 32)
-        st.malformed += int(np.count_nonzero(~ok))
-        keys = np.stack([n, nch, width], axis=1)[ok]
-        idx_ok = np.flatnonzero(ok)
-        if idx_ok.size == 0:
-            return
-        for key in np.unique(keys, axis=0):
-            kn, kc, kw = (int(v) for v in key)
-            sel = idx_ok[np.all(keys == key, axis=1)]
-            val = _unpack_samples(out, (s[sel] + DATA_OFFSET).astype(np.int64), kn, kc, kw)
-            for j, i in enumerate(sel):
-                results[int(data_idx[i])] = DataFrame(
-                    seq=int(seq[data_idx[i]]),
-                    first_sample=int(first[i]),
-                    counts=val[j],
-                    channel_mask=int(mask[i]),
-                )
-
     def _account(self, frame: DataFrame) -> DataFrame | None:
         st = self.stats
         n = frame.counts.shape[0]
@@ -595,15 +603,6 @@ class StreamDecoder:
         if dropped:
             return DataFrame(frame.seq, frame.first_sample, frame.counts, frame.channel_mask, dropped)
         return frame
-
-
-def _u32(out: np.ndarray, at: np.ndarray) -> np.ndarray:
-    return (
-        out[at].astype(np.uint32)
-        | (out[at + 1].astype(np.uint32) << np.uint32(8))
-        | (out[at + 2].astype(np.uint32) << np.uint32(16))
-        | (out[at + 3].astype(np.uint32) << np.uint32(24))
-    )
 
 
 def decode_one(frame: bytes) -> DataFrame | Message:
