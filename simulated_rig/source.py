@@ -3,10 +3,11 @@
 :class:`RigSource` produces ADC counts of the force and acceleration channels, ``read(n)``
 samples at a time, in *sample time* (no wall clock). At rest it emits sensor noise;
 :meth:`RigSource.deliver_impact` schedules a hammer blow ``impact_delay_s`` (5 ms) after the
-current sample, simulates the response once (the scenario's record length) with
-:func:`eddi.simulate.simulate`, and the following reads stream it out. When the ring-down
-outlasts that window the source keeps simulating from the last state, one second at a time,
-until the acceleration falls below 1 % of a quantisation step; it then snaps to rest.
+current sample and simulates the first second of the response with
+:func:`eddi.simulate.simulate`; the following reads stream it out. As the reads go on the
+source keeps simulating from the last state, one second at a time and with the same RK4
+sub-steps (so the result is bit-identical to one long simulation), until the acceleration
+falls below 1 % of a quantisation step; it then snaps to rest.
 A blow that comes while the structure still rings is simulated forward from the current
 state (the rest of an earlier pulse still under way is dropped).
 
@@ -42,7 +43,8 @@ from simulated_rig.sensors import SensorSpec, iepe_filter
 
 #: Delay from :meth:`RigSource.deliver_impact` to the start of the pulse [s].
 IMPACT_DELAY_S = 5.0e-3
-#: Length of each continuation chunk once the first simulated window is used up [s].
+#: Length of the window simulated at a blow, and of each continuation chunk [s]. Short, so
+#: a blow costs a paced server ~10 ms, not the 0.5 s of a whole 45 s ring-down.
 CONTINUATION_S = 1.0
 
 
@@ -59,7 +61,8 @@ class RigSource:
         Sample rate [Hz].
     hammer : HammerSpec
     ringdown_s : float
-        Length of the window simulated at each blow [s].
+        Longest window simulated at once at a blow [s] (at most :data:`CONTINUATION_S`;
+        the ring-down then continues chunk by chunk).
     seed : int
         Seed of the noise.
     scenario_json : str
@@ -167,7 +170,8 @@ class RigSource:
         start = self.sample_index + int(round(self.impact_delay_s * self.rate_hz))
         begin = start - 1  # the sample before the pulse: its state seeds the simulation
         x0, v0 = self._state_at(begin)
-        n = int(round(self.ringdown_s * self.rate_hz)) + 1
+        window_s = max(min(self.ringdown_s, CONTINUATION_S), 2 * self.hammer.duration_s)
+        n = int(round(window_s * self.rate_hz)) + 1
         t = (np.arange(n) - 1) / self.rate_hz
         force = hammer_force(t, peak_force_n, self.hammer, double_hit)
         res = simulate_truth(self.eom, force, self.rate_hz, x0=x0, v0=v0)
