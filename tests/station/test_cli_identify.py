@@ -1,0 +1,144 @@
+"""``station identify``: the shipped example end to end, and one-line errors for bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from station.cli import main
+from tests.eddi.impact_cases import impact_record
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "station" / "examples" / "duffing-impact.csv"
+# truth of the example (benchmarks/make_example.py): m = 0.815 kg, b1 = 1.0 Ns/m,
+# k1 = 390 N/m, k3 = 1.3e7 N/m^3 (paper Sec. 3.3.1 stiffness)
+
+
+def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_example_json(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = _run(["identify", str(EXAMPLE), "--mass", "0.815", "--damping", "v",
+                           "--stiffness", "x, x^3", "--json"], capsys)
+    assert code == 0, err
+    obj = json.loads(out)
+    assert obj["mass"] == 0.815
+    assert set(obj["damping"]) == {"v"} and set(obj["stiffness"]) == {"x", "x^3"}
+    assert obj["stiffness"]["x"] == pytest.approx(390.0, rel=0.03)
+    assert obj["stiffness"]["x^3"] == pytest.approx(1.3e7, rel=0.03)
+    assert obj["damping"]["v"] == pytest.approx(1.0, rel=0.10)
+    assert obj["validation"]["nrmse"] <= 0.05
+    assert obj["route"] in ("potential", "lagrangian")
+
+
+def test_example_text_and_default_library(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = _run(["identify", str(EXAMPLE), "--mass", "0.815"], capsys)
+    assert code == 0, err
+    assert "x^5" in out and "nrmse" in out
+
+
+def test_velocity_only_csv(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    r = impact_record("nl_damping", snr_db=None)
+    path = tmp_path / "vel.csv"
+    np.savetxt(path, np.column_stack((r.t, r.v)), delimiter=",", header="t,vel", comments="")
+    code, out, err = _run(["identify", str(path), "--mass", "0.3", "--damping", "v,x^2*v",
+                           "--stiffness", "x,x^3", "--json"], capsys)
+    assert code == 0, err
+    obj = json.loads(out)
+    assert obj["stiffness"]["x"] == pytest.approx(1700.0, rel=0.03)
+    assert obj["stiffness"]["x^3"] == pytest.approx(1.5e8, rel=0.03)
+    assert obj["validation"]["driven_by"] == "measured initial state"
+
+
+def _write(path: Path, header: str, rows: np.ndarray) -> Path:
+    np.savetxt(path, rows, delimiter=",", header=header, comments="", fmt="%.10g")
+    return path
+
+
+def _good_rows() -> np.ndarray:
+    r = impact_record("paper_do", snr_db=45.0, duration_s=3.0, seed=1)
+    return np.column_stack((r.t, r.force, r.acc))
+
+
+@pytest.mark.parametrize(
+    "case, match",
+    [
+        ("empty", "empty file"),
+        ("no_t", "no time column"),
+        ("no_response", "no response column"),
+        ("unknown_column", "unknown column 'pressure'"),
+        ("nan", "column 'acc' is not a finite number at line 102"),
+        ("non_uniform", "uniformly sampled"),
+        ("non_increasing", "must increase"),
+        ("ragged", "line 6 has 2 values, expected 3"),
+        ("clipped", "column 'acc' looks clipped"),
+        ("few_crossings", "zero crossings"),
+        ("mass", "--mass must be a number > 0"),
+        ("term", "unknown term 'y'"),
+        ("suffix", "unknown file type '.txt'"),
+        ("missing", "no such file"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(case: str, match: str, tmp_path: Path,
+                                      capsys: pytest.CaptureFixture[str]) -> None:
+    rows = _good_rows()
+    p = tmp_path / "rec.csv"
+    mass = "0.815"
+    extra: list[str] = []
+    if case == "empty":
+        p.write_text("")
+    elif case == "no_t":
+        _write(p, "force,acc", rows[:, 1:])
+    elif case == "no_response":
+        _write(p, "t,force", rows[:, :2])
+    elif case == "unknown_column":
+        _write(p, "t,force,pressure", rows)
+    elif case == "nan":
+        rows[100, 2] = np.nan
+        _write(p, "t,force,acc", rows)
+    elif case == "non_uniform":
+        rows[500:, 0] += 3e-5
+        _write(p, "t,force,acc", rows)
+    elif case == "non_increasing":
+        rows[[200, 201], 0] = rows[[201, 200], 0]
+        _write(p, "t,force,acc", rows)
+    elif case == "ragged":
+        _write(p, "t,force,acc", rows[:20])
+        lines = p.read_text().splitlines()
+        lines[5] = ",".join(lines[5].split(",")[:2])
+        p.write_text("\n".join(lines) + "\n")
+    elif case == "clipped":
+        peak = np.max(rows[10_100:, 2])
+        rows[:, 2] = np.minimum(rows[:, 2], 0.8 * peak)
+        _write(p, "t,force,acc", rows)
+    elif case == "few_crossings":
+        rows[:, 2] = 1.0 + 1e-6 * np.random.default_rng(0).standard_normal(rows.shape[0])
+        _write(p, "t,force,acc", rows)
+    elif case == "mass":
+        _write(p, "t,force,acc", rows)
+        mass = "0"
+    elif case == "term":
+        _write(p, "t,force,acc", rows)
+        extra = ["--stiffness", "x,y"]
+    elif case == "suffix":
+        p = tmp_path / "rec.txt"
+        p.write_text("t,acc\n0,1\n")
+    elif case == "missing":
+        p = tmp_path / "nope.csv"
+    code, out, err = _run(["identify", str(p), "--mass", mass, *extra], capsys)
+    assert code == 2
+    assert out == ""
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert match in err
+
+
+def test_hdf5_reader_is_dispatched_by_suffix(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    p = tmp_path / "rec.h5"
+    p.write_bytes(b"not an hdf5 file")
+    code, _, err = _run(["identify", f"{p}:0", "--mass", "1"], capsys)
+    assert code == 2 and err.count("\n") == 1
