@@ -24,7 +24,7 @@ import numpy as np
 
 from drivers.channels import ChannelInfo
 from eddi.model import Effect, EquationOfMotion
-from eddi.simulate import simulate
+from eddi.simulate import SimulationResult, simulate
 from simulated_rig.errors import ScenarioError
 from simulated_rig.hammer import HammerSpec, hammer_force
 from simulated_rig.sensors import SensorSpec, ac_couple, accelerometer, force_sensor
@@ -171,7 +171,7 @@ def default_sensors(snr_db: float | None = 45.0, adc_bits: int = 24,
 
 
 def simulate_truth(eom: EquationOfMotion, force_n: np.ndarray, rate_hz: float,
-                   x0: float = 0.0, v0: float = 0.0, substeps: int | None = None):
+                   x0: float = 0.0, v0: float = 0.0, substeps: int | None = None) -> SimulationResult:
     """Integrate ``eom`` under ``force_n`` (one sample per output); raise if it diverges.
 
     Returns
@@ -306,8 +306,10 @@ def impact_test(
                    double_hit, seed, peak_force_n)
 
 
-def _finish(eom, t, force, x, v, a, n_pre, rate_hz, sensors, hammer, double_hit, seed,
-            peak_force_n) -> ImpactRecord:
+def _finish(eom: EquationOfMotion, t: np.ndarray, force: np.ndarray, x: np.ndarray, v: np.ndarray,
+            a: np.ndarray, n_pre: int, rate_hz: float, sensors: tuple[SensorSpec, ...],
+            hammer: HammerSpec, double_hit: bool, seed: int, peak_force_n: float) -> ImpactRecord:
+    """Measure the simulated truth through the sensors (all arrays shape (n,))."""
     clean = np.column_stack([
         ac_couple(force, sensors[0].iepe_highpass_hz, rate_hz),
         ac_couple(a, sensors[1].iepe_highpass_hz, rate_hz),

@@ -47,7 +47,7 @@ from eddi.errors import ModelError
 from eddi.model import EFFECTS, Effect, EquationOfMotion
 from simulated_rig.bench import ImpactRecord, impact_test
 from simulated_rig.errors import ScenarioError
-from simulated_rig.hammer import TIP_PULSE_WIDTH_S, HammerSpec
+from simulated_rig.hammer import HammerSpec
 from simulated_rig.sensors import FORCE_NOISE_RMS_N, SensorSpec
 from simulated_rig.systems import DEFAULT_SYSTEM, SYSTEMS, get_system, hide_effect, system_info
 
@@ -351,7 +351,6 @@ def load_scenario(path: str | Path) -> Scenario:
 
 
 __all__ = [
-    "TIP_PULSE_WIDTH_S",
     "EffectConfig",
     "HammerConfig",
     "HiddenConfig",
