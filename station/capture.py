@@ -1,7 +1,7 @@
 """Acquisition loop: device blocks -> trigger -> checks -> session file, with live status.
 
 :func:`acquire` arms the trigger, reads blocks from a :class:`drivers.daq.Daq` (or anything
-with the same ``info``/``start``/``stop``/``read_block``/``stats`` methods), saves every
+with the same ``info``/``start``/``stop``/``read_block`` members), saves every
 accepted capture as soon as it completes (crash-safe, see :mod:`station.storage`) and stops
 after ``n_impacts`` saved captures, on Ctrl-C, on a lost device or on a failed save. Whatever
 ends the run, the captures saved before are kept, and a capture in progress is saved too,
@@ -36,7 +36,6 @@ class DaqLike(Protocol):
     def start(self) -> None: ...
     def stop(self) -> None: ...
     def read_block(self, timeout_s: float | None = None) -> Any: ...
-    def stats(self) -> Any: ...
 
 
 @dataclass(frozen=True)
@@ -230,10 +229,7 @@ def acquire(
     trig = Trigger(settings, channels, rate)
     policy = (config.trigger.on_double_hit, config.trigger.on_overload)
     units = {c.name: c.unit for c in channels}
-    dev = device_meta if device_meta is not None else {
-        "model": info.model, "serial": info.serial, "firmware": info.firmware,
-        "protocol_version": info.protocol_version, "url": getattr(daq, "url", ""),
-    }
+    dev = device_meta if device_meta is not None else device_metadata(daq)
     scenario = getattr(info, "scenario_json", None)
     result = AcquireResult(file=writer.path)
     levels: dict[str, float] = {c.name: 0.0 for c in channels}
@@ -278,7 +274,7 @@ def acquire(
                 last_peak = (impacts.peaks_n[next_impact], impacts.double_hits[next_impact])
                 daq.impact(last_peak[0], double_hit=last_peak[1])  # type: ignore[attr-defined]
                 next_impact += 1
-                impact_at = trig.next_sample or 0
+                impact_at = _device_position(daq, trig.next_sample or 0)
                 message = f"impact {next_impact} requested ({last_peak[0]:.1f} N)"
             block = daq.read_block(timeout_s=read_timeout_s)
             if block is None:
@@ -332,6 +328,35 @@ def acquire(
             result.interrupted = True
         report()
     return result
+
+
+def device_metadata(daq: Any, url: str | None = None) -> dict[str, Any]:
+    """What a capture stores about its device: model, serial, firmware, protocol, URLs.
+
+    ``url`` is the URL the user gave (e.g. ``sim://duffing-smooth``); ``transport_url`` the one
+    the driver opened (e.g. the pty of the simulated rig).
+    """
+    info = daq.info
+    opened = str(getattr(daq, "url", ""))
+    return {
+        "model": str(info.model), "serial": str(info.serial), "firmware": str(info.firmware),
+        "protocol_version": int(info.protocol_version), "url": url or opened, "transport_url": opened,
+    }
+
+
+def _device_position(daq: Any, fallback: int) -> int:
+    """The device's next sample counter (STATUS ``next_sample``), else ``fallback``.
+
+    Blocks wait in the driver's queue, so the device runs ahead of what was read: an impact
+    lands at the device's counter, not at the host's.
+    """
+    status = getattr(daq, "status", None)
+    if callable(status):
+        try:
+            return max(fallback, int(status().get("next_sample", fallback)))
+        except (DriverError, TypeError, ValueError, AttributeError):
+            return fallback
+    return fallback
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ import sys
 import time
 from typing import Any
 
-from station.capture import AcquireResult, Status, acquire, configure_device, default_impacts
+from station.capture import AcquireResult, Status, acquire, configure_device, default_impacts, device_metadata
 from station.cli import EXIT_INTERRUPTED, EXIT_USER_ERROR
 from station.config import BenchConfig, load_config, parse_config
 from station.errors import ConfigError
@@ -107,8 +107,9 @@ def handle(args: argparse.Namespace) -> int:
         plan = (default_impacts(cfg, settings, channels, args.impacts, daq.info.scenario_json)
                 if simulated else None)
         idle = args.idle_timeout if args.idle_timeout is not None else (10.0 if simulated else None)
-        result = acquire(daq, cfg, writer, args.impacts, impacts=plan, on_status=live, idle_timeout_s=idle)
-        stats = daq.stats()
+        result = acquire(daq, cfg, writer, args.impacts, impacts=plan, on_status=live, idle_timeout_s=idle,
+                         device_meta=device_metadata(daq, url))
+        stats = daq.stats
     live.close()
     return _report(args, result, stats)
 

@@ -164,3 +164,100 @@ def test_dropped_samples_counted_exactly(tmp_path: Path) -> None:
         assert r.dropped_samples == expected
         assert int(np.isnan(r.channels["acc"].si).sum()) == expected
     assert sum(read_capture(tmp_path / "s.h5", i).dropped_samples for i in range(3)) > 0
+
+
+# --------------------------------------------------------------------- real driver, real pty
+import json
+import signal
+import subprocess
+import sys
+
+from station.cli import main
+from station.devices import open_device
+
+REPO = Path(__file__).resolve().parents[2]
+FAST = """
+[trigger]
+level_n = 5.0
+pretrigger_s = 0.2
+record_s = 0.5
+holdoff_s = 0.05
+[specimen]
+mass_kg = 0.815
+[simulation]
+peak_force_n = [30.0, 120.0]
+seed = 3
+"""
+
+
+def test_station_acquire_on_the_simulated_rig(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    cfg = tmp_path / "bench.toml"
+    cfg.write_text(FAST)
+    out = tmp_path / "session.h5"
+    rc = main(["acquire", "--device", "sim://duffing-smooth", "--impacts", "3", "--out", str(out),
+               "--config", str(cfg), "--notes", "run 1", "--json"])
+    got = json.loads(capsys.readouterr().out)
+    assert rc == 0 and got["file"] == str(out) and got["captures"] == 3 and got["dropped_samples"] == 0
+    peaks = []
+    for i in range(3):
+        r = read_capture(out, i)
+        assert (r.rate_hz, r.pretrigger_samples, r.n_samples) == (19200.0, 3840, 3840 + 9600)
+        force = r.channels["force"]
+        assert force.info.sensitivity == 2.25 and force.info.unit == "N"
+        # the rig delivered the requested peak (half-sine sampled at 19.2 kHz: within 1 %)
+        assert np.max(force.si) == pytest.approx(r.rig["requested_peak_force_n"], rel=0.01)
+        # the trigger sample is the first at or above the level, its predecessor below
+        assert force.si[r.pretrigger_samples] >= 5.0 > force.si[r.pretrigger_samples - 1]
+        assert np.all(force.si[: r.pretrigger_samples - 1] < 5.0)
+        assert json.loads(r.rig["scenario"])["system"] == "duffing-smooth"
+        assert r.notes == "run 1" and r.mass_kg == 0.815 and r.device["url"].startswith("sim://")
+        peaks.append(r.rig["requested_peak_force_n"])
+    assert len(set(peaks)) == 3 and min(peaks) >= 30.0 and max(peaks) <= 120.0  # varied levels
+
+
+def test_device_unplugged_mid_capture(tmp_path: Path) -> None:
+    """Close the rig's pty (the cable) while the second record is being filled."""
+    from simulated_rig.serve import serve_source
+    from simulated_rig.source import RigSource
+
+    # paced (real time): the device is not far ahead of the host, so the cable goes mid-record
+    server = serve_source(RigSource.from_system("duffing-smooth", seed=1), paced=True)
+    cfg = parse_config({"trigger": {"level_n": 5.0, "pretrigger_s": 0.1, "record_s": 0.5}})
+    unplugged = []
+
+    def on_status(s: object) -> None:
+        if s.saved == 1 and s.state == "triggered" and s.progress > 0.3 and not unplugged:  # type: ignore[attr-defined]
+            server.close()
+            unplugged.append(True)
+
+    with open_device(f"serial://{server.port}") as daq:
+        res = acquire(daq, cfg, CaptureWriter(tmp_path / "s.h5"), 3,
+                      impacts=ImpactPlan.varied(3, 50.0, 50.0), on_status=on_status, idle_timeout_s=5.0)
+    assert unplugged and res.error is not None and res.indices == [0, 1] and res.partial_index == 1
+    caps = list_captures(tmp_path / "s.h5")
+    assert [c.partial for c in caps] == [False, True]
+    assert caps[0].n_samples == 1920 + 9600 and caps[1].n_samples < 1920 + 9600
+    r0 = read_capture(tmp_path / "s.h5", 0)
+    assert np.max(r0.channels["force"].si) == pytest.approx(50.0, rel=0.01)
+
+
+def test_ctrl_c_real_sigint(tmp_path: Path) -> None:
+    cfg = tmp_path / "bench.toml"
+    cfg.write_text(FAST)
+    out = tmp_path / "s.h5"
+    proc = subprocess.Popen([sys.executable, "-m", "station.cli", "acquire", "--device", "sim://duffing-smooth",
+                             "--impacts", "1000", "--out", str(out), "--config", str(cfg)],
+                            stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True, cwd=REPO)
+    assert proc.stderr is not None
+    for line in proc.stderr:  # live status, one line per event when not a terminal
+        if "capture 1 saved" in line:
+            proc.send_signal(signal.SIGINT)
+            break
+    out_text, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert "Traceback" not in err
+    assert err.strip().splitlines()[-1].startswith("station: interrupted;") and "are kept" in err
+    n = check_file(out)
+    assert n >= 2 and f"{n} capture(s) saved" in out_text
+    for i in range(n):
+        read_capture(out, i)  # every capture reads back with its checksums
