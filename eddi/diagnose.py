@@ -51,7 +51,9 @@ from eddi.simulate import simulate
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, evaluate, parse_terms
 
 #: Default relative margin: the winner must cut the mean held-out nrmse by more than this.
-DEFAULT_MARGIN = 0.15
+DEFAULT_MARGIN = 0.2
+#: The winner's strength parameter must agree over the folds: spread < this times its value.
+DEFAULT_CONSISTENCY = 0.5
 #: Held-out nrmse above this counts as "lost" (a diverged or meaningless simulation).
 NRMSE_CAP = 2.0
 #: Zero crossings each amplitude band must hold when a single record is split.
@@ -209,6 +211,9 @@ class Candidate:
         ``1 - nrmse / baseline nrmse`` (NaN when skipped).
     wins_every_part : bool
         Lower held-out nrmse than the baseline on every part.
+    consistent : bool
+        The strength parameter fitted on each fold agrees: spread below
+        ``consistency`` times its value.
     params : dict of str to float
         Mechanism parameters fitted on all the data (SI units).
     spread : dict of str to float
@@ -226,6 +231,7 @@ class Candidate:
     fold_nrmse: tuple[float, ...]
     gain: float
     wins_every_part: bool
+    consistent: bool
     params: dict[str, float]
     spread: dict[str, float]
     model: EquationOfMotion | None
@@ -312,7 +318,8 @@ class Diagnosis:
             "extended": score(self.extended),
             "candidates": [{
                 "name": c.name, "nrmse": c.nrmse, "fold_nrmse": list(c.fold_nrmse),
-                "gain": c.gain, "wins_every_part": c.wins_every_part, "params": c.params,
+                "gain": c.gain, "wins_every_part": c.wins_every_part,
+                "consistent": c.consistent, "params": c.params,
                 "spread": c.spread, "skipped": c.skipped,
             } for c in self.candidates],
         }
@@ -369,15 +376,18 @@ class _Projector:
             return np.zeros(0)
         return np.linalg.solve(self.r, self.q.T @ yy) / self.scale
 
-    def fit(self, e: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-        """Coefficients of the base block, of ``e``, and the residual sum of squares."""
+    def fit(self, e: np.ndarray) -> tuple[np.ndarray, float]:
+        """Coefficients of ``e`` and the residual sum of squares (base block projected out)."""
         se = _col_scale(e)
         es = e / se
         ep = es - self.q @ (self.q.T @ es)
         c, *_ = np.linalg.lstsq(ep, self.r0, rcond=None)
         res = self.r0 - ep @ c
-        b = self.base(self.y - es @ c)
-        return b, c / se, float(res @ res)
+        return c / se, float(res @ res)
+
+    def base_given(self, e: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """Coefficients of the base block once those of ``e`` are fixed to ``c``."""
+        return self.base(self.y - e @ c)
 
 
 def _col_scale(a: np.ndarray) -> np.ndarray:
@@ -402,18 +412,19 @@ def _fit(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: _Setup,
     else:
         ctx = _context(sigs, masks, setup, base_fit)
         for shape in mech.shape_grid(ctx):
-            extra = np.vstack([mech.columns(s, shape, setup.stiffness)[m] for s, m in zip(sigs, masks)])
-            b, c, ssr = proj.fit(extra)
+            extra = _extra(mech, shape, sigs, masks, setup)
+            c, ssr = proj.fit(extra)
             mf = mech.to_fit(c, shape, setup.mass, setup.stiffness)
             if mf is None:
                 continue
             if best is None or ssr < best[0]:
-                best = (ssr, b, shape, mf)
+                best = (ssr, c, shape, mf)
         if best is None:
             return None
         if mech.refine:
             best = _refine(mech, best, sigs, masks, setup, proj)
-        coef, mfit = best[1], best[3]
+        coef = proj.base_given(_extra(mech, best[2], sigs, masks, setup), best[1])
+        mfit = best[3]
     if setup.base is None:
         nd = len(setup.damping)
         try:
@@ -439,6 +450,11 @@ def _fit(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: _Setup,
     return _Fit(eom=eom, mech=mfit, residual=tuple(residual))
 
 
+def _extra(mech: Mechanism, shape: dict[str, float], sigs: Sequence[Signal],
+           masks: Sequence[np.ndarray], setup: _Setup) -> np.ndarray:
+    return np.vstack([mech.columns(s, shape, setup.stiffness)[m] for s, m in zip(sigs, masks)])
+
+
 def _refine(mech: Mechanism, best: tuple, sigs: Sequence[Signal], masks: Sequence[np.ndarray],
             setup: _Setup, proj: "_Projector") -> tuple:
     """Polish the best grid shape with Nelder-Mead on the log of the refined parameters."""
@@ -449,17 +465,16 @@ def _refine(mech: Mechanism, best: tuple, sigs: Sequence[Signal], masks: Sequenc
 
     def cost(p: np.ndarray) -> float:
         shape = {**shape0, **{k: float(np.exp(v)) for k, v in zip(keys, p)}}
-        extra = np.vstack([mech.columns(s, shape, setup.stiffness)[m] for s, m in zip(sigs, masks)])
-        b, c, ssr = proj.fit(extra)
+        c, ssr = proj.fit(_extra(mech, shape, sigs, masks, setup))
         mf = mech.to_fit(c, shape, setup.mass, setup.stiffness)
         if mf is None:
             return float(best[0]) * 10.0
         if ssr < found[-1][0]:
-            found.append((ssr, b, shape, mf))
+            found.append((ssr, c, shape, mf))
         return ssr / float(best[0])
 
     optimize.minimize(cost, p0, method="Nelder-Mead",
-                      options={"maxfev": 30 * len(keys), "xatol": 1e-3, "fatol": 1e-6,
+                      options={"maxfev": 20 * len(keys), "xatol": 1e-3, "fatol": 1e-6,
                                "initial_simplex": np.vstack([p0] + [p0 + 0.05 * np.eye(len(keys))[i]
                                                                     for i in range(len(keys))])})
     return found[-1]
@@ -587,6 +602,7 @@ def diagnose(
     base: EquationOfMotion | None = None,
     mechanisms: Sequence[str] | None = None,
     margin: float = DEFAULT_MARGIN,
+    consistency: float = DEFAULT_CONSISTENCY,
     n_bands: int = 3,
 ) -> Diagnosis:
     """Find what the baseline model gets wrong, name the mechanism, extend and measure the gain.
@@ -609,6 +625,10 @@ def diagnose(
     margin : float
         Relative reduction of the mean held-out nrmse the winner must exceed (besides
         winning on every held-out part).
+    consistency : float
+        The winner's strength parameter (friction force, gap stiffness...) fitted on each
+        fold must have a spread below ``consistency`` times its value: a mechanism that
+        only fits noise changes from fold to fold.
     n_bands : int
         Amplitude bands of a single record.
 
@@ -714,8 +734,8 @@ def diagnose(
     finals: dict[str, _Fit] = {}
     for mech in cat:
         if skipped[mech.name]:
-            candidates.append(Candidate(mech.name, float("nan"), (), float("nan"), False, {}, {},
-                                        None, "", skipped[mech.name]))
+            candidates.append(Candidate(mech.name, float("nan"), (), float("nan"), False, False, {},
+                                        {}, None, "", skipped[mech.name]))
             continue
         folds = cand_fold[mech.name]
         mean = float(np.mean(folds))
@@ -733,17 +753,20 @@ def diagnose(
         spread = {k: float(np.std([p[k] for p in plist], ddof=1)) if len(plist) > 1 else float("nan")
                   for k in params}
         gain = 1.0 - mean / base_nrmse if base_nrmse > 0 else 0.0
-        candidates.append(Candidate(mech.name, mean, tuple(folds), gain, wins, params, spread,
-                                    model, symptom, ""))
+        key = mech.strength_key(k_terms)
+        consistent = (len(plist) == len(parts) and key in params
+                      and bool(spread.get(key, math.inf) < consistency * abs(params[key])))
+        candidates.append(Candidate(mech.name, mean, tuple(folds), gain, wins, consistent, params,
+                                    spread, model, symptom, ""))
     candidates.sort(key=lambda c: (bool(c.skipped), c.nrmse if math.isfinite(c.nrmse) else math.inf))
 
     winner = None
-    for c in candidates:
+    for c in candidates:  # best first: the first that passes every test wins
         if c.skipped or c.model is None:
             continue
-        if c.wins_every_part and c.gain > margin:
+        if c.wins_every_part and c.gain > margin and c.consistent:
             winner = c
-        break  # only the best-ranked candidate may win
+            break
     b_spread = {k: float(np.std([c[k] for c in base_coefs], ddof=1)) if len(base_coefs) > 1 else float("nan")
                 for k in base_coefs[0]} if setup.base is None else {}
 
@@ -756,8 +779,8 @@ def diagnose(
             verdict = "Cause: none (no mechanism could be tried)."
         else:
             verdict = (f"Cause: none. The best mechanism, {best.name}, changes the held-out error by "
-                       f"{100 * best.gain:+.0f} % (needs more than {100 * margin:.0f} % and a win on every "
-                       "held-out part): nothing beats the noise.")
+                       f"{-100 * best.gain:+.0f} % (a winner needs more than -{100 * margin:.0f} %, a win on "
+                       "every held-out part and the same strength on every fold): nothing beats the noise.")
         symptom = ("the baseline's simulation matches the held-out measurements as well as any "
                    "extended model: no mechanism of the catalogue is missing")
         ext_sims = base_sims

@@ -106,6 +106,12 @@ class Mechanism(abc.ABC):
     physics: str = ""
     #: Shape parameters refined continuously (on a log scale) after the grid search.
     refine: tuple[str, ...] = ()
+    #: The parameter that says how strong the mechanism is (its spread over folds is checked).
+    strength: str = ""
+
+    def strength_key(self, stiffness: tuple[str, ...]) -> str:
+        """Name of the strength parameter for a baseline with these stiffness terms."""
+        return self.strength
 
     def skip_reason(self, damping: tuple[str, ...], stiffness: tuple[str, ...],
                     effects: tuple[str, ...]) -> str | None:
@@ -139,6 +145,7 @@ def _has(terms: tuple[str, ...], text: str) -> bool:
 
 class CoulombFriction(Mechanism):
     name = "coulomb_friction"
+    strength = "force_n"
     physics = "dry (Coulomb) friction: a force of constant size opposing the motion, F_c sign(v)"
 
     def skip_reason(self, damping, stiffness, effects):
@@ -168,6 +175,7 @@ class CoulombFriction(Mechanism):
 
 class QuadraticDamping(Mechanism):
     name = "quadratic_damping"
+    strength = "coefficient"
     physics = "quadratic (aerodynamic, turbulent) drag: c_q |v| v"
 
     def skip_reason(self, damping, stiffness, effects):
@@ -191,13 +199,14 @@ class QuadraticDamping(Mechanism):
 
 class Clearance(Mechanism):
     name = "clearance"
+    strength = "stiffness_n_per_m"
     refine = ("gap_m",)
     physics = ("contact beyond a gap g: an extra spring k_c (|x| - g) sign(x) acts only when "
                "|x| > g")
 
     def shape_grid(self, ctx):
         # gaps between 5 % and 90 % of the largest training amplitude, denser at small gaps
-        return [{"gap_m": float(ctx.x_peak * f)} for f in np.linspace(0.05, 0.9, 30)]
+        return [{"gap_m": float(ctx.x_peak * f)} for f in np.linspace(0.05, 0.9, 20)]
 
     def columns(self, sig, shape, stiffness):
         g = shape["gap_m"]
@@ -218,10 +227,15 @@ class Clearance(Mechanism):
 
 class AsymmetricStiffness(Mechanism):
     name = "asymmetric_stiffness"
+    strength = "k2"
     physics = "even-order stiffness k2 x^2 + k4 x^4: the spring is stiffer on one side"
 
     def _missing(self, stiffness: tuple[str, ...]) -> list[int]:
         return [p for p in (2, 4) if not _has(stiffness, f"x^{p}")]
+
+    def strength_key(self, stiffness):
+        missing = self._missing(stiffness)
+        return f"k{missing[0]}" if missing else "k2"
 
     def skip_reason(self, damping, stiffness, effects):
         if not self._missing(stiffness):
@@ -257,6 +271,7 @@ class SecondMode(Mechanism):
     """
 
     name = "second_mode"
+    strength = "coupling_n_per_m"
     refine = ("frequency_hz", "damping_ratio")
     physics = ("a second linear mode (mass m2, stiffness k2, damping c2) coupled to the measured "
                "coordinate by a spring k_c")
@@ -280,7 +295,7 @@ class SecondMode(Mechanism):
             f = float(freqs[i])
             if all(abs(f - p) > 0.1 * p for p in peaks):
                 peaks.append(f)
-            if len(peaks) == 2:
+            if len(peaks) == 1:
                 break
         grid = []
         for fp in peaks:

@@ -121,18 +121,20 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
     lines = [f"Held-out judging: {diag.scheme} ({len(diag.parts)} parts: "
              + ", ".join(p.label for p in diag.parts) + ")",
              "",
-             f"{'rank':>4}  {'mechanism':<22} {'held-out nrmse':>14} {'gain':>7}  {'every part':<10} parameters",
-             f"{'':>4}  {'(baseline)':<22} {diag.baseline.nrmse:>14.4g} {'':>7}  {'':<10}"]
+             f"{'rank':>4}  {'mechanism':<22} {'held-out nrmse':>14} {'gain':>7}  {'every part':<10} "
+             f"{'consistent':<10} parameters (± spread over folds)",
+             f"{'':>4}  {'(baseline)':<22} {diag.baseline.nrmse:>14.4g}"]
     rank = 0
     for c in diag.candidates:
         if c.skipped:
-            lines.append(f"{'-':>4}  {c.name:<22} {'skipped':>14} {'':>7}  {'':<10} {c.skipped}")
+            lines.append(f"{'-':>4}  {c.name:<22} {'skipped':>14} {'':>7}  {'':<10} {'':<10} {c.skipped}")
             continue
         rank += 1
         params = ", ".join(f"{k}={v:.4g}" + (f"±{c.spread[k]:.2g}" if math.isfinite(c.spread.get(k, math.nan)) else "")
                            for k, v in c.params.items())
         lines.append(f"{rank:>4}  {c.name:<22} {c.nrmse:>14.4g} {100 * c.gain:>6.0f}%  "
-                     f"{'yes' if c.wins_every_part else 'no':<10} {params or '(no physical fit)'}")
+                     f"{'yes' if c.wins_every_part else 'no':<10} {'yes' if c.consistent else 'no':<10} "
+                     f"{params or '(no physical fit)'}")
     lines += ["", diag.verdict, f"What the baseline got wrong: {diag.symptom}.", "",
               f"Baseline: {diag.baseline.model.equation_text()}"]
     if diag.cause != "none":
