@@ -229,15 +229,29 @@ def figures(outdir: Path, names, recs, results, model_all: ModalSumModel, backbo
     for k, bb in enumerate(backbones):
         a, f, z = bb["measured"]
         am, fm, zm = bb["model"]
-        axs[0, k].plot(a * 1e3, f, ".", ms=1, color="0.5", label="measured (cycle by cycle)")
-        axs[0, k].plot(am * 1e3, fm, color="tab:red", label="model")
-        axs[1, k].plot(a * 1e3, z * 100, ".", ms=1, color="0.5")
-        axs[1, k].plot(am * 1e3, zm * 100, color="tab:red")
+        axs[0, k].plot(a * 1e3, f, ".", ms=1, color="0.8", label="measured, cycle by cycle")
+        axs[1, k].plot(a * 1e3, z * 100, ".", ms=1, color="0.8")
+        edges = np.geomspace(max(np.percentile(a, 1), 1e-6), np.max(a), 16)
+        for arr_a, arr_f, arr_z, style, lab in [(a, f, z, "o", "measured, binned median"),
+                                                (am, fm, zm, "-", "model (simulated, same estimator)")]:
+            idx = np.digitize(arr_a, edges)
+            mids, fmed, zmed = [], [], []
+            for b in range(1, edges.size):
+                sel = idx == b
+                if np.sum(sel) >= 5:
+                    mids.append(np.sqrt(edges[b - 1] * edges[b]) * 1e3)
+                    fmed.append(np.median(arr_f[sel]))
+                    zmed.append(np.median(arr_z[sel]) * 100)
+            col = "k" if style == "o" else "tab:red"
+            axs[0, k].plot(mids, fmed, style, color=col, ms=4, label=lab)
+            axs[1, k].plot(mids, zmed, style, color=col, ms=4)
+        axs[0, k].set_xscale("log")
+        axs[1, k].set_xscale("log")
         axs[0, k].set_title(f"mode {k + 1}")
         axs[1, k].set_xlabel("modal displacement amplitude [mm] (per unit modal mass)")
         fmed = np.median(f)
-        axs[0, k].set_ylim(fmed * 0.99, fmed * 1.01)
-        axs[1, k].set_ylim(0, np.percentile(z * 100, 95) * 2)
+        axs[0, k].set_ylim(fmed * 0.993, fmed * 1.005)
+        axs[1, k].set_ylim(0, np.percentile(z * 100, 90) * 1.5)
     axs[0, 0].set_ylabel("frequency [Hz]")
     axs[1, 0].set_ylabel("damping ratio [%]")
     axs[0, 0].legend(fontsize=8)
@@ -257,9 +271,9 @@ def figures(outdir: Path, names, recs, results, model_all: ModalSumModel, backbo
         axs[k].plot(xk[::step] * 1e3, r[::step], ".", ms=1, color="0.4")
         xs = np.linspace(xk.min(), xk.max(), 200)
         nl = model_all.modes[k]
-        axs[k].plot(xs * 1e3, -(nl.stiffness.get("abs(x)*x", 0.0) * np.abs(xs) * xs
+        axs[k].plot(xs * 1e3, (nl.stiffness.get("abs(x)*x", 0.0) * np.abs(xs) * xs
                                  + (nl.linear_stiffness() - eom.linear_stiffness()) * xs),
-                    color="tab:red", label="nonlinear model minus linear model")
+                    color="tab:red", label="stiffness of the nonlinear model minus the linear one")
         axs[k].set_xlabel(f"mode {k + 1} displacement [mm]")
         axs[k].set_title(f"mode {k + 1}: force the linear model misses")
     axs[0].set_ylabel("residual force per unit mass [m/s^2]")
