@@ -199,3 +199,36 @@ def test_reader_never_blocks_a_command_when_the_queue_is_full(rig):
             blocks.append(b)
         assert sum(b.n_samples for b in blocks) + daq.stats.dropped_samples == daq.status()["next_sample"]
         assert daq.stats.dropped_samples == 0
+
+
+class _FutureFirmware:
+    """A device that answers every command with a well-formed frame of protocol version 2."""
+
+    streaming = False
+    block_size = 1
+
+    def receive(self, data: bytes) -> bytes:
+        from drivers.protocol import FrameType, encode_frame
+
+        return encode_frame(FrameType.REPLY, 0, b"\x00" * 6 + b"{}", version=2)
+
+    def acquire(self, n: int) -> bytes:
+        return b""
+
+
+def test_device_of_another_protocol_version_is_a_one_line_error():
+    with PtyServer(_FutureFirmware(), paced=False) as server:  # type: ignore[arg-type]
+        with pytest.raises(ProtocolVersionError, match="device speaks protocol version 2, this driver speaks version 1"):
+            drivers.open_device(f"serial://{server.port}")
+
+
+@pytest.mark.hardware
+def test_real_serial_daq_streams_without_loss():
+    import os
+
+    url = os.environ.get("EDDI_DAQ_URL", "serial:///dev/ttyACM0")
+    with drivers.open_device(url) as daq:
+        daq.start()
+        _, counts, _, dropped = daq.read_samples(int(daq.info.rate_hz))
+        daq.stop()
+        assert dropped == 0 and daq.stats.crc_errors == 0 and counts.shape[1] == len(daq.info.channels)
