@@ -53,7 +53,7 @@ class ConditionedSignal:
     Attributes
     ----------
     t : ndarray, shape (n,), [s]
-        Uniform time.
+        Uniform time (the exact grid from the first to the last input time).
     x : ndarray, shape (n,), [m] (or [rad])
         Coordinate, from rest (0 before the impact when a pre-trigger was seen).
     v : ndarray, shape (n,), [m/s]
@@ -139,7 +139,7 @@ def check_time(t: np.ndarray) -> float:
     ------
     SignalError
         If ``t`` is not 1-D, has fewer than 16 samples, is not finite, not increasing or
-        not uniform (relative spread of the steps above 1e-4).
+        not uniform (a sample more than 1 % of a step off the uniform grid).
     """
     t = np.asarray(t, dtype=float)
     if t.ndim != 1 or t.size < 16:
@@ -152,11 +152,13 @@ def check_time(t: np.ndarray) -> float:
         i = int(np.nonzero(dt <= 0)[0][0])
         raise SignalError(f"time must increase; t[{i + 1}] = {t[i + 1]:g} after t[{i}] = {t[i]:g}")
     step = (t[-1] - t[0]) / (t.size - 1)
-    dev = np.abs(dt - step)
-    if np.max(dev) > 1e-4 * step:
+    # each sample within 1 % of a step of the uniform grid (allows times printed with few digits)
+    dev = np.abs(t - (t[0] + step * np.arange(t.size)))
+    if np.max(dev) > 0.01 * step:
         i = int(np.argmax(dev))
         raise SignalError(
-            f"time must be uniformly sampled; step {dt[i]:g} s at sample {i + 1}, expected {step:g} s"
+            f"time must be uniformly sampled; t[{i}] = {t[i]:.9g} s is {dev[i]:.3g} s off the grid "
+            f"of step {step:.6g} s (expected within 1 % of a step)"
         )
     return 1.0 / step
 
@@ -409,6 +411,8 @@ def condition(
     rate = check_time(t)
     t = np.asarray(t, dtype=float)
     n = t.size
+    # the exact uniform grid (times in files are often printed with few digits)
+    t = t[0] + np.arange(n) * ((t[-1] - t[0]) / (n - 1))
     if acc is None and vel is None and disp is None:
         raise SignalError("need at least one of acc, vel, disp; got none")
     acc = None if acc is None else check_channel("acc", acc, n)

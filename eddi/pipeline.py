@@ -46,7 +46,7 @@ class PipelineResult:
     driven_by_force : bool
         True when the validation was driven by the measured force from rest.
     nrmse_force_sensor : float or None
-        The nrmse when driven by the force sensor alone (None when not driven by force).
+        The nrmse when driven by the force sensor alone (None when not computed).
     """
 
     conditioned: ConditionedSignal
@@ -63,6 +63,7 @@ def identify_measurement(
     damping: str | tuple[str, ...] | list[str] = DEFAULT_DAMPING,
     stiffness: str | tuple[str, ...] | list[str] = DEFAULT_STIFFNESS,
     route: str = "auto",
+    sensor_only: bool = False,
 ) -> PipelineResult:
     """Identify and validate an equation of motion from a conditioned measurement.
 
@@ -76,6 +77,9 @@ def identify_measurement(
         Candidate terms (see :func:`eddi.identify.identify`).
     route : {"auto", "potential", "lagrangian"}
         Phase-two route.
+    sensor_only : bool
+        Also validate with the force sensor alone (one more simulation), filling
+        ``nrmse_force_sensor``.
 
     Returns
     -------
@@ -92,13 +96,17 @@ def identify_measurement(
     if force is not None and cond.impact_start > 0:
         s = cond.impact_start
         window = (cond.free_start - s, cond.free_stop - s)
-        sensor = validate(model.eom, cond.t[s:], cond.x[s:], v=cond.v[s:], force=force[s:],
-                          window=window)
         if not cond.acc_measured:
+            sensor = validate(model.eom, cond.t[s:], cond.x[s:], v=cond.v[s:], force=force[s:],
+                              window=window)
             return PipelineResult(cond, model, _shift(sensor, s), True, sensor.nrmse)
         val = validate(model.eom, cond.t[s:], cond.x[s:], v=cond.v[s:],
                        force=fused_impact_force(cond, model.eom)[s:], window=window)
-        return PipelineResult(cond, model, _shift(val, s), True, sensor.nrmse)
+        nrmse_sensor = None
+        if sensor_only:
+            nrmse_sensor = validate(model.eom, cond.t[s:], cond.x[s:], v=cond.v[s:],
+                                    force=force[s:], window=window).nrmse
+        return PipelineResult(cond, model, _shift(val, s), True, nrmse_sensor)
     val = validate(model.eom, cond.t, cond.x, v=cond.v, window=cond.window)
     return PipelineResult(cond, model, val, False)
 
