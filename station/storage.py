@@ -12,11 +12,12 @@ implementation. In short::
     /captures/0000/device  attrs model, serial, firmware, protocol_version, url
     /captures/0000/rig     attrs of the simulated rig (only for simulated captures)
 
-Crash safety: the session file is never modified in place. Each save copies it to a
-temporary file beside it, adds the capture there, flushes and ``fsync``s it, and
-atomically renames it over the original (``os.replace``). A process killed at any moment
+Crash safety: the session file is never modified in place. Each save reads it into memory,
+adds the capture there (h5py on a ``BytesIO``), writes the result to a temporary file beside
+it with plain OS writes, ``fsync``s it, and atomically renames it over the original
+(``os.replace``). A process killed at any moment
 leaves either the old file or the new one, both complete; a stale temporary file is all that
-can remain (removed by the next save). The price is one file copy per save (see
+can remain (removed by the next save). The price is one read and one write of the whole file per save (see
 ``benchmarks/bench_storage.py``).
 """
 
@@ -25,10 +26,10 @@ from __future__ import annotations
 import datetime as _dt
 import errno
 import hashlib
+import io
 import json
 import os
 import re
-import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -225,8 +226,8 @@ def _write_record(f: h5py.File, rec: _Record, meta: Mapping[str, Any]) -> int:
     return index
 
 
-def _new_file(path: Path, session: Mapping[str, Any]) -> None:
-    with h5py.File(path, "w", libver="latest") as f:
+def _new_file(target: Any, session: Mapping[str, Any]) -> None:
+    with h5py.File(target, "w", libver="latest") as f:
         f.attrs["format"] = FORMAT_NAME
         f.attrs["format_version"] = FORMAT_VERSION
         f.attrs["created_utc"] = _now()
@@ -234,6 +235,20 @@ def _new_file(path: Path, session: Mapping[str, Any]) -> None:
         for k, v in session.items():
             f.attrs[k] = v if isinstance(v, (int, float, str, bool)) else json.dumps(v)
         f.create_group("captures").attrs["count"] = 0
+
+
+def _write_bytes(path: Path, data: memoryview, chunk: int = 1 << 22) -> None:
+    """Write ``data`` to a new file and ``fsync`` it (plain OS writes: errors are clean OSErrors)."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+    try:
+        for i in range(0, len(data), chunk):
+            view = data[i : i + chunk]
+            while len(view):
+                n = os.write(fd, view)
+                view = view[n:]
+        os.fsync(fd)
+    finally:
+        os.close(fd)
 
 
 def _fsync_path(path: Path) -> None:
@@ -374,18 +389,19 @@ class CaptureWriter:
         return self._save(rec, meta)
 
     def _save(self, rec: _Record, meta: Mapping[str, Any]) -> int:
+        # The new version of the file is built in memory (HDF5 never meets a file-system
+        # error half-way through its metadata), written to a temporary file with plain OS
+        # writes and fsync, then renamed over the original: old or new file, never a mix.
         tmp = self._tmp_path()
         what = "a capture"
         try:
-            if self.path.exists():
-                shutil.copyfile(self.path, tmp)
-            else:
-                _new_file(tmp, self._session)
-            with h5py.File(tmp, "r+") as f:
+            buf = io.BytesIO(self.path.read_bytes()) if self.path.exists() else io.BytesIO()
+            if not self.path.exists():
+                _new_file(buf, self._session)
+            with h5py.File(buf, "r+") as f:
                 index = _write_record(f, rec, meta)
-                what = f"capture {index}"
-                f.flush()
-            _fsync_path(tmp)
+            what = f"capture {index}"
+            _write_bytes(tmp, buf.getbuffer())
             os.replace(tmp, self.path)
             _fsync_path(self.path.parent)
         except (OSError, RuntimeError) as exc:

@@ -261,3 +261,30 @@ def test_ctrl_c_real_sigint(tmp_path: Path) -> None:
     assert n >= 2 and f"{n} capture(s) saved" in out_text
     for i in range(n):
         read_capture(out, i)  # every capture reads back with its checksums
+
+
+def test_disk_full_during_acquire_is_one_line_and_keeps_earlier(tmp_path: Path) -> None:
+    """A file-size limit (RLIMIT_FSIZE, EFBIG) hits ``station acquire`` in the middle of a run."""
+    import resource
+
+    cfg = tmp_path / "bench.toml"
+    cfg.write_text(FAST)
+    out = tmp_path / "s.h5"
+    limit = 400_000  # bytes: a few captures of ~13k samples x 2 channels fit, not 50
+
+    def limit_file_size() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # kept across exec: writes fail with EFBIG
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    res = subprocess.run([sys.executable, "-m", "station.cli", "acquire", "--device", "sim://duffing-smooth",
+                          "--impacts", "50", "--out", str(out), "--config", str(cfg), "--json"],
+                         capture_output=True, text=True, cwd=REPO, timeout=120, preexec_fn=limit_file_size)
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    last = res.stderr.strip().splitlines()[-1]
+    assert last.startswith("station: error: cannot save capture") and "file size limit reached" in last
+    got = json.loads(res.stdout)
+    n = check_file(out)
+    assert 1 <= n < 50 and got["captures"] == n
+    for i in range(n):
+        assert read_capture(out, i).n_samples == 3840 + 9600  # complete, checksums verified
+    assert [p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")] == []

@@ -156,7 +156,7 @@ CHILD = textwrap.dedent(
     """
     import os, signal, sys
     sys.path.insert(0, {tests!r})
-    import h5py, shutil
+    import h5py
     from test_storage import make_capture
     from station import storage
     path, n_before, point = sys.argv[1], int(sys.argv[2]), sys.argv[3]
@@ -165,11 +165,11 @@ CHILD = textwrap.dedent(
         w.append(make_capture(i, n=40000))
     def die(*a, **k):
         os.kill(os.getpid(), signal.SIGKILL)
-    if point == "after_copy":
-        real = shutil.copyfile
-        def copy_then_die(*a, **k):
-            real(*a, **k); die()
-        storage.shutil.copyfile = copy_then_die
+    if point == "mid_write":
+        real_write = storage._write_bytes
+        def half_then_die(path, data, chunk=1 << 22):
+            real_write(path, data[: len(data) // 2]); die()
+        storage._write_bytes = half_then_die
     elif point == "mid_channels":
         real_ds = h5py.Group.create_dataset
         def ds_then_die(self, name, *a, **k):
@@ -187,7 +187,7 @@ CHILD = textwrap.dedent(
 )
 
 
-@pytest.mark.parametrize("point", ["after_copy", "mid_channels", "before_replace", "external"])
+@pytest.mark.parametrize("point", ["mid_channels", "mid_write", "before_replace", "external"])
 def test_kill_9_while_writing_keeps_earlier_captures_bit_exact(tmp_path: Path, point: str) -> None:
     path = tmp_path / "s.h5"
     script = tmp_path / "child.py"
