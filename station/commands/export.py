@@ -39,18 +39,11 @@ def register(subparsers: Any) -> None:
     i.set_defaults(func=handle_import)
 
 
-def split_source(spec: str) -> tuple[str, str | None]:
-    """``"file.h5:3"`` -> ``("file.h5", "3")``; ``"file.h5"`` -> ``("file.h5", None)``."""
-    if ":" in spec:
-        path, _, cap = spec.rpartition(":")
-        if path and not Path(spec).exists():
-            return path, cap
-    return spec, None
-
-
 def handle_export(args: argparse.Namespace) -> int:
     """Run ``station export``."""
-    path, cap = split_source(args.source)
+    from station.readers import split_spec
+
+    path, cap = split_spec(args.source)
     if cap is None:
         indices = None
     else:
@@ -64,7 +57,7 @@ def handle_export(args: argparse.Namespace) -> int:
         indices = [k % n]
     records = export_uff58(path, args.uff, indices, binary=not args.ascii)
     emit(args.json, f"{records} UFF58 record(s) written to {args.uff}", {"file": str(args.uff), "records": records,
-                                                                           "source": path, "captures": indices})
+                                                                           "source": str(path), "captures": indices})
     return 0
 
 

@@ -48,3 +48,21 @@ def test_uff58_selected_capture_and_refusals(tmp_path: Path) -> None:
         export_uff58(h5, tmp_path / "two.uff", [1])
     with pytest.raises(InputFileError, match="no force_x channel"):
         export_uff58(h5, tmp_path / "x.uff", [0], quantities=("force_x",))
+
+
+def test_station_export_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from station.cli import main
+
+    h5 = tmp_path / "s.h5"
+    w = CaptureWriter(h5)
+    w.append(make_capture(1, n=400))
+    w.append(make_capture(2, n=300))
+    assert main(["export", f"{h5}:-1", "--uff", str(tmp_path / "last.uff"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out) == {"file": str(tmp_path / "last.uff"), "records": 2,
+                                                    "source": str(h5), "captures": [1]}
+    sets = pyuff.UFF(str(tmp_path / "last.uff")).read_sets()
+    assert [s["num_pts"] for s in sets] == [300, 300]
+    assert main(["export", str(h5), "--uff", str(tmp_path / "all.uff"), "--ascii"]) == 0
+    assert "4 UFF58 record(s)" in capsys.readouterr().out
