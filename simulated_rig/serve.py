@@ -136,11 +136,13 @@ class PtyServer:
                 self._produced = 0
             if self.paced:
                 due = int((self.clock() - self._t0) * dev.source.rate_hz) - self._produced
-                if due > 0:
-                    frames = dev.acquire(due)
-                    self._produced += due
+                while due > 0:  # block by block, as the firmware's acquisition interrupt would
+                    n = min(due, dev.block_size)
+                    frames = dev.acquire(n)
+                    self._produced += n
+                    due -= n
                     if len(self._out) + len(frames) > self.fifo_bytes:
-                        self.overrun_frames += frames.count(b"\x00")
+                        self.overrun_frames += frames.count(b"\x00") // 2
                     else:
                         self._out += frames
             elif len(self._out) < 65536:
