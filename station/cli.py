@@ -1,7 +1,7 @@
 """The ``station`` command line.
 
 Each sub-command lives in its own module under :mod:`station.commands` and exposes
-``register(subparsers)``, which adds its parser and sets ``func`` to a handler
+``register(subparsers)``, which adds its parser (listed in :data:`COMMANDS`) and sets ``func`` to a handler
 ``handler(args) -> int``. Handlers print people-friendly text by default and exactly one JSON
 object on stdout with ``--json`` (use :func:`station.output.emit`).
 
@@ -17,21 +17,39 @@ import importlib
 import sys
 from typing import Sequence
 
-from drivers.errors import DriverError
-from eddi.errors import EddiError
-from simulated_rig.errors import RigError
 from station.errors import StationError
 
-#: Modules that provide sub-commands, in the order ``station --help`` lists them.
-COMMAND_MODULES: tuple[str, ...] = (
-    "station.commands.acquire", "station.commands.export",
-    "station.commands.diagnose",
-    "station.commands.identify",
-    "station.commands.devices", "station.commands.rig",
+#: Sub-command name -> module that provides it (``register(subparsers)``). Only the module of
+#: the command being run is imported, so ``station identify`` does not pay for the drivers.
+COMMANDS: dict[str, str] = {
+    "acquire": "station.commands.acquire",
+    "export": "station.commands.export",
+    "import": "station.commands.export",
+    "identify": "station.commands.identify",
+    "diagnose": "station.commands.diagnose",
+    "devices": "station.commands.devices",
+    "rig": "station.commands.rig",
+}
+
+
+#: Roots of the errors that are the user's or the world's, not the program's: one line, exit
+#: code 2. Given as (module, class) so the CLI starts without importing numba and scipy: an
+#: error of a layer can only have been raised once that layer is imported.
+USER_ERROR_ROOTS: tuple[tuple[str, str], ...] = (
+    ("station.errors", "StationError"),
+    ("eddi.errors", "EddiError"),
+    ("drivers.errors", "DriverError"),
+    ("simulated_rig.errors", "RigError"),
 )
 
-#: Errors that are the user's or the world's, not the program's: one line, exit code 2.
-USER_ERRORS = (StationError, EddiError, DriverError, RigError)
+
+def is_user_error(exc: BaseException) -> bool:
+    """True when ``exc`` derives from one of the layers' error roots."""
+    for module, name in USER_ERROR_ROOTS:
+        mod = sys.modules.get(module)
+        if mod is not None and isinstance(exc, getattr(mod, name)):
+            return True
+    return False
 
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
@@ -44,37 +62,44 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USER_ERROR, f"{self.prog}: error: {message}\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The parser; with ``argv`` naming a known command, only that command's module is loaded."""
     parser = _Parser(
         prog="station",
         description="EDDI Station: impact testing and identification of nonlinear equations of motion.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
-    for name in COMMAND_MODULES:
+    first = next((a for a in (argv or ()) if not a.startswith("-")), None)
+    modules = [COMMANDS[first]] if first in COMMANDS else list(dict.fromkeys(COMMANDS.values()))
+    for name in modules:
         importlib.import_module(name).register(sub)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI and return the exit code."""
-    parser = build_parser()
+    if argv is None:
+        argv = sys.argv[1:]
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
-    except USER_ERRORS as exc:
-        print(f"station: error: {exc}", file=sys.stderr)
-        return EXIT_USER_ERROR
     except KeyboardInterrupt:
         print("station: interrupted (what was saved is kept)", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except OSError as exc:
-        what = exc.strerror or str(exc)
-        if exc.errno == errno.ENOSPC:
-            what = "disk full"
-        where = f": {exc.filename}" if getattr(exc, "filename", None) else ""
-        print(f"station: error: {what}{where}", file=sys.stderr)
-        return EXIT_USER_ERROR
+    except Exception as exc:
+        if is_user_error(exc):
+            print(f"station: error: {exc}", file=sys.stderr)
+            return EXIT_USER_ERROR
+        if isinstance(exc, OSError):
+            what = exc.strerror or str(exc)
+            if exc.errno == errno.ENOSPC:
+                what = "disk full"
+            where = f": {exc.filename}" if getattr(exc, "filename", None) else ""
+            print(f"station: error: {what}{where}", file=sys.stderr)
+            return EXIT_USER_ERROR
+        raise
 
 
 def run() -> None:  # pragma: no cover - console-script entry

@@ -3,7 +3,7 @@
 The lower layers have their own roots (``eddi.errors.EddiError``,
 ``drivers.errors.DriverError``, ``simulated_rig.errors.RigError``) because they import
 nothing from the project; the CLI turns any of them into a one-line message and exit code 2
-(see :data:`station.cli.USER_ERRORS`).
+(see :data:`station.cli.USER_ERROR_ROOTS`).
 """
 
 from __future__ import annotations
