@@ -22,7 +22,9 @@ Contract (the tests derive their expected indices from this text, not from the c
   ``release_fraction * level`` for a rising trigger, mirrored for falling); a later crossing of
   the trigger level inside the record flags ``double_hit``.
 * **Overload.** A received sample at the ADC rails (``min_count`` or ``max_count`` of its
-  channel) flags ``overload`` and names the channel in ``overload_channels``.
+  channel), or beyond the channel's ``range_si`` in magnitude (when > 0; a configured sensor
+  range may be below the ADC's), flags ``overload`` and names the channel in
+  ``overload_channels``.
 * :meth:`Trigger.flush` ends an unfinished capture early (device lost, Ctrl-C): it is returned
   truncated with ``partial=True``.
 """
@@ -250,6 +252,7 @@ class Trigger:
         self._hist_valid = np.zeros(0, dtype=bool)
         self._lo = np.array([c.min_count for c in self.channels], dtype=np.int64)
         self._hi = np.array([c.max_count for c in self.channels], dtype=np.int64)
+        self._range = np.array([c.range_si for c in self.channels], dtype=float)
 
     # ------------------------------------------------------------------ state
     @property
@@ -433,7 +436,9 @@ class Trigger:
         gaps = tuple((int(a), int(b - a)) for a, b in zip(starts, ends))
         # overload: any received sample at the rails
         c64 = counts.astype(np.int64)
-        clipped = ((c64 <= self._lo) | (c64 >= self._hi)) & valid[:, None]
+        with np.errstate(invalid="ignore"):
+            beyond = (self._range > 0) & (np.abs(si) > self._range)
+        clipped = ((c64 <= self._lo) | (c64 >= self._hi) | beyond) & valid[:, None]
         over = tuple(self.channels[j].name for j in np.flatnonzero(clipped.any(axis=0)))
         return Capture(
             counts=counts.copy(),

@@ -288,3 +288,20 @@ def test_disk_full_during_acquire_is_one_line_and_keeps_earlier(tmp_path: Path) 
     for i in range(n):
         assert read_capture(out, i).n_samples == 3840 + 9600  # complete, checksums verified
     assert [p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")] == []
+
+
+def test_overload_rejected_on_the_simulated_rig(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A configured force range of 60 N: impacts above it are rejected and repeated."""
+    cfg = tmp_path / "bench.toml"
+    cfg.write_text(FAST.replace("[trigger]", '[[channels]]\nname = "force"\nquantity = "force"\nrange = 60.0\n'
+                                "[[channels]]\nname = \"acc\"\nquantity = \"acceleration\"\n[trigger]\n"
+                                'on_overload = "reject"'))
+    out = tmp_path / "s.h5"
+    assert main(["acquire", "--device", "sim://duffing-smooth", "--impacts", "2", "--out", str(out),
+                 "--config", str(cfg), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert got["captures"] == 2 and got["rejected"] >= 1 and set(got["rejected_reasons"]) == {"overload on force"}
+    for i in range(2):
+        r = read_capture(out, i)
+        assert not r.overload and r.rig["requested_peak_force_n"] <= 60.0
+        assert np.max(np.abs(r.channels["force"].si)) <= 60.0 and r.channels["force"].info.range_si == 60.0

@@ -207,6 +207,12 @@ def test_overload_flags_clipped_channel() -> None:
     assert cap.rejection(on_overload="flag") is None
     counts = signal(1000, {200: [10, FORCE.max_count - 1, 10]})
     assert feed(make(pre=50, post=100), counts, 64)[0].overload is False
+    # a sensor range below the ADC's: |value| > range_si is overload, == range_si is not
+    ranged = ChannelInfo(name="force", quantity="force", unit="N", scale=1.0, range_si=15.0, adc_bits=16)
+    s = TriggerSettings(channel=0, level=5.5, pretrigger_samples=50, posttrigger_samples=100)
+    for peak, expected in [(15, False), (16, True), (-16, True)]:
+        cap = feed(Trigger(s, (ranged, INDEX), RATE), signal(1000, {200: [10, peak, 10]}), 64)[0]
+        assert cap.overload is expected and cap.overload_channels == (("force",) if expected else ())
 
 
 def test_flush_returns_partial_capture() -> None:
