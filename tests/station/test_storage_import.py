@@ -95,3 +95,16 @@ def test_cli_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[s
     res = subprocess.run([sys.executable, "-m", "station.cli", *cases[0][0]], capture_output=True, text=True, timeout=60)
     assert res.returncode == 2 and "Traceback" not in res.stderr and cases[0][1] in res.stderr
 
+
+
+def test_import_of_the_shared_real_measurement(tmp_path: Path) -> None:
+    """The resonant double beam ring-down (real data, velocity only) stored without change."""
+    csv = Path(__file__).resolve().parents[3] / "shared" / "data" / "resonant-double-beam" / "ringdown-01.csv"
+    if not csv.exists():
+        pytest.skip("shared data not present")
+    out = tmp_path / "beam.h5"
+    assert main(["import", str(csv), "--out", str(out), "--mass", "1"]) == 0
+    ref, got = read_any(str(csv)), read_any(f"{out}:0")
+    np.testing.assert_array_equal(got.channels["vel"], ref.channels["vel"])
+    assert got.rate_hz == ref.rate_hz and got.t.shape == (15719,)  # README: 15,719 samples
+    np.testing.assert_allclose(got.t, ref.t, rtol=0, atol=0.01 / ref.rate_hz)
