@@ -74,8 +74,8 @@ class Status:
     Attributes
     ----------
     state : str
-        ``waiting`` (filling the pre-trigger), ``armed``, ``triggered``, ``holdoff``,
-        ``saved``, ``rejected``.
+        The trigger's: ``waiting`` (filling the pre-trigger), ``armed``, ``triggered``,
+        ``holdoff``. Events (saved, rejected, impact requested) are in ``message``.
     saved, target, rejected : int
         Captures saved, wanted and rejected so far.
     progress : float

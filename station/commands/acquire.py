@@ -47,6 +47,7 @@ class _Live:
         self.tty = enabled and sys.stderr.isatty()
         self._last_key: tuple[Any, ...] | None = None
         self._last_t = 0.0
+        self._last_message = ""
 
     def __call__(self, s: Status) -> None:
         if not self.enabled:
@@ -56,10 +57,11 @@ class _Live:
                 f"dropped {s.dropped_samples}  rejected {s.rejected}  {s.message}")
         if self.tty:
             now = time.monotonic()
-            if now - self._last_t >= 0.1 or s.state in ("saved", "rejected"):
+            if now - self._last_t >= 0.1 or s.message != self._last_message:
                 sys.stderr.write("\r\x1b[K" + line)
                 sys.stderr.flush()
                 self._last_t = now
+                self._last_message = s.message
             return
         key = (s.state, s.saved, s.rejected, s.message)
         if key != self._last_key:
