@@ -299,8 +299,8 @@ class SecondMode(Mechanism):
                 break
         grid = []
         for fp in peaks:
-            for f in fp * np.linspace(0.97, 1.03, 5):
-                for z in (0.005, 0.03):
+            for f in fp * np.linspace(0.92, 1.08, 9):
+                for z in (0.005, 0.02, 0.05):
                     grid.append({"frequency_hz": float(f), "damping_ratio": z})
         return grid
 
