@@ -32,7 +32,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import signal as sps
 from scipy.integrate import cumulative_trapezoid
 from scipy.interpolate import BSpline
 
@@ -233,6 +232,8 @@ def integrate_highpass(t: np.ndarray, acc: np.ndarray, cutoff_hz: float = 2.0,
     x, v : ndarray, shape (n,)
         Displacement [m] and velocity [m/s].
     """
+    from scipy import signal as sps  # local: scipy.signal imports scipy.stats (~0.5 s)
+
     rate = check_time(t)
     sos = sps.butter(order, cutoff_hz, btype="highpass", fs=rate, output="sos")
     v = sps.sosfiltfilt(sos, cumulative_trapezoid(acc, t, initial=0.0))
@@ -309,6 +310,8 @@ def _sg_derivative(y: np.ndarray, rate_hz: float, period_s: float, deriv: int,
     The record is differentiated in two pieces, ``[:split]`` and ``[split:]``, so that the
     jump of the rate at an impact is not smeared into the free response.
     """
+    from scipy import signal as sps  # local: scipy.signal imports scipy.stats (~0.5 s)
+
     out = np.zeros_like(y)
     for lo, hi in ((0, split), (split, y.size)):
         seg = y[lo:hi]
@@ -349,18 +352,27 @@ def _drift_spline(
     knots = np.concatenate(([t0] * 3, inner, [t1] * 3))
     basis = BSpline.design_matrix(t[pts], knots, 3)
     first = 2 if clamped else 0
-    b = basis[:, first:].toarray()
+    # the B-spline block stays sparse (4 non-zeros a row): the normal equations are built
+    # block by block, never as a dense (rows x knots) product (a dense one took 2 s of
+    # multi-threaded BLAS on a 45 s record; this takes a few ms)
+    b = basis.tocsc()[:, first:]
     m = b.shape[1]
     # a light second-difference penalty keeps intervals without samples well posed
     d2 = np.diff(np.eye(m), 2, axis=0)
-    lam = 1e-3 * float(np.mean(np.sum(b * b, axis=0)))
+    btb = (b.T @ b).toarray()
+    lam = 1e-3 * float(np.mean(np.diag(btb)))
     scale = np.max(np.abs(local), axis=0)
     scale[scale == 0] = 1.0
-    design = np.hstack((b, local / scale))
-    pen = np.zeros((design.shape[1],) * 2)
-    pen[:m, :m] = lam * d2.T @ d2
-    sol = np.linalg.solve(design.T @ design + pen + 1e-12 * np.eye(design.shape[1]),
-                          design.T @ x_int[pts])
+    loc = local / scale
+    y = x_int[pts]
+    k = m + loc.shape[1]
+    normal = np.empty((k, k))
+    normal[:m, :m] = btb + lam * d2.T @ d2
+    normal[:m, m:] = np.asarray(b.T @ loc)
+    normal[m:, :m] = normal[:m, m:].T
+    normal[m:, m:] = loc.T @ loc
+    rhs = np.concatenate((np.asarray(b.T @ y).ravel(), loc.T @ y))
+    sol = np.linalg.solve(normal + 1e-12 * np.eye(k), rhs)
     coef = np.zeros(basis.shape[1])
     coef[first:] = sol[:m]
     return BSpline(knots, coef, 3, extrapolate=False)

