@@ -51,7 +51,7 @@ from eddi.simulate import simulate
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, evaluate, parse_terms
 
 #: Default relative margin: the winner must cut the mean held-out nrmse by more than this.
-DEFAULT_MARGIN = 0.2
+DEFAULT_MARGIN = 0.5
 #: The winner's strength parameter must agree over the folds: spread < this times its value.
 DEFAULT_CONSISTENCY = 0.5
 #: Held-out nrmse above this counts as "lost" (a diverged or meaningless simulation).

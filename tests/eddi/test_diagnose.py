@@ -35,7 +35,7 @@ def hidden(name: str, seed: int) -> Effect:
     s = float(np.random.default_rng(seed).uniform(1.0, 2.0))
     params = {
         "coulomb_friction": {"force_n": 0.004 * s},
-        "quadratic_damping": {"coefficient": 1.2 * s},
+        "quadratic_damping": {"coefficient": 2.5 * s},
         "clearance": {"gap_m": 0.4e-3 * s, "stiffness_n_per_m": 150.0 * s},
         "asymmetric_stiffness": {"k2": 3e4 * s},
         "second_mode": {"mass_kg": 0.05, "stiffness_n_per_m": 1777.0 - 250.0 * s,
@@ -132,8 +132,9 @@ def test_given_base_model_keeps_its_coefficients() -> None:
 
 
 def test_extended_model_round_trips_to_json_and_simulates() -> None:
-    eff = hidden("clearance", 5)
-    d = diagnose(records([eff], 5), SYSTEM.mass, damping=DAMPING, stiffness=STIFFNESS)
+    eff = hidden("clearance", 2)
+    d = diagnose(records([eff], 2), SYSTEM.mass, damping=DAMPING, stiffness=STIFFNESS,
+                 mechanisms=["clearance", "coulomb_friction"])
     back = EquationOfMotion.from_json(d.extended.model.to_json())
     assert back == d.extended.model
     assert back.effect("clearance") is not None
