@@ -1,0 +1,72 @@
+"""``station diagnose``: CSV captures from the rig end to end, and one-line errors (exit 2)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from eddi.model import EquationOfMotion
+from simulated_rig.bench import impact_test
+from station.cli import main
+
+SYSTEM = EquationOfMotion.create(mass=0.1, damping={"v": 0.06}, stiffness={"x": 600.0, "x^3": 2e7})
+FRICTION = {"name": "coulomb_friction", "params": {"force_n": 0.006}}
+
+
+def _capture(path: Path, force_n: float, seed: int, rate_hz: float = 5000.0, record_s: float = 4.0) -> Path:
+    r = impact_test(SYSTEM, force_n, rate_hz=rate_hz, pretrigger_s=0.2, record_s=record_s, snr_db=40.0,
+                    effects=[FRICTION], seed=seed)
+    np.savetxt(path, np.column_stack((r.t, r.force_n, r.acc_m_s2)), delimiter=",",
+               header="t,force,acc", comments="", fmt="%.10g")
+    return path
+
+
+def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_friction_found_model_saved_and_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    caps = [str(_capture(tmp_path / f"c{i}.csv", f, i)) for i, f in enumerate((20.0, 25.0, 30.0))]
+    out_model = tmp_path / "extended.json"
+    code, out, err = _run(["diagnose", *caps, "--mass", "0.1", "--json", "--save-model", str(out_model),
+                           "--report", str(tmp_path / "rep")], capsys)
+    assert code == 0, err
+    obj = json.loads(out)
+    assert obj["cause"] == "coulomb_friction"
+    assert obj["extended"]["nrmse"] <= 0.5 * obj["baseline"]["nrmse"]
+    assert obj["gain"] >= 0.5
+    assert {c["name"] for c in obj["candidates"]} == {
+        "coulomb_friction", "quadratic_damping", "clearance", "asymmetric_stiffness", "second_mode"}
+    eom = EquationOfMotion.from_json(out_model.read_text())
+    assert eom.effect("coulomb_friction").params["force_n"] == pytest.approx(0.006, rel=0.15)
+    assert sorted(Path(p).name for p in obj["report"]) == sorted(
+        ["timeseries.png", "energy_per_cycle.png", "backbone.png", "residual_force.png", "spectra.png"])
+    assert all(Path(p).stat().st_size > 1000 for p in obj["report"])
+
+
+def test_bad_inputs_give_one_line_and_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    a = _capture(tmp_path / "a.csv", 25.0, 1, record_s=1.0)
+    b = _capture(tmp_path / "b.csv", 25.0, 2, rate_hz=4000.0, record_s=1.0)
+    short = _capture(tmp_path / "short.csv", 25.0, 3, record_s=0.3)
+    bad_model = tmp_path / "bad.json"
+    bad_model.write_text("{not json")
+    cases = [
+        ([str(a), str(b), "--mass", "0.1"], "different sample rates"),
+        ([str(short), "--mass", "0.1"], "too short to split"),
+        ([str(a), "--model", str(bad_model)], "not valid JSON"),
+        ([str(a), str(a), "--mass", "0.1", "--mechanisms", "magic"], "unknown mechanism"),
+    ]
+    flat = tmp_path / "flat.csv"
+    t = np.arange(2000) / 5000.0
+    np.savetxt(flat, np.column_stack((t, 1e-3 * np.exp(-t))), delimiter=",", header="t,disp", comments="")
+    cases.append(([str(flat), str(flat), "--mass", "0.1"], "zero crossings"))
+    for argv, words in cases:
+        code, out, err = _run(["diagnose", *argv], capsys)
+        assert code == 2, (argv, err)
+        assert err.count("\n") == 1 and words in err, err
+        assert "Traceback" not in err
