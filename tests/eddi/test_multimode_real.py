@@ -1,10 +1,11 @@
 """The modal-sum route on measured ring-downs of the resonant double beam.
 
 Data: ``../shared/data/resonant-double-beam`` (see its README; Cenedese et al., Phil. Trans.
-R. Soc. A 380 (2022), SSMLearn ``examples/resonantdoublebeam``). Skipped when absent.
+R. Soc. A 380 (2022), SSMLearn ``examples/resonantdoublebeam``), or the copies of records 01
+and 05 in ``tests/data/resonant-double-beam`` (PROVENANCE.md there).
 
-Two records train (01, 03), a third (05) is predicted from its initial state. The thresholds
-are relations between models measured on the same held-out record, not stored results.
+Record 01 trains, record 05 is predicted from its initial state. The thresholds are relations
+between models measured on the same held-out record, not stored results.
 """
 
 from __future__ import annotations
@@ -17,17 +18,24 @@ import pytest
 from eddi.multimode import ModalSumModel, identify_modes, impact_index, load_any_model, predict_record
 from tests.conftest import REPO, SHARED_DATA
 
+LOCAL = REPO / "tests" / "data" / "resonant-double-beam"
 DATA = SHARED_DATA / "resonant-double-beam"
 # two dominant resonances (data README; SSMLearn's linear part gives 122.38 and 243.4 Hz)
 F1_HZ, F2_HZ = 122.4, 243.4
 TWO_BANDS = [(40.0, 180.0), (185.0, 400.0)]
 WIDE_BAND = [(20.0, 600.0)]
 
-pytestmark = pytest.mark.skipif(not DATA.is_dir(), reason=f"measured data not present at {DATA}")
+
+def _path(name: str) -> Path:
+    for folder in (DATA, LOCAL):
+        p = folder / f"ringdown-{name}.csv"
+        if p.is_file():
+            return p
+    pytest.skip(f"measured record ringdown-{name}.csv not found in {DATA} or {LOCAL}")
 
 
 def _load(name: str) -> tuple[np.ndarray, np.ndarray]:
-    d = np.loadtxt(DATA / f"ringdown-{name}.csv", delimiter=",", skiprows=1)
+    d = np.loadtxt(_path(name), delimiter=",", skiprows=1)
     t, v = d[:, 0], d[:, 1]
     i0 = impact_index(v)
     return t[i0:] - t[i0], v[i0:]
@@ -35,11 +43,19 @@ def _load(name: str) -> tuple[np.ndarray, np.ndarray]:
 
 @pytest.fixture(scope="module")
 def records() -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    return {n: _load(n) for n in ("01", "03", "05")}
+    return {n: _load(n) for n in ("01", "05")}
+
+
+def test_local_copies_equal_the_shared_records() -> None:
+    for name in ("01", "05"):
+        shared = DATA / f"ringdown-{name}.csv"
+        if not shared.is_file():
+            pytest.skip(f"shared data not present at {DATA}")
+        assert (LOCAL / f"ringdown-{name}.csv").read_bytes() == shared.read_bytes()
 
 
 def test_two_modes_beat_one_on_a_record_not_used_for_fitting(records) -> None:
-    train = [records["01"], records["03"]]
+    train = [records["01"]]
     single, _ = identify_modes(train, WIDE_BAND)
     two, fits = identify_modes(train, TWO_BANDS)
     np.testing.assert_allclose(two.natural_frequencies_hz(), [F1_HZ, F2_HZ], rtol=0.01)
@@ -55,11 +71,11 @@ def test_two_modes_beat_one_on_a_record_not_used_for_fitting(records) -> None:
 
 
 def test_amplitude_terms_lower_the_held_out_error(records) -> None:
-    train = [records["01"], records["03"]]
+    train = [records["01"]]
     linear, _ = identify_modes(train, TWO_BANDS, damping=("v",), stiffness=("x",))
     joint, _ = identify_modes(train, TWO_BANDS)
     held = records["05"]
-    assert predict_record(joint, *held).errors.nmte < predict_record(linear, *held).errors.nmte
+    assert predict_record(joint, *held).errors.nmte < 0.5 * predict_record(linear, *held).errors.nmte
 
 
 def test_shipped_model_loads_and_names_the_two_resonances() -> None:
