@@ -127,16 +127,20 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
     if capture is not None:
         raise InputFileError(f"{path}: a CSV file holds one record; got capture {capture!r}")
     try:
-        with open(path, encoding="utf-8") as fh:
-            header = fh.readline()
+        with open(path, "rb") as fh:
+            header = fh.readline().decode("utf-8")
             if not header.strip():
                 raise InputFileError(f"{path}: empty file; expected a header naming columns t, acc, ...")
             names = [h.strip().lower() for h in header.strip().split(",")]
             _check_header(path, names)
-            try:
-                data = np.loadtxt(fh, delimiter=",", ndmin=2, dtype=float)
-            except ValueError as exc:
-                raise InputFileError(f"{path}: {_row_problem(path, len(names), exc)}") from None
+            data = _parse_fast(fh.read(), len(names))
+        if data is None:  # not plain decimals: numpy's reader, and its error messages
+            with open(path, encoding="utf-8") as fh:
+                fh.readline()
+                try:
+                    data = np.loadtxt(fh, delimiter=",", ndmin=2, dtype=float)
+                except ValueError as exc:
+                    raise InputFileError(f"{path}: {_row_problem(path, len(names), exc)}") from None
     except UnicodeDecodeError:
         raise InputFileError(f"{path}: not a text CSV file") from None
     if data.size == 0:
@@ -166,6 +170,41 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
         t=t, channels=MappingProxyType(cols), rate_hz=rate, pretrigger_samples=None, mass=None,
         source=str(path), metadata={"format": "csv", "columns": names},
     )
+
+
+def _parse_fast(body: bytes, n_cols: int) -> np.ndarray | None:
+    """Parse the data rows of a CSV of plain decimal numbers, or None to use ``np.loadtxt``.
+
+    A compiled single pass (:func:`_parse_csv`) reads ``-12.345e-6``-style numbers with up to
+    15 significant digits and a decimal exponent within +-22, where ``mantissa * 10^e`` (or
+    ``/ 10^-e``) is one correctly rounded operation (Clinger's fast path), so the values are
+    bit-identical to ``strtod``'s. Anything else (more digits, ``nan``, comments, ragged rows,
+    text) returns None and the caller falls back to ``np.loadtxt``. Measured on a 45 s,
+    19.2 kHz record (33 MB, 2.6 M numbers): 0.12 s instead of 0.55-0.85 s.
+
+    Parameters
+    ----------
+    body : bytes
+        Everything after the header line.
+    n_cols : int
+        Values per row.
+
+    Returns
+    -------
+    ndarray, shape (n_rows, n_cols), or None
+    """
+    from station._fastcsv import parse_csv  # local: compiled with numba on first use
+
+    buf = np.frombuffer(body, dtype=np.uint8)
+    out = np.empty((body.count(b"\n") + 1, n_cols))
+    rows, status = parse_csv(buf, n_cols, _POW10, out)
+    if status != 0:
+        return None
+    return out[:rows]
+
+
+#: Exact powers of ten for the fast CSV path.
+_POW10 = np.array([10.0**i for i in range(23)])
 
 
 def _check_header(path: Path, names: list[str]) -> None:
