@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -21,6 +22,9 @@ from eddi.model import EquationOfMotion
 from eddi.phase_one import PhaseOneResult, phase_one
 from eddi.phase_two import ROUTES, PhaseTwoResult, lagrangian_route, potential_route
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, Term, parse_terms
+
+if TYPE_CHECKING:
+    from eddi.refine import Refinement
 
 
 @dataclass(frozen=True)
@@ -44,6 +48,11 @@ class IdentifiedModel:
         over the span of the crossings (lower is better); empty otherwise.
     alternatives : dict of str to PhaseTwoResult
         Phase-two results of the routes tried.
+    unrefined : EquationOfMotion or None
+        With ``refine=True``: the EDDI estimate before the output-error refinement
+        (``eom`` is then the refined model); None otherwise.
+    refinement : Refinement or None
+        With ``refine=True``: what the refinement did (:class:`eddi.refine.Refinement`).
     """
 
     eom: EquationOfMotion
@@ -53,6 +62,8 @@ class IdentifiedModel:
     window: tuple[int, int]
     route_scores: dict[str, float] = field(default_factory=dict)
     alternatives: dict[str, PhaseTwoResult] = field(default_factory=dict)
+    unrefined: EquationOfMotion | None = None
+    refinement: Refinement | None = None
 
 
 def _terms(spec: str | tuple[str, ...] | list[str], what: str) -> tuple[Term, ...]:
@@ -95,6 +106,7 @@ def identify(
     v_fraction: float = 0.2,
     anchored: bool = True,
     noise: str | tuple[float, float] | None = "auto",
+    refine: bool = False,
 ) -> IdentifiedModel:
     """Identify an equation of motion from a free response with the EDDI method.
 
@@ -139,6 +151,12 @@ def identify(
         paper-case coefficients by < 1e-8 relative); ``None`` assumes clean signals; or
         give the standard deviations. It sets a 4-sigma dead band on the zero crossings and
         inverse-variance row weights in phase one and the potential route.
+    refine : bool
+        After EDDI, refine the coefficients by an output-error fit (:mod:`eddi.refine`):
+        the model's free response from a fitted initial state is fitted to the measured
+        ``a`` (or ``x`` without ``a``) over the window. Not part of the paper's method;
+        the EDDI estimate is kept in ``unrefined``. Much more accurate on noisy records
+        (``docs/eddi-method.md``), and slower (some 200 simulations of the window).
 
     Returns
     -------
@@ -217,9 +235,17 @@ def identify(
     else:
         chosen = route
     p2 = results[chosen]
+    eom = model(p2)
+    unrefined = None
+    refinement = None
+    if refine:
+        from eddi.refine import refine_output_error  # local: scipy.optimize, the simulator
+
+        unrefined = eom
+        eom, refinement = refine_output_error(eom, tw, xw, vw, aw)
     return IdentifiedModel(
-        eom=model(p2), route=chosen, phase_one=p1, phase_two=p2, window=(w0, w1),
-        route_scores=scores, alternatives=results,
+        eom=eom, route=chosen, phase_one=p1, phase_two=p2, window=(w0, w1),
+        route_scores=scores, alternatives=results, unrefined=unrefined, refinement=refinement,
     )
 
 

@@ -64,6 +64,7 @@ def identify_measurement(
     stiffness: str | tuple[str, ...] | list[str] = DEFAULT_STIFFNESS,
     route: str = "auto",
     sensor_only: bool = False,
+    refine: bool = False,
 ) -> PipelineResult:
     """Identify and validate an equation of motion from a conditioned measurement.
 
@@ -80,6 +81,8 @@ def identify_measurement(
     sensor_only : bool
         Also validate with the force sensor alone (one more simulation), filling
         ``nrmse_force_sensor``.
+    refine : bool
+        Refine EDDI's coefficients by an output-error fit (see :func:`eddi.identify.identify`).
 
     Returns
     -------
@@ -91,7 +94,7 @@ def identify_measurement(
         As :func:`eddi.identify.identify`.
     """
     model = identify(cond.t, cond.x, cond.v, mass, damping=damping, stiffness=stiffness,
-                     route=route, a=cond.a, window=cond.window)
+                     route=route, a=cond.a, window=cond.window, refine=refine)
     force = cond.impact_force
     if force is not None and cond.impact_start > 0:
         # simulate from the start of the motion to the end of the window, no further (the

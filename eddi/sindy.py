@@ -1,7 +1,10 @@
 """SINDy baseline (pysindy), with the same candidate terms as EDDI.
 
 SINDy regresses the acceleration on the candidate library with sequentially thresholded
-least squares (STLSQ): ``a = sum_f c_f f(x, v)``. With ``m a = -sum b_j B_j - sum k_n K_n``
+least squares (STLSQ): ``a = sum_f c_f f(x, v)``. Two variants: the acceleration is given
+(a measured one: the stronger baseline), or ``a=None`` and pysindy differentiates the state
+``(x, v)`` itself with its default ``FiniteDifference`` (second-order centred), as the paper
+used SINDy (it is fed the state time series). With ``m a = -sum b_j B_j - sum k_n K_n``
 the coefficients of the equation of motion are ``-m c_f``. pysindy is a test/benchmark
 extra, so it is imported only when :func:`sindy_identify` runs.
 """
@@ -27,7 +30,7 @@ def sindy_identify(
     t: np.ndarray,
     x: np.ndarray,
     v: np.ndarray,
-    a: np.ndarray,
+    a: np.ndarray | None,
     mass: float,
     damping: str | tuple[str, ...] | list[str] = DEFAULT_DAMPING,
     stiffness: str | tuple[str, ...] | list[str] = DEFAULT_STIFFNESS,
@@ -39,8 +42,11 @@ def sindy_identify(
     Parameters
     ----------
     t : ndarray, shape (n,), [s]
-    x, v, a : ndarray, shape (n,)
-        Coordinate, rate and acceleration (given, not differentiated by SINDy).
+    x, v : ndarray, shape (n,)
+        Coordinate and rate.
+    a : ndarray, shape (n,), or None
+        Acceleration given to SINDy; None: pysindy differentiates ``(x, v)`` itself
+        (``FiniteDifference``, its default), the paper's usage.
     mass : float
         Mass or inertia (> 0).
     damping, stiffness : str or sequence of str
@@ -85,8 +91,11 @@ def sindy_identify(
         feature_library=library,
     )
     states = np.column_stack([sig["x"], sig["v"]])
-    rates = np.column_stack([sig["v"], sig["a"]])
-    model.fit(states, t=t, x_dot=rates, feature_names=["x", "v"])
+    if sig["a"] is None:
+        model.fit(states, t=t, feature_names=["x", "v"])
+    else:
+        rates = np.column_stack([sig["v"], sig["a"]])
+        model.fit(states, t=t, x_dot=rates, feature_names=["x", "v"])
     coef = np.asarray(model.coefficients())
     if coef.shape != (2, len(terms)):
         raise IdentificationError(f"SINDy returned coefficients of shape {coef.shape}; expected (2, {len(terms)})")
@@ -96,5 +105,6 @@ def sindy_identify(
         damping={tm.text: float(ci) for tm, ci in zip(d_terms, c[: len(d_terms)])},
         stiffness={tm.text: float(ci) for tm, ci in zip(k_terms, c[len(d_terms):])},
         coordinate=coordinate,
-        notes=f"identified by SINDy (STLSQ threshold {threshold})",
+        notes=f"identified by SINDy (STLSQ threshold {threshold}"
+              + (", state differentiated by pysindy)" if sig["a"] is None else ", acceleration given)"),
     )
