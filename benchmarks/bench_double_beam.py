@@ -23,6 +23,7 @@ import json
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy import signal
@@ -65,7 +66,12 @@ def load_records(folder: Path) -> tuple[list[str], list[tuple[np.ndarray, np.nda
     return names, recs
 
 
-def leave_one_out(recs, bands, damping, stiffness, window_s):
+Records = list[tuple[np.ndarray, np.ndarray]]
+
+
+def leave_one_out(recs: Records, bands: list[tuple[float, float]], damping: tuple[str, ...],
+                  stiffness: tuple[str, ...], window_s: float) -> tuple[list[ModalSumModel], list[Prediction]]:
+    """Identify on all records but one, predict that one from its initial state; every record."""
     preds: list[Prediction] = []
     models: list[ModalSumModel] = []
     for i in range(len(recs)):
@@ -77,7 +83,8 @@ def leave_one_out(recs, bands, damping, stiffness, window_s):
     return models, preds
 
 
-def residual_spectrum_share(recs, preds, bands_hz=((100.0, 145.0), (220.0, 265.0))):
+def residual_spectrum_share(recs: Records, preds: list[Prediction],
+                            bands_hz: tuple[tuple[float, float], ...] = ((100.0, 145.0), (220.0, 265.0))) -> np.ndarray:
     """Share of the prediction residual's power in each band, pooled over records."""
     shares = np.zeros(len(bands_hz))
     total = 0.0
@@ -90,7 +97,7 @@ def residual_spectrum_share(recs, preds, bands_hz=((100.0, 145.0), (220.0, 265.0
     return shares / total
 
 
-def mode_backbones(model: ModalSumModel, recs, amplitudes_m):
+def mode_backbones(model: ModalSumModel, recs: Records, amplitudes_m: list[list[float]]) -> list[dict[str, Any]]:
     """Per mode: measured (pooled) and model frequency / damping ratio at given amplitudes."""
     out = []
     for k, eom in enumerate(model.modes):
@@ -126,7 +133,7 @@ def mode_backbones(model: ModalSumModel, recs, amplitudes_m):
     return out
 
 
-def coupling_test(model: ModalSumModel, recs):
+def coupling_test(model: ModalSumModel, recs: Records) -> dict[str, dict[str, Any]]:
     """Share of each mode's residual force that candidate coupling terms explain (least squares)."""
     names = ["x1^2", "x1*x2", "x2^2", "x1*v2", "v1*x2", "x1^2*x2", "x1*x2^2"]
     res: dict[int, list[np.ndarray]] = {0: [], 1: []}
@@ -157,7 +164,7 @@ def coupling_test(model: ModalSumModel, recs):
     return out
 
 
-def energy_rises(model: ModalSumModel, recs):
+def energy_rises(model: ModalSumModel, recs: Records) -> dict[str, dict[str, float]]:
     """Cycles where a mode's energy grows (energy flowing in), as a share of all cycles."""
     rises = np.zeros(2)
     counts = np.zeros(2)
@@ -182,7 +189,7 @@ def energy_rises(model: ModalSumModel, recs):
                              "largest_rise_per_cycle": float(biggest[k])} for k in range(2)}
 
 
-def generic_diagnosis(names, recs):
+def generic_diagnosis(names: list[str], recs: Records) -> dict[str, Any]:
     """The project's generic discrepancy loop on the single-DOF baseline (per unit mass)."""
     from eddi.diagnose import Record, diagnose
 
@@ -198,7 +205,9 @@ def generic_diagnosis(names, recs):
     }
 
 
-def figures(outdir: Path, names, recs, results, model_all: ModalSumModel, backbones) -> list[str]:
+def figures(outdir: Path, names: list[str], recs: Records, results: dict[str, dict[str, Any]],
+            model_all: ModalSumModel, backbones: list[dict[str, Any]]) -> list[str]:
+    """Write the four PNG figures of docs/real-data.md; return their paths."""
     from matplotlib.figure import Figure
 
     outdir.mkdir(parents=True, exist_ok=True)
@@ -299,13 +308,14 @@ def figures(outdir: Path, names, recs, results, model_all: ModalSumModel, backbo
     return written
 
 
-def _save(fig, path: Path) -> str:
+def _save(fig: Any, path: Path) -> str:
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     return str(path)
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the benchmark; print the table (or JSON); 2 when the data folder is missing."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA)
     ap.add_argument("--window-ms", type=float, default=20.0, help="initial-state window [ms]")
