@@ -347,6 +347,57 @@ def separate_modes(
     )
 
 
+def suggest_bands(
+    t: np.ndarray, v: np.ndarray, n_modes: int, *, min_ratio: float = 1.2,
+    min_power_ratio: float = 1e-4,
+) -> tuple[tuple[float, float], ...]:
+    """Separation bands around the ``n_modes`` strongest spectral peaks of a record.
+
+    Peaks of the Welch spectrum closer than a frequency ratio ``min_ratio`` count as one;
+    peaks below ``min_power_ratio`` times the largest are ignored.
+    Neighbouring bands meet at the geometric mean of their peaks; the outer edges sit at a
+    third below the lowest peak and 60 % above the highest (below 0.45 of the sample rate).
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,), [s]
+    v : ndarray, shape (n,)
+    n_modes : int
+    min_ratio : float
+    min_power_ratio : float
+
+    Returns
+    -------
+    tuple of (low, high), [Hz], sorted by frequency
+
+    Raises
+    ------
+    SignalError
+        If fewer than ``n_modes`` separate peaks are found.
+    """
+    t, v, dt = _check_signal(t, v)
+    fs = 1.0 / dt
+    freqs, power = signal.welch(v, fs=fs, nperseg=min(v.size, 4096))
+    peaks, _ = signal.find_peaks(power, height=min_power_ratio * float(np.max(power)))
+    peaks = peaks[freqs[peaks] > 0]
+    chosen: list[float] = []
+    for i in peaks[np.argsort(power[peaks])[::-1]]:
+        f = float(freqs[i])
+        if all(max(f, c) / min(f, c) >= min_ratio for c in chosen):
+            chosen.append(f)
+        if len(chosen) == n_modes:
+            break
+    if len(chosen) < n_modes:
+        raise SignalError(
+            f"expected {n_modes} separate spectral peaks (ratio >= {min_ratio}), found {len(chosen)}"
+        )
+    chosen.sort()
+    edges = [chosen[0] / 1.5]
+    edges += [math.sqrt(a * b) for a, b in zip(chosen[:-1], chosen[1:])]
+    edges.append(min(chosen[-1] * 1.6, 0.45 * fs))
+    return tuple((float(lo), float(hi)) for lo, hi in zip(edges[:-1], edges[1:]))
+
+
 # -- per-mode EDDI, stacked over records ------------------------------------------------------
 
 
@@ -782,6 +833,7 @@ __all__ = [
     "predict_record",
     "separate_modes",
     "simulate_modal",
+    "suggest_bands",
     "trajectory_errors",
 ]
 

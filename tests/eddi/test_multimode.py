@@ -19,7 +19,7 @@ from eddi.model import EquationOfMotion
 from eddi.multimode import (
     ModalSumModel, differentiate_high_order, estimate_initial_states, identify_modes,
     integrate_high_order, load_any_model, predict_record, separate_modes, simulate_modal,
-    trajectory_errors,
+    suggest_bands, trajectory_errors,
 )
 
 FS = 5120.3277  # sample rate of the double-beam records [Hz]
@@ -160,3 +160,15 @@ def test_bad_signals_are_refused() -> None:
     t_rounded = np.round(_t(4000), 7)
     comp = separate_modes(t_rounded, np.sin(2 * np.pi * 122.4 * t_rounded), BANDS)
     assert comp.v.shape == (2, 4000)
+
+
+def test_suggested_bands_hold_one_mode_each() -> None:
+    t, v = _record(0.6, 1.4)
+    bands = suggest_bands(t, v, 2)
+    f1, f2 = TRUE.natural_frequencies_hz()
+    assert len(bands) == 2
+    assert bands[0][0] < f1 < bands[0][1] <= bands[1][0] < f2 < bands[1][1]
+    assert bands[0][1] == pytest.approx(math.sqrt(f1 * f2), rel=0.01)
+    one = simulate_modal(TRUE, t, np.array([[0.0, 0.6], [0.0, 0.0]])).v
+    with pytest.raises(SignalError, match="expected 3 separate spectral peaks"):
+        suggest_bands(t, one + 1e-9 * np.sin(2 * np.pi * 243.4 * t), 3)
