@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import signal
 
+from eddi.identify_many import Basis, gap_basis, tanh_basis, term_basis
 from eddi.model import Effect, EquationOfMotion
 from eddi.terms import parse_term
 
@@ -108,6 +109,13 @@ class Mechanism(abc.ABC):
     refine: tuple[str, ...] = ()
     #: The parameter that says how strong the mechanism is (its spread over folds is checked).
     strength: str = ""
+    #: How EDDI fits it natively: ``"damping"`` (phase one), ``"stiffness"`` (phase two) or
+    #: ``""`` (not a single-coordinate term: fitted on the baseline's residual force).
+    native: str = ""
+
+    def bases(self, shape: dict[str, float], stiffness: tuple[str, ...]) -> tuple[Basis, ...]:
+        """EDDI bases of the mechanism, in the order of :meth:`columns` (native ones only)."""
+        return ()
 
     def strength_key(self, stiffness: tuple[str, ...]) -> str:
         """Name of the strength parameter for a baseline with these stiffness terms."""
@@ -157,6 +165,11 @@ class CoulombFriction(Mechanism):
         # tanh regularisation well below the velocities that matter
         return [{"velocity_scale": float(np.clip(1e-3 * ctx.v_peak, 1e-7, 1e-4))}]
 
+    native = "damping"
+
+    def bases(self, shape, stiffness):
+        return (tanh_basis(shape["velocity_scale"]),)
+
     def columns(self, sig, shape, stiffness):
         return np.tanh(sig.v / shape["velocity_scale"])[:, None]
 
@@ -183,6 +196,11 @@ class QuadraticDamping(Mechanism):
             return "abs(v)*v is already a damping term"
         return super().skip_reason(damping, stiffness, effects)
 
+    native = "damping"
+
+    def bases(self, shape, stiffness):
+        return (term_basis("abs(v)*v"),)
+
     def columns(self, sig, shape, stiffness):
         return (np.abs(sig.v) * sig.v)[:, None]
 
@@ -207,6 +225,11 @@ class Clearance(Mechanism):
     def shape_grid(self, ctx):
         # gaps between 5 % and 90 % of the largest training amplitude, denser at small gaps
         return [{"gap_m": float(ctx.x_peak * f)} for f in np.linspace(0.05, 0.9, 20)]
+
+    native = "stiffness"
+
+    def bases(self, shape, stiffness):
+        return (gap_basis(shape["gap_m"]),)
 
     def columns(self, sig, shape, stiffness):
         g = shape["gap_m"]
@@ -241,6 +264,11 @@ class AsymmetricStiffness(Mechanism):
         if not self._missing(stiffness):
             return "x^2 and x^4 are already stiffness terms"
         return super().skip_reason(damping, stiffness, effects)
+
+    native = "stiffness"
+
+    def bases(self, shape, stiffness):
+        return tuple(term_basis(f"x^{p}") for p in self._missing(stiffness))
 
     def columns(self, sig, shape, stiffness):
         return np.column_stack([sig.x**p for p in self._missing(stiffness)])
@@ -304,13 +332,13 @@ class SecondMode(Mechanism):
                     grid.append({"frequency_hz": float(f), "damping_ratio": z})
         return grid
 
+    # not a single-coordinate term: the force it puts on x depends on the history of x. In
+    # EDDI its power v g is nearly collinear with v^2 (g ~ x - 2 z v / w2 + ...), so phase one
+    # cannot tell it from viscous damping; it is refitted jointly with the baseline terms by
+    # equation error instead (``native`` stays empty)
+
     def columns(self, sig, shape, stiffness):
-        w = 2 * math.pi * shape["frequency_hz"]
-        z = shape["damping_ratio"]
-        k = 2.0 / sig.dt  # bilinear transform of w^2 / (s^2 + 2 z w s + w^2)
-        a = np.array([k * k + 2 * z * w * k + w * w, 2 * (w * w - k * k), k * k - 2 * z * w * k + w * w])
-        b = w * w * np.array([1.0, 2.0, 1.0])
-        return signal.lfilter(b / a[0], a / a[0], sig.x)[:, None]
+        return _mode_filter(sig.x, shape["frequency_hz"], shape["damping_ratio"], sig.dt)[:, None]
 
     def to_fit(self, coefs, shape, mass, stiffness):
         cg = float(coefs[0])
@@ -331,6 +359,16 @@ class SecondMode(Mechanism):
         f2 = math.sqrt((p["stiffness_n_per_m"] + p["coupling_n_per_m"]) / p["mass_kg"]) / (2 * math.pi)
         return (f"misses response energy at a second frequency near {f2:.4g} Hz that a single "
                 "mode cannot produce: a second mode")
+
+
+def _mode_filter(x: np.ndarray, frequency_hz: float, damping_ratio: float, dt: float) -> np.ndarray:
+    """``g = G x`` with the unit-gain filter ``w^2 / (s^2 + 2 z w s + w^2)`` (bilinear transform)."""
+    w = 2 * math.pi * frequency_hz
+    z = damping_ratio
+    k = 2.0 / dt
+    a = np.array([k * k + 2 * z * w * k + w * w, 2 * (w * w - k * k), k * k - 2 * z * w * k + w * w])
+    b = w * w * np.array([1.0, 2.0, 1.0])
+    return signal.lfilter(b / a[0], a / a[0], x)
 
 
 def _residual_spectrum(ctx: Context, fs: float) -> tuple[np.ndarray, np.ndarray]:
