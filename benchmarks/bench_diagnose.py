@@ -1,103 +1,188 @@
 """Detection limits and false alarms of ``eddi.diagnose``, and its run time.
 
-For each mechanism, its magnitude is swept against the accelerometer SNR; each point hides
-the mechanism in the reference system, records three impacts through the acceleration-only
-chain (simulated rig -> conditioning) and runs the diagnosis. The smallest magnitude found
-(right cause) at each SNR is printed, then the false-alarm rate on null cases (nothing
-hidden) over many seeds, then the time to diagnose three 6 s captures at 10 kHz.
+Every case hides one mechanism (``simulated_rig.systems.hide_effect``: its force at the
+typical amplitude as a fraction ``magnitude`` of the linear spring force there) in a system,
+records three impacts through the acceleration-only chain (simulated rig -> conditioning,
+with noise at the given accelerometer SNR) and runs the diagnosis. Null cases hide nothing.
 
-    python benchmarks/bench_diagnose.py [--quick]
+Each run prints one JSON line (``--out FILE`` appends them to a file), with, besides the
+verdict at the margin used, the largest gain of a candidate that passed every other test
+(``passing_gain``): the margin a null case would have needed to stay silent, or the margin
+under which a hidden case is still found. ``--summary FILE`` reads such lines and prints,
+for a margin, the false-alarm rate and the smallest magnitude found per mechanism and SNR.
 
+    python benchmarks/bench_diagnose.py --nulls --seeds 10 --out runs.jsonl
+    python benchmarks/bench_diagnose.py --limits --seeds 2 --out runs.jsonl
+    python benchmarks/bench_diagnose.py --summary runs.jsonl [--margin 0.25]
+    python benchmarks/bench_diagnose.py --speed
+
+Add ``--fit equation-error`` to measure the equation-error fit instead of EDDI's.
 The numbers are quoted in docs/diagnosis.md.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import time
+from collections import defaultdict
 
 import numpy as np
 
 from eddi.conditioning import condition
-from eddi.diagnose import Record, diagnose
+from eddi.diagnose import DEFAULT_MARGIN, Record, diagnose
 from eddi.model import EquationOfMotion
 from simulated_rig.bench import impact_test
+from simulated_rig.systems import hide_effect
 
-#: Reference system: 12.3 Hz, zeta 0.4 %, mildly hardening (about 8 % at 1.6 mm).
-SYSTEM = EquationOfMotion.create(mass=0.1, damping={"v": 0.06}, stiffness={"x": 600.0, "x^3": 2e7})
-FORCES_N = (12.0, 20.0, 30.0)
 DAMPING = "v,x^2*v,v^3"
 STIFFNESS = "x,x^2,x^3,x^4,x^5"
-
-#: Magnitude ladders (a scale factor s multiplies a reference magnitude).
-LADDER = (0.05, 0.1, 0.2, 0.4, 0.8, 1.6)
+MECHANISMS = ("coulomb_friction", "quadratic_damping", "clearance", "asymmetric_stiffness", "second_mode")
 
 
-def hidden(name: str, s: float) -> dict:
-    """The hidden effect ``name`` at scale ``s`` (1 = clearly visible on the reference system)."""
-    if name == "coulomb_friction":
-        return {"name": name, "params": {"force_n": 0.005 * s}}
-    if name == "quadratic_damping":
-        return {"name": name, "params": {"coefficient": 0.5 * s}}
-    if name == "clearance":
-        return {"name": name, "params": {"gap_m": 0.5e-3, "stiffness_n_per_m": 200.0 * s}}
-    if name == "asymmetric_stiffness":
-        return {"name": name, "params": {"k2": 4e4 * s}}
-    if name == "second_mode":
-        # 30 Hz second mode, coupling scaled
-        kc = 300.0 * s
-        return {"name": name, "params": {"mass_kg": 0.05, "stiffness_n_per_m": 1777.0 - kc,
-                                         "damping_n_s_per_m": 0.1, "coupling_n_per_m": kc}}
-    raise ValueError(name)
+def systems() -> dict[str, tuple[EquationOfMotion, tuple[float, ...], float, float]]:
+    """name -> (system, peak forces [N], sample rate [Hz], record length [s])."""
+    return {
+        # the tests' system: 12.3 Hz, zeta 0.4 %, about 8 % frequency shift at 1.6 mm
+        "mild": (EquationOfMotion.create(mass=0.1, damping={"v": 0.06},
+                                         stiffness={"x": 600.0, "x^3": 2e7}), (20.0, 25.0, 30.0), 5000.0, 4.0),
+        # nearly linear: 0.8 % shift at the typical amplitude
+        "linear": (EquationOfMotion.create(mass=0.1, damping={"v": 0.06},
+                                           stiffness={"x": 600.0, "x^3": 2e6}), (20.0, 25.0, 30.0), 5000.0, 4.0),
+        # strongly hardening with nonlinear damping: about 40 % frequency shift
+        "hard": (EquationOfMotion.create(mass=0.1, damping={"v": 0.05, "x^2*v": 2000.0},
+                                         stiffness={"x": 600.0, "x^3": 1.5e8}), (20.0, 25.0, 30.0), 5000.0, 4.0),
+    }
 
 
-def records(effects: list[dict], seed: int, snr_db: float, rate_hz: float = 5000.0,
-            record_s: float = 4.0) -> list[Record]:
-    out = []
-    for i, f in enumerate(FORCES_N):
-        r = impact_test(SYSTEM, f * (1 + 0.1 * ((seed + i) % 3)), rate_hz=rate_hz, pretrigger_s=0.2,
-                        record_s=record_s, snr_db=snr_db, effects=effects, seed=1000 * seed + i)
+def typical_amplitude(eom: EquationOfMotion, force: float, rate: float) -> tuple[float, float]:
+    r = impact_test(eom, force, rate_hz=rate, pretrigger_s=0.05, record_s=0.5, snr_db=None, seed=0)
+    return float(np.max(np.abs(r.truth_x))), float(np.max(np.abs(r.truth_v)))
+
+
+def run(system: str, name: str | None, magnitude: float, seed: int, snr_db: float, fit: str,
+        margin: float) -> dict:
+    eom, forces, rate, record_s = systems()[system]
+    truth = eom
+    if name:
+        amp, vel = typical_amplitude(eom, forces[1], rate)
+        truth = hide_effect(eom, name, magnitude, seed, amplitude_m=amp, velocity_m_s=vel)
+    recs = []
+    for i, f in enumerate(forces):
+        r = impact_test(truth, f, rate_hz=rate, pretrigger_s=0.2, record_s=record_s, snr_db=snr_db,
+                        seed=1000 * seed + 10 * i + 7)
         c = condition(r.t, acc=r.acc_m_s2, force=r.force_n, pretrigger_samples=r.pretrigger_samples)
-        out.append(Record.from_conditioned(c, label=f"impact {i + 1}"))
-    return out
-
-
-def run(name: str | None, s: float, seed: int, snr_db: float) -> tuple[str, float]:
-    effects = [hidden(name, s)] if name else []
+        recs.append(Record.from_conditioned(c, label=f"impact {i + 1}"))
     stiff = "x,x^3" if name == "asymmetric_stiffness" else STIFFNESS
-    d = diagnose(records(effects, seed, snr_db), SYSTEM.mass, damping=DAMPING, stiffness=stiff)
-    return d.cause, d.gain
+    t0 = time.perf_counter()
+    d = diagnose(recs, eom.mass, damping=DAMPING, stiffness=stiff, fit=fit, margin=margin)
+    passing = [c for c in d.candidates if not c.skipped and c.model is not None
+               and c.wins_every_part and c.consistent]
+    true_c = next((c for c in d.candidates if c.name == name), None)
+    return {
+        "system": system, "mechanism": name or "none", "magnitude": magnitude, "seed": seed,
+        "snr_db": snr_db, "fit": fit, "margin": margin, "cause": d.cause,
+        "baseline_nrmse": d.baseline.nrmse, "extended_nrmse": d.extended.nrmse,
+        "passing_gain": max((c.gain for c in passing), default=float("-inf")),
+        "passing_best": max(passing, key=lambda c: c.gain).name if passing else "none",
+        "true_gain": true_c.gain if true_c else None,
+        "true_passes": bool(true_c and true_c.wins_every_part and true_c.consistent),
+        "top": d.candidates[0].name, "seconds": time.perf_counter() - t0,
+    }
+
+
+def emit(row: dict, out: str | None) -> None:
+    line = json.dumps(row)
+    print(line, flush=True)
+    if out:
+        with open(out, "a") as fh:
+            fh.write(line + "\n")
+
+
+def summary(path: str, margin: float) -> None:
+    rows = [json.loads(s) for s in open(path) if s.strip()]
+    by_fit = defaultdict(list)
+    for r in rows:
+        by_fit[r["fit"]].append(r)
+    for fit, rs in by_fit.items():
+        print(f"== fit = {fit}, margin = {margin}")
+        nulls = [r for r in rs if r["mechanism"] == "none"]
+        groups = defaultdict(list)
+        for r in nulls:
+            groups[(r["system"], r["snr_db"])].append(r)
+        for key in sorted(groups):
+            g = groups[key]
+            alarms = [r["passing_best"] for r in g if r["passing_gain"] > margin]
+            worst = max(r["passing_gain"] for r in g)
+            print(f"null {key[0]:<7} {key[1]:>4.0f} dB: {len(alarms)}/{len(g)} false alarms {alarms} "
+                  f"(largest passing gain {worst:+.3f})")
+        if nulls:
+            worst = max(r["passing_gain"] for r in nulls)
+            print(f"all nulls: {sum(r['passing_gain'] > margin for r in nulls)}/{len(nulls)} false alarms; "
+                  f"smallest margin with none: {max(worst, 0):.3f}")
+        hid = [r for r in rs if r["mechanism"] != "none"]
+        cells = defaultdict(lambda: defaultdict(list))
+        for r in hid:
+            found = (r["true_passes"] and r["true_gain"] is not None and r["true_gain"] > margin
+                     and r["top"] == r["mechanism"])
+            cells[(r["system"], r["mechanism"], r["snr_db"])][r["magnitude"]].append(found)
+        if cells:
+            print("smallest magnitude found on every seed (fraction of k1 A at the typical amplitude)")
+        for key in sorted(cells):
+            mags = cells[key]
+            ok = [m for m in sorted(mags) if all(mags[m]) and all(all(mags[n]) for n in mags if n >= m)]
+            print(f"{key[0]:<7} {key[1]:<22} {key[2]:>4.0f} dB: {ok[0] if ok else '-'}   "
+                  + " ".join(f"{m:g}:{sum(v)}/{len(v)}" for m, v in sorted(mags.items())))
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="fewer SNRs and seeds")
+    ap.add_argument("--nulls", action="store_true", help="null cases (nothing hidden)")
+    ap.add_argument("--limits", action="store_true", help="magnitude sweeps of every mechanism")
+    ap.add_argument("--speed", action="store_true", help="three 6 s captures at 10 kHz")
+    ap.add_argument("--summary", metavar="FILE", help="summarise JSON lines of earlier runs")
+    ap.add_argument("--fit", default="eddi", choices=("eddi", "equation-error"))
+    ap.add_argument("--margin", type=float, default=DEFAULT_MARGIN)
+    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--seed0", type=int, default=0)
+    ap.add_argument("--systems", default="mild,linear,hard")
+    ap.add_argument("--snrs", default="60,30")
+    ap.add_argument("--mechanisms", default=",".join(MECHANISMS))
+    ap.add_argument("--magnitudes", default="0.005,0.01,0.02,0.05,0.1")
+    ap.add_argument("--out", metavar="FILE")
     args = ap.parse_args()
-    snrs = (45.0, 30.0) if args.quick else (60.0, 45.0, 30.0, 20.0)
-    seeds = range(2) if args.quick else range(3)
-    names = ("coulomb_friction", "quadratic_damping", "clearance", "asymmetric_stiffness", "second_mode")
-    print("smallest magnitude (scale of the reference) found on every seed, per SNR [dB]")
-    print(f"{'mechanism':<22}" + "".join(f"{snr:>8.0f}" for snr in snrs))
-    for name in names:
-        row = []
-        for snr in snrs:
-            found = "-"
-            for s in LADDER:
-                if all(run(name, s, seed, snr)[0] == name for seed in seeds):
-                    found = f"{s:g}"
-                    break
-            row.append(found)
-        print(f"{name:<22}" + "".join(f"{v:>8}" for v in row), flush=True)
-    n_null = 6 if args.quick else 20
-    for snr in snrs:
-        alarms = [run(None, 1.0, seed, snr) for seed in range(n_null)]
-        bad = [c for c, _ in alarms if c != "none"]
-        print(f"false alarms at {snr:.0f} dB: {len(bad)}/{n_null} {bad}  "
-              f"(largest gain of a null: {max(g for _, g in alarms):.3f})", flush=True)
-    recs = records([hidden("clearance", 1.0)], 0, 45.0, rate_hz=10000.0, record_s=6.0)
-    t0 = time.perf_counter()
-    diagnose(recs, SYSTEM.mass, damping=DAMPING, stiffness=STIFFNESS)
-    print(f"three 6 s captures at 10 kHz diagnosed in {time.perf_counter() - t0:.1f} s")
+    if args.summary:
+        summary(args.summary, args.margin)
+        return
+    snrs = [float(s) for s in args.snrs.split(",")]
+    seeds = range(args.seed0, args.seed0 + args.seeds)
+    if args.nulls:
+        for system in args.systems.split(","):
+            for snr in snrs:
+                for seed in seeds:
+                    emit(run(system, None, 0.0, seed, snr, args.fit, args.margin), args.out)
+    if args.limits:
+        for system in args.systems.split(","):
+            for name in args.mechanisms.split(","):
+                for snr in snrs:
+                    for mag in [float(m) for m in args.magnitudes.split(",")]:
+                        for seed in seeds:
+                            emit(run(system, name, mag, seed, snr, args.fit, args.margin), args.out)
+    if args.speed:
+        eom = systems()["mild"][0]
+        amp, vel = typical_amplitude(eom, 25.0, 10000.0)
+        truth = hide_effect(eom, "clearance", 0.1, 0, amplitude_m=amp, velocity_m_s=vel)
+        recs = []
+        for i, f in enumerate((20.0, 25.0, 30.0)):
+            r = impact_test(truth, f, rate_hz=10000.0, pretrigger_s=0.2, record_s=6.0, snr_db=45.0, seed=i)
+            c = condition(r.t, acc=r.acc_m_s2, force=r.force_n, pretrigger_samples=r.pretrigger_samples)
+            recs.append(Record.from_conditioned(c, label=f"impact {i + 1}"))
+        t0 = time.perf_counter()
+        d = diagnose(recs, eom.mass, damping=DAMPING, stiffness=STIFFNESS, fit=args.fit)
+        cpu = time.process_time()
+        print(f"three 6 s captures at 10 kHz diagnosed in {time.perf_counter() - t0:.1f} s "
+              f"(cause {d.cause}, fit {args.fit}; process CPU so far {cpu:.1f} s)")
 
 
 if __name__ == "__main__":

@@ -1,12 +1,14 @@
 """``station diagnose``: what the model gets wrong, why, the extended model and the gain.
 
     station diagnose CAPTURE... --mass M [--damping TERMS] [--stiffness TERMS]
-                     [--model BASE.json] [--save-model OUT.json] [--report DIR] [--json]
+                     [--model BASE.json] [--fit {eddi,equation-error}] [--margin F]
+                     [--save-model OUT.json] [--report DIR] [--json]
 
 Each capture (CSV or HDF5, with or without a force channel) is read, conditioned (drift-free
 integration of the acceleration) and handed to :func:`eddi.diagnose.diagnose`. With several
 captures each one is held out in turn; with one, its ring-down is split into amplitude bands.
-The baseline is ``--model`` or EDDI's term libraries fitted to the data; every mechanism of
+The baseline is ``--model`` or EDDI's term libraries fitted to the data (by EDDI over the
+training captures, unless ``--fit equation-error``); every mechanism of
 the catalogue (``docs/effects.md``) is added, refitted on the training captures and judged on
 the held-out ones. See ``docs/diagnosis.md``.
 """
@@ -18,7 +20,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from eddi.diagnose import DEFAULT_MARGIN, Diagnosis, Record, diagnose
+from eddi.diagnose import DEFAULT_MARGIN, FITS, Diagnosis, Record, diagnose
 from eddi.errors import ModelError
 from eddi.mechanisms import MECHANISM_NAMES
 from eddi.model import EquationOfMotion
@@ -46,6 +48,9 @@ def register(subparsers: Any) -> None:
                    + ", ".join(MECHANISM_NAMES))
     p.add_argument("--margin", type=float, default=DEFAULT_MARGIN, metavar="FRACTION",
                    help="relative cut of the held-out error the winner must exceed (default: %(default)s)")
+    p.add_argument("--fit", default="eddi", choices=FITS,
+                   help="how the baseline and the extensions are fitted: EDDI over the training "
+                        "captures, or least squares on the equation of motion (default: %(default)s)")
     p.add_argument("--save-model", metavar="OUT.json", help="write the extended equation of motion")
     p.add_argument("--report", metavar="DIR", help="write figures (PNG) into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -101,7 +106,7 @@ def handle(args: argparse.Namespace) -> int:
     if base is not None and args.mass is not None and abs(args.mass - base.mass) > 1e-9 * base.mass:
         raise ModelError(f"--mass {args.mass} differs from the model's mass {base.mass}")
     diag = diagnose(records, mass, damping=args.damping, stiffness=args.stiffness, base=base,
-                    mechanisms=mechanisms, margin=args.margin)
+                    mechanisms=mechanisms, margin=args.margin, fit=args.fit)
     obj = diag.to_dict()
     obj["captures"] = [r.label for r in records]
     if args.save_model:
