@@ -21,7 +21,12 @@ Last, the displacement error of the conditioning (relative L2 over the free wind
 against the paper's integrate + 3rd-order zero-phase Butterworth high-pass at 2 Hz
 (``docs/conditioning.md``).
 
-Run: ``python benchmarks/bench_accel_chain.py [--seeds 1 2 3]`` (about 15 s per seed).
+First, unless ``--no-paper``, the paper's two simulated cases (Duffing, pendulum; clean and
+with 60 dB white noise on ``x, v``) through ``benchmarks/bench_paper_cases.py``: the same
+methods side by side with the paper's own figures.
+
+Run: ``python benchmarks/bench_accel_chain.py [--seeds 1 2 3] [--no-paper]`` (about 15 s per
+seed, 20 s for the paper cases).
 """
 
 from __future__ import annotations
@@ -83,7 +88,17 @@ def run_case(name: str, snr: float, seed: int) -> tuple[dict[str, float], dict[s
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
-    seeds = ap.parse_args().seeds
+    ap.add_argument("--no-paper", action="store_true", help="skip the paper's simulated cases")
+    args = ap.parse_args()
+    seeds = args.seeds
+    if not args.no_paper:
+        import bench_paper_cases as paper  # benchmarks/ is on sys.path when run as a script
+
+        rng = np.random.default_rng(0)
+        for case in (paper.duffing_case(), paper.pendulum_case()):
+            paper.run_case(case, None, rng)
+            paper.run_case(case, 60.0, rng)
+        print()
     head = " ".join(f"{m:>11s}" for m in METHODS)
     print(f"{'system':12s} {'SNR':>3s} {'seed':>4s} | coefficient error: {head} | run time [s]: {head}")
     rows = []
