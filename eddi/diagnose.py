@@ -850,7 +850,7 @@ def diagnose(
                 raise TermError(f"stiffness term {t.text!r} depends on v; put it in damping")
         coordinate = "displacement [m]"
     if fit not in FITS:
-        raise SignalError(f"fit must be one of {', '.join(FITS)}; got {fit!r}")
+        raise ModelError(f"fit must be one of {', '.join(FITS)}; got {fit!r}")
     setup = _Setup(mass=float(mass), damping=d_terms, stiffness=k_terms, base=base,
                    coordinate=coordinate, fit=fit)
     chosen = list(MECHANISM_NAMES if mechanisms is None else mechanisms)
