@@ -139,7 +139,9 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
                            for k, v in c.params.items())
         lines.append(f"{rank:>4}  {c.name:<22} {c.nrmse:>14.4g} {100 * c.gain:>6.0f}%  "
                      f"{'yes' if c.wins_every_part else 'no':<10} {'yes' if c.consistent else 'no':<10} "
-                     f"{params or '(no physical fit)'}")
+                     f"{params or '(no physical fit)'}"
+                     + (f" [gain vs the {c.reference}, nrmse {c.reference_nrmse:.4g}]"
+                        if c.reference != "baseline" else ""))
     lines += ["", diag.verdict, f"What the baseline got wrong: {diag.symptom}.", "",
               f"Baseline: {diag.baseline.model.equation_text()}"]
     if diag.cause != "none":
