@@ -18,16 +18,32 @@ and a baseline (an equation of motion, or term libraries to fit), and
 
 How models are fitted
 ---------------------
-Every model (baseline and extensions) is fitted the same way, so a candidate cannot win by
-being fitted better rather than by being right: linear least squares on the equation of
-motion over the free-response samples of the training parts, pooled over records::
+``fit="eddi"`` (default): the baseline is EDDI with the given term libraries, fitted on all
+the training parts at once (:func:`eddi.identify_many.identify_many`: phase-one rows are the
+energy lost over every half cycle of every training segment, phase-two rows the potential
+``E - T`` at their samples, stacked into one least-squares problem each). An extension is
+EDDI with the baseline terms plus the mechanism's: a damping mechanism joins phase one, a
+stiffness mechanism (with its potential, e.g. the clearance basis ``sign(x) max(|x|-g, 0)``)
+joins phase two; shape parameters (a gap) are found by a search on the training rows. The
+energy balance is insensitive to small phase errors of the conditioned velocity, which
+made the equation-error fit of the damping name spurious mechanisms on null cases.
+
+The second mode is not a single-coordinate term; it is refitted jointly with the baseline
+terms by equation error and judged against the baseline fitted by equation error, so that
+no candidate wins by its fitter rather than by its physics.
+
+``fit="equation-error"``: every model (baseline and extensions) is linear least squares on
+the equation of motion over the free-response samples of the training parts::
 
     F - m a = sum_j b_j B_j(x, v) + sum_n k_n K_n(x) + sum_i c_i C_i(x, v; h)
 
-EDDI's libraries are linear in their coefficients; so is each mechanism once its few shape
-parameters ``h`` (a gap, a second frequency) are fixed; ``h`` is chosen by a small search on
-the training parts (in-sample least squares). With a given baseline model (``base``) its
-coefficients are kept and only the mechanism's are fitted, on the residual force.
+With a given baseline model (``base``) its coefficients are kept and only the mechanism's
+are fitted (EDDI: its dissipation and potential are removed from the rows; equation error:
+on the residual force).
+
+Judging never extrapolates in amplitude with several records: a held-out record larger than
+every training record is judged only from where its ring-down has decayed into the training
+range, simulated from its measured state there.
 
 Everything here is pure numerics: arrays in, a frozen :class:`Diagnosis` out.
 """
