@@ -255,8 +255,8 @@ def identify(
 ROUTE_TIE = 0.05
 
 #: Largest ``h * omega_max`` of the route-scoring simulation grid (see
-#: :func:`_free_response_score`): RK4 phase error ~ (h omega)^5 / 120 per step, i.e. ~1e-8 rad
-#: per cycle, far below any difference between two routes worth choosing by.
+#: :func:`_free_response_score`), the simulator's own sub-step rule: RK4 phase error
+#: ~ (h omega)^5 / 120 per step, i.e. ~5e-6 rad per cycle at the stiffest amplitude.
 SCORE_H_OMEGA = 0.1
 
 

@@ -9,9 +9,10 @@ Two routes, both fed by ``E(t) = T(gamma_0) - D(t)`` from phase one:
 ``"lagrangian"`` (paper Eqs. 13-16)
     ``L = 2T - E``; the conservative force is ``dL/dq - p qdd / qd`` with ``p = m qd``,
     ``dL/dq = (dL/dt) / qd`` and ``dL/dt = 2 m qd qdd - dE/dt``, ``dE/dt`` exact from phase
-    one (:func:`energy_rate`; for ``E`` of Eq. 12 the force is then ``m a + B(x, v)``). Samples near turning points, where ``|v|`` is below
-    ``v_fraction`` of the velocity amplitude at the current energy, are excluded; the
-    force is regressed on ``-K_n(x)``, rows weighted by ``1 / sqrt(E)``.
+    one (:func:`energy_rate`; for ``E`` of Eq. 12 the force is then ``m a + B(x, v)``).
+    Samples near turning points, where ``|v|`` is below ``v_fraction`` of the velocity
+    amplitude at the current energy, are excluded; the force is regressed on ``-K_n(x)``,
+    rows weighted by ``1 / sqrt(E)``.
 
 Sign convention: the equation of motion is ``m x'' + B + K(x) = F`` with
 ``K = sum k_n K_n``; the conservative force is ``F_c = -K(x) = -dV/dx``.
@@ -22,7 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from eddi.energy import derivative, integrated_term, kinetic_energy, term_matrix
+from eddi.energy import derivative, integrated_term, term_matrix
 from eddi.phase_one import PhaseOneResult, scaled_lstsq
 from eddi.terms import Term, parse_terms
 
