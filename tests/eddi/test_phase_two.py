@@ -57,3 +57,33 @@ def test_lagrangian_route_excludes_more_with_a_larger_v_fraction(hardening):
     few = lagrangian_route(p1, sim.x[i0:i1], sim.v[i0:i1], 0.5, terms, v_fraction=0.6)
     many = lagrangian_route(p1, sim.x[i0:i1], sim.v[i0:i1], 0.5, terms, v_fraction=0.05)
     assert few.samples_used < many.samples_used
+
+
+@pytest.mark.parametrize("anchored", [True, False])
+def test_energy_rate_is_the_derivative_of_phase_ones_energy(hardening, anchored):
+    from eddi.phase_two import energy_rate, mechanical_energy
+
+    sim, p1, i0, i1 = hardening
+    rate = energy_rate(p1, sim.x[i0:i1], sim.v[i0:i1], anchored)
+    energy = mechanical_energy(p1, anchored)
+    # 4th-order central differences inside each half cycle (the anchored energy has kinks at
+    # the crossings); their own error here is ~(2 omega h)^4 / 30 ~ 1e-6
+    dt = float(p1.t[1] - p1.t[0])
+    central = (-energy[4:] + 8 * energy[3:-1] - 8 * energy[1:-3] + energy[:-4]) / (12 * dt)
+    inside = np.searchsorted(p1.gamma, p1.t[:-4]) == np.searchsorted(p1.gamma, p1.t[4:])
+    scale = float(np.max(np.abs(rate)))
+    assert np.max(np.abs(central[inside] - rate[2:-2][inside])) < 1e-5 * scale
+    # without re-anchoring it is minus the modelled damping power: -b v^2 here
+    if not anchored:
+        b = p1.coefficients[0]
+        assert np.allclose(rate, -b * sim.v[i0:i1] ** 2, rtol=1e-12, atol=0)
+
+
+def test_term_matrix_matches_term_evaluation():
+    from eddi.energy import term_matrix
+    from eddi.terms import evaluate
+
+    rng = np.random.default_rng(0)
+    x, v = rng.standard_normal(200), rng.standard_normal(200)
+    terms = parse_terms("v,x^2*v,v^3,x,x^2,x^5,abs(v)*v,sign(v),abs(x)^3,x*abs(x),sign(x)*v^2")
+    assert np.allclose(term_matrix(terms, x, v), evaluate(terms, x, v), rtol=1e-14, atol=0)
