@@ -73,7 +73,7 @@ from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, evaluate, parse_terms
 #: Ways of fitting the baseline and the extensions (see the module notes).
 FITS = ("eddi", "equation-error")
 #: Default relative margin: the winner must cut the mean held-out nrmse by more than this.
-DEFAULT_MARGIN = 0.5
+DEFAULT_MARGIN = 0.2
 #: The winner's strength parameter must agree over the folds: spread < this times its value.
 DEFAULT_CONSISTENCY = 0.5
 #: Held-out nrmse above this counts as "lost" (a diverged or meaningless simulation).
@@ -299,7 +299,9 @@ class Diagnosis:
     baseline, extended : Score
         The baseline and the extended model (same as the baseline when the cause is none).
     gain : float
-        Relative reduction of the mean held-out nrmse, ``1 - extended / baseline``.
+        Relative reduction of the mean held-out nrmse, ``1 - extended / baseline`` (0 when
+        the cause is none). The verdict itself uses each candidate's gain over its reference
+        (:attr:`Candidate.gain`).
     candidates : tuple of Candidate
         Every mechanism, best first (skipped ones last).
     scheme : str
@@ -1004,10 +1006,13 @@ def diagnose(
     else:
         extended = Score(model=winner.model, nrmse=winner.nrmse, fold_nrmse=winner.fold_nrmse)  # type: ignore[arg-type]
         cause = winner.name
-        gain = winner.gain
+        gain = 1.0 - winner.nrmse / base_nrmse if base_nrmse > 0 else 0.0
         symptom = f"the baseline {winner.symptom}"
-        verdict = (f"Cause: {cause}. Adding it cuts the held-out error from {winner.reference_nrmse:.3g} to "
+        verdict = (f"Cause: {cause}. Adding it cuts the held-out error from {base_nrmse:.3g} to "
                    f"{winner.nrmse:.3g} ({100 * gain:.0f} % less), better on every held-out part.")
+        if winner.reference != "baseline":
+            verdict += (f" Against the {winner.reference} ({winner.reference_nrmse:.3g}) the cut is "
+                        f"{100 * winner.gain:.0f} %.")
         ext_sims = cand_sims[cause]
     held = tuple(HeldOut(part=p, t=records[p.record].t[p.start:p.stop],
                          x_measured=records[p.record].x[p.start:p.stop], x_baseline=xb, x_extended=xe)

@@ -73,6 +73,7 @@ def test_hidden_mechanism_is_named_and_halves_the_error(name: str, seed: int) ->
     assert d.scheme == "leave-one-record-out" and len(d.parts) == 3
     assert d.extended.nrmse <= 0.5 * d.baseline.nrmse
     assert d.gain >= 0.5
+    assert d.candidates[0].gain > d.margin  # over its own reference (second mode: equation error)
     assert all(e < b for e, b in zip(d.extended.fold_nrmse, d.baseline.fold_nrmse))
     found = d.extended.model.effect(name)
     assert found is not None
