@@ -32,8 +32,10 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.integrate import cumulative_trapezoid
+from scipy.interpolate import BSpline
+
 from eddi.errors import SignalError
-from eddi.splines import Spline, basis_rows
 
 #: Minimum number of acceleration zero crossings in the free response.
 MIN_CROSSINGS = 6
@@ -124,26 +126,6 @@ class ConditionedSignal:
         f = np.zeros_like(self.force)
         f[self.impact_start: self.impact_end] = self.force[self.impact_start: self.impact_end]
         return f
-
-
-def cumulative_trapezoid(y: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Cumulative trapezoid integral of ``y`` over ``x``, starting at 0.
-
-    The same sums as ``scipy.integrate.cumulative_trapezoid(y, x, initial=0)``, without
-    importing ``scipy.integrate`` (which imports ``scipy.special`` and ``scipy.optimize``).
-
-    Parameters
-    ----------
-    y, x : ndarray, shape (n,)
-
-    Returns
-    -------
-    ndarray, shape (n,)
-    """
-    y = np.asarray(y, dtype=float)
-    out = np.zeros(y.size)
-    out[1:] = np.cumsum(np.diff(np.asarray(x, dtype=float)) * (y[1:] + y[:-1]) / 2.0)
-    return out
 
 
 # ----------------------------------------------------------------------------------------
@@ -254,8 +236,8 @@ def integrate_highpass(t: np.ndarray, acc: np.ndarray, cutoff_hz: float = 2.0,
 
     rate = check_time(t)
     sos = sps.butter(order, cutoff_hz, btype="highpass", fs=rate, output="sos")
-    v = sps.sosfiltfilt(sos, cumulative_trapezoid(acc, t))
-    x = sps.sosfiltfilt(sos, cumulative_trapezoid(v, t))
+    v = sps.sosfiltfilt(sos, cumulative_trapezoid(acc, t, initial=0.0))
+    x = sps.sosfiltfilt(sos, cumulative_trapezoid(v, t, initial=0.0))
     return x, v
 
 
@@ -356,7 +338,7 @@ def _at(y: np.ndarray, pos: np.ndarray) -> np.ndarray:
 def _drift_spline(
     t: np.ndarray, x_int: np.ndarray, pts: np.ndarray, knot_s: float, start: int, clamped: bool,
     local: np.ndarray,
-) -> Spline:
+) -> BSpline:
     """Least-squares cubic spline ``d`` with ``x_int = d(t) + local @ c`` at samples ``pts``.
 
     ``local`` holds, per sample, signals to which the true ``x`` is locally proportional
@@ -368,41 +350,32 @@ def _drift_spline(
     n_int = max(1, int(math.ceil((t1 - t0) / knot_s)))
     inner = np.linspace(t0, t1, n_int + 1)
     knots = np.concatenate(([t0] * 3, inner, [t1] * 3))
-    # the B-spline block is banded (4 non-zeros a row): the normal equations are accumulated
-    # row by row, never as a dense (rows x knots) product (a dense one took 2 s of
-    # multi-threaded BLAS on a 45 s record; this takes a few ms)
-    spans, vals = basis_rows(knots, 3, t[pts])
-    n_basis = knots.size - 4
+    basis = BSpline.design_matrix(t[pts], knots, 3)
     first = 2 if clamped else 0
-    m = n_basis - first
+    # the B-spline block stays sparse (4 non-zeros a row): the normal equations are built
+    # block by block, never as a dense (rows x knots) product (a dense one took 2 s of
+    # multi-threaded BLAS on a 45 s record; this takes a few ms)
+    b = basis.tocsc()[:, first:]
+    m = b.shape[1]
+    # a light second-difference penalty keeps intervals without samples well posed
+    d2 = np.diff(np.eye(m), 2, axis=0)
+    btb = (b.T @ b).toarray()
+    lam = 1e-3 * float(np.mean(np.diag(btb)))
     scale = np.max(np.abs(local), axis=0)
     scale[scale == 0] = 1.0
     loc = local / scale
     y = x_int[pts]
-    full_btb = np.zeros((n_basis, n_basis))
-    full_btl = np.zeros((n_basis, loc.shape[1]))
-    full_bty = np.zeros(n_basis)
-    for r in range(4):
-        col_r = spans - 3 + r
-        np.add.at(full_btl, col_r, vals[:, r, None] * loc)
-        np.add.at(full_bty, col_r, vals[:, r] * y)
-        for q in range(4):
-            np.add.at(full_btb, (col_r, spans - 3 + q), vals[:, r] * vals[:, q])
-    btb = full_btb[first:, first:]
-    # a light second-difference penalty keeps intervals without samples well posed
-    d2 = np.diff(np.eye(m), 2, axis=0)
-    lam = 1e-3 * float(np.mean(np.diag(btb)))
     k = m + loc.shape[1]
     normal = np.empty((k, k))
     normal[:m, :m] = btb + lam * d2.T @ d2
-    normal[:m, m:] = full_btl[first:]
+    normal[:m, m:] = np.asarray(b.T @ loc)
     normal[m:, :m] = normal[:m, m:].T
     normal[m:, m:] = loc.T @ loc
-    rhs = np.concatenate((full_bty[first:], loc.T @ y))
+    rhs = np.concatenate((np.asarray(b.T @ y).ravel(), loc.T @ y))
     sol = np.linalg.solve(normal + 1e-12 * np.eye(k), rhs)
-    coef = np.zeros(n_basis)
+    coef = np.zeros(basis.shape[1])
     coef[first:] = sol[:m]
-    return Spline(knots, coef, 3)
+    return BSpline(knots, coef, 3, extrapolate=False)
 
 
 # ----------------------------------------------------------------------------------------
@@ -501,7 +474,7 @@ def condition(
     if acc is not None and ac_coupling_s is not None:
         if not ac_coupling_s > 0:
             raise SignalError(f"ac_coupling_s must be > 0, got {ac_coupling_s}")
-        acc = acc + cumulative_trapezoid(acc, t) / ac_coupling_s
+        acc = acc + cumulative_trapezoid(acc, t, initial=0.0) / ac_coupling_s
         notes.append(f"AC coupling ({ac_coupling_s:g} s) inverted")
 
     # -- impact end --------------------------------------------------------------------
@@ -531,7 +504,7 @@ def condition(
     notes.append(f"longest period {period_s:.4g} s; drift knots every {knot_s:.4g} s")
 
     # -- x, v, a -----------------------------------------------------------------------
-    def anchored(x_int: np.ndarray, v_int: np.ndarray, a_for_anchor: np.ndarray, first: int) -> Spline:
+    def anchored(x_int: np.ndarray, v_int: np.ndarray, a_for_anchor: np.ndarray, first: int) -> BSpline:
         a_sigma = noise_rms(a_for_anchor, noise_stop)
         h = max(3.0 * a_sigma, 1e-9 * float(np.max(np.abs(a_for_anchor))))
         anc = crossings(a_for_anchor, h, start=first)
@@ -570,7 +543,7 @@ def condition(
         a = acc if acc is not None else _sg_derivative(v, rate, period_s, 1, split)
         v0 = v - (float(np.mean(v[:noise_stop])) if rest and noise_stop >= 8 else 0.0)
         x_int = np.zeros(n)
-        x_int[start:] = cumulative_trapezoid(v0[start:], t[start:])
+        x_int[start:] = cumulative_trapezoid(v0[start:], t[start:], initial=0.0)
         d = _drift_spline_eval(anchored(x_int, v0, a, first_anchor), t, start)
         x = x_int - d[0]
         method = "vel as measured; disp by integration from rest with drift anchored at acc zero crossings"
@@ -579,8 +552,8 @@ def condition(
         a = acc
         v_int = np.zeros(n)
         x_int = np.zeros(n)
-        v_int[start:] = cumulative_trapezoid(a[start:], t[start:])
-        x_int[start:] = cumulative_trapezoid(v_int[start:], t[start:])
+        v_int[start:] = cumulative_trapezoid(a[start:], t[start:], initial=0.0)
+        x_int[start:] = cumulative_trapezoid(v_int[start:], t[start:], initial=0.0)
         d, dd = _drift_spline_eval(anchored(x_int, v_int, a, first_anchor), t, start)
         x = x_int - d
         v = v_int - dd
@@ -604,7 +577,7 @@ def condition(
     )
 
 
-def _drift_spline_eval(spl: Spline, t: np.ndarray, start: int) -> tuple[np.ndarray, np.ndarray]:
+def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int) -> tuple[np.ndarray, np.ndarray]:
     d = np.zeros(t.size)
     dd = np.zeros(t.size)
     d[start:] = spl(t[start:])

@@ -13,17 +13,12 @@ Accuracy notes
 * Time integrals (dissipated energy) use the antiderivative of a quintic interpolating
   spline of the integrand (sixth-order accurate), so partial intervals between a crossing
   and a sample boundary are integrated exactly on the same interpolant as whole intervals.
-* The splines are :mod:`eddi.splines` (the same not-a-knot interpolants as SciPy's
-  ``make_interp_spline``, to rounding), so identifying does not import ``scipy.interpolate``.
 """
 
 from __future__ import annotations
 
-from typing import Callable
-
 import numpy as np
-
-from eddi.splines import Spline, cubic_hermite, interpolating_spline
+from scipy.interpolate import BSpline, CubicHermiteSpline, make_interp_spline
 
 #: Degree of the interpolating splines used for quadrature and for values at crossings.
 #: Quintic: on the paper Duffing (60 samples per period at the start) the energy balance of
@@ -157,7 +152,7 @@ def zero_crossings(t: np.ndarray, x: np.ndarray, v: np.ndarray, hysteresis: floa
     return gamma
 
 
-def rate_interpolant(t: np.ndarray, v: np.ndarray, a: np.ndarray | None = None) -> Callable[[np.ndarray], np.ndarray]:
+def rate_interpolant(t: np.ndarray, v: np.ndarray, a: np.ndarray | None = None):
     """An interpolant of the rate: cubic Hermite with ``a`` when given, else a quintic spline.
 
     Parameters
@@ -173,11 +168,8 @@ def rate_interpolant(t: np.ndarray, v: np.ndarray, a: np.ndarray | None = None) 
         ``f(tq) -> v(tq)``.
     """
     if a is not None:
-        t_ = np.asarray(t, dtype=float)
-        v_ = np.asarray(v, dtype=float)
-        a_ = np.asarray(a, dtype=float)
-        return lambda tq: cubic_hermite(t_, v_, a_, tq)
-    return interpolating_spline(t, v, SPLINE_DEGREE)
+        return CubicHermiteSpline(t, v, a)
+    return make_interp_spline(t, v, k=SPLINE_DEGREE)
 
 
 def term_matrix(terms: tuple[Term, ...], x: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -250,7 +242,7 @@ def integrated_term(term: Term, x: np.ndarray) -> np.ndarray:
     return out
 
 
-def cumulative_energy(t: np.ndarray, power: np.ndarray) -> Spline:
+def cumulative_energy(t: np.ndarray, power: np.ndarray) -> BSpline:
     """Antiderivative of a power signal, exact on its quintic spline interpolant.
 
     Parameters
@@ -260,10 +252,10 @@ def cumulative_energy(t: np.ndarray, power: np.ndarray) -> Spline:
 
     Returns
     -------
-    Spline
+    BSpline
         ``A(tq)``: integral of the spline of ``power`` from ``t[0]`` to ``tq`` [J].
     """
-    return interpolating_spline(t, power, SPLINE_DEGREE).antiderivative()
+    return make_interp_spline(t, power, k=SPLINE_DEGREE, axis=0).antiderivative()
 
 
 def derivative(t: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -279,7 +271,7 @@ def derivative(t: np.ndarray, y: np.ndarray) -> np.ndarray:
     ndarray, shape (n,)
         ``dy/dt`` at ``t``.
     """
-    return interpolating_spline(t, y, SPLINE_DEGREE).derivative()(t)
+    return make_interp_spline(t, y, k=SPLINE_DEGREE).derivative()(t)
 
 
 def check_series(t: np.ndarray, named: dict[str, np.ndarray | None], min_samples: int = 4) -> tuple[np.ndarray, dict[str, np.ndarray | None]]:
