@@ -81,6 +81,9 @@ class ConditionedSignal:
         Noise RMS of the force channel [N] (0 without force).
     acc_measured : bool
         True when ``a`` is the measured acceleration (not a derivative).
+    response : str
+        The measured response channel the window and noise floor refer to: ``"acc"``,
+        ``"vel"`` or ``"disp"`` (acceleration first when several were given).
     """
 
     t: np.ndarray
@@ -98,6 +101,7 @@ class ConditionedSignal:
     noise_rms: float = 0.0
     force_noise_rms: float = 0.0
     acc_measured: bool = False
+    response: str = "acc"
 
     def __post_init__(self) -> None:
         n = self.t.size
@@ -574,6 +578,7 @@ def condition(
         force=force, rate_hz=rate, free_start=int(free_start), free_stop=int(free_stop),
         method=method, notes=tuple(notes), impact_start=int(start), impact_end=int(impact_end),
         noise_rms=sigma, force_noise_rms=f_sigma, acc_measured=acc is not None,
+        response=resp_name,
     )
 
 

@@ -106,7 +106,7 @@ def identify(
     v_fraction: float = 0.2,
     anchored: bool = True,
     noise: str | tuple[float, float] | None = "auto",
-    refine: bool = False,
+    refine: bool | str = False,
 ) -> IdentifiedModel:
     """Identify an equation of motion from a free response with the EDDI method.
 
@@ -151,10 +151,10 @@ def identify(
         paper-case coefficients by < 1e-8 relative); ``None`` assumes clean signals; or
         give the standard deviations. It sets a 4-sigma dead band on the zero crossings and
         inverse-variance row weights in phase one and the potential route.
-    refine : bool
+    refine : bool or {"a", "v", "x"}
         After EDDI, refine the coefficients by an output-error fit (:mod:`eddi.refine`):
         the model's free response from a fitted initial state is fitted to the measured
-        ``a`` (or ``x`` without ``a``) over the window. Not part of the paper's method;
+        ``a`` (or ``x`` without ``a``; or the signal named) over the window. Not part of the paper's method;
         the EDDI estimate is kept in ``unrefined``. Much more accurate on noisy records
         (``docs/eddi-method.md``), and slower (some 200 simulations of the window).
 
@@ -242,7 +242,8 @@ def identify(
         from eddi.refine import refine_output_error  # local: scipy.optimize, the simulator
 
         unrefined = eom
-        eom, refinement = refine_output_error(eom, tw, xw, vw, aw)
+        eom, refinement = refine_output_error(eom, tw, xw, vw, aw,
+                                              channel=refine if isinstance(refine, str) else None)
     return IdentifiedModel(
         eom=eom, route=chosen, phase_one=p1, phase_two=p2, window=(w0, w1),
         route_scores=scores, alternatives=results, unrefined=unrefined, refinement=refinement,

@@ -82,7 +82,9 @@ def identify_measurement(
         Also validate with the force sensor alone (one more simulation), filling
         ``nrmse_force_sensor``.
     refine : bool
-        Refine EDDI's coefficients by an output-error fit (see :func:`eddi.identify.identify`).
+        Refine EDDI's coefficients by an output-error fit (see :func:`eddi.identify.identify`)
+        to the signal the sensor measured (``cond.response``: acceleration, rate or
+        coordinate), not to one derived from it.
 
     Returns
     -------
@@ -94,7 +96,8 @@ def identify_measurement(
         As :func:`eddi.identify.identify`.
     """
     model = identify(cond.t, cond.x, cond.v, mass, damping=damping, stiffness=stiffness,
-                     route=route, a=cond.a, window=cond.window, refine=refine)
+                     route=route, a=cond.a, window=cond.window,
+                     refine={"acc": "a", "vel": "v", "disp": "x"}[cond.response] if refine else False)
     force = cond.impact_force
     if force is not None and cond.impact_start > 0:
         # simulate from the start of the motion to the end of the window, no further (the

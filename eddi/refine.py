@@ -14,8 +14,9 @@ non-convex output-error problem to converge to the right minimum) and minimises,
     sum_k (y_sim(t_k; b, k, x0, v0) - y_meas(t_k))^2
 
 over the damping and stiffness coefficients and the initial state ``(x0, v0)`` of the free
-response, where ``y`` is the measured acceleration when given (white sensor noise: this
-is then the maximum-likelihood fit) or else the coordinate. The window grows in stages
+response, where ``y`` is the signal the sensor measured: the acceleration for an
+accelerometer (white sensor noise: this is then the maximum-likelihood fit), the rate for a
+vibrometer, the coordinate for a displacement sensor (default: ``a`` when given, else ``x``). The window grows in stages
 (1/8, 1/2, all of the record) so that the phase error of the starting model never exceeds
 a fraction of a cycle.
 
@@ -29,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eddi.errors import IdentificationError
+from eddi.errors import IdentificationError, SignalError
 from eddi.model import EquationOfMotion
 from eddi.simulate import auto_substeps, simulate
 from eddi.terms import evaluate
@@ -45,7 +46,7 @@ class Refinement:
     Attributes
     ----------
     channel : str
-        ``"a"`` or ``"x"``: the measured signal the simulation was fitted to.
+        ``"a"``, ``"v"`` or ``"x"``: the measured signal the simulation was fitted to.
     nrmse_before, nrmse_after : float
         ``||y_sim - y|| / ||y||`` over the whole window, EDDI estimate and refined.
     x0, v0 : float
@@ -72,6 +73,7 @@ def refine_output_error(
     v: np.ndarray,
     a: np.ndarray | None = None,
     *,
+    channel: str | None = None,
     max_nfev: int = 60,
 ) -> tuple[EquationOfMotion, Refinement]:
     """Refine the coefficients of ``eom`` by fitting its free response to the measurement.
@@ -85,7 +87,10 @@ def refine_output_error(
     x, v : ndarray, shape (n,)
         Measured coordinate and rate (``x[0], v[0]`` start the fit of the initial state).
     a : ndarray, shape (n,), optional
-        Measured acceleration; when given the fit is on ``a``, otherwise on ``x``.
+        Measured acceleration.
+    channel : {"a", "v", "x"}, optional
+        The signal to fit (the one the sensor measured); default ``"a"`` when ``a`` is
+        given, else ``"x"``.
     max_nfev : int
         Most residual evaluations per stage (Jacobian evaluations not counted).
 
@@ -99,6 +104,8 @@ def refine_output_error(
     ------
     IdentificationError
         If the window is too short (fewer than 64 samples).
+    SignalError
+        If ``channel`` is unknown, or ``"a"`` without ``a``.
     """
     from scipy.optimize import least_squares  # local: scipy.optimize only when refining
 
@@ -108,8 +115,13 @@ def refine_output_error(
         raise IdentificationError(f"output-error refinement needs >= 64 samples, got {n}")
     x = np.asarray(x, dtype=float)
     v = np.asarray(v, dtype=float)
-    channel = "a" if a is not None else "x"
-    y = np.asarray(a, dtype=float) if a is not None else x
+    if channel is None:
+        channel = "a" if a is not None else "x"
+    if channel not in ("a", "v", "x") or (channel == "a" and a is None):
+        raise SignalError(f"refinement channel must be 'a' (with a given), 'v' or 'x'; got {channel!r}"
+                          + (" without a" if channel == "a" else ""))
+    y = {"a": a, "v": v, "x": x}[channel]
+    y = np.asarray(y, dtype=float)
     d_terms, k_terms = eom.damping_terms(), eom.stiffness_terms()
     names = [("damping", tm.text) for tm in d_terms] + [("stiffness", tm.text) for tm in k_terms]
     c0 = np.array([eom.damping[tm.text] for tm in d_terms] + [eom.stiffness[tm.text] for tm in k_terms])
@@ -133,7 +145,7 @@ def refine_output_error(
         counter[0] += 1
         sim = simulate(model_of(p), t[:stop] - t[0], x0=float(p[-2] * scale[-2]),
                        v0=float(p[-1] * scale[-1]), substeps=substeps)
-        out = sim.a if channel == "a" else sim.x
+        out = sim.a if channel == "a" else sim.v if channel == "v" else sim.x
         if sim.diverged or not np.all(np.isfinite(out)):
             return np.full(stop, 1e6 * float(np.max(np.abs(y))))
         return out

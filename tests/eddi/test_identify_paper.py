@@ -234,6 +234,12 @@ def test_refine_needs_a_window_of_64_samples(duffing):
     eom = identify(t, x, v, M, damping=DAMPING, stiffness=STIFFNESS).eom
     with pytest.raises(IdentificationError, match="needs >= 64 samples, got 63"):
         refine_output_error(eom, t[:63], x[:63], v[:63])
+    from eddi.errors import SignalError
+
+    with pytest.raises(SignalError, match="'a' \\(with a given\\).*got 'a' without a"):
+        refine_output_error(eom, t, x, v, channel="a")
+    with pytest.raises(SignalError, match="got 'force'"):
+        refine_output_error(eom, t, x, v, channel="force")
 
 
 def test_sindy_baseline_with_exact_acceleration(duffing):

@@ -95,6 +95,24 @@ def test_velocity_only_csv(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert obj["validation"]["driven_by"] == "measured initial state"
 
 
+def test_velocity_only_csv_refined_on_the_measured_velocity(tmp_path: Path,
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    r = impact_record("nl_damping", snr_db=None)
+    rng = np.random.default_rng(5)
+    vel = r.v + 1e-3 * np.std(r.v) * rng.standard_normal(r.v.size)  # a 60 dB vibrometer
+    path = tmp_path / "vel.csv"
+    np.savetxt(path, np.column_stack((r.t, vel)), delimiter=",", header="t,vel", comments="",
+               fmt="%.9g")
+    code, out, err = _run(["identify", str(path), "--mass", "0.3", "--damping", "v,x^2*v",
+                           "--stiffness", "x,x^3", "--refine", "--json"], capsys)
+    assert code == 0, err
+    obj = json.loads(out)
+    assert obj["refinement"]["fitted_to"] == "v"  # the vibrometer's signal, not its derivative
+    assert obj["stiffness"]["x"] == pytest.approx(1700.0, rel=2e-3)
+    assert obj["stiffness"]["x^3"] == pytest.approx(1.5e8, rel=1e-2)
+    assert obj["damping"]["v"] == pytest.approx(0.45, rel=2e-2)
+
+
 def _write(path: Path, header: str, rows: np.ndarray) -> Path:
     np.savetxt(path, rows, delimiter=",", header=header, comments="", fmt="%.10g")
     return path
