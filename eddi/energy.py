@@ -327,3 +327,42 @@ def check_series(t: np.ndarray, named: dict[str, np.ndarray | None], min_samples
             raise SignalError(f"{name} contains {bad} NaN or infinite values (first at index {int(np.flatnonzero(~np.isfinite(arr))[0])})")
         out[name] = arr
     return t, out
+
+
+def sample_window(window: tuple[int, int] | None, n: int, min_samples: int) -> tuple[int, int]:
+    """``[start, stop)`` sample indices from a caller's window (negative indices count back).
+
+    Parameters
+    ----------
+    window : tuple of int or None
+        ``(start, stop)``; None means all ``n`` samples.
+    n : int
+        Number of samples.
+    min_samples : int
+        Fewest samples the window must hold.
+
+    Returns
+    -------
+    tuple of int
+
+    Raises
+    ------
+    SignalError
+        If the window is not two integers, or not inside ``0..n`` with ``min_samples``.
+    """
+    from eddi.errors import SignalError
+
+    if window is None:
+        return 0, n
+    try:
+        start, stop = int(window[0]), int(window[1])
+    except (TypeError, ValueError, IndexError):
+        raise SignalError(f"window must be (start, stop) sample indices, got {window!r}") from None
+    if start < 0:
+        start += n
+    if stop < 0:
+        stop += n
+    if not 0 <= start < stop <= n or stop - start < min_samples:
+        raise SignalError(f"window must satisfy 0 <= start < stop <= {n} with >= {min_samples} samples, "
+                          f"got {tuple(window)}")
+    return start, stop

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from eddi.energy import check_series, noise_level
+from eddi.energy import check_series, noise_level, sample_window
 from eddi.errors import ModelError, SignalError, TermError
 from eddi.model import EquationOfMotion
 from eddi.phase_one import PhaseOneResult, phase_one
@@ -71,22 +71,6 @@ def _terms(spec: str | tuple[str, ...] | list[str], what: str) -> tuple[Term, ..
     if not terms:
         raise TermError(f"{what} library is empty; give at least one term")
     return terms
-
-
-def _window(window: tuple[int, int] | None, n: int) -> tuple[int, int]:
-    if window is None:
-        return 0, n
-    try:
-        start, stop = int(window[0]), int(window[1])
-    except (TypeError, ValueError, IndexError):
-        raise SignalError(f"window must be (start, stop) sample indices, got {window!r}") from None
-    if start < 0:
-        start += n
-    if stop < 0:
-        stop += n
-    if not 0 <= start < stop <= n or stop - start < 4:
-        raise SignalError(f"window must satisfy 0 <= start < stop <= {n} with >= 4 samples, got {tuple(window)}")
-    return start, stop
 
 
 def identify(
@@ -187,7 +171,7 @@ def identify(
         if tm.depends_on_v:
             raise TermError(f"stiffness term {tm.text!r} depends on v; put it in the damping library")
     t, sig = check_series(t, {"x": x, "v": v, "a": a})
-    w0, w1 = _window(window, t.size)
+    w0, w1 = sample_window(window, t.size, 4)
     tw, xw, vw = t[w0:w1], sig["x"][w0:w1], sig["v"][w0:w1]
     aw = sig["a"][w0:w1] if sig["a"] is not None else None
 

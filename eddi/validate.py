@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eddi.energy import check_series
+from eddi.energy import check_series, sample_window
 from eddi.errors import SignalError
 from eddi.model import EquationOfMotion
 from eddi.simulate import simulate
@@ -53,19 +53,6 @@ class Validation:
     v_simulated: np.ndarray
     window: tuple[int, int]
     diverged: bool
-
-
-def _window(window: tuple[int, int] | None, n: int) -> tuple[int, int]:
-    if window is None:
-        return 0, n
-    start, stop = int(window[0]), int(window[1])
-    if start < 0:
-        start += n
-    if stop < 0:
-        stop += n
-    if not 0 <= start < stop <= n or stop - start < 2:
-        raise SignalError(f"window must satisfy 0 <= start < stop <= {n} with >= 2 samples, got {tuple(window)}")
-    return start, stop
 
 
 def validate(
@@ -113,7 +100,7 @@ def validate(
     v = sig["v"]
     f = sig["force"]
     n = t.size
-    w0, w1 = _window(window, n)
+    w0, w1 = sample_window(window, n, 2)
     if f is not None:
         sim = simulate(eom, t, force=f, x0=0.0 if x0 is None else float(x0),
                        v0=0.0 if v0 is None else float(v0),
