@@ -92,7 +92,8 @@ def refine_output_error(
         The signal to fit (the one the sensor measured); default ``"a"`` when ``a`` is
         given, else ``"x"``.
     max_nfev : int
-        Most residual evaluations per stage (Jacobian evaluations not counted).
+        Limit per stage, as :func:`scipy.optimize.least_squares` counts for ``method="lm"``
+        (a stage usually converges, by ``ftol``, in 3-5 iterations).
 
     Returns
     -------
