@@ -139,9 +139,9 @@ def identify(
         After EDDI, refine the coefficients by an output-error fit (:mod:`eddi.refine`):
         the model's free response from a fitted initial state is fitted to the measured
         ``a`` (or ``x`` without ``a``; or the signal named) over the window. Not part of the
-        paper's method; the EDDI estimate is kept in ``unrefined``. Much more accurate on noisy records
-        (``docs/eddi-method.md``), and slower (60-130 simulations, of the first 1/8, 1/2
-        and all of the window).
+        paper's method; the EDDI estimate is kept in ``unrefined``. Much more accurate on
+        noisy records (``docs/eddi-method.md``), and slower (60-130 simulations, of the
+        first 1/8, 1/2 and all of the window).
 
     Returns
     -------
