@@ -1,0 +1,311 @@
+"""Station-level pipeline: read captures -> condition -> identify on one -> validate on the others.
+
+The paper identified each system on one impact and validated the model on impacts not used
+for the fit (Lopez et al., EDDI, Sec. 3.3.1 and Fig. 12). :func:`run_session` does the same on
+measurements read by :func:`station.readers.read_measurement`:
+
+* :func:`choose_fit_index` picks the impact of the middle force level (the paper's
+  identification case lies between its two validation impacts of 246 N and 1110 N);
+* the fit is :func:`eddi.pipeline.identify_measurement` (conditioning as ``station identify``);
+* every other record is validated by :func:`validate_measurement`: simulated from rest driven
+  by its measured impact force (force sensor fused with ``m a`` when the acceleration was
+  measured, as :mod:`eddi.pipeline` does), or from its measured initial state when it has no
+  force. A modal-sum model (:class:`eddi.multimode.ModalSumModel`) predicts a velocity record
+  from its initial state (:func:`eddi.multimode.predict_record`).
+
+No numerics of its own, no printing: the commands and :mod:`station.report` present the result.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from eddi.conditioning import ConditionedSignal, condition
+from eddi.model import EquationOfMotion
+from eddi.multimode import ModalSumModel, predict_record
+from eddi.pipeline import PipelineResult, fused_impact_force, identify_measurement
+from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
+from eddi.validate import Validation, validate
+from station.errors import ConfigError, InputFileError
+from station.readers import Measurement, read_measurement, split_spec
+
+
+@dataclass(frozen=True)
+class RecordCheck:
+    """One record simulated with a model and compared with the measurement.
+
+    Attributes
+    ----------
+    source : str
+        ``file`` or ``file:capture``.
+    nrmse : float
+        ``||x_sim - x|| / ||x||`` over the compared window (for a modal-sum model: of the
+        velocity); ``inf`` when the simulation diverged.
+    nmte : float or None
+        ``mean |v_sim - v| / max |v|`` over the window.
+    driven_by : str
+        ``"force"`` (simulated from rest with the measured impact force) or
+        ``"initial state"`` (free response from the measured state).
+    peak_force_n : float or None
+        Largest measured force [N], None without a force channel.
+    t : ndarray, shape (k,), [s]
+        Times compared.
+    measured, simulated : ndarray, shape (k,)
+        Displacement [m] (velocity [m/s] for a modal-sum model) over the window.
+    quantity : str
+        ``"displacement"`` or ``"velocity"``: what ``measured`` / ``simulated`` are.
+    diverged : bool
+    """
+
+    source: str
+    nrmse: float
+    nmte: float | None
+    driven_by: str
+    peak_force_n: float | None
+    t: np.ndarray
+    measured: np.ndarray
+    simulated: np.ndarray
+    quantity: str
+    diverged: bool
+
+    def as_dict(self) -> dict[str, object]:
+        """JSON-ready figures of merit (no arrays)."""
+        return {"source": self.source, "nrmse": self.nrmse, "nmte": self.nmte, "driven_by": self.driven_by,
+                "peak_force_n": self.peak_force_n, "window_s": [float(self.t[0]), float(self.t[-1])],
+                "diverged": self.diverged}
+
+
+@dataclass(frozen=True)
+class SessionResult:
+    """A model identified on one record and checked on the others.
+
+    Attributes
+    ----------
+    measurements : tuple of Measurement
+        All records, in the order given.
+    fit_index : int
+        Position in ``measurements`` of the record identified on.
+    fit : PipelineResult
+        Identification (and self-validation) on that record.
+    held_out : tuple of RecordCheck
+        Validation on every other record, in order.
+    """
+
+    measurements: tuple[Measurement, ...]
+    fit_index: int
+    fit: PipelineResult
+    held_out: tuple[RecordCheck, ...]
+
+    @property
+    def mean_nrmse(self) -> float | None:
+        """Mean nrmse over the held-out records (None when there are none)."""
+        return mean_of([c.nrmse for c in self.held_out])
+
+    @property
+    def mean_nmte(self) -> float | None:
+        """Mean nmte over the held-out records that have one."""
+        return mean_of([c.nmte for c in self.held_out if c.nmte is not None])
+
+
+def mean_of(values: Sequence[float]) -> float | None:
+    """Arithmetic mean, None for an empty sequence (``inf`` if any value is)."""
+    return float(np.mean(values)) if len(values) else None
+
+
+def expand_specs(specs: Sequence[str]) -> list[str]:
+    """``FILE.h5`` (no ``:CAPTURE``) -> one spec per capture in it; other specs unchanged.
+
+    Raises
+    ------
+    InputFileError, CaptureFormatError
+        Missing or foreign file.
+    """
+    from station.storage import check_file
+
+    out: list[str] = []
+    for spec in specs:
+        path, capture = split_spec(spec)
+        if capture is None and path.suffix.lower() in (".h5", ".hdf5"):
+            if not path.is_file():
+                raise InputFileError(f"{path}: no such file")
+            out += [f"{path}:{i}" for i in range(check_file(path))]
+        else:
+            out.append(spec)
+    return out
+
+
+def read_all(specs: Sequence[str]) -> tuple[Measurement, ...]:
+    """Read every record of :func:`expand_specs` (``FILE.h5`` means all its captures)."""
+    return tuple(read_measurement(s) for s in expand_specs(specs))
+
+
+def session_mass(measurements: Sequence[Measurement], mass: float | None) -> float:
+    """The mass given, else the one the first record stores.
+
+    Raises
+    ------
+    ConfigError
+        When neither gives a positive finite mass [kg].
+    """
+    m = mass if mass is not None else next((r.mass for r in measurements if r.mass is not None), None)
+    if m is None:
+        raise ConfigError(f"--mass is required: {measurements[0].source} does not record the mass")
+    if not (math.isfinite(m) and m > 0):
+        raise ConfigError(f"--mass must be a number > 0 [kg], got {m:g}")
+    return float(m)
+
+
+def condition_measurement(meas: Measurement) -> ConditionedSignal:
+    """Condition a record as ``station identify`` does (:func:`eddi.conditioning.condition`)."""
+    ch = meas.channels
+    return condition(meas.t, acc=ch.get("acc"), vel=ch.get("vel"), disp=ch.get("disp"), force=ch.get("force"),
+                     pretrigger_samples=meas.pretrigger_samples,
+                     ac_coupling_s=meas.metadata.get("ac_coupling_s"))
+
+
+def peak_force(meas: Measurement) -> float | None:
+    """Largest ``|force|`` of a record [N], None without a force channel."""
+    f = meas.channels.get("force")
+    return None if f is None or f.size == 0 else float(np.nanmax(np.abs(f)))
+
+
+def choose_fit_index(measurements: Sequence[Measurement]) -> int:
+    """The record of the median peak force (the lower middle one for an even count).
+
+    Without force channels: the first record.
+    """
+    peaks = [peak_force(m) for m in measurements]
+    if any(p is None for p in peaks) or not peaks:
+        return 0
+    order = sorted(range(len(peaks)), key=lambda i: peaks[i])  # type: ignore[arg-type,return-value]
+    return order[(len(order) - 1) // 2]
+
+
+def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal) -> tuple[Validation, bool]:
+    """Simulate ``eom`` for a conditioned record, compare over its free-response window.
+
+    Driven from rest by the measured impact force when the record has a force and a rest
+    before the impact (fused with ``m a + B + K`` when the acceleration was measured, see
+    :func:`eddi.pipeline.fused_impact_force`); otherwise a free response from the measured
+    state at the start of the window.
+
+    Returns
+    -------
+    validation : Validation
+        Window in the indices of ``cond``.
+    driven_by_force : bool
+    """
+    force = cond.impact_force
+    if force is not None and cond.impact_start > 0:
+        s, e = cond.impact_start, cond.free_stop
+        drive = fused_impact_force(cond, eom) if cond.acc_measured else force
+        val = validate(eom, cond.t[s:e], cond.x[s:e], v=cond.v[s:e], force=drive[s:e],
+                       window=(cond.free_start - s, cond.free_stop - s))
+        w0, w1 = val.window
+        return Validation(nrmse=val.nrmse, nmte=val.nmte, t=val.t, x_measured=val.x_measured,
+                          x_simulated=val.x_simulated, v_measured=val.v_measured, v_simulated=val.v_simulated,
+                          window=(w0 + s, w1 + s), diverged=val.diverged), True
+    return validate(eom, cond.t, cond.x, v=cond.v, window=cond.window), False
+
+
+def validate_measurement(model: EquationOfMotion | ModalSumModel, meas: Measurement) -> RecordCheck:
+    """Simulate ``model`` for one record and score it (see :func:`validate_conditioned`).
+
+    A :class:`~eddi.multimode.ModalSumModel` predicts the measured velocity (``vel``
+    channel, else the conditioned rate) from its initial state at the largest ``|v|``
+    (:func:`eddi.multimode.predict_record`); its ``nrmse`` and ``nmte`` are of the velocity.
+
+    Raises
+    ------
+    SignalError, InputFileError
+        When the record cannot be conditioned or predicted.
+    """
+    pf = peak_force(meas)
+    if isinstance(model, ModalSumModel):
+        v = meas.channels.get("vel")
+        if v is None:
+            v = condition_measurement(meas).v
+        p = predict_record(model, meas.t, v)
+        return RecordCheck(meas.source, p.errors.nrmse, p.errors.nmte, "initial state", pf, p.t,
+                           p.v_measured, p.v_predicted, "velocity", not math.isfinite(p.errors.nrmse))
+    cond = condition_measurement(meas)
+    val, by_force = validate_conditioned(model, cond)
+    return RecordCheck(meas.source, val.nrmse, val.nmte, "force" if by_force else "initial state", pf, val.t,
+                       val.x_measured, val.x_simulated, "displacement", val.diverged)
+
+
+def run_session(
+    measurements: Sequence[Measurement],
+    mass: float | None = None,
+    *,
+    damping: str | Sequence[str] = DEFAULT_DAMPING,
+    stiffness: str | Sequence[str] = DEFAULT_STIFFNESS,
+    route: str = "auto",
+    fit_index: int | None = None,
+) -> SessionResult:
+    """Identify on one record, validate on all the others.
+
+    Parameters
+    ----------
+    measurements : sequence of Measurement
+        At least one record.
+    mass : float, optional
+        [kg]; default the mass the records store.
+    damping, stiffness : str or sequence of str
+        Candidate terms.
+    route : {"auto", "potential", "lagrangian"}
+    fit_index : int, optional
+        Record to identify on (negative counts from the end); default
+        :func:`choose_fit_index`.
+
+    Raises
+    ------
+    ConfigError
+        No record, bad fit index, no mass.
+    EddiError
+        When identification fails on the fit record (one line).
+    """
+    recs = tuple(measurements)
+    if not recs:
+        raise ConfigError("expected at least one record, got none")
+    m = session_mass(recs, mass)
+    if fit_index is None:
+        k = choose_fit_index(recs)
+    else:
+        k = int(fit_index) + (len(recs) if fit_index < 0 else 0)
+        if not 0 <= k < len(recs):
+            raise ConfigError(f"--fit: expected a record index 0..{len(recs) - 1}, got {fit_index}")
+    dmp = damping if isinstance(damping, str) else tuple(damping)
+    stf = stiffness if isinstance(stiffness, str) else tuple(stiffness)
+    fit = identify_measurement(condition_measurement(recs[k]), m, damping=dmp, stiffness=stf, route=route)
+    held = tuple(validate_measurement(fit.model.eom, r) for i, r in enumerate(recs) if i != k)
+    return SessionResult(recs, k, fit, held)
+
+
+def load_model_file(path: str | Path) -> EquationOfMotion | ModalSumModel:
+    """Read a model JSON file (equation of motion or modal sum, :func:`eddi.multimode.load_any_model`).
+
+    Raises
+    ------
+    InputFileError
+        Missing or unreadable file, or text that is not a model (one line).
+    """
+    from eddi.errors import ModelError
+    from eddi.multimode import load_any_model
+
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputFileError(f"{p}: no such model file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputFileError(f"{p}: cannot read the model ({getattr(exc, 'strerror', None) or exc})") from None
+    try:
+        return load_any_model(text)
+    except ModelError as exc:
+        raise InputFileError(f"{p}: {exc}") from None
