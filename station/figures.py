@@ -97,9 +97,12 @@ def force_figure(t: np.ndarray, force: np.ndarray, title: str = "Excitation") ->
     ax[0, 0].set_ylabel("force [N]")
     ax[0, 0].set_title(title)
     k = int(np.nanargmax(np.abs(force))) if force.size else 0
-    rate = 1.0 / float(np.median(np.diff(t))) if t.size > 1 else 1.0
-    half = max(int(0.01 * rate), 5)
-    sl = slice(max(k - half, 0), min(k + 2 * half, t.size))
+    # zoom on the pulse: where |F| exceeds 5 % of the peak, with its own width on each side
+    above = np.flatnonzero(np.abs(force) > 0.05 * abs(force[k])) if force.size else np.zeros(1, int)
+    near = above[np.abs(above - k) < max(t.size // 50, 50)]
+    lo, hi = (int(near.min()), int(near.max())) if near.size else (k, k)
+    width = max(hi - lo, 5)
+    sl = slice(max(lo - 2 * width, 0), min(hi + 3 * width, t.size))
     ax[0, 1].plot(t[sl] * 1e3, force[sl], color=_MEASURED, lw=1.0, marker=".", ms=2)
     ax[0, 1].set_xlabel("time [ms]")
     ax[0, 1].set_title(f"impact, peak {force[k]:.4g} N" if force.size else "impact")
@@ -149,6 +152,19 @@ def _cwt_panel(ax: object, t: np.ndarray, freqs: np.ndarray, amp: np.ndarray, vm
                   vmin=0.0, vmax=vmax if vmax is not None else float(np.nanmax(amp)) if amp.size else 1.0,
                   rasterized=True)
     ax.set_ylabel("frequency [Hz]")
+
+
+def _zoom_panel(ax: object, t: np.ndarray, xm: np.ndarray, xs: np.ndarray, fraction: float = 0.1) -> None:
+    """The last ``fraction`` of the record, measured and simulated, unreduced (phase drift shows)."""
+    t = np.asarray(t, float)
+    n = t.size
+    sl = slice(max(0, n - max(int(fraction * n), 2)), n)
+    step = max(1, (sl.stop - sl.start) // 3000)
+    ax.plot(t[sl][::step], np.asarray(xm, float)[sl][::step], color=_MEASURED, lw=0.9)
+    ax.plot(t[sl][::step], np.asarray(xs, float)[sl][::step], color=_MODEL, lw=0.9, ls="--")
+    ax.set_title("end of the record", fontsize=9)
+    ax.tick_params(labelsize=7)
+    ax.tick_params(axis="x", labelbottom=True)
 
 
 def _spectrum_panel(ax: object, freqs_cwt: np.ndarray, curves: list[tuple[np.ndarray, np.ndarray, str, str]]) -> None:
@@ -237,6 +253,8 @@ def restoring_force_figure(
     x_model: np.ndarray,
     force_model_n: np.ndarray,
     t: np.ndarray | None = None,
+    quantity: str = "force [N]",
+    title: str = "Restoring force",
 ) -> Figure:
     """Conservative force against displacement, data and model (paper Fig. 11(a), (b)).
 
@@ -251,6 +269,9 @@ def restoring_force_figure(
         Identified stiffness model ``sum k_n K_n(x)`` on ``x_model``.
     t : ndarray, shape (n,), [s], optional
         Sample times; when given, a time-series panel is added (Fig. 11(a)).
+    quantity : str
+        Label of the ordinate (``"potential energy [J]"`` for the potential route).
+    title : str
     """
     x = np.asarray(x, float)
     fm = np.asarray(force_measured_n, float)
@@ -261,8 +282,8 @@ def restoring_force_figure(
         order = np.argsort(t)
         a_t.plot(*envelope(t[order], fm[order]), color=_MEASURED, lw=0.6, label="from energies")
         a_t.set_xlabel("time [s]")
-        a_t.set_ylabel("force [N]")
-        a_t.set_title("Conservative force")
+        a_t.set_ylabel(quantity)
+        a_t.set_title(title)
         a_t.legend(fontsize=8)
     else:
         fig, ax = _new(size=(5.0, 3.8))
@@ -273,8 +294,8 @@ def restoring_force_figure(
     a.plot(np.asarray(x_model, float)[order], np.asarray(force_model_n, float)[order], color=_MODEL, lw=1.5,
            label="identified model")
     a.set_xlabel("displacement [m]")
-    a.set_ylabel("force [N]")
-    a.set_title("Restoring force")
+    a.set_ylabel(quantity)
+    a.set_title(title)
     a.legend(fontsize=8)
     return fig
 
@@ -306,7 +327,9 @@ def validation_figure(
     spectrum_measured, spectrum_simulated : ndarray, shape (m,)
     title : str
     """
-    fig, ax = _new(3, 2, size=(9.0, 7.0), width_ratios=[3, 1], sharex="col")
+    fig, ax = _new(3, 2, size=(9.0, 7.0), width_ratios=[3, 1])
+    for r in (1, 2):  # time axes shared; the zoom (time) and spectrum (amplitude) are not
+        ax[r, 0].sharex(ax[0, 0])
     a = ax[0, 0]
     a.plot(*envelope(t, x_measured), color=_MEASURED, lw=0.8, label="measured")
     a.plot(*envelope(t, x_simulated), color=_MODEL, lw=0.8, ls="--", label="simulated")
@@ -319,7 +342,7 @@ def validation_figure(
     _cwt_panel(ax[2, 0], cwt_t, cwt_freqs_hz, np.nan_to_num(cwt_simulated), vmax)
     ax[2, 0].set_title("CWT, simulated", fontsize=9)
     ax[2, 0].set_xlabel("time [s]")
-    ax[0, 1].axis("off")
+    _zoom_panel(ax[0, 1], t, x_measured, x_simulated)
     ax[1, 1].axis("off")
     _spectrum_panel(ax[2, 1], cwt_freqs_hz, [
         (spectrum_f_hz, spectrum_measured, "measured", _MEASURED),
