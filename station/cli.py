@@ -29,6 +29,7 @@ COMMANDS: dict[str, str] = {
     "diagnose": "station.commands.diagnose",
     "devices": "station.commands.devices",
     "rig": "station.commands.rig",
+    "demo": "station.commands.demo",
 }
 
 
