@@ -1,0 +1,249 @@
+"""``station demo``: the whole bench on the simulated rig, end to end, in one call.
+
+:func:`run_demo` does what an operator does with a real rig, through the real code path:
+
+1. opens ``sim://duffing-smooth`` (the simulated rig's firmware served on a pseudo-terminal,
+   read by the serial driver), configures a force trigger;
+2. records three impacts at three force levels (the system's demo levels: 246 N, 600 N and
+   1110 N for ``duffing-smooth``, paper Sec. 3.3.1 / Fig. 12) into ``OUT/session.h5``, letting
+   the structure come to rest between impacts (hold-off = the system's ring-down time);
+3. identifies the equation of motion on the middle impact (``OUT/model.json``) and validates
+   it on the low and high ones, simulated from rest with their measured forces (the paper
+   identified on one impact and validated on the others);
+4. writes the report (``OUT/report/index.html`` and its PNGs), with the rig's true
+   coefficients beside the identified ones.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+from eddi.model import EquationOfMotion
+from station.capture import AcquireResult, ImpactPlan, Status, acquire, configure_device, device_metadata
+from station.config import BenchConfig, parse_config
+from station.errors import ConfigError, StationError
+from station.pipeline import SessionResult, read_all, run_session
+from station.report import Report, write_report
+from station.storage import CaptureWriter, StorageError, read_capture
+
+#: The README's first command runs on this device.
+DEMO_DEVICE = "sim://duffing-smooth"
+#: Record after the trigger [s] (the paper recorded 45 s; 8 s hold ~40 cycles here).
+DEMO_RECORD_S = 8.0
+#: Pre-trigger [s] (paper Sec. 3.3.1: 1 s).
+DEMO_PRETRIGGER_S = 1.0
+
+
+@dataclass(frozen=True)
+class DemoResult:
+    """What :func:`run_demo` did and wrote.
+
+    Attributes
+    ----------
+    device : str
+    session_file, model_file : Path
+        ``OUT/session.h5`` and ``OUT/model.json``.
+    report : Report
+        ``OUT/report/index.html`` and its figures.
+    acquisition : AcquireResult
+    link_dropped_samples, crc_errors : int
+        Link statistics of the driver.
+    session : SessionResult
+        Identification on the middle impact, validation on the others.
+    truth : EquationOfMotion or None
+        The rig's physics, read back from the captures.
+    levels_n : tuple of float
+        Requested peak forces [N], in order.
+    elapsed_s : dict of str to float
+        Wall time of each stage [s].
+    """
+
+    device: str
+    session_file: Path
+    model_file: Path
+    report: Report
+    acquisition: AcquireResult
+    link_dropped_samples: int
+    crc_errors: int
+    session: SessionResult
+    truth: EquationOfMotion | None
+    levels_n: tuple[float, ...]
+    elapsed_s: dict[str, float]
+
+
+def rig_truth(session_file: str | Path, capture: int = 0) -> EquationOfMotion | None:
+    """The simulated rig's equation of motion stored with a capture (None for a real rig)."""
+    rig = read_capture(session_file, capture, verify=False).rig
+    if not rig or not rig.get("scenario"):
+        return None
+    try:
+        eom = json.loads(rig["scenario"]).get("equation_of_motion")
+        return EquationOfMotion.model_validate(eom) if eom else None
+    except (ValueError, TypeError, AttributeError):
+        return None
+
+
+def demo_config(device: str, mass_kg: float, levels_n: tuple[float, ...], record_s: float,
+                holdoff_s: float) -> BenchConfig:
+    """Bench configuration of the demo: force trigger at a quarter of the lowest level."""
+    return parse_config({
+        "device": {"url": device},
+        "trigger": {"channel": "force", "level_n": 0.25 * min(levels_n), "pretrigger_s": DEMO_PRETRIGGER_S,
+                    "record_s": record_s, "holdoff_s": holdoff_s, "on_double_hit": "reject",
+                    "on_overload": "reject"},
+        "specimen": {"mass_kg": mass_kg, "name": device.removeprefix("sim://")},
+        "notes": "station demo",
+    }, "demo")
+
+
+def run_demo(
+    out_dir: str | Path,
+    *,
+    device: str = DEMO_DEVICE,
+    record_s: float = DEMO_RECORD_S,
+    on_status: Callable[[Status], None] | None = None,
+) -> DemoResult:
+    """Acquire three impacts on the simulated rig, identify on one, validate on two, report.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Created; ``session.h5`` in it is replaced.
+    device : str
+        A ``sim://SYSTEM`` URL (the rig must deliver the impacts itself).
+    record_s : float
+        Record length after the trigger [s], > 0.
+    on_status : callable, optional
+        Live acquisition status (see :func:`station.capture.acquire`).
+
+    Returns
+    -------
+    DemoResult
+
+    Raises
+    ------
+    ConfigError
+        Not a ``sim://`` device, or a bad record length.
+    StationError, DriverError, EddiError
+        Acquisition or identification failed (one line).
+    KeyboardInterrupt
+        On Ctrl-C (the captures saved are kept).
+    """
+    if not device.startswith("sim://"):
+        raise ConfigError(f"--device: the demo needs a simulated rig (sim://SYSTEM) to deliver the impacts, got {device!r}")
+    if not record_s > 0:
+        raise ConfigError(f"--record-s: expected > 0 s, got {record_s}")
+    from simulated_rig.systems import system_info
+    from station.devices import open_device, parse_sim_url
+
+    info = system_info(parse_sim_url(device).system)
+    levels = tuple(float(f) for f in info.demo_forces_n[:3])
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        session_file = out / "session.h5"
+        session_file.unlink(missing_ok=True)
+    except OSError as exc:
+        raise StorageError(f"{out}: cannot prepare the output directory ({exc.strerror or exc})") from None
+    # the structure rests between impacts for the system's ring-down time
+    cfg = demo_config(device, info.eom.mass, levels, record_s, holdoff_s=info.record_s)
+    elapsed: dict[str, float] = {}
+    t0 = time.perf_counter()
+    writer = CaptureWriter(session_file, session={"bench_config": cfg.model_dump_json()})
+    with open_device(device) as daq:
+        configure_device(daq, cfg)
+        plan = ImpactPlan(levels * 3, (False,) * (3 * len(levels)))  # repeats for rejected impacts
+        acq = acquire(daq, cfg, writer, len(levels), impacts=plan, on_status=on_status, idle_timeout_s=10.0,
+                      device_meta=device_metadata(daq, device))
+        stats = daq.stats
+    elapsed["acquire"] = time.perf_counter() - t0
+    if acq.interrupted:
+        raise KeyboardInterrupt
+    if acq.error is not None:
+        raise StationError(f"acquisition stopped: {acq.error} ({acq.captures} capture(s) kept in {session_file})")
+    t1 = time.perf_counter()
+    session = run_session(read_all([str(session_file)]), damping=("v", "x^2*v", "v^3"),  # paper Eq. 21
+                          stiffness=("x", "x^2", "x^3", "x^4", "x^5"))  # paper Eq. 22
+    model_file = out / "model.json"
+    try:
+        model_file.write_text(session.fit.model.eom.to_json(), encoding="utf-8")
+    except OSError as exc:
+        raise StorageError(f"{model_file}: cannot write ({exc.strerror or exc})") from None
+    elapsed["identify_validate"] = time.perf_counter() - t1
+    truth = rig_truth(session_file)
+    t2 = time.perf_counter()
+    report = write_report(session, out / "report", truth=truth, title=f"EDDI Station demo: {device}")
+    elapsed["report"] = time.perf_counter() - t2
+    elapsed["total"] = time.perf_counter() - t0
+    return DemoResult(device, session_file, model_file, report, acq, int(getattr(stats, "dropped_samples", 0)),
+                      int(getattr(stats, "crc_errors", 0)), session, truth, levels, elapsed)
+
+
+def demo_object(res: DemoResult) -> dict[str, Any]:
+    """The ``--json`` object of ``station demo``."""
+    from station.commands.identify import result_object
+
+    s = res.session
+    fit_meas = s.measurements[s.fit_index]
+    identified = result_object(fit_meas, s.fit)
+    obj: dict[str, Any] = {
+        "device": res.device,
+        "levels_n": list(res.levels_n),
+        "captures": res.acquisition.captures,
+        "rejected": len(res.acquisition.rejected),
+        "dropped_samples": res.acquisition.dropped_samples,
+        "link_dropped_samples": res.link_dropped_samples,
+        "crc_errors": res.crc_errors,
+        "fit_capture": fit_meas.source,
+        "identified": identified,
+        "validation": {
+            "nrmse": s.mean_nrmse,
+            "nmte": s.mean_nmte,
+            "held_out": [c.as_dict() for c in s.held_out],
+        },
+        "paths": {
+            "session": str(res.session_file),
+            "model": str(res.model_file),
+            "report": str(res.report.index),
+            "figures": [str(p) for p in res.report.figures],
+        },
+        "elapsed_s": dict(res.elapsed_s),
+    }
+    if res.truth is not None:
+        eom = s.fit.model.eom
+        obj["rig"] = {"damping": dict(res.truth.damping), "stiffness": dict(res.truth.stiffness),
+                      "relative_error": {
+                          term: (eom.stiffness[term] - c) / abs(c)
+                          for term, c in res.truth.stiffness.items() if term in eom.stiffness and c}}
+    return obj
+
+
+def demo_text(obj: dict[str, Any]) -> str:
+    """People-friendly summary of :func:`demo_object`."""
+    ident = obj["identified"]
+    lines = [f"{obj['device']}: {obj['captures']} impacts at {', '.join(f'{f:g}' for f in obj['levels_n'])} N "
+             f"saved to {obj['paths']['session']} (dropped samples {obj['dropped_samples']}, "
+             f"link {obj['link_dropped_samples']}, CRC errors {obj['crc_errors']})",
+             f"identified on {obj['fit_capture']}: {ident['equation']}"]
+    truth = obj.get("rig")
+    for kind in ("damping", "stiffness"):
+        for term, c in ident[kind].items():
+            line = f"  {kind:<10} {term:<7} {c:+.5g}"
+            if truth is not None and term in truth[kind]:
+                tv = truth[kind][term]
+                line += f"   rig {tv:+.5g}" + (f"  ({100 * (c - tv) / abs(tv):+.1f} %)" if tv else "")
+            lines.append(line)
+    v = obj["validation"]
+    for c in v["held_out"]:
+        lines.append(f"validated on {c['source']} ({c['peak_force_n']:.4g} N, from rest with its measured force): "
+                     f"nrmse {c['nrmse']:.3g}")
+    if v["nrmse"] is not None:
+        lines.append(f"mean nrmse on the held-out impacts: {v['nrmse']:.3g}")
+    lines.append(f"model: {obj['paths']['model']}")
+    lines.append(f"report: {obj['paths']['report']} ({len(obj['paths']['figures'])} figures)")
+    lines.append(f"done in {obj['elapsed_s']['total']:.1f} s")
+    return "\n".join(lines)
