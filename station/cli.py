@@ -30,6 +30,7 @@ COMMANDS: dict[str, str] = {
     "devices": "station.commands.devices",
     "rig": "station.commands.rig",
     "demo": "station.commands.demo",
+    "validate": "station.commands.validate",
 }
 
 
