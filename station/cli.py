@@ -31,6 +31,7 @@ COMMANDS: dict[str, str] = {
     "rig": "station.commands.rig",
     "demo": "station.commands.demo",
     "validate": "station.commands.validate",
+    "replay": "station.commands.replay",
 }
 
 
