@@ -1,0 +1,237 @@
+"""``station replay FILE [--through-device] [--json]``: rerun the pipeline on saved captures.
+
+    station replay session.h5                   # identify on the middle impact, validate on the others
+    station replay session.h5 --through-device  # first stream every capture through the emulated DAQ
+
+The pipeline is :func:`station.pipeline.run_session` (as ``station report``, without the
+figures). With ``--through-device`` each stored capture's raw counts are served by a
+:class:`ReplaySource` inside the emulated DAQ firmware, on a pseudo-terminal, read back with the
+serial driver, and compared with the file: they must arrive bit-exact.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from drivers.channels import ChannelInfo
+from station.errors import InputFileError
+from station.output import emit
+
+#: Samples the replay source serves per ``read`` call at most (the firmware asks for blocks).
+_READ_LIMIT = 1 << 20
+
+
+class ReplaySource:
+    """A sample source (the ``RigSource`` interface) that serves stored ADC counts.
+
+    Parameters
+    ----------
+    counts : ndarray, shape (n, n_channels), int32
+        The samples to serve, in order; zeros follow them.
+    channels : tuple of ChannelInfo
+        One per column of ``counts``.
+    rate_hz : float
+        Sample rate [Hz]; the only rate :meth:`configure` accepts.
+    scenario_json : str
+        Reported to the host in IDENTIFY.
+
+    Attributes
+    ----------
+    sample_index : int
+        Samples served so far.
+    """
+
+    def __init__(self, counts: np.ndarray, channels: tuple[ChannelInfo, ...], rate_hz: float,
+                 scenario_json: str = "") -> None:
+        from simulated_rig.errors import RigError
+
+        counts = np.asarray(counts)
+        if counts.ndim != 2 or counts.shape[1] != len(channels) or counts.dtype.kind not in "iu":
+            raise RigError(f"replay: expected integer counts of shape (n, {len(channels)}), got "
+                           f"{counts.dtype} {counts.shape}")
+        self.counts = np.ascontiguousarray(counts, dtype=np.int32)
+        self.channels = tuple(channels)
+        self.rate_hz = float(rate_hz)
+        self.scenario_json = scenario_json
+        self.sample_index = 0
+
+    def read(self, n: int) -> np.ndarray:
+        """The next ``n`` stored samples, shape (n, n_channels) int32 (zeros past the end)."""
+        n = int(n)
+        out = np.zeros((n, len(self.channels)), dtype=np.int32)
+        k = self.sample_index
+        take = max(0, min(n, self.counts.shape[0] - k))
+        out[:take] = self.counts[k:k + take]
+        self.sample_index += n
+        return out
+
+    def configure(self, rate_hz: float | None = None) -> None:
+        """Accept only the stored rate; restart from the first sample."""
+        from simulated_rig.errors import RigError
+
+        if rate_hz is not None and float(rate_hz) != self.rate_hz:
+            raise RigError(f"replay: the capture was recorded at {self.rate_hz:g} Hz, cannot serve {rate_hz:g} Hz")
+        self.sample_index = 0
+
+    def deliver_impact(self, peak_force_n: float, double_hit: bool = False) -> None:
+        """A replay plays what was recorded: no impact can be added."""
+        from simulated_rig.errors import RigError
+
+        raise RigError("replay: a stored capture cannot take a new impact")
+
+
+@dataclass(frozen=True)
+class StreamCheck:
+    """One capture streamed through the emulated device and the driver.
+
+    Attributes
+    ----------
+    capture : int
+    samples : int
+        Samples compared (the whole capture).
+    bit_exact : bool
+        Every count arrived unchanged, in order.
+    mismatched_samples : int
+        Rows with any differing count.
+    dropped_samples, crc_errors : int
+        Link statistics of the driver.
+    transport_url : str
+        The pty the driver opened.
+    """
+
+    capture: int
+    samples: int
+    bit_exact: bool
+    mismatched_samples: int
+    dropped_samples: int
+    crc_errors: int
+    transport_url: str
+
+
+def stream_through_device(path: str, capture: int, *, timeout_s: float = 5.0) -> StreamCheck:
+    """Serve a stored capture's counts through the emulated DAQ on a pty and the serial driver.
+
+    Raises
+    ------
+    InputFileError
+        The capture holds imported SI values (no raw counts) or missing samples.
+    DriverError
+        The link failed (one line).
+    """
+    from drivers import open_device
+    from simulated_rig.device import EmulatedDaq
+    from simulated_rig.serve import PtyServer
+    from station.storage import read_capture
+
+    cap = read_capture(path, capture)
+    if any(ch.counts is None for ch in cap.channels.values()):
+        raise InputFileError(f"capture {cap.index} of {path}: holds SI values (imported), not raw counts; "
+                             f"expected a capture recorded by a DAQ")
+    if cap.dropped_samples:
+        raise InputFileError(f"capture {cap.index} of {path}: {cap.dropped_samples} samples are missing; "
+                             f"expected a complete record to replay")
+    counts = np.column_stack([ch.counts for ch in cap.channels.values()])
+    infos = tuple(ch.info for ch in cap.channels.values())
+    scenario = json.dumps(cap.rig) if cap.rig else ""
+    source = ReplaySource(counts, infos, cap.rate_hz, scenario_json=scenario)
+    server = PtyServer(EmulatedDaq(source, model="EDDI-REPLAY", serial=f"REPLAY-{cap.index}"), paced=False).start()
+    try:
+        with open_device("serial://" + server.port, timeout_s=timeout_s) as daq:
+            daq.start()
+            first, got, _si, _dropped = daq.read_samples(counts.shape[0], timeout_s=timeout_s)
+            daq.stop()
+            stats = daq.stats
+            url = daq.url
+    finally:
+        server.close()
+    got = got[: counts.shape[0]]
+    bad = int(np.count_nonzero(np.any(got != counts, axis=1))) if got.shape == counts.shape else counts.shape[0]
+    return StreamCheck(cap.index, int(counts.shape[0]), bad == 0 and first == 0, bad,
+                       int(getattr(stats, "dropped_samples", 0)), int(getattr(stats, "crc_errors", 0)), str(url))
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``replay`` sub-command."""
+    p = subparsers.add_parser("replay", help="rerun the pipeline on saved captures (optionally through the device)",
+                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("file", metavar="FILE", help="HDF5 session file (all captures) or FILE.h5:N, or a CSV")
+    p.add_argument("--through-device", action="store_true",
+                   help="stream every capture through the emulated DAQ and the serial driver, check it bit-exact")
+    p.add_argument("--mass", type=float, default=None, help="mass [kg] (default: the one the captures record)")
+    p.add_argument("--damping", default=None, metavar="TERMS", help="damping candidates, comma-separated")
+    p.add_argument("--stiffness", default=None, metavar="TERMS", help="stiffness candidates, comma-separated")
+    p.add_argument("--fit", type=int, default=None, metavar="N",
+                   help="record to identify on (default: the middle force level)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=handle)
+
+
+def session_object(session: Any) -> dict[str, Any]:
+    """``identified`` (as ``station identify --json``) and ``validation`` of a session."""
+    from station.commands.identify import result_object
+
+    meas = session.measurements[session.fit_index]
+    return {
+        "records": [m.source for m in session.measurements],
+        "fit_record": meas.source,
+        "identified": result_object(meas, session.fit),
+        "validation": {"nrmse": session.mean_nrmse, "nmte": session.mean_nmte,
+                       "held_out": [c.as_dict() for c in session.held_out]},
+    }
+
+
+def session_text(obj: dict[str, Any]) -> str:
+    """People-friendly lines of :func:`session_object`."""
+    ident = obj["identified"]
+    lines = [f"identified on {obj['fit_record']}: {ident['equation']}"]
+    for c in obj["validation"]["held_out"]:
+        how = "from rest, measured force" if c["driven_by"] == "force" else "from the measured state"
+        lines.append(f"  validated on {c['source']}: nrmse {c['nrmse']:.4g} ({how})")
+    if obj["validation"]["nrmse"] is not None:
+        lines.append(f"  mean nrmse on the records not used for the fit: {obj['validation']['nrmse']:.4g}")
+    else:
+        lines.append(f"  a single record: validated on itself, nrmse {ident['validation']['nrmse']:.4g}")
+    return "\n".join(lines)
+
+
+def terms_or_default(text: str | None, default: tuple[str, ...]) -> str | tuple[str, ...]:
+    """``--damping`` / ``--stiffness`` text, or the default candidates."""
+    return text if text else default
+
+
+def handle(args: argparse.Namespace) -> int:
+    """Run ``station replay``; return the exit code."""
+    from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
+    from station.pipeline import expand_specs, read_all, run_session
+    from station.readers import split_spec
+
+    specs = expand_specs([args.file])
+    obj: dict[str, Any] = {"file": args.file}
+    lines: list[str] = []
+    if args.through_device:
+        checks = []
+        for spec in specs:
+            path, capture = split_spec(spec)
+            if path.suffix.lower() not in (".h5", ".hdf5"):
+                raise InputFileError(f"--through-device: expected an HDF5 capture file, got {path}")
+            checks.append(stream_through_device(str(path), int(capture or 0)))
+        obj["through_device"] = [c.__dict__ for c in checks]
+        obj["bit_exact"] = all(c.bit_exact for c in checks)
+        for c in checks:
+            lines.append(f"capture {c.capture}: {c.samples} samples through {c.transport_url}: "
+                         + ("bit-exact" if c.bit_exact else f"{c.mismatched_samples} samples differ")
+                         + f" (dropped {c.dropped_samples}, CRC errors {c.crc_errors})")
+    session = run_session(read_all(specs), args.mass,
+                          damping=terms_or_default(args.damping, DEFAULT_DAMPING),
+                          stiffness=terms_or_default(args.stiffness, DEFAULT_STIFFNESS), fit_index=args.fit)
+    obj.update(session_object(session))
+    lines.append(session_text(obj))
+    emit(args.json, "\n".join(lines), obj)
+    if args.through_device and not obj["bit_exact"]:
+        return 1
+    return 0
