@@ -32,6 +32,7 @@ COMMANDS: dict[str, str] = {
     "demo": "station.commands.demo",
     "validate": "station.commands.validate",
     "replay": "station.commands.replay",
+    "report": "station.commands.report",
 }
 
 
