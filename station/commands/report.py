@@ -1,0 +1,67 @@
+"""``station report FILE... --out DIR [--json]``: HTML report with the paper's figure set.
+
+    station report session.h5 --out report      # identify on the middle impact, validate on the others
+
+Identifies on one record (default: the middle force level; ``--fit N`` to choose) and
+validates on every other one (:func:`station.pipeline.run_session`), then writes
+``DIR/index.html`` with PNG figures (:func:`station.report.write_report`): force;
+displacement with its CWT and Fourier spectrum; kinetic energy with T at the zero crossings;
+measured versus modelled dissipated energy; mechanical energy; restoring force (or
+potential); validation overlays on the records not used for the fit; the coefficient table.
+``FILE.h5`` without ``:CAPTURE`` means every capture in it. See docs/report.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from station.output import emit
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``report`` sub-command."""
+    p = subparsers.add_parser("report", help="HTML report with the paper's figures (identify + validate)",
+                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("records", metavar="FILE", nargs="+", help="FILE.h5 (all captures), FILE.h5:N or FILE.csv")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
+    p.add_argument("--mass", type=float, default=None, help="mass [kg] (default: the one the records store)")
+    p.add_argument("--damping", default=None, metavar="TERMS", help="damping candidates, comma-separated")
+    p.add_argument("--stiffness", default=None, metavar="TERMS", help="stiffness candidates, comma-separated")
+    p.add_argument("--route", choices=("auto", "potential", "lagrangian"), default="auto",
+                   help="phase-two route (default: %(default)s)")
+    p.add_argument("--fit", type=int, default=None, metavar="N",
+                   help="record to identify on, 0-based among the records given (default: the middle force level)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=handle)
+
+
+def handle(args: argparse.Namespace) -> int:
+    """Run ``station report``; return the exit code."""
+    import time
+
+    from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
+    from station.commands.replay import session_object, session_text, terms_or_default
+    from station.demo import rig_truth
+    from station.pipeline import read_all, run_session
+    from station.report import write_report
+
+    t0 = time.perf_counter()
+    recs = read_all(args.records)
+    session = run_session(recs, args.mass, damping=terms_or_default(args.damping, DEFAULT_DAMPING),
+                          stiffness=terms_or_default(args.stiffness, DEFAULT_STIFFNESS), route=args.route,
+                          fit_index=args.fit)
+    fit = session.measurements[session.fit_index]
+    truth = None
+    if "capture" in fit.metadata and "file" in fit.metadata:
+        truth = rig_truth(fit.metadata["file"], int(fit.metadata["capture"]))
+    t1 = time.perf_counter()
+    rep = write_report(session, args.out, truth=truth)
+    t2 = time.perf_counter()
+    obj = session_object(session)
+    obj["report"] = str(rep.index)
+    obj["figures"] = [str(p) for p in rep.figures]
+    obj["elapsed_s"] = {"identify_validate": t1 - t0, "report": t2 - t1}
+    text = session_text(obj) + f"\nreport: {rep.index} ({len(rep.figures)} figures, {t2 - t1:.1f} s)"
+    emit(args.json, text, obj)
+    return 0
