@@ -135,6 +135,30 @@ class ModalSumModel(BaseModel):
             [math.sqrt(max(m.linear_stiffness(), 0.0) / m.mass) / (2 * math.pi) for m in self.modes]
         )
 
+    def damping_ratios(self) -> np.ndarray:
+        """Small-amplitude (viscous ``v`` term) damping ratio of each mode, shape (n_modes,)."""
+        out = []
+        for m in self.modes:
+            w = math.sqrt(max(m.linear_stiffness(), 0.0) / m.mass)
+            b = sum(float(c) for text, c in m.damping.items()
+                    if parse_term(text).exponents == (0, 1, 0, 0, 0, 0))
+            out.append(b / (2.0 * m.mass * w) if w > 0 else math.nan)
+        return np.array(out)
+
+    def to_dict(self) -> dict[str, Any]:
+        """A plain dict (JSON-ready), the same content as :meth:`to_json`."""
+        return json.loads(self.model_dump_json())
+
+    def equation_text(self) -> str:
+        """One equation per mode, for people: ``v = sum_k v_k`` and each mode's equation."""
+        f = self.natural_frequencies_hz()
+        parts = [f"v = sum of {len(self.modes)} modal velocities;"]
+        for k, (m, fk) in enumerate(zip(self.modes, f)):
+            lo, hi = self.bands_hz[k]
+            text = m.equation_text().replace(" = F(t)", " = 0")
+            parts.append(f"mode {k + 1} ({fk:.5g} Hz, band {lo:.4g}-{hi:.4g} Hz): {text}")
+        return " ".join(parts[:1]) + " " + "; ".join(parts[1:])
+
 
 def load_any_model(text: str) -> EquationOfMotion | ModalSumModel:
     """Load either a single equation of motion or a modal-sum model from JSON text.
@@ -376,8 +400,57 @@ def suggest_bands(
         If fewer than ``n_modes`` separate peaks are found.
     """
     t, v, dt = _check_signal(t, v)
-    fs = 1.0 / dt
-    freqs, power = signal.welch(v, fs=fs, nperseg=min(v.size, 4096))
+    return suggest_bands_many([(t, v)], n_modes, min_ratio=min_ratio,
+                              min_power_ratio=min_power_ratio)
+
+
+def welch_sum(records: Sequence[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    """Sum over records of each record's Welch spectrum normalised to unit total power.
+
+    Parameters
+    ----------
+    records : sequence of (t, v)
+        Uniform records of the same sample rate (lengths may differ).
+
+    Returns
+    -------
+    freqs_hz : ndarray, shape (m,)
+    power : ndarray, shape (m,)
+        Dimensionless (each record weighs the same).
+    """
+    if not records:
+        raise SignalError("expected at least one record, got none")
+    nper = min(4096, min(np.asarray(v).size for _t, v in records))
+    freqs = None
+    total = None
+    for t, v in records:
+        t, v, dt = _check_signal(t, v)
+        f, p = signal.welch(v, fs=1.0 / dt, nperseg=nper)
+        s = float(np.sum(p))
+        p = p / s if s > 0 else p
+        if total is None:
+            freqs, total = f, p
+        elif p.shape != total.shape:
+            raise SignalError("records have different sample rates; resample them first")
+        else:
+            total = total + p
+    assert freqs is not None and total is not None
+    return freqs, total
+
+
+def suggest_bands_many(
+    records: Sequence[tuple[np.ndarray, np.ndarray]], n_modes: int, *, min_ratio: float = 1.2,
+    min_power_ratio: float = 1e-4,
+) -> tuple[tuple[float, float], ...]:
+    """:func:`suggest_bands` on the summed spectra of several records (:func:`welch_sum`).
+
+    Raises
+    ------
+    SignalError
+        If fewer than ``n_modes`` separate peaks are found.
+    """
+    freqs, power = welch_sum(records)
+    fs = 2.0 * float(freqs[-1])
     peaks, _ = signal.find_peaks(power, height=min_power_ratio * float(np.max(power)))
     peaks = peaks[freqs[peaks] > 0]
     chosen: list[float] = []
@@ -834,6 +907,8 @@ __all__ = [
     "separate_modes",
     "simulate_modal",
     "suggest_bands",
+    "suggest_bands_many",
     "trajectory_errors",
+    "welch_sum",
 ]
 
