@@ -134,7 +134,8 @@ def run_demo(
         On Ctrl-C (the captures saved are kept).
     """
     if not device.startswith("sim://"):
-        raise ConfigError(f"--device: the demo needs a simulated rig (sim://SYSTEM) to deliver the impacts, got {device!r}")
+        raise ConfigError(f"--device: the demo needs a simulated rig (sim://SYSTEM) to deliver the impacts, "
+                          f"got {device!r}")
     if not record_s > 0:
         raise ConfigError(f"--record-s: expected > 0 s, got {record_s}")
     from simulated_rig.systems import system_info

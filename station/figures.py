@@ -74,7 +74,8 @@ def save(fig: Figure, path: str | Path, dpi: int = 100) -> Path:
     return path
 
 
-def _new(rows: int = 1, cols: int = 1, size: tuple[float, float] = (8.0, 3.2), **kw: object) -> tuple[Figure, np.ndarray]:
+def _new(rows: int = 1, cols: int = 1, size: tuple[float, float] = (8.0, 3.2),
+         **kw: object) -> tuple[Figure, np.ndarray]:
     fig = Figure(figsize=size, layout="constrained")
     axes = fig.subplots(rows, cols, squeeze=False, **kw)
     return fig, axes
@@ -182,7 +183,8 @@ def _spectrum_panel(ax: object, freqs_cwt: np.ndarray, curves: list[tuple[np.nda
         ax.legend(fontsize=7, loc="upper right")
 
 
-def kinetic_energy_figure(t: np.ndarray, kinetic_j: np.ndarray, crossing_t: np.ndarray, crossing_kinetic_j: np.ndarray) -> Figure:
+def kinetic_energy_figure(t: np.ndarray, kinetic_j: np.ndarray, crossing_t: np.ndarray,
+                          crossing_kinetic_j: np.ndarray) -> Figure:
     """Kinetic energy ``T(t)`` and ``T(gamma_i)`` at the zero crossings (paper Fig. 10(c)).
 
     Parameters
@@ -204,7 +206,8 @@ def kinetic_energy_figure(t: np.ndarray, kinetic_j: np.ndarray, crossing_t: np.n
     return fig
 
 
-def dissipated_energy_figure(crossing_t: np.ndarray, measured_j: np.ndarray, t_model: np.ndarray, modelled_j: np.ndarray) -> Figure:
+def dissipated_energy_figure(crossing_t: np.ndarray, measured_j: np.ndarray, t_model: np.ndarray,
+                             modelled_j: np.ndarray) -> Figure:
     """Measured vs modelled dissipated energy (paper Fig. 10(d), Eqs. 7 and 12).
 
     Parameters
@@ -336,7 +339,8 @@ def validation_figure(
     a.set_ylabel("displacement [m]")
     a.set_title(title)
     a.legend(fontsize=8, loc="upper right")
-    vmax = float(max(np.nanmax(cwt_measured), np.nanmax(np.nan_to_num(cwt_simulated)))) if np.size(cwt_measured) else None
+    vmax = (float(max(np.nanmax(cwt_measured), np.nanmax(np.nan_to_num(cwt_simulated))))
+            if np.size(cwt_measured) else None)
     _cwt_panel(ax[1, 0], cwt_t, cwt_freqs_hz, cwt_measured, vmax)
     ax[1, 0].set_title("CWT, measured", fontsize=9)
     _cwt_panel(ax[2, 0], cwt_t, cwt_freqs_hz, np.nan_to_num(cwt_simulated), vmax)
