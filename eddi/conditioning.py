@@ -871,7 +871,13 @@ def condition(
                 v_int[start:] = cumulative_trapezoid(a[start:], t[start:], initial=0.0)
                 x_int[start:] = cumulative_trapezoid(v_int[start:], t[start:], initial=0.0)
             else:
-                v_int, x_int = eq.v, eq.x
+                # unknown v0 and x0: a line in x, removed by least squares before the anchored
+                # fit (it dwarfs x; the cycle-mean v is biased where a damped response chirps)
+                v_int = spline_cumulative_integral(t, a)
+                x_int = spline_cumulative_integral(t, v_int)
+                line = np.polynomial.polynomial.polyfit(t - t[0], x_int, 1)
+                x_int = x_int - line[0] - line[1] * (t - t[0])
+                v_int = v_int - line[1]
             d, dd = _drift_spline_eval(anchored(x_int, v_int, a, first_anchor), t, start)
             x = x_int - d
             v = v_int - dd

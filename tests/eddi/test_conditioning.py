@@ -6,9 +6,14 @@ import numpy as np
 import pytest
 from scipy import signal as sps
 
-from eddi.conditioning import clipped_run, condition, crossings, integrate_highpass
+from eddi import EquationOfMotion, simulate
+from eddi.conditioning import (
+    anchor_residual, clipped_run, condition, crossings, integrate_about_equilibrium,
+    integrate_highpass, spline_cumulative_integral,
+)
 from eddi.errors import SignalError
-from tests.eddi.impact_cases import half_sine_pulse, impact_record
+from tests.conftest import REPO
+from tests.eddi.impact_cases import half_sine_pulse, impact_record, ringdown_rms
 
 
 def _rel(a: np.ndarray, b: np.ndarray, w: tuple[int, int]) -> float:
@@ -123,3 +128,112 @@ def test_bad_signals_raise_signal_error(kwargs: dict, match: str) -> None:
     t = args.pop("t")
     with pytest.raises(SignalError, match=match):
         condition(t, **args)
+
+
+# ----------------------------------------------------------------------------------------
+# ring-downs recorded already in motion (no rest, no force)
+# ----------------------------------------------------------------------------------------
+def _sdof(f_hz: float, zeta: float, k3: float = 0.0) -> EquationOfMotion:
+    k = (2 * np.pi * f_hz) ** 2
+    stiffness = {"x": k, "x^3": k3} if k3 else {"x": k}
+    return EquationOfMotion.create(mass=1.0, damping={"v": 2 * zeta * np.sqrt(k)}, stiffness=stiffness)
+
+
+def _in_motion(modes: list[tuple[EquationOfMotion, float, float]], rate_hz: float,
+               duration_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Sum of free responses of SDOF systems from their initial states ``(eom, x0, v0)``."""
+    t = np.arange(int(round(rate_hz * duration_s))) / rate_hz
+    x, v, a = np.zeros(t.size), np.zeros(t.size), np.zeros(t.size)
+    for eom, x0, v0 in modes:
+        sim = simulate(eom, t, x0=x0, v0=v0)
+        x += sim.x
+        v += sim.v
+        a += sim.a
+    return t, x, v, a
+
+
+def _noisy(y: np.ndarray, snr_db: float, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return y + 10 ** (-snr_db / 20) * ringdown_rms(y, 0) * rng.standard_normal(y.size)
+
+
+def _nrmse(est: np.ndarray, true: np.ndarray) -> float:
+    return float(np.linalg.norm(est - true) / np.linalg.norm(true))
+
+
+# two modes close to the double beam's (README of resonant-double-beam: 122.4 and 243.4 Hz,
+# 5120 Hz, ~3 s), and two at a non-harmonic ratio of 1.5
+TWO_MODES = {
+    "beam": ([(_sdof(122.4, 0.002), 1e-3, 0.3), (_sdof(243.4, 0.003), -2e-4, 0.8)], 5120.0, 3.07),
+    "ratio_1.5": ([(_sdof(100.0, 0.005), 0.0, 0.6), (_sdof(150.0, 0.005), 1e-3, 0.0)], 5000.0, 2.0),
+}
+ONE_MODE = {
+    "linear_50hz": ([(_sdof(50.0, 0.01), 2e-3, 0.5)], 2000.0, 3.0),
+    # hardening: the frequency falls from ~30 to ~20 Hz as it rings down
+    "duffing_20hz": ([(EquationOfMotion.create(mass=0.05, damping={"v": 0.15},
+                                               stiffness={"x": 800.0, "x^3": 2.0e8}), 3e-3, 0.0)],
+                     1e4, 4.0),
+}
+
+
+@pytest.mark.parametrize("case", sorted(TWO_MODES) + sorted(ONE_MODE))
+def test_velocity_only_record_in_motion_gives_x_and_a(case: str) -> None:
+    t, x, v, a = _in_motion(*{**TWO_MODES, **ONE_MODE}[case])
+    exact = condition(t, vel=v)
+    assert _nrmse(exact.x, x) < 2e-3
+    assert _nrmse(exact.a, a) < 1e-2
+    c = condition(t, vel=_noisy(v, 50.0, seed=3))
+    assert c.impact_start == 0 and c.free_start == 0
+    assert _nrmse(c.x, x) < 0.01
+    assert _nrmse(c.a, a) < 0.04  # noise on v, differentiated (SNR 50 dB)
+    # no drift: the mean of x over the last 0.5 s (where the one-mode records have sunk
+    # into the noise) is a small fraction of the amplitude
+    tail = slice(-int(0.5 / (t[1] - t[0])), None)
+    assert abs(np.mean(c.x[tail])) < 1e-3 * np.max(np.abs(x))
+
+
+@pytest.mark.parametrize("case", sorted(TWO_MODES) + sorted(ONE_MODE))
+def test_acceleration_only_record_in_motion_gives_x_and_v(case: str) -> None:
+    t, x, v, a = _in_motion(*{**TWO_MODES, **ONE_MODE}[case])
+    c = condition(t, acc=_noisy(a, 50.0, seed=4))
+    assert _nrmse(c.x, x) < 0.01
+    assert _nrmse(c.v, v) < 0.005
+
+
+def test_two_modes_are_integrated_about_the_equilibrium_one_mode_is_anchored() -> None:
+    t, x, v, a = _in_motion(*TWO_MODES["beam"])
+    assert anchor_residual(x, v, a) > 0.3  # a = 0 says nothing about x with two modes
+    assert "about the equilibrium (zero mean" in condition(t, vel=v).method
+    eq = integrate_about_equilibrium(t, vel=v)
+    assert eq.modes_hz[0] == pytest.approx(122.4, rel=2e-3)
+    t, x, v, a = _in_motion(*ONE_MODE["duffing_20hz"])
+    assert anchor_residual(x, v, a) < 0.05
+    assert "anchored" in condition(t, vel=v).method
+    # the lowest-mode frequency is tracked as the hardening system slows down
+    eq = integrate_about_equilibrium(t, vel=v)
+    assert eq.f1_hz[0] > 1.3 * eq.f1_hz[-1]
+
+
+def test_spline_integral_keeps_the_amplitude_the_trapezoid_rule_shrinks() -> None:
+    from scipy.integrate import cumulative_trapezoid
+
+    rate, f = 5120.0, 243.4  # 21 samples a period
+    t = np.arange(5120) / rate
+    y = np.cos(2 * np.pi * f * t)
+    exact = np.sin(2 * np.pi * f * t) / (2 * np.pi * f)
+    assert _nrmse(spline_cumulative_integral(t, y), exact) < 1e-4
+    assert _nrmse(cumulative_trapezoid(y, t, initial=0.0), exact) > 5e-3  # (w h)^2 / 12
+
+
+@pytest.mark.parametrize("name", ["ringdown-01.csv", "ringdown-05.csv"])
+def test_measured_double_beam_displacement_has_no_drift(name: str) -> None:
+    raw = np.loadtxt(REPO / "tests" / "data" / "resonant-double-beam" / name, delimiter=",", skiprows=1)
+    c = condition(raw[:, 0], vel=raw[:, 1])
+    assert "about the equilibrium (zero mean" in c.method
+    half = int(0.5 * c.rate_hz)
+    for part in (slice(None, half), slice(-half, None)):
+        # mean over 0.5 s within 0.5 % of the amplitude there (measured 0.00-0.28 %); the
+        # plain integral of the published velocity drifts by several amplitudes
+        assert abs(np.mean(c.x[part])) < 5e-3 * np.max(np.abs(c.x[part]))
+    plain = spline_cumulative_integral(c.t, raw[:, 1])
+    assert abs(np.mean(plain[-half:] - plain[:half])) > 1.0 * np.max(np.abs(c.x[-half:]))

@@ -63,9 +63,6 @@ def test_modal_separation_derives_displacement_of_a_record_starting_in_motion() 
     assert err < 1e-3
 
 
-@pytest.mark.xfail(reason="eddi.conditioning.condition(vel=...) integrates from rest; a ring-down "
-                          "recorded already in motion (as the double beam) gets x wrong by ~20 %",
-                   strict=False)
 def test_conditioning_derives_displacement_of_a_record_starting_in_motion() -> None:
     from eddi.conditioning import condition
 
