@@ -22,6 +22,16 @@ Drift-free integration (``acc`` -> ``v``, ``x``), see ``docs/conditioning.md``
 Velocity-only input (laser vibrometer) is integrated the same way (``v`` is kept as
 measured) and differentiated with a Savitzky-Golay filter (zero phase) for ``a``.
 
+Records that start in motion (no rest before them, e.g. vibrometer ring-downs): the
+integration constants are unknown. :func:`integrate_about_equilibrium` makes the integral
+average to zero over every cycle of every mode (a cascade of moving averages over the
+modes' periods, the lowest mode's period tracked along the record; the drift is a spline
+through those means), integrating through a cubic spline (the trapezoid rule loses
+``(w h)^2 / 12`` of the amplitude). When ``x`` at the zero crossings of ``a`` behaves as one
+restoring force (:func:`anchor_residual` < :data:`ONE_FORCE_RESIDUAL`) the ``a = 0``
+anchors above are used on top (they handle damping, chirp and asymmetry); with several
+modes ``a = 0`` does not mean ``x = 0`` and the cycle means alone are used.
+
 :func:`integrate_highpass` is the paper's procedure (integrate, then a zero-phase
 third-order Butterworth high-pass at 2-3 Hz; paper Sec. 4.1 and 4.2), kept for comparison.
 """
