@@ -346,6 +346,9 @@ class Diagnosis:
     held_out : tuple of HeldOut
     baseline_spread : dict of str to float
         Spread of the baseline coefficients over the folds (fitted baselines only).
+    notes : tuple of str
+        What else was tried, for people (e.g. why the observed form of the second mode was
+        not tried, or its held-out error when the hidden form was kept).
     """
 
     cause: str
@@ -360,6 +363,7 @@ class Diagnosis:
     symptom: str
     held_out: tuple[HeldOut, ...] = field(repr=False, default=())
     baseline_spread: dict[str, float] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (no arrays)."""
@@ -373,6 +377,7 @@ class Diagnosis:
             "gain": self.gain,
             "margin": self.margin,
             "scheme": self.scheme,
+            "notes": list(self.notes),
             "parts": [{"record": p.record, "start": p.start, "stop": p.stop,
                        "from_rest": p.from_rest, "label": p.label} for p in self.parts],
             "baseline": {**score(self.baseline), "spread": self.baseline_spread},
@@ -818,11 +823,12 @@ def _observed_second_mode(records: Sequence[Record], parts: Sequence[Part],
     except SignalError:
         return _Observed(skipped="the measured spectrum holds one resonance only")
     freqs, power = welch_sum(free_all)
-    peaks = []
+    peaks, shares = [], []
     for lo, hi in bands_all:
         sel = (freqs >= lo) & (freqs < hi)
         peaks.append(float(freqs[sel][np.argmax(power[sel])]))
-    share2 = float(np.sum(power[(freqs >= bands_all[1][0]) & (freqs < bands_all[1][1])]) / np.sum(power))
+        shares.append(float(np.sum(power[sel]) / np.sum(power)))
+    second = int(np.argmin(shares))  # the weaker resonance is "the second one"
     # which peak does the baseline lack? (its held-out simulations against the measurements)
     meas_amp = np.zeros(2)
     base_amp = np.zeros(2)
@@ -835,8 +841,7 @@ def _observed_second_mode(records: Sequence[Record], parts: Sequence[Part],
             meas_amp[k] += _peak_amplitude(f, am, fk)
             base_amp[k] += _peak_amplitude(f, ab, fk)
     ratio = base_amp / np.maximum(meas_amp, 1e-300)
-    missing = int(np.argmin(ratio))
-    if ratio[missing] >= MODE_BASELINE_SHARE:
+    if ratio[second] >= MODE_BASELINE_SHARE:
         return _Observed(skipped=(f"the baseline's simulation has both resonances of the measured "
                                   f"spectrum ({peaks[0]:.4g} and {peaks[1]:.4g} Hz)"))
     fold_nrmse, fold_nmte, ref_nrmse, ref_nmte, fold_params, sims = [], [], [], [], [], []
@@ -886,15 +891,17 @@ def _observed_second_mode(records: Sequence[Record], parts: Sequence[Part],
                                       notes="observed second mode, fitted by eddi.diagnose on every record")
     except (IdentificationError, SignalError, ModelError) as exc:
         return _Observed(skipped=f"the modal sum could not be fitted on all the records: {exc}")
-    f_miss = peaks[missing]
-    other = peaks[1 - missing]
-    symptom = (f"misses a {'second ' if missing == 1 else ''}resonance near {f_miss:.4g} Hz: its "
-               f"simulation has {100 * ratio[missing]:.0f} % of the measured amplitude there "
-               f"(the measured rate holds {100 * (share2 if missing == 1 else 1 - share2):.0f} % of "
-               f"its power in that band), while the measured ring-down is a sum of two resonances "
-               f"({other:.4g} and {f_miss:.4g} Hz) whose superposition makes the cycles change shape "
-               f"and the envelope beat; the single-mode model, fitted to both, sits at {base_freq_hz:.4g} Hz: a second "
-               "mode, seen in the measured coordinate")
+    f_miss = peaks[second]
+    other = peaks[1 - second]
+    lost = all(not np.all(np.isfinite(xb)) for xb in base_sims)
+    has = ("its simulation diverges" if lost else
+           f"its simulation has {100 * ratio[second]:.0f} % of the measured amplitude there")
+    symptom = (f"misses a second resonance near {f_miss:.4g} Hz: {has} (the measured rate holds "
+               f"{100 * shares[second]:.0f} % of its power in that band, the main resonance at "
+               f"{other:.4g} Hz the rest); the two resonances superposed make the measured cycles "
+               f"change shape and the envelope beat, which one mode cannot do: the single-mode model, "
+               f"fitted to both, sits at {base_freq_hz:.4g} Hz. A second mode, seen in the measured "
+               "coordinate")
     return _Observed(skipped="", fold_nrmse=tuple(fold_nrmse), fold_nmte=tuple(fold_nmte),
                      ref_fold_nrmse=tuple(ref_nrmse), ref_fold_nmte=tuple(ref_nmte),
                      fold_params=tuple(fold_params), model=model, params=_mode_params(model),
@@ -1176,6 +1183,9 @@ def diagnose(
     candidates: list[Candidate] = []
     finals: dict[str, _Fit] = {}
     obs_cand: Candidate | None = None
+    notes: list[str] = []
+    if observed is not None and observed.skipped:
+        notes.append(f"second mode, observed form (a modal sum) not tried: {observed.skipped}")
     if observed is not None and not observed.skipped and observed.model is not None:
         o = observed
         ref = float(np.mean(o.ref_fold_nrmse))
@@ -1220,8 +1230,14 @@ def diagnose(
                          spread, model, symptom, "", ref_nrmse,
                          "baseline" if ref_fold is base_fold else "equation-error baseline",
                          "hidden" if mech.name == "second_mode" else "")
-        if obs_cand is not None and mech.name == "second_mode" and obs_cand.nrmse < cand.nrmse:
-            cand = obs_cand  # the two forms of the second mode: the lower held-out error is kept
+        if obs_cand is not None and mech.name == "second_mode":
+            # the two forms of the second mode: the lower held-out error is kept
+            kept, other = (obs_cand, cand) if obs_cand.nrmse < cand.nrmse else (cand, obs_cand)
+            notes.append(f"second mode: the {kept.form} form is kept (held-out nrmse {kept.nrmse:.3g}, "
+                         f"gain {100 * kept.gain:.0f} % over the {kept.reference}); the {other.form} "
+                         f"form had {other.nrmse:.3g} (gain {100 * other.gain:.0f} % over the "
+                         f"{other.reference})")
+            cand = kept
         candidates.append(cand)
     # best first: by gain over its reference (the baseline fitted the same way)
     candidates.sort(key=lambda c: (bool(c.skipped), -c.gain if math.isfinite(c.gain) else math.inf))
@@ -1290,7 +1306,7 @@ def diagnose(
     return Diagnosis(cause=cause, baseline=baseline, extended=extended, gain=float(gain),
                      candidates=tuple(candidates), scheme=scheme, parts=tuple(parts),
                      margin=float(margin), verdict=verdict, symptom=symptom, held_out=held,
-                     baseline_spread=b_spread)
+                     baseline_spread=b_spread, notes=tuple(notes))
 
 
 # ----------------------------------------------------------------------------- views

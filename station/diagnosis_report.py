@@ -9,6 +9,12 @@
   is left after the extension;
 * ``spectra.png``: amplitude spectra of the held-out parts.
 
+When the cause is a second mode seen in the measured signal (the extended model is a
+:class:`~eddi.multimode.ModalSumModel`), the energy, backbone and residual-force figures are
+drawn per mode: each mode's component is separated from the measured rate with the model's
+band-pass (:func:`eddi.multimode.separate_modes`) and compared with that mode's held-out
+simulation, so the joint's amplitude-dependent frequency and damping are read mode by mode.
+
 Figures are built on :class:`matplotlib.figure.Figure` (Agg canvas, no pyplot state).
 """
 
@@ -23,8 +29,11 @@ matplotlib.use("Agg")
 
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
 
-from eddi.diagnose import Diagnosis, Record, backbone, energy_per_cycle, residual_force, spectrum  # noqa: E402
+from eddi.diagnose import Diagnosis, HeldOut, Record, backbone, energy_per_cycle, residual_force, spectrum  # noqa: E402
+from eddi.multimode import ModalSumModel, separate_modes  # noqa: E402
+from eddi.terms import parse_term  # noqa: E402
 from station.figures import envelope, save  # noqa: E402
 
 _COLORS = {"measured": "0.2", "baseline": "tab:red", "extended": "tab:blue"}
@@ -45,30 +54,125 @@ def _curves(diag: Diagnosis) -> list[tuple[str, list[tuple[np.ndarray, np.ndarra
     return out
 
 
+def _modal(diag: Diagnosis) -> ModalSumModel | None:
+    m = diag.extended.model
+    return m if (diag.cause != "none" and isinstance(m, ModalSumModel)) else None
+
+
+def _main_frequency(h: HeldOut) -> float:
+    rate = 1.0 / float(h.t[1] - h.t[0])
+    f, amp = spectrum(h.x_measured - np.mean(h.x_measured), rate)
+    return _peak(f, amp)
+
+
 def timeseries_figure(diag: Diagnosis) -> Figure:
-    """Held-out parts: measured versus simulated coordinate."""
+    """Held-out parts: measured versus simulated coordinate (whole part and its first cycles)."""
     n = len(diag.held_out)
-    fig, ax = _new(n, 1, (9.0, 2.2 * n + 0.5))
+    fig, ax = _new(n, 2, (12.0, 1.9 * n + 0.6))
+    fig.suptitle("held-out records: measured vs simulated from the initial state "
+                 "(each model fitted without that record; held-out nrmse in brackets)", fontsize=10)
     for i, h in enumerate(diag.held_out):
-        a = ax[i, 0]
-        a.plot(*envelope(h.t, h.x_measured), color=_COLORS["measured"], lw=0.8, label="measured")
+        a, z = ax[i, 0], ax[i, 1]
+        t0 = h.t - h.t[0]
+        f0 = _main_frequency(h)
+        zoom = t0 <= (10.0 / f0 if f0 > 0 else t0[-1] / 20)
+        series = [("measured", h.x_measured, "measured", 0.9)]
         if np.all(np.isfinite(h.x_baseline)):
-            a.plot(*envelope(h.t, h.x_baseline), color=_COLORS["baseline"], lw=0.7, alpha=0.8,
-                   label=f"baseline ({diag.baseline.fold_nrmse[i]:.3g})")
+            series.append(("baseline", h.x_baseline, f"baseline ({diag.baseline.fold_nrmse[i]:.3g})", 0.7))
+        else:
+            series.append(("baseline", np.nan_to_num(h.x_baseline), "baseline (diverged)", 0.7))
         if diag.cause != "none" and np.all(np.isfinite(h.x_extended)):
-            a.plot(*envelope(h.t, h.x_extended), color=_COLORS["extended"], lw=0.7, alpha=0.8,
-                   label=f"+ {diag.cause} ({diag.extended.fold_nrmse[i]:.3g})")
+            series.append(("extended", h.x_extended, f"+ {diag.cause} ({diag.extended.fold_nrmse[i]:.3g})", 0.7))
+        style = {"measured": (0.6, 1.0, 3), "baseline": (0.8, 0.8, 1), "extended": (2.0, 0.55, 2)}
+        for name, x, lab, _lw in series:
+            lw, al, zo = style[name]
+            a.plot(*envelope(t0, x), color=_COLORS[name], lw=min(lw, 0.8), alpha=0.85 if name != "measured"
+                   else 0.7, label=lab, zorder=zo)
+            z.plot(t0[zoom], x[zoom], color=_COLORS[name], lw=lw, alpha=al, zorder=zo)
+        lim = 1.3 * float(np.max(np.abs(h.x_measured)))
+        for q in (a, z):
+            q.set_ylim(-lim, lim)
         a.set_title(f"held out: {h.part.label}", fontsize=9)
+        z.set_title("first 10 cycles", fontsize=9)
         a.set_ylabel("x")
         a.legend(fontsize=7, loc="upper right")
-    ax[-1, 0].set_xlabel("time in part [s]" if diag.scheme == "amplitude-bands" else "time [s]")
+    ax[-1, 0].set_xlabel("time in part [s]")
+    ax[-1, 1].set_xlabel("time in part [s]")
     return fig
 
 
-def energy_figure(diag: Diagnosis) -> Figure:
-    """Energy lost per cycle versus amplitude, log-log."""
+def _measured_modes(h: HeldOut, model: ModalSumModel,
+                    cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, slice]] | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, slice]:
+    """Separated measured components of a held-out part: x, v, a (n_modes, k) and the samples
+    away from the filter's edges (``cache``, keyed by part, avoids separating twice)."""
+    assert h.v_measured is not None
+    key = id(h)
+    if cache is not None and key in cache:
+        return cache[key]
+    c = separate_modes(h.t, h.v_measured, model.bands_hz, filter_order=model.filter_order)
+    trim = int(0.05 / float(h.t[1] - h.t[0]))
+    out = (c.x, c.v, c.a, slice(trim, max(trim + 1, h.t.size - trim)))
+    if cache is not None:
+        cache[key] = out
+    return out
+
+
+def _mode_curves(diag: Diagnosis, model: ModalSumModel, k: int, cache: dict | None = None
+                 ) -> list[tuple[str, list[tuple[np.ndarray, np.ndarray, np.ndarray]]]]:
+    """(label, [(t, x_k, v_k) per part]) for the measured component and the model's mode k."""
+    meas, sim = [], []
+    for h in diag.held_out:
+        if h.v_measured is None or h.x_modes is None or h.v_modes is None:
+            continue
+        xm, vm, _am, keep = _measured_modes(h, model, cache)
+        meas.append((h.t[keep], xm[k][keep], vm[k][keep]))
+        if np.all(np.isfinite(h.x_modes[k])):
+            sim.append((h.t, h.x_modes[k], h.v_modes[k]))
+    return [("measured", meas), ("extended", sim)]
+
+
+def _binned(amp: np.ndarray, y: np.ndarray, bins: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    ok = np.isfinite(amp) & np.isfinite(y) & (amp > 0)
+    if ok.sum() < 2 * bins:
+        return np.zeros(0), np.zeros(0)
+    a, yy = amp[ok], y[ok]
+    edges = np.geomspace(np.percentile(a, 2), np.max(a), bins + 1)
+    mid, med = [], []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        sel = (a >= lo) & (a < hi)
+        if sel.sum() >= 5:
+            mid.append(np.sqrt(lo * hi))
+            med.append(np.median(yy[sel]))
+    return np.array(mid), np.array(med)
+
+
+def energy_figure(diag: Diagnosis, cache: dict | None = None) -> Figure:
+    """Energy lost per cycle versus amplitude, log-log (per mode for a modal sum)."""
     mass = diag.baseline.model.mass
-    fig, ax = _new(1, 1, (6.0, 4.2))
+    model = _modal(diag)
+    n_modes = len(model.modes) if model is not None else 0
+    fig, ax = _new(1, 1 + n_modes, (6.0 + 4.6 * n_modes, 4.2))
+    for k in range(n_modes):
+        assert model is not None
+        q = ax[0, 1 + k]
+        for name, parts in _mode_curves(diag, model, k, cache):
+            amps, des = [], []
+            for t, x, v in parts:
+                amp, de = energy_per_cycle(t, x, v, 1.0)
+                amps.append(amp)
+                des.append(de)
+            if amps:
+                amp, de = np.concatenate(amps), np.concatenate(des)
+                keep = (amp > 1e-2 * np.max(amp)) & (de > 0)
+                q.loglog(amp[keep], de[keep], ".", ms=2 if name == "measured" else 3,
+                         color=_COLORS[name], alpha=0.5 if name == "measured" else 0.8,
+                         label=("measured (separated)" if name == "measured" else "model, mode alone"))
+        f = model.natural_frequencies_hz()[k]
+        q.set_title(f"mode {k + 1} ({f:.4g} Hz): energy lost per cycle", fontsize=9)
+        q.set_xlabel("modal amplitude [m]")
+        q.set_ylabel("energy lost per cycle per unit modal mass [J/kg]")
+        q.legend(fontsize=8)
     a = ax[0, 0]
     for name, parts in _curves(diag):
         amps, des = [], []
@@ -86,13 +190,67 @@ def energy_figure(diag: Diagnosis) -> Figure:
             a.loglog(amp[keep], de[keep], ".", ms=3, color=_COLORS[name], label=name)
     a.set_xlabel("amplitude")
     a.set_ylabel("energy lost per cycle [J]")
-    a.set_title("slope 1: dry friction, 2: viscous, 3: quadratic drag", fontsize=9)
+    a.set_title(("whole signal; " if n_modes else "")
+                + "slope 1: dry friction, 2: viscous, 3: quadratic drag", fontsize=9)
     a.legend(fontsize=8)
     return fig
 
 
-def backbone_figure(diag: Diagnosis) -> Figure:
-    """Frequency and damping ratio versus amplitude, cycle by cycle."""
+def modal_backbone_figure(diag: Diagnosis, model: ModalSumModel, cache: dict | None = None) -> Figure:
+    """Per mode: frequency and damping ratio versus modal amplitude, measured and model."""
+    n_modes = len(model.modes)
+    fig, ax = _new(n_modes, 2, (11.0, 3.6 * n_modes + 0.5))
+    kb = diag.baseline.model.linear_stiffness()
+    fb = np.sqrt(max(kb, 0.0) / diag.baseline.model.mass) / (2 * np.pi)
+    fig.suptitle(f"backbone per mode (the single-mode baseline sits at {fb:.4g} Hz, off these axes)",
+                 fontsize=10)
+    for k in range(n_modes):
+        for name, parts in _mode_curves(diag, model, k, cache):
+            amps, fs, zs = [], [], []
+            for t, x, v in parts:
+                amp, f, z = backbone(t, x, v, 1.0)
+                amps.append(amp)
+                fs.append(f)
+                zs.append(z)
+            if not amps:
+                continue
+            amp, f, z = np.concatenate(amps), np.concatenate(fs), np.concatenate(zs)
+            keep = amp > 0.02 * np.max(amp)
+            amp, f, z = amp[keep], f[keep], z[keep]
+            if name == "measured":
+                ax[k, 0].plot(amp * 1e3, f, ".", ms=1.5, color="0.6", alpha=0.4, label="measured, cycle by cycle")
+                ax[k, 1].plot(amp * 1e3, 100 * z, ".", ms=1.5, color="0.6", alpha=0.4)
+                for j, y in ((0, f), (1, 100 * z)):
+                    mid, med = _binned(amp, y)
+                    ax[k, j].plot(mid * 1e3, med, "o-", color=_COLORS["measured"], ms=4,
+                                  label="measured, median" if j == 0 else None)
+            else:
+                for j, y in ((0, f), (1, 100 * z)):
+                    mid, med = _binned(amp, y)
+                    ax[k, j].plot(mid * 1e3, med, "s--", color=_COLORS["extended"], ms=4,
+                                  label="model (held-out simulations)" if j == 0 else None)
+            # robust axis limits: the cycle-by-cycle cloud has outliers at the noise floor
+            for j, y in ((0, f), (1, 100 * z)):
+                lo, hi = np.percentile(y[np.isfinite(y)], [3, 97]) if y.size else (0, 1)
+                pad = 0.3 * (hi - lo) + 1e-9
+                cur = ax[k, j].get_ylim() if name != "measured" else (lo - pad, hi + pad)
+                ax[k, j].set_ylim(min(cur[0], lo - pad), max(cur[1], hi + pad))
+        fk = model.natural_frequencies_hz()[k]
+        ax[k, 0].set_title(f"mode {k + 1} ({fk:.4g} Hz): frequency vs amplitude", fontsize=9)
+        ax[k, 1].set_title(f"mode {k + 1}: damping ratio vs amplitude", fontsize=9)
+        ax[k, 0].set_ylabel("frequency [Hz]")
+        ax[k, 1].set_ylabel("damping ratio [%]")
+        for j in (0, 1):
+            ax[k, j].set_xlabel("modal amplitude [mm]")
+        ax[k, 0].legend(fontsize=7)
+    return fig
+
+
+def backbone_figure(diag: Diagnosis, cache: dict | None = None) -> Figure:
+    """Frequency and damping ratio versus amplitude, cycle by cycle (per mode for a modal sum)."""
+    model = _modal(diag)
+    if model is not None:
+        return modal_backbone_figure(diag, model, cache)
     mass = diag.baseline.model.mass
     fig, ax = _new(1, 2, (10.0, 3.8))
     for name, parts in _curves(diag):
@@ -115,12 +273,19 @@ def backbone_figure(diag: Diagnosis) -> Figure:
     return fig
 
 
-def residual_figure(diag: Diagnosis, records: Sequence[Record], max_points: int = 20000) -> Figure:
+def residual_figure(diag: Diagnosis, records: Sequence[Record], max_points: int = 20000,
+                    cache: dict | None = None) -> Figure:
     """Force the model misses over (x, v): baseline, and after the extension."""
     models = [("baseline", diag.baseline.model)]
-    if diag.cause != "none" and diag.extended.model.effect("second_mode") is None:
+    modal = _modal(diag)
+    if (diag.cause != "none" and modal is None
+            and diag.extended.model.effect("second_mode") is None):  # type: ignore[union-attr]
         models.append((f"+ {diag.cause}", diag.extended.model))
-    fig, ax = _new(1, len(models), (5.2 * len(models), 4.2))
+    n_modes = len(modal.modes) if modal is not None else 0
+    fig, ax = _new(1, len(models) + n_modes, (5.2 * (len(models) + n_modes), 4.2))
+    for k in range(n_modes):
+        assert modal is not None
+        _modal_residual(ax[0, len(models) + k], diag, modal, k, max_points, cache)
     xs = np.concatenate([r.x[r.free_start:r.free_stop] for r in records])
     vs = np.concatenate([r.v[r.free_start:r.free_stop] for r in records])
     a_ = np.concatenate([r.a[r.free_start:r.free_stop] for r in records])
@@ -136,28 +301,82 @@ def residual_figure(diag: Diagnosis, records: Sequence[Record], max_points: int 
         ax[0, k].set_xlabel("x")
         ax[0, k].set_ylabel("v")
         ax[0, k].set_title(f"residual force, {name}", fontsize=9)
-    fig.colorbar(sc, ax=ax[0, -1], label="F - m a - model [N]")
+    fig.colorbar(sc, ax=ax[0, len(models) - 1], label="F - m a - model [N]")
     return fig
+
+
+def _modal_residual(q: object, diag: Diagnosis, model: ModalSumModel, k: int, max_points: int,
+                    cache: dict | None = None) -> None:
+    """Mode k: the force its linear part misses (measured component) against modal displacement,
+    with the model's nonlinear stiffness over it."""
+    eom = model.modes[k]
+    lin_d = {t: c for t, c in eom.damping.items() if parse_term(t).exponents == (0, 1, 0, 0, 0, 0)}
+    lin_k = {t: c for t, c in eom.stiffness.items() if parse_term(t).exponents == (1, 0, 0, 0, 0, 0)}
+    nl_k = {t: c for t, c in eom.stiffness.items() if t not in lin_k}
+    xs, rs = [], []
+    for h in diag.held_out:
+        if h.v_measured is None:
+            continue
+        x, v, a, keep = _measured_modes(h, model, cache)
+        xk, vk, ak = x[k][keep], v[k][keep], a[k][keep]
+        lin = sum((c * parse_term(t)(xk, vk) for t, c in {**lin_d, **lin_k}.items()), np.zeros_like(xk))
+        xs.append(xk)
+        rs.append(-ak - lin)
+    if not xs:
+        return
+    x, r = np.concatenate(xs), np.concatenate(rs)
+    step = max(1, x.size // max_points)
+    q.plot(x[::step] * 1e3, r[::step], ".", ms=1, color="0.5", alpha=0.3,  # type: ignore[attr-defined]
+           label="measured: -a - (linear part)", rasterized=True)
+    grid = np.linspace(np.percentile(x, 0.5), np.percentile(x, 99.5), 200)
+    knl = sum((c * parse_term(t)(grid, np.zeros_like(grid)) for t, c in nl_k.items()), np.zeros_like(grid))
+    terms = " ".join(f"{c:+.3g} {t}" for t, c in nl_k.items()) or "none"
+    q.plot(grid * 1e3, knl, color=_COLORS["extended"], lw=2, label=f"model: {terms}")  # type: ignore[attr-defined]
+    lim = float(np.percentile(np.abs(r), 99.5))
+    q.set_ylim(-1.3 * lim, 1.3 * lim)  # type: ignore[attr-defined]
+    q.set_xlabel(f"mode {k + 1} displacement [mm]")  # type: ignore[attr-defined]
+    q.set_ylabel("force per unit modal mass [N/kg]")  # type: ignore[attr-defined]
+    q.set_title(f"mode {k + 1}: internal force its linear part misses\n(sign opposite to x: "
+                "the spring softens with amplitude)", fontsize=9)  # type: ignore[attr-defined]
+    q.legend(fontsize=7, loc="upper left")  # type: ignore[attr-defined]
 
 
 def spectra_figure(diag: Diagnosis) -> Figure:
     """Amplitude spectra of the held-out parts (measured, baseline, extended)."""
     n = len(diag.held_out)
-    fig, ax = _new(n, 1, (8.0, 2.2 * n + 0.5))
+    cols = 1 if n <= 3 else 3
+    rows = (n + cols - 1) // cols
+    fig, ax = _new(rows, cols, (8.0 if cols == 1 else 15.0, 2.4 * rows + 0.6))
+    model = _modal(diag)
     for i, h in enumerate(diag.held_out):
+        q = ax[i // cols, i % cols]
         rate = 1.0 / float(h.t[1] - h.t[0])
+        fmax = rate / 2
         for name, x in (("measured", h.x_measured), ("baseline", h.x_baseline), ("extended", h.x_extended)):
             if name == "extended" and diag.cause == "none":
                 continue
             if not np.all(np.isfinite(x)):
                 continue
-            f, amp = spectrum(x, rate)
-            keep = (f > 0) & (f < min(rate / 2, 50 * _peak(f, amp)))
-            ax[i, 0].semilogy(f[keep], amp[keep], color=_COLORS[name], lw=0.7, label=name)
-        ax[i, 0].set_title(f"held out: {h.part.label}", fontsize=9)
-        ax[i, 0].set_ylabel("|X|")
-        ax[i, 0].legend(fontsize=7)
-    ax[-1, 0].set_xlabel("frequency [Hz]")
+            f, amp = spectrum(x - np.mean(x), rate)
+            if name == "measured":
+                fmax = min(rate / 2, 4 * _peak(f, amp) if model is None else 1.6 * max(model.natural_frequencies_hz()))
+            keep = (f > 0) & (f < fmax)
+            lab = {"measured": "measured", "baseline": "baseline", "extended": f"+ {diag.cause}"}[name]
+            q.semilogy(f[keep], amp[keep], color=_COLORS[name], lw=0.8, alpha=0.85, label=lab)
+        if model is not None:
+            for k, fk in enumerate(model.natural_frequencies_hz()):
+                q.axvline(fk, color="0.5", ls=":", lw=0.8)
+                q.text(fk, q.get_ylim()[1], f" mode {k + 1}", fontsize=7, va="top", color="0.3")
+        q.set_title(f"held out: {h.part.label}", fontsize=9)
+        q.set_ylabel("|X| [m]")
+        q.set_xlabel("frequency [Hz]")
+        if i == 0:  # proxies: a diverged simulation is not drawn, its label still belongs here
+            names = ["measured", "baseline"] + ([] if diag.cause == "none" else ["extended"])
+            q.legend([Line2D([], [], color=_COLORS[nm], lw=1) for nm in names],
+                     [{"measured": "measured", "baseline": "baseline",
+                       "extended": f"+ {diag.cause}"}[nm] for nm in names], fontsize=7, loc="lower left")
+    for j in range(n, rows * cols):
+        ax[j // cols, j % cols].set_visible(False)
     return fig
 
 
@@ -176,11 +395,12 @@ def write_report(diag: Diagnosis, records: Sequence[Record], out_dir: str | Path
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    cache: dict = {}  # separated modal components of each held-out part, shared by the figures
     figures = {
         "timeseries.png": timeseries_figure(diag),
-        "energy_per_cycle.png": energy_figure(diag),
-        "backbone.png": backbone_figure(diag),
-        "residual_force.png": residual_figure(diag, records),
+        "energy_per_cycle.png": energy_figure(diag, cache),
+        "backbone.png": backbone_figure(diag, cache),
+        "residual_force.png": residual_figure(diag, records, cache=cache),
         "spectra.png": spectra_figure(diag),
     }
     return [save(fig, out / name) for name, fig in figures.items()]

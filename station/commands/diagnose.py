@@ -51,7 +51,10 @@ def register(subparsers: Any) -> None:
     p.add_argument("--fit", default="eddi", choices=FITS,
                    help="how the baseline and the extensions are fitted: EDDI over the training "
                         "captures, or least squares on the equation of motion (default: %(default)s)")
-    p.add_argument("--save-model", metavar="OUT.json", help="write the extended equation of motion")
+    p.add_argument("--save-model", metavar="OUT.json",
+                   help="write the extended model (an equation of motion, or a modal-sum model when "
+                        "the cause is a second mode seen in the measured signal; both load with "
+                        "eddi.multimode.load_any_model)")
     p.add_argument("--report", metavar="DIR", help="write figures (PNG) into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handle)
@@ -142,8 +145,9 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
                      f"{params or '(no physical fit)'}"
                      + (f" [gain vs the {c.reference}, nrmse {c.reference_nrmse:.4g}]"
                         if c.reference != "baseline" else ""))
-    lines += ["", diag.verdict, f"What the baseline got wrong: {diag.symptom}.", "",
-              f"Baseline: {diag.baseline.model.equation_text()}"]
+    lines += ["", diag.verdict, f"What the baseline got wrong: {diag.symptom}."]
+    lines += [f"Note: {n}." for n in diag.notes]
+    lines += ["", f"Baseline: {diag.baseline.model.equation_text()}"]
     if diag.cause != "none":
         lines.append(f"Extended: {diag.extended.model.equation_text()}")
     if "saved_model" in obj:
