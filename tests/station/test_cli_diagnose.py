@@ -70,3 +70,28 @@ def test_bad_inputs_give_one_line_and_exit_2(tmp_path: Path, capsys: pytest.Capt
         assert code == 2, (argv, err)
         assert err.count("\n") == 1 and words in err, err
         assert "Traceback" not in err
+
+
+DOUBLE_BEAM = Path(__file__).resolve().parents[1] / "data" / "resonant-double-beam"
+
+
+@pytest.mark.skipif(not (DOUBLE_BEAM / "ringdown-01.csv").exists(),
+                    reason="test copies of the double-beam ring-downs are absent")
+def test_real_ringdowns_name_second_mode_save_modal_sum_and_report(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from eddi.multimode import ModalSumModel, load_any_model
+
+    caps = [str(DOUBLE_BEAM / "ringdown-01.csv"), str(DOUBLE_BEAM / "ringdown-05.csv")]
+    out_model = tmp_path / "two_modes.json"
+    code, out, err = _run(["diagnose", *caps, "--mass", "1", "--save-model", str(out_model),
+                           "--report", str(tmp_path / "rep")], capsys)
+    assert code == 0, err
+    assert "Cause: second_mode." in out
+    assert "misses a second resonance near 24" in out
+    assert "matches the held-out measurements" not in out
+    model = load_any_model(out_model.read_text())
+    assert isinstance(model, ModalSumModel) and len(model.modes) == 2
+    pngs = sorted(p.name for p in (tmp_path / "rep").glob("*.png"))
+    assert pngs == sorted(["timeseries.png", "energy_per_cycle.png", "backbone.png",
+                           "residual_force.png", "spectra.png"])
+    assert all((tmp_path / "rep" / p).stat().st_size > 20000 for p in pngs)
