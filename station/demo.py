@@ -26,7 +26,7 @@ from eddi.model import EquationOfMotion
 from station.capture import AcquireResult, ImpactPlan, Status, acquire, configure_device, device_metadata
 from station.config import BenchConfig, parse_config
 from station.errors import ConfigError, StationError
-from station.pipeline import SessionResult, read_all, run_session
+from station.pipeline import SessionResult, mean_of, read_all, run_session
 from station.report import Report, write_report
 from station.storage import CaptureWriter, StorageError, read_capture
 
@@ -106,6 +106,7 @@ def run_demo(
     device: str = DEMO_DEVICE,
     record_s: float = DEMO_RECORD_S,
     on_status: Callable[[Status], None] | None = None,
+    refine: bool = True,
 ) -> DemoResult:
     """Acquire three impacts on the simulated rig, identify on one, validate on two, report.
 
@@ -119,6 +120,9 @@ def run_demo(
         Record length after the trigger [s], > 0.
     on_status : callable, optional
         Live acquisition status (see :func:`station.capture.acquire`).
+    refine : bool
+        Follow EDDI with the output-error refinement seeded by it (:mod:`eddi.refine`); the
+        plain EDDI estimate and its held-out validation are reported beside the refined model.
 
     Returns
     -------
@@ -168,7 +172,8 @@ def run_demo(
         raise StationError(f"acquisition stopped: {acq.error} ({acq.captures} capture(s) kept in {session_file})")
     t1 = time.perf_counter()
     session = run_session(read_all([str(session_file)]), damping=("v", "x^2*v", "v^3"),  # paper Eq. 21
-                          stiffness=("x", "x^2", "x^3", "x^4", "x^5"))  # paper Eq. 22
+                          stiffness=("x", "x^2", "x^3", "x^4", "x^5"),  # paper Eq. 22
+                          refine=refine)
     model_file = out / "model.json"
     try:
         model_file.write_text(session.fit.model.eom.to_json(), encoding="utf-8")
@@ -201,6 +206,7 @@ def demo_object(res: DemoResult) -> dict[str, Any]:
         "crc_errors": res.crc_errors,
         "fit_capture": fit_meas.source,
         "identified": identified,
+        "method": "EDDI + output-error refinement" if s.eddi_held_out else "EDDI",
         "validation": {
             "nrmse": s.mean_nrmse,
             "nmte": s.mean_nmte,
@@ -214,6 +220,11 @@ def demo_object(res: DemoResult) -> dict[str, Any]:
         },
         "elapsed_s": dict(res.elapsed_s),
     }
+    unrefined = s.fit.model.unrefined
+    if unrefined is not None:
+        obj["eddi"] = {"damping": dict(unrefined.damping), "stiffness": dict(unrefined.stiffness),
+                       "validation": {"nrmse": mean_of([c.nrmse for c in s.eddi_held_out]),
+                                      "held_out": [c.as_dict() for c in s.eddi_held_out]}}
     if res.truth is not None:
         eom = s.fit.model.eom
         obj["rig"] = {"damping": dict(res.truth.damping), "stiffness": dict(res.truth.stiffness),
@@ -229,7 +240,7 @@ def demo_text(obj: dict[str, Any]) -> str:
     lines = [f"{obj['device']}: {obj['captures']} impacts at {', '.join(f'{f:g}' for f in obj['levels_n'])} N "
              f"saved to {obj['paths']['session']} (dropped samples {obj['dropped_samples']}, "
              f"link {obj['link_dropped_samples']}, CRC errors {obj['crc_errors']})",
-             f"identified on {obj['fit_capture']}: {ident['equation']}"]
+             f"identified on {obj['fit_capture']} ({obj['method']}): {ident['equation']}"]
     truth = obj.get("rig")
     for kind in ("damping", "stiffness"):
         for term, c in ident[kind].items():
@@ -244,6 +255,10 @@ def demo_text(obj: dict[str, Any]) -> str:
                      f"nrmse {c['nrmse']:.3g}")
     if v["nrmse"] is not None:
         lines.append(f"mean nrmse on the held-out impacts: {v['nrmse']:.3g}")
+    plain = obj.get("eddi")
+    if plain is not None and plain["validation"]["nrmse"] is not None:
+        lines.append(f"  (plain EDDI, before the refinement: k1 {plain['stiffness'].get('x', float('nan')):.5g}, "
+                     f"mean held-out nrmse {plain['validation']['nrmse']:.3g})")
     lines.append(f"model: {obj['paths']['model']}")
     lines.append(f"report: {obj['paths']['report']} ({len(obj['paths']['figures'])} figures)")
     lines.append(f"done in {obj['elapsed_s']['total']:.1f} s")

@@ -94,12 +94,15 @@ class SessionResult:
         Identification (and self-validation) on that record.
     held_out : tuple of RecordCheck
         Validation on every other record, in order.
+    eddi_held_out : tuple of RecordCheck
+        With ``refine``: the same validation of the plain EDDI estimate (empty otherwise).
     """
 
     measurements: tuple[Measurement, ...]
     fit_index: int
     fit: PipelineResult
     held_out: tuple[RecordCheck, ...]
+    eddi_held_out: tuple[RecordCheck, ...] = ()
 
     @property
     def mean_nrmse(self) -> float | None:
@@ -247,6 +250,7 @@ def run_session(
     stiffness: str | Sequence[str] = DEFAULT_STIFFNESS,
     route: str = "auto",
     fit_index: int | None = None,
+    refine: bool = False,
 ) -> SessionResult:
     """Identify on one record, validate on all the others.
 
@@ -262,6 +266,9 @@ def run_session(
     fit_index : int, optional
         Record to identify on (negative counts from the end); default
         :func:`choose_fit_index`.
+    refine : bool
+        Follow EDDI with the output-error refinement (:mod:`eddi.refine`); the EDDI estimate
+        stays in ``fit.model.unrefined`` and is validated in ``eddi_held_out``.
 
     Raises
     ------
@@ -282,9 +289,13 @@ def run_session(
             raise ConfigError(f"--fit: expected a record index 0..{len(recs) - 1}, got {fit_index}")
     dmp = damping if isinstance(damping, str) else tuple(damping)
     stf = stiffness if isinstance(stiffness, str) else tuple(stiffness)
-    fit = identify_measurement(condition_measurement(recs[k]), m, damping=dmp, stiffness=stf, route=route)
-    held = tuple(validate_measurement(fit.model.eom, r) for i, r in enumerate(recs) if i != k)
-    return SessionResult(recs, k, fit, held)
+    fit = identify_measurement(condition_measurement(recs[k]), m, damping=dmp, stiffness=stf, route=route,
+                               refine=refine)
+    others = [r for i, r in enumerate(recs) if i != k]
+    held = tuple(validate_measurement(fit.model.eom, r) for r in others)
+    unrefined = fit.model.unrefined
+    eddi_held = tuple(validate_measurement(unrefined, r) for r in others) if unrefined is not None else ()
+    return SessionResult(recs, k, fit, held, eddi_held)
 
 
 def load_model_file(path: str | Path) -> EquationOfMotion | ModalSumModel:

@@ -25,6 +25,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--device", default=DEMO_DEVICE, metavar="URL", help="simulated rig (default: %(default)s)")
     p.add_argument("--record-s", type=float, default=DEMO_RECORD_S, metavar="S",
                    help="record length after the trigger [s] (default: %(default)s)")
+    p.add_argument("--no-refine", dest="refine", action="store_false",
+                   help="report the plain EDDI estimate only (default: EDDI followed by the output-error "
+                        "refinement it seeds; both are reported)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handle)
 
@@ -36,7 +39,8 @@ def handle(args: argparse.Namespace) -> int:
 
     live = _Live(enabled=not args.json)
     try:
-        res = run_demo(args.out, device=args.device, record_s=args.record_s, on_status=live)
+        res = run_demo(args.out, device=args.device, record_s=args.record_s, on_status=live,
+                       refine=args.refine)
     finally:
         live.close()
     obj = demo_object(res)

@@ -167,6 +167,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--stiffness", default=None, metavar="TERMS", help="stiffness candidates, comma-separated")
     p.add_argument("--fit", type=int, default=None, metavar="N",
                    help="record to identify on (default: the middle force level)")
+    p.add_argument("--refine", action="store_true",
+                   help="follow EDDI with the output-error refinement it seeds (as station demo does)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handle)
 
@@ -228,7 +230,8 @@ def handle(args: argparse.Namespace) -> int:
                          + f" (dropped {c.dropped_samples}, CRC errors {c.crc_errors})")
     session = run_session(read_all(specs), args.mass,
                           damping=terms_or_default(args.damping, DEFAULT_DAMPING),
-                          stiffness=terms_or_default(args.stiffness, DEFAULT_STIFFNESS), fit_index=args.fit)
+                          stiffness=terms_or_default(args.stiffness, DEFAULT_STIFFNESS), fit_index=args.fit,
+                          refine=args.refine)
     obj.update(session_object(session))
     lines.append(session_text(obj))
     emit(args.json, "\n".join(lines), obj)

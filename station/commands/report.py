@@ -32,6 +32,8 @@ def register(subparsers: Any) -> None:
                    help="phase-two route (default: %(default)s)")
     p.add_argument("--fit", type=int, default=None, metavar="N",
                    help="record to identify on, 0-based among the records given (default: the middle force level)")
+    p.add_argument("--refine", action="store_true",
+                   help="follow EDDI with the output-error refinement it seeds (as station demo does)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handle)
 
@@ -50,7 +52,7 @@ def handle(args: argparse.Namespace) -> int:
     recs = read_all(args.records)
     session = run_session(recs, args.mass, damping=terms_or_default(args.damping, DEFAULT_DAMPING),
                           stiffness=terms_or_default(args.stiffness, DEFAULT_STIFFNESS), route=args.route,
-                          fit_index=args.fit)
+                          fit_index=args.fit, refine=args.refine)
     fit = session.measurements[session.fit_index]
     truth = None
     if "capture" in fit.metadata and "file" in fit.metadata:

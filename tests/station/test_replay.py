@@ -50,7 +50,7 @@ def test_replay_through_device_is_bit_exact_and_reruns_the_pipeline(capsys: pyte
     demo, demo_obj = demo_run()
     session = demo / "session.h5"
     code, out, err = _run(["replay", str(session), "--through-device", "--json",
-                           "--stiffness", "x,x^2,x^3,x^4,x^5"], capsys)
+                           "--stiffness", "x,x^2,x^3,x^4,x^5", "--refine"], capsys)
     assert code == 0, err
     obj = json.loads(out)
     assert obj["bit_exact"] is True

@@ -30,7 +30,7 @@ def test_report_of_the_demo_session(capsys: pytest.CaptureFixture[str], tmp_path
     demo, demo_obj = demo_run()
     out = tmp_path / "rep"
     code, stdout, err = _run(["report", str(demo / "session.h5"), "--out", str(out), "--json",
-                              "--stiffness", "x,x^2,x^3,x^4,x^5"], capsys)
+                              "--stiffness", "x,x^2,x^3,x^4,x^5", "--refine"], capsys)
     assert code == 0, err
     obj = json.loads(stdout)
     # same pipeline as the demo: the same capture identified, the same coefficients
