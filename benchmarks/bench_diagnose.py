@@ -15,6 +15,7 @@ for a margin, the false-alarm rate and the smallest magnitude found per mechanis
     python benchmarks/bench_diagnose.py --limits --seeds 2 --out runs.jsonl
     python benchmarks/bench_diagnose.py --summary runs.jsonl [--margin 0.25]
     python benchmarks/bench_diagnose.py --speed
+    python benchmarks/bench_diagnose.py --free-decays --seeds 2 --out free.jsonl
 
 Add ``--fit equation-error`` to measure the equation-error fit instead of EDDI's.
 The numbers are quoted in docs/diagnosis.md.
@@ -33,6 +34,7 @@ import numpy as np
 from eddi.conditioning import condition
 from eddi.diagnose import DEFAULT_MARGIN, Record, diagnose
 from eddi.model import EquationOfMotion
+from eddi.simulate import simulate
 from simulated_rig.bench import impact_test
 from simulated_rig.systems import hide_effect
 
@@ -136,6 +138,50 @@ def summary(path: str, margin: float) -> None:
                   + " ".join(f"{m:g}:{sum(v)}/{len(v)}" for m, v in sorted(mags.items())))
 
 
+def _mode(f_hz: float, zeta: float, damping: dict | None = None, stiffness: dict | None = None
+          ) -> EquationOfMotion:
+    w = 2 * math.pi * f_hz
+    return EquationOfMotion.create(mass=1.0, damping={"v": 2 * zeta * w, **(damping or {})},
+                                   stiffness={"x": w * w, **(stiffness or {})})
+
+
+#: Main modes of the velocity-only free decays (per unit mass, 40 Hz; amplitudes up to about
+#: 0.2 mm): linear; hardening (`x^3`, about 7 % frequency rise at 0.2 mm); a joint (`abs(x)*x`
+#: softening about 0.5 % and `abs(v)*v` about doubling the loss at 0.05 m/s, as on the double beam).
+FREE_MODES = {
+    "linear": _mode(40.0, 0.003),
+    "hardening": _mode(40.0, 0.003, stiffness={"x^3": 3e11}),
+    "joint": _mode(40.0, 0.003, damping={"abs(v)*v": 20.0}, stiffness={"abs(x)*x": -3e6}),
+}
+
+
+def free_decay_run(kind: str, ratio: float, seed: int, noise: float, margin: float) -> dict:
+    """Velocity-only free decays (no force channel), three records starting in motion.
+
+    ``ratio`` is the second mode's initial velocity over the first's (80.6 Hz, zeta 0.6 %,
+    close to 1:2); 0 is a null case. Noise: ``noise`` times the peak velocity (white).
+    """
+    rng = np.random.default_rng(seed)
+    t = np.arange(6000) / 2000.0
+    m2 = _mode(80.6, 0.006)
+    recs = []
+    for i, v1 in enumerate((0.03, 0.05, 0.02)):
+        v1 = v1 * float(rng.uniform(0.8, 1.2))
+        v = simulate(FREE_MODES[kind], t, x0=0.0, v0=v1).v
+        if ratio > 0:
+            v = v + simulate(m2, t, x0=0.0, v0=ratio * v1 * float(rng.uniform(0.7, 1.3))).v
+        v = v + rng.normal(0.0, noise * float(np.max(np.abs(v))), t.size)
+        recs.append(Record.from_conditioned(condition(t, vel=v), label=f"free decay {i + 1}"))
+    t0 = time.perf_counter()
+    d = diagnose(recs, 1.0, margin=margin)
+    sm = next(c for c in d.candidates if c.name == "second_mode")
+    passing = [c.gain for c in d.candidates if not c.skipped and c.wins_every_part and c.consistent]
+    return {"kind": "free-decay", "system": kind, "ratio": ratio, "seed": seed, "noise": noise,
+            "cause": d.cause, "second_mode_form": sm.form, "second_mode_gain": sm.gain,
+            "passing_gain": max(passing) if passing else None, "notes": list(d.notes),
+            "baseline_nrmse": d.baseline.nrmse, "seconds": time.perf_counter() - t0}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--nulls", action="store_true", help="null cases (nothing hidden)")
@@ -150,6 +196,10 @@ def main() -> None:
     ap.add_argument("--snrs", default="60,30")
     ap.add_argument("--mechanisms", default=",".join(MECHANISMS))
     ap.add_argument("--magnitudes", default="0.005,0.01,0.02,0.05,0.1")
+    ap.add_argument("--free-decays", action="store_true",
+                    help="velocity-only free decays: single-mode nulls and a second mode at 1:2 "
+                         "(the observed form of second_mode), ratios from --ratios")
+    ap.add_argument("--ratios", default="0,0.05,0.1,0.2,0.5,1,2")
     ap.add_argument("--out", metavar="FILE")
     args = ap.parse_args()
     if args.summary:
@@ -169,6 +219,11 @@ def main() -> None:
                     for mag in [float(m) for m in args.magnitudes.split(",")]:
                         for seed in seeds:
                             emit(run(system, name, mag, seed, snr, args.fit, args.margin), args.out)
+    if args.free_decays:
+        for kind in FREE_MODES:
+            for ratio in [float(r) for r in args.ratios.split(",")]:
+                for seed in seeds:
+                    emit(free_decay_run(kind, ratio, seed, 0.005, args.margin), args.out)
     if args.speed:
         eom = systems()["mild"][0]
         amp, vel = typical_amplitude(eom, 25.0, 10000.0)

@@ -12,7 +12,8 @@ amplitude, measured and model), a test for energy exchange between the modes and
 coupling terms the residual forces would support.
 
     python benchmarks/bench_double_beam.py                 # table, ~30 s
-    python benchmarks/bench_double_beam.py --diagnose      # + the generic eddi.diagnose loop (~1 min more)
+    python benchmarks/bench_double_beam.py --diagnose      # + the generic eddi.diagnose loop, station
+                                                           # path and separated path (~1-2 min more)
     python benchmarks/bench_double_beam.py --figures docs/real-data --save-model models/double_beam_two_mode.json
 """
 
@@ -189,20 +190,46 @@ def energy_rises(model: ModalSumModel, recs: Records) -> dict[str, dict[str, flo
                              "largest_rise_per_cycle": float(biggest[k])} for k in range(2)}
 
 
-def generic_diagnosis(names: list[str], recs: Records) -> dict[str, Any]:
-    """The project's generic discrepancy loop on the single-DOF baseline (per unit mass)."""
-    from eddi.diagnose import Record, diagnose
+def _diagnosis_summary(dg: Any) -> dict[str, Any]:
+    return {
+        "cause": dg.cause, "verdict": dg.verdict, "symptom": dg.symptom, "gain": float(dg.gain),
+        "notes": list(dg.notes),
+        "baseline_nrmse": float(dg.baseline.nrmse), "baseline_nmte": float(dg.baseline.nmte),
+        "extended_nrmse": float(dg.extended.nrmse), "extended_nmte": float(dg.extended.nmte),
+        "baseline_fold_nrmse": [float(x) for x in dg.baseline.fold_nrmse],
+        "extended_fold_nrmse": [float(x) for x in dg.extended.fold_nrmse],
+        "candidates": [{"name": c.name, "form": c.form, "nrmse": float(c.nrmse), "gain": float(c.gain),
+                        "reference": c.reference, "reference_nrmse": float(c.reference_nrmse),
+                        "nmte": float(c.nmte), "reference_nmte": float(c.reference_nmte),
+                        "wins_every_part": c.wins_every_part, "consistent": c.consistent,
+                        "skipped": c.skipped} for c in dg.candidates],
+    }
 
-    records = []
+
+def generic_diagnosis(folder: Path, names: list[str], recs: Records) -> dict[str, Any]:
+    """The project's generic discrepancy loop, two ways.
+
+    ``station``: exactly ``station diagnose FOLDER/ringdown-*.csv --mass 1`` (the station's own
+    reading and conditioning of the velocity, default term libraries). ``separated``: the
+    single-DOF baseline ``v, abs(v)*v`` / ``x, abs(x)*x`` on the drift-free displacement of
+    this module's wide band (20-600 Hz) instead of the station's conditioning.
+    """
+    from eddi.diagnose import Record, diagnose
+    from station.commands.diagnose import load_records as station_records
+
+    t0 = time.perf_counter()
+    records, _ = station_records([str(f) for f in sorted(folder.glob("ringdown-*.csv"))])
+    out = {"station": {**_diagnosis_summary(diagnose(records, 1.0)),
+                       "seconds": time.perf_counter() - t0}}
+    t0 = time.perf_counter()
+    sep = []
     for name, (t, v) in zip(names, recs):
         c = separate_modes(t, v, WIDE)
         n = int(0.05 / (t[1] - t[0]))
-        records.append(Record.create(t, c.x[0], c.v[0], c.a[0], free_start=n, free_stop=t.size - n, label=name))
-    dg = diagnose(records, 1.0, damping=("v", "abs(v)*v"), stiffness=("x", "abs(x)*x"))
-    return {
-        "cause": dg.cause, "verdict": dg.verdict, "baseline_nrmse": float(dg.baseline.nrmse),
-        "candidates": [{"name": c.name, "nrmse": float(c.nrmse)} for c in dg.candidates],
-    }
+        sep.append(Record.create(t, c.x[0], v, None, free_start=n, free_stop=t.size - n, label=name))
+    dg = diagnose(sep, 1.0, damping=("v", "abs(v)*v"), stiffness=("x", "abs(x)*x"))
+    out["separated"] = {**_diagnosis_summary(dg), "seconds": time.perf_counter() - t0}
+    return out
 
 
 def figures(outdir: Path, names: list[str], recs: Records, results: dict[str, dict[str, Any]],
@@ -362,7 +389,7 @@ def main(argv: list[str] | None = None) -> int:
         "seconds": time.perf_counter() - t_start,
     }
     if args.diagnose:
-        summary["generic_diagnosis"] = generic_diagnosis(names, recs)
+        summary["generic_diagnosis"] = generic_diagnosis(args.data, names, recs)
     if args.save_model is not None:
         args.save_model.parent.mkdir(parents=True, exist_ok=True)
         args.save_model.write_text(model_all.to_json() + "\n")
@@ -398,10 +425,20 @@ def main(argv: list[str] | None = None) -> int:
         lines.append(f"{k}: energy grows in {100 * r['share_rising']:.1f} % of {r['cycles']} cycles, "
                      f"largest rise {100 * r['largest_rise_per_cycle']:.1f} % per cycle")
     if args.diagnose:
-        g = summary["generic_diagnosis"]
-        lines.append(f"eddi.diagnose on the single-DOF baseline: cause {g['cause']!r}; baseline held-out nrmse "
-                     f"{g['baseline_nrmse']:.3f}; " + "; ".join(f"{c['name']} {c['nrmse']:.3f}" for c in g["candidates"]))
-        lines.append(f"  verdict: {g['verdict']}")
+        for way, g in summary["generic_diagnosis"].items():
+            lines.append(f"eddi.diagnose ({way}): cause {g['cause']!r}, gain {100 * g['gain']:.1f} %; held-out "
+                         f"displacement nrmse {g['baseline_nrmse']:.3f} -> {g['extended_nrmse']:.4f}, velocity "
+                         f"NMTE {100 * g['baseline_nmte']:.2f} % -> {100 * g['extended_nmte']:.2f} % "
+                         f"({g['seconds']:.0f} s)")
+            lines.append("  per held-out record, nrmse baseline / extended: " + " ".join(
+                f"{b:.3f}/{e:.4f}" for b, e in zip(g["baseline_fold_nrmse"], g["extended_fold_nrmse"])))
+            for c in g["candidates"]:
+                lines.append(f"  {c['name']:22s} {c['form']:9s} nrmse {c['nrmse']:.4f} gain {100 * c['gain']:6.1f} % "
+                             f"over the {c['reference']} ({c['reference_nrmse']:.4f})" if not c["skipped"]
+                             else f"  {c['name']:22s} skipped: {c['skipped']}")
+            lines.append(f"  verdict: {g['verdict']}")
+            lines.append(f"  symptom: {g['symptom']}")
+            lines += [f"  note: {n}" for n in g["notes"]]
     if args.figures is not None:
         lines.append("figures: " + ", ".join(summary["figures"]))
     lines.append(f"total {summary['seconds']:.1f} s")
