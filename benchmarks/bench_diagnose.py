@@ -16,6 +16,7 @@ for a margin, the false-alarm rate and the smallest magnitude found per mechanis
     python benchmarks/bench_diagnose.py --summary runs.jsonl [--margin 0.25]
     python benchmarks/bench_diagnose.py --speed
     python benchmarks/bench_diagnose.py --free-decays --seeds 2 --out free.jsonl
+    python benchmarks/bench_diagnose.py --free-decays --ratios 0 --seeds 6 --noise 0.02 --out free.jsonl
 
 Add ``--fit equation-error`` to measure the equation-error fit instead of EDDI's.
 The numbers are quoted in docs/diagnosis.md.
@@ -200,6 +201,8 @@ def main() -> None:
                     help="velocity-only free decays: single-mode nulls and a second mode at 1:2 "
                          "(the observed form of second_mode), ratios from --ratios")
     ap.add_argument("--ratios", default="0,0.05,0.1,0.2,0.5,1,2")
+    ap.add_argument("--noise", type=float, default=0.005,
+                    help="free decays: white noise RMS as a fraction of the peak velocity")
     ap.add_argument("--out", metavar="FILE")
     args = ap.parse_args()
     if args.summary:
@@ -223,7 +226,7 @@ def main() -> None:
         for kind in FREE_MODES:
             for ratio in [float(r) for r in args.ratios.split(",")]:
                 for seed in seeds:
-                    emit(free_decay_run(kind, ratio, seed, 0.005, args.margin), args.out)
+                    emit(free_decay_run(kind, ratio, seed, args.noise, args.margin), args.out)
     if args.speed:
         eom = systems()["mild"][0]
         amp, vel = typical_amplitude(eom, 25.0, 10000.0)
