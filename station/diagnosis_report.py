@@ -300,6 +300,7 @@ def residual_figure(diag: Diagnosis, records: Sequence[Record], max_points: int 
                               vmin=-lim, vmax=lim, rasterized=True)
         ax[0, k].set_xlabel("x")
         ax[0, k].set_ylabel("v")
+        ax[0, k].ticklabel_format(axis="both", style="sci", scilimits=(-2, 3))
         ax[0, k].set_title(f"residual force, {name}", fontsize=9)
     fig.colorbar(sc, ax=ax[0, len(models) - 1], label="F - m a - model [N]")
     return fig
