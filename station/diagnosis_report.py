@@ -28,6 +28,7 @@ import matplotlib
 matplotlib.use("Agg")
 
 import numpy as np  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
@@ -82,7 +83,8 @@ def timeseries_figure(diag: Diagnosis) -> Figure:
         else:
             series.append(("baseline", np.nan_to_num(h.x_baseline), "baseline (diverged)", 0.7))
         if diag.cause != "none" and np.all(np.isfinite(h.x_extended)):
-            series.append(("extended", h.x_extended, f"+ {diag.cause} ({diag.extended.fold_nrmse[i]:.3g})", 0.7))
+            series.append(("extended", h.x_extended,
+                           f"+ {diag.cause} ({diag.extended.fold_nrmse[i]:.3g})", 0.7))
         style = {"measured": (0.6, 1.0, 3), "baseline": (0.8, 0.8, 1), "extended": (2.0, 0.55, 2)}
         for name, x, lab, _lw in series:
             lw, al, zo = style[name]
@@ -218,7 +220,8 @@ def modal_backbone_figure(diag: Diagnosis, model: ModalSumModel, cache: dict | N
             keep = amp > 0.02 * np.max(amp)
             amp, f, z = amp[keep], f[keep], z[keep]
             if name == "measured":
-                ax[k, 0].plot(amp * 1e3, f, ".", ms=1.5, color="0.6", alpha=0.4, label="measured, cycle by cycle")
+                ax[k, 0].plot(amp * 1e3, f, ".", ms=1.5, color="0.6", alpha=0.4,
+                              label="measured, cycle by cycle")
                 ax[k, 1].plot(amp * 1e3, 100 * z, ".", ms=1.5, color="0.6", alpha=0.4)
                 for j, y in ((0, f), (1, 100 * z)):
                     mid, med = _binned(amp, y)
@@ -306,7 +309,7 @@ def residual_figure(diag: Diagnosis, records: Sequence[Record], max_points: int 
     return fig
 
 
-def _modal_residual(q: object, diag: Diagnosis, model: ModalSumModel, k: int, max_points: int,
+def _modal_residual(q: Axes, diag: Diagnosis, model: ModalSumModel, k: int, max_points: int,
                     cache: dict | None = None) -> None:
     """Mode k: the force its linear part misses (measured component) against modal displacement,
     with the model's nonlinear stiffness over it."""
@@ -327,19 +330,19 @@ def _modal_residual(q: object, diag: Diagnosis, model: ModalSumModel, k: int, ma
         return
     x, r = np.concatenate(xs), np.concatenate(rs)
     step = max(1, x.size // max_points)
-    q.plot(x[::step] * 1e3, r[::step], ".", ms=1, color="0.5", alpha=0.3,  # type: ignore[attr-defined]
+    q.plot(x[::step] * 1e3, r[::step], ".", ms=1, color="0.5", alpha=0.3,
            label="measured: -a - (linear part)", rasterized=True)
     grid = np.linspace(np.percentile(x, 0.5), np.percentile(x, 99.5), 200)
     knl = sum((c * parse_term(t)(grid, np.zeros_like(grid)) for t, c in nl_k.items()), np.zeros_like(grid))
     terms = " ".join(f"{c:+.3g} {t}" for t, c in nl_k.items()) or "none"
-    q.plot(grid * 1e3, knl, color=_COLORS["extended"], lw=2, label=f"model: {terms}")  # type: ignore[attr-defined]
+    q.plot(grid * 1e3, knl, color=_COLORS["extended"], lw=2, label=f"model: {terms}")
     lim = float(np.percentile(np.abs(r), 99.5))
-    q.set_ylim(-1.3 * lim, 1.3 * lim)  # type: ignore[attr-defined]
-    q.set_xlabel(f"mode {k + 1} displacement [mm]")  # type: ignore[attr-defined]
-    q.set_ylabel("force per unit modal mass [N/kg]")  # type: ignore[attr-defined]
+    q.set_ylim(-1.3 * lim, 1.3 * lim)
+    q.set_xlabel(f"mode {k + 1} displacement [mm]")
+    q.set_ylabel("force per unit modal mass [N/kg]")
     q.set_title(f"mode {k + 1}: internal force its linear part misses\n(sign opposite to x: "
-                "the spring softens with amplitude)", fontsize=9)  # type: ignore[attr-defined]
-    q.legend(fontsize=7, loc="upper left")  # type: ignore[attr-defined]
+                "softening; same sign: hardening)", fontsize=9)
+    q.legend(fontsize=7, loc="upper left")
 
 
 def spectra_figure(diag: Diagnosis) -> Figure:
@@ -360,7 +363,8 @@ def spectra_figure(diag: Diagnosis) -> Figure:
                 continue
             f, amp = spectrum(x - np.mean(x), rate)
             if name == "measured":
-                fmax = min(rate / 2, 4 * _peak(f, amp) if model is None else 1.6 * max(model.natural_frequencies_hz()))
+                top = 4 * _peak(f, amp) if model is None else 1.6 * max(model.natural_frequencies_hz())
+                fmax = min(rate / 2, top)
             keep = (f > 0) & (f < fmax)
             lab = {"measured": "measured", "baseline": "baseline", "extended": f"+ {diag.cause}"}[name]
             q.semilogy(f[keep], amp[keep], color=_COLORS[name], lw=0.8, alpha=0.85, label=lab)
