@@ -167,9 +167,10 @@ def energy_figure(diag: Diagnosis, cache: dict | None = None) -> Figure:
             if amps:
                 amp, de = np.concatenate(amps), np.concatenate(des)
                 keep = (amp > 1e-2 * np.max(amp)) & (de > 0)
-                q.loglog(amp[keep], de[keep], ".", ms=2 if name == "measured" else 3,
-                         color=_COLORS[name], alpha=0.5 if name == "measured" else 0.8,
-                         label=("measured (separated)" if name == "measured" else "model, mode alone"))
+                meas = name == "measured"  # drawn over the model, so both stay visible
+                q.loglog(amp[keep], de[keep], ".", ms=1.5 if meas else 4,
+                         color=_COLORS[name], alpha=0.35 if meas else 0.5, zorder=3 if meas else 2,
+                         label=("measured (separated)" if meas else "model, mode alone (held-out)"))
         f = model.natural_frequencies_hz()[k]
         q.set_title(f"mode {k + 1} ({f:.4g} Hz): energy lost per cycle", fontsize=9)
         q.set_xlabel("modal amplitude [m]")
@@ -189,7 +190,9 @@ def energy_figure(diag: Diagnosis, cache: dict | None = None) -> Figure:
         if amps:
             amp, de = np.concatenate(amps), np.concatenate(des)
             keep = (amp > 1e-3 * np.max(amp)) & (de > 0)
-            a.loglog(amp[keep], de[keep], ".", ms=3, color=_COLORS[name], label=name)
+            meas = name == "measured"  # drawn over the simulations, so all stay visible
+            a.loglog(amp[keep], de[keep], ".", ms=1.5 if meas else 3, color=_COLORS[name],
+                     alpha=0.5 if meas else 0.6, zorder=3 if meas else 2, label=name)
     a.set_xlabel("amplitude")
     a.set_ylabel("energy lost per cycle [J]")
     a.set_title(("whole signal; " if n_modes else "")
