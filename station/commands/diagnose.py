@@ -92,11 +92,13 @@ def load_records(specs: list[str]) -> tuple[list[Record], float | None]:
 def handle(args: argparse.Namespace) -> int:
     base = None
     if args.model:
-        text = Path(args.model).read_text()
-        try:
-            base = EquationOfMotion.from_json(text)
-        except ModelError as exc:
-            raise ModelError(f"{args.model}: {exc}") from None
+        from station.pipeline import load_model_file
+
+        loaded = load_model_file(args.model)
+        if not isinstance(loaded, EquationOfMotion):
+            raise InputFileError(f"{args.model}: --model takes a single-coordinate equation of motion, "
+                                 f"got a modal-sum model")
+        base = loaded
     if args.mass is not None and not (math.isfinite(args.mass) and args.mass > 0):
         raise ModelError(f"--mass must be > 0, got {args.mass}")
     mechanisms = None
