@@ -5,7 +5,7 @@
 
 The pipeline is :func:`station.pipeline.run_session` (as ``station report``, without the
 figures). With ``--through-device`` each stored capture's raw counts are served by a
-:class:`ReplaySource` inside the emulated DAQ firmware, on a pseudo-terminal, read back with the
+:class:`simulated_rig.replay.ReplaySource` inside the emulated DAQ firmware, on a pseudo-terminal, read back with the
 serial driver, and compared with the file: they must arrive bit-exact.
 """
 
@@ -18,72 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from drivers.channels import ChannelInfo
 from station.errors import InputFileError
 from station.output import emit
-
-#: Samples the replay source serves per ``read`` call at most (the firmware asks for blocks).
-_READ_LIMIT = 1 << 20
-
-
-class ReplaySource:
-    """A sample source (the ``RigSource`` interface) that serves stored ADC counts.
-
-    Parameters
-    ----------
-    counts : ndarray, shape (n, n_channels), int32
-        The samples to serve, in order; zeros follow them.
-    channels : tuple of ChannelInfo
-        One per column of ``counts``.
-    rate_hz : float
-        Sample rate [Hz]; the only rate :meth:`configure` accepts.
-    scenario_json : str
-        Reported to the host in IDENTIFY.
-
-    Attributes
-    ----------
-    sample_index : int
-        Samples served so far.
-    """
-
-    def __init__(self, counts: np.ndarray, channels: tuple[ChannelInfo, ...], rate_hz: float,
-                 scenario_json: str = "") -> None:
-        from simulated_rig.errors import RigError
-
-        counts = np.asarray(counts)
-        if counts.ndim != 2 or counts.shape[1] != len(channels) or counts.dtype.kind not in "iu":
-            raise RigError(f"replay: expected integer counts of shape (n, {len(channels)}), got "
-                           f"{counts.dtype} {counts.shape}")
-        self.counts = np.ascontiguousarray(counts, dtype=np.int32)
-        self.channels = tuple(channels)
-        self.rate_hz = float(rate_hz)
-        self.scenario_json = scenario_json
-        self.sample_index = 0
-
-    def read(self, n: int) -> np.ndarray:
-        """The next ``n`` stored samples, shape (n, n_channels) int32 (zeros past the end)."""
-        n = int(n)
-        out = np.zeros((n, len(self.channels)), dtype=np.int32)
-        k = self.sample_index
-        take = max(0, min(n, self.counts.shape[0] - k))
-        out[:take] = self.counts[k:k + take]
-        self.sample_index += n
-        return out
-
-    def configure(self, rate_hz: float | None = None) -> None:
-        """Accept only the stored rate; restart from the first sample."""
-        from simulated_rig.errors import RigError
-
-        if rate_hz is not None and float(rate_hz) != self.rate_hz:
-            raise RigError(f"replay: the capture was recorded at {self.rate_hz:g} Hz, cannot serve {rate_hz:g} Hz")
-        self.sample_index = 0
-
-    def deliver_impact(self, peak_force_n: float, double_hit: bool = False) -> None:
-        """A replay plays what was recorded: no impact can be added."""
-        from simulated_rig.errors import RigError
-
-        raise RigError("replay: a stored capture cannot take a new impact")
-
 
 @dataclass(frozen=True)
 class StreamCheck:
@@ -125,6 +61,7 @@ def stream_through_device(path: str, capture: int, *, timeout_s: float = 5.0) ->
     """
     from drivers import open_device
     from simulated_rig.device import EmulatedDaq
+    from simulated_rig.replay import ReplaySource
     from simulated_rig.serve import PtyServer
     from station.storage import read_capture
 

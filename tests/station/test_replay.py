@@ -12,7 +12,8 @@ import pytest
 from drivers.channels import ChannelInfo
 from simulated_rig.errors import RigError
 from station.cli import main
-from station.commands.replay import ReplaySource, stream_through_device
+from simulated_rig.replay import ReplaySource
+from station.commands.replay import stream_through_device
 from station.storage import read_capture
 from tests.station.test_demo import demo_run
 
