@@ -39,7 +39,7 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=handle)
 
 
-class _Live:
+class LiveStatus:
     """Live status on stderr: one rewritten line on a terminal, else one line per event."""
 
     def __init__(self, enabled: bool) -> None:
@@ -101,7 +101,7 @@ def handle(args: argparse.Namespace) -> int:
 
     from station.devices import open_device
 
-    live = _Live(enabled=not args.json)
+    live = LiveStatus(enabled=not args.json)
     with open_device(url) as daq:
         configure_device(daq, cfg)
         channels = cfg.resolve_channels(daq.info.channels)

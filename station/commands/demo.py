@@ -34,10 +34,10 @@ def register(subparsers: Any) -> None:
 
 def handle(args: argparse.Namespace) -> int:
     """Run ``station demo``; return the exit code."""
-    from station.commands.acquire import _Live
+    from station.commands.acquire import LiveStatus
     from station.demo import demo_object, demo_text, run_demo
 
-    live = _Live(enabled=not args.json)
+    live = LiveStatus(enabled=not args.json)
     try:
         res = run_demo(args.out, device=args.device, record_s=args.record_s, on_status=live,
                        refine=args.refine)
