@@ -484,7 +484,6 @@ def _fit(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: _Setup,
     Returns None when no physical fit of the mechanism exists.
     """
     a0, y = _rows(sigs, masks, setup)
-    nb = a0.shape[1]
     best: tuple[float, np.ndarray, dict[str, float], MechanismFit] | None = None
     proj = _Projector(a0, y)
     if mech is None:

@@ -79,10 +79,12 @@ def term_basis(text: str) -> Basis:
     def force(x: np.ndarray, v: np.ndarray) -> np.ndarray:
         return term(x, v)
 
-    pot = None
-    if not term.depends_on_v:
-        def pot(x: np.ndarray) -> np.ndarray:
-            return integrated_term(term, x)
+    if term.depends_on_v:
+        return Basis(term.text, force, None)
+
+    def pot(x: np.ndarray) -> np.ndarray:
+        return integrated_term(term, x)
+
     return Basis(term.text, force, pot)
 
 

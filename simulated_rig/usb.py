@@ -17,7 +17,6 @@ import array
 import errno
 import threading
 from types import SimpleNamespace
-from typing import Any
 
 import usb.backend
 import usb.core

@@ -17,7 +17,6 @@ import importlib
 import sys
 from typing import Sequence
 
-from station.errors import StationError
 
 #: Sub-command name -> module that provides it (``register(subparsers)``). Only the module of
 #: the command being run is imported, so ``station identify`` does not pay for the drivers.
