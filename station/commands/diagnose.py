@@ -20,9 +20,9 @@ import math
 from pathlib import Path
 from typing import Any
 
-from eddi.diagnose import DEFAULT_MARGIN, FITS, Diagnosis, Record, diagnose
+from eddi.diagnosis import DEFAULT_MARGIN, FITS, Diagnosis, Record, diagnose
 from eddi.errors import ModelError
-from eddi.mechanisms import MECHANISM_NAMES
+from eddi.diagnosis import ALL_NAMES
 from eddi.model import EquationOfMotion
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
 from station.errors import InputFileError
@@ -45,7 +45,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--model", metavar="BASE.json", help="baseline equation of motion (JSON); its "
                    "coefficients are kept and only the mechanisms are fitted")
     p.add_argument("--mechanisms", metavar="NAMES", help="comma-separated subset of: "
-                   + ", ".join(MECHANISM_NAMES))
+                   + ", ".join(ALL_NAMES))
     p.add_argument("--margin", type=float, default=DEFAULT_MARGIN, metavar="FRACTION",
                    help="relative cut of the held-out error the winner must exceed (default: %(default)s)")
     p.add_argument("--fit", default="eddi", choices=FITS,
@@ -55,7 +55,8 @@ def register(subparsers: Any) -> None:
                    help="write the extended model (an equation of motion, or a modal-sum model when "
                         "the cause is a second mode seen in the measured signal; both load with "
                         "eddi.multimode.load_any_model)")
-    p.add_argument("--report", metavar="DIR", help="write figures (PNG) into DIR")
+    p.add_argument("--report", metavar="DIR", help="write an HTML page (index.html) and its figures "
+                   "(PNG, units on every axis) into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handle)
 
@@ -83,7 +84,8 @@ def load_records(specs: list[str]) -> tuple[list[Record], float | None]:
                                  f"{', '.join(ch) or 'none'})")
         c = condition(m.t, acc=ch.get("acc"), vel=ch.get("vel"), disp=ch.get("disp"),
                       force=ch.get("force"), pretrigger_samples=getattr(m, "pretrigger_samples", None))
-        records.append(Record.from_conditioned(c, label=Path(spec).name))
+        records.append(Record.from_conditioned(c, label=Path(spec).name,
+                                               pretrigger_samples=getattr(m, "pretrigger_samples", None)))
         if mass is None and getattr(m, "mass", None):
             mass = float(m.mass)
     return records, mass
@@ -147,10 +149,17 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
                      f"{params or '(no physical fit)'}"
                      + (f" [gain vs the {c.reference}, nrmse {c.reference_nrmse:.4g}]"
                         if c.reference != "baseline" else ""))
+    fl = diag.noise_floor
+    if fl is not None:
+        lines.insert(1, f"Noise floor of the held-out nrmse (from the records' noise and conditioning): "
+                        f"{fl.nrmse:.3g} (per part " + ", ".join(f"{f:.3g}" for f in fl.fold_nrmse) + ")")
     lines += ["", diag.verdict, f"What the baseline got wrong: {diag.symptom}."]
+    if diag.symptoms:
+        lines.append("Symptoms (held-out parts, median; measurement chain):")
+        lines += [f"  - {s.kind}: {s.text}" for s in diag.symptoms]
     lines += [f"Note: {n}." for n in diag.notes]
     lines += ["", f"Baseline: {diag.baseline.model.equation_text()}"]
-    if diag.cause != "none":
+    if diag.cause not in ("none", "unexplained"):
         lines.append(f"Extended: {diag.extended.model.equation_text()}")
     if "saved_model" in obj:
         lines.append(f"Extended model written to {obj['saved_model']}")
