@@ -161,8 +161,9 @@ def _storage_error(exc: BaseException, path: Path, what: str) -> StorageError:
     return err
 
 
-#: A consistency check run under the lock before a save: ``check(file, record_attrs)``.
-Check = Callable[[h5py.File, Mapping[str, Any]], None]
+#: A consistency check run under the lock before a save: ``check(file, record_attrs)``; raises to
+#: refuse the capture, or returns attributes to set on it (e.g. ``session_index``).
+Check = Callable[[h5py.File, Mapping[str, Any]], "Mapping[str, Any] | None"]
 
 
 class CaptureWriter:
@@ -319,7 +320,7 @@ class CaptureWriter:
                         _check_root(f, self.path)
                         attrs = {**rec.attrs, **meta, "channels": [c.name for c in rec.channels]}
                         if check is not None:
-                            check(f, attrs)
+                            meta = {**meta, **(check(f, attrs) or {})}
                         index = _write_record(f, rec, meta)
                     what = f"capture {index}"
                     with FileLock(self.path, exclusive=True):
@@ -340,7 +341,7 @@ class CaptureWriter:
             _new_file(buf, self._session)
             with h5py.File(buf, "r+") as f:
                 if check is not None:
-                    check(f, {**rec.attrs, **meta, "channels": [c.name for c in rec.channels]})
+                    meta = {**meta, **(check(f, {**rec.attrs, **meta, "channels": [c.name for c in rec.channels]}) or {})}
                 index = _write_record(f, rec, meta)
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
             try:
@@ -388,3 +389,41 @@ def import_measurement(writer: CaptureWriter, measurement: Any, notes: str = "",
         session_index=session_index,
         extra={"t0_s": float(t[0]) if t.size else 0.0, "import_metadata": json.dumps(meta, default=str)},
     )
+
+
+def same_session_check(path: Path, new_session: bool = False, verify: bool = True) -> Check:
+    """A :data:`Check` refusing a record that disagrees with the file's last capture.
+
+    Rate (relative 1e-9), mass (when both are known, relative 1e-9) and the channel names
+    must agree; with ``new_session`` the record starts a new session in the file instead
+    (its ``session_index`` is one more than the last capture's); with ``verify`` False the
+    record joins the last capture's session unchecked (the later records of a ``--new-session``).
+    """
+
+    def check(f: h5py.File, new: Mapping[str, Any]) -> Mapping[str, Any] | None:
+        caps = f["captures"]
+        if len(caps) == 0:
+            return None
+        last = caps[sorted(caps.keys())[-1]].attrs
+        session = int(last.get("session_index", 0))
+        if new_session:
+            return {"session_index": session + 1}
+        if not verify:
+            return {"session_index": session}
+        where = f"the session in {path} (capture {len(caps) - 1})"
+        rate, old_rate = float(new["rate_hz"]), float(last["rate_hz"])
+        if abs(rate - old_rate) > 1e-9 * old_rate:
+            raise InputFileError(f"{new.get('source', 'record')}: rate {rate:g} Hz disagrees with {where} at "
+                                 f"{old_rate:g} Hz; use --new-session to store it as a new session")
+        mass, old_mass = new.get("mass_kg"), float(last.get("mass_kg", float("nan")))
+        if mass is not None and np.isfinite(old_mass) and abs(float(mass) - old_mass) > 1e-9 * old_mass:
+            raise InputFileError(f"{new.get('source', 'record')}: mass {float(mass):g} kg disagrees with {where} at "
+                                 f"{old_mass:g} kg; use --new-session to store it as a new session")
+        chans = list(new["channels"])
+        old = json.loads(last["channel_order"])
+        if sorted(chans) != sorted(old):
+            raise InputFileError(f"{new.get('source', 'record')}: channels {','.join(chans)} disagree with {where} "
+                                 f"({','.join(old)}); use --new-session to store it as a new session")
+        return {"session_index": session}
+
+    return check
