@@ -33,6 +33,9 @@ def register(subparsers: Any) -> None:
 
 def handle(args: argparse.Namespace) -> int:
     """Run ``station demo``; return the exit code."""
+    from station.output_safety import check_output
+
+    check_output(args.out, "dir", option="--out")
     from station.commands.acquire import LiveStatus
     from station.demo import demo_object, demo_text, run_demo
 

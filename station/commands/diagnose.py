@@ -126,6 +126,13 @@ def pipeline_baseline(measurements: list[Any], mass: float, damping: str, stiffn
 
 
 def handle(args: argparse.Namespace) -> int:
+    from station.output_safety import check_output
+
+    inputs = [*args.captures, *([args.model] if args.model else [])]
+    if args.save_model:
+        check_output(args.save_model, "json", inputs, option="--save-model")
+    if args.report:
+        check_output(args.report, "dir", inputs, option="--report")
     base = None
     if args.model:
         from station.session import load_model_file

@@ -49,6 +49,9 @@ def handle(args: argparse.Namespace) -> int:
     from station.session import read_all, run_session
     from station.report import write_report
 
+    from station.output_safety import check_output
+
+    check_output(args.out, "dir", args.records, option="--out")
     t0 = time.perf_counter()
     recs = read_all(args.records)
     session = run_session(recs, args.mass, damping=terms_or_default(args.damping, DEFAULT_DAMPING),
