@@ -45,6 +45,7 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 from scipy.interpolate import BSpline
 
+from eddi.calculus import integrate, spline_cumulative_integral
 from eddi.errors import SignalError
 
 #: Minimum number of acceleration zero crossings in the free response.
@@ -422,29 +423,6 @@ class EquilibriumIntegral:
     v: np.ndarray
     modes_hz: tuple[float, ...]
     f1_hz: np.ndarray
-
-
-def spline_cumulative_integral(t: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Cumulative integral of ``y`` from ``t[0]`` through its interpolating cubic spline.
-
-    The trapezoid rule shrinks a sinusoid's integral by ``(w h)^2 / 12`` (0.2 % at 42
-    samples a period, 0.75 % at 21); the spline's error is ``O((w h)^4)``.
-
-    Parameters
-    ----------
-    t : ndarray, shape (n,), [s]
-    y : ndarray, shape (n,)
-
-    Returns
-    -------
-    ndarray, shape (n,)
-        ``int_{t0}^{t} y dt`` (units of ``y`` times s).
-    """
-    from scipy.interpolate import make_interp_spline
-
-    s = make_interp_spline(t, y, k=3).antiderivative()
-    out = s(t)
-    return out - out[0]
 
 
 def _spectral_peaks(y: np.ndarray, rate: float, power: int, rel: float,
@@ -866,8 +844,7 @@ def condition(
                 a = acc if acc is not None else _sg_derivative(v, rate, period_s, 1, split)
             v0 = v - (float(np.mean(v[:noise_stop])) if rest and noise_stop >= 8 else 0.0)
             x_int = np.zeros(n)
-            x_int[start:] = cumulative_trapezoid(v0[start:], t[start:], initial=0.0) if rest \
-                else spline_cumulative_integral(t, v0)
+            x_int[start:] = integrate(v0[start:], 1.0 / rate) if rest else spline_cumulative_integral(t, v0)
             d = _drift_spline_eval(anchored(x_int, v0, a, first_anchor), t, start)
             x = x_int - d[0]
             method = ("vel as measured; disp by integration " + ("from rest" if rest else "from the start")
@@ -878,8 +855,9 @@ def condition(
             if eq is None:
                 v_int = np.zeros(n)
                 x_int = np.zeros(n)
-                v_int[start:] = cumulative_trapezoid(a[start:], t[start:], initial=0.0)
-                x_int[start:] = cumulative_trapezoid(v_int[start:], t[start:], initial=0.0)
+                # 4th-order integration (the trapezoid loses (w h)^2 / 12 a pass: eddi.calculus)
+                v_int[start:] = integrate(a[start:], 1.0 / rate)
+                x_int[start:] = integrate(v_int[start:], 1.0 / rate)
             else:
                 # unknown v0 and x0: a line in x, removed by least squares before the anchored
                 # fit (it dwarfs x; the cycle-mean v is biased where a damped response chirps)
@@ -897,7 +875,10 @@ def condition(
     # -- free-response window -------------------------------------------------------------
     if impact_end < 0:
         # without force: from the first extremum of x after the motion starts
-        vx = crossings(v, max(3.0 * noise_rms(v, noise_stop), 1e-12), start=start)
+        # (the first crossing of v after v has left its rest: at the onset v is still ~0)
+        moving = np.nonzero(np.abs(v[start:]) >= 0.3 * float(np.max(np.abs(v[start:]))))[0]
+        first_move = start + (int(moving[0]) if moving.size else 0)
+        vx = crossings(v, max(3.0 * noise_rms(v, noise_stop), 1e-12), start=first_move)
         impact_end = int(math.ceil(vx[0])) if (rest and vx.size) else start
     free_start = min(impact_end, n - 2)
     free_stop = _envelope_stop(resp if resp_name != "disp" else x, free_start, sigma, noise_factor, period_s, rate)
