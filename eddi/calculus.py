@@ -29,7 +29,7 @@ RATE_TOLERANCE = 200e-6
 MIN_SAMPLES_PER_CYCLE = 20.0
 
 
-def integrate(y: np.ndarray, dt: float) -> np.ndarray:
+def integrate(y: np.ndarray, dt: float, smooth_from: int = 0) -> np.ndarray:
     """Cumulative integral of a sampled signal from ``y[0]``, 4th-order accurate inside.
 
     Parameters
@@ -37,6 +37,10 @@ def integrate(y: np.ndarray, dt: float) -> np.ndarray:
     y : ndarray, shape (n,)
     dt : float
         Sample interval [s].
+    smooth_from : int
+        Intervals before this sample use the trapezoid: the 4th-order stencil assumes a
+        smooth signal and rings on a kink (a hammer pulse), where the trapezoid is exact for
+        the piecewise-linear force a sampled pulse stands for.
 
     Returns
     -------
@@ -49,7 +53,9 @@ def integrate(y: np.ndarray, dt: float) -> np.ndarray:
         return np.zeros_like(y)
     inc = 0.5 * dt * (y[:-1] + y[1:])
     if y.size >= 4:
-        inc[1:-1] = dt / 24.0 * (-y[:-3] + 13.0 * y[1:-2] + 13.0 * y[2:-1] - y[3:])
+        hi = dt / 24.0 * (-y[:-3] + 13.0 * y[1:-2] + 13.0 * y[2:-1] - y[3:])
+        k = max(1, int(smooth_from))
+        inc[k:-1] = hi[k - 1:]
     return np.concatenate(([0.0], np.cumsum(inc)))
 
 

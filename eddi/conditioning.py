@@ -844,7 +844,8 @@ def condition(
                 a = acc if acc is not None else _sg_derivative(v, rate, period_s, 1, split)
             v0 = v - (float(np.mean(v[:noise_stop])) if rest and noise_stop >= 8 else 0.0)
             x_int = np.zeros(n)
-            x_int[start:] = integrate(v0[start:], 1.0 / rate) if rest else spline_cumulative_integral(t, v0)
+            x_int[start:] = (integrate(v0[start:], 1.0 / rate, smooth_from=_pulse_end(v0, start, impact_end) - start)
+                             if rest else spline_cumulative_integral(t, v0))
             d = _drift_spline_eval(anchored(x_int, v0, a, first_anchor), t, start)
             x = x_int - d[0]
             method = ("vel as measured; disp by integration " + ("from rest" if rest else "from the start")
@@ -856,8 +857,10 @@ def condition(
                 v_int = np.zeros(n)
                 x_int = np.zeros(n)
                 # 4th-order integration (the trapezoid loses (w h)^2 / 12 a pass: eddi.calculus)
-                v_int[start:] = integrate(a[start:], 1.0 / rate)
-                x_int[start:] = integrate(v_int[start:], 1.0 / rate)
+                # (trapezoid over the impact: a pulse is not smooth)
+                smooth = _pulse_end(a, start, impact_end) - start
+                v_int[start:] = integrate(a[start:], 1.0 / rate, smooth_from=smooth)
+                x_int[start:] = integrate(v_int[start:], 1.0 / rate, smooth_from=smooth)
             else:
                 # unknown v0 and x0: a line in x, removed by least squares before the anchored
                 # fit (it dwarfs x; the cycle-mean v is biased where a damped response chirps)
@@ -891,6 +894,21 @@ def condition(
         noise_rms=sigma, force_noise_rms=f_sigma, acc_measured=acc is not None,
         response=resp_name,
     )
+
+
+def _pulse_end(y: np.ndarray, start: int, impact_end: int) -> int:
+    """Last sample of the impact (plus 3, the stencil's reach) for the integration.
+
+    From the force when it was measured (``impact_end >= 0``); otherwise symmetric about the
+    first peak of ``|y|`` after ``start`` (a hammer pulse is near a half-sine).
+    """
+    if impact_end >= 0:
+        return impact_end + 3
+    seg = np.abs(y[start:])
+    if seg.size == 0:
+        return start
+    first_peak = int(np.argmax(seg[: max(4, seg.size // 20)]))
+    return start + 2 * first_peak + 3
 
 
 def _equilibrium_note(eq: EquilibriumIntegral) -> str:
