@@ -95,7 +95,8 @@ def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
             "driven_by": ("measured impact force from rest (force sensor fused with m*a)"
                           if res.driven_by_force else "measured initial state"),
             "window_s": [float(t[val.window[0]]), float(t[val.window[1] - 1])],
-            "diverged": val.diverged,
+            "diverged": val.diverged or any(h.diverged for h in res.held_out),
+            "warnings": list(val.warnings),
         },
         "conditioning": {
             "method": cond.method,
