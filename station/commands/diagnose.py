@@ -26,6 +26,7 @@ from eddi.errors import ModelError
 from eddi.mechanisms import MECHANISM_NAMES
 from eddi.model import EquationOfMotion
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
+from station.argtypes import damping_terms, finite_positive, fraction, stiffness_terms
 from station.errors import InputFileError
 from station.output import emit
 
@@ -37,17 +38,17 @@ def register(subparsers: Any) -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("captures", nargs="+", metavar="CAPTURE",
                    help="capture files (CSV or HDF5; FILE.h5:N picks capture N of a session)")
-    p.add_argument("--mass", type=float, metavar="KG",
+    p.add_argument("--mass", type=finite_positive, metavar="KG",
                    help="oscillating mass [kg] (default: the model's, or the capture's metadata)")
-    p.add_argument("--damping", default=",".join(DEFAULT_DAMPING), metavar="TERMS",
+    p.add_argument("--damping", type=damping_terms, default=",".join(DEFAULT_DAMPING), metavar="TERMS",
                    help="baseline damping terms (default: %(default)s)")
-    p.add_argument("--stiffness", default=",".join(DEFAULT_STIFFNESS), metavar="TERMS",
+    p.add_argument("--stiffness", type=stiffness_terms, default=",".join(DEFAULT_STIFFNESS), metavar="TERMS",
                    help="baseline stiffness terms (default: %(default)s)")
     p.add_argument("--model", metavar="BASE.json", help="baseline equation of motion (JSON); its "
                    "coefficients are kept and only the mechanisms are fitted")
     p.add_argument("--mechanisms", metavar="NAMES", help="comma-separated subset of: "
                    + ", ".join(MECHANISM_NAMES))
-    p.add_argument("--margin", type=float, default=DEFAULT_MARGIN, metavar="FRACTION",
+    p.add_argument("--margin", type=fraction, default=DEFAULT_MARGIN, metavar="FRACTION",
                    help="relative cut of the held-out error the winner must exceed (default: %(default)s)")
     p.add_argument("--fit", default="eddi", choices=FITS,
                    help="how the baseline and the extensions are fitted: EDDI over the training "
