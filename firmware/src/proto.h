@@ -13,7 +13,11 @@
 #define PROTO_HEADER_BYTES 6u          /* version u8, type u8, seq u32 */
 #define PROTO_DATA_HEADER_BYTES 16u    /* first u64, n u16, nch u8, width u8, mask u32 */
 #define PROTO_MIN_FRAME 10u            /* header + crc */
-#define PROTO_MAX_CMD_FRAME 64u        /* largest command frame this firmware accepts (decoded) */
+/* Largest decoded frame the receiver holds: commands are at most 25 bytes; the host checker
+ * builds with a large value to decode the DATA vectors with the same code. */
+#ifndef PROTO_RX_BYTES
+#define PROTO_RX_BYTES 68u
+#endif
 
 enum proto_type {
     PT_DATA = 0x01, PT_REPLY = 0x02,
@@ -52,7 +56,7 @@ void proto_put_sample(uint8_t *p, int32_t v, unsigned width);
 
 /* Byte-at-a-time receiver: COBS decode, length and CRC checks. */
 typedef struct {
-    uint8_t buf[PROTO_MAX_CMD_FRAME + 4];
+    uint8_t buf[PROTO_RX_BYTES];
     size_t len;          /* decoded bytes so far */
     unsigned code;       /* COBS code in progress (0: expecting a code byte) */
     unsigned left;       /* data bytes left in this code block */
