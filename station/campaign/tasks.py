@@ -25,9 +25,10 @@ import time
 from dataclasses import dataclass
 from typing import Any, Mapping, Sequence
 
-# The station's pipeline (issue 9 replaces station/pipeline.py by one pipeline object under
-# another name: only this line, and the calls in _identify/_validate, follow it).
+# The station's pipeline, as its commands run it (issue 9 renames station/pipeline.py: only
+# this import line follows; ``run_identify`` is exactly what ``station identify`` runs).
 from station import pipeline as station_pipeline
+from station.commands.identify import run_identify
 from station.campaign.sources import CaptureRef
 
 #: Tasks a campaign runs on each capture.
@@ -46,8 +47,8 @@ class TaskOptions:
     damping, stiffness : str
         Candidate terms, comma-separated (``station identify``'s defaults).
     route : {"auto", "potential", "lagrangian"}
-    refine : bool
-        Output-error refinement after EDDI (identify).
+    refine : bool or None
+        Output-error refinement after EDDI (identify); None: the pipeline's default.
     model_json : str or None
         The model to validate (JSON text, shipped once with the options), for ``validate``.
     """
@@ -57,7 +58,7 @@ class TaskOptions:
     damping: str = ""
     stiffness: str = ""
     route: str = "auto"
-    refine: bool = False
+    refine: bool | None = None
     model_json: str | None = None
 
     def as_dict(self) -> dict[str, Any]:
@@ -135,9 +136,8 @@ def _pipeline_warnings(*holders: Any) -> list[str]:
 def _identify(meas: Any, opts: TaskOptions) -> dict[str, Any]:
     """Condition, identify and validate one record (``station identify``'s pipeline)."""
     mass = _mass(opts, meas)
-    cond = station_pipeline.condition_measurement(meas)
-    res = station_pipeline.identify_measurement(cond, mass, damping=opts.damping, stiffness=opts.stiffness,
-                                                route=opts.route, refine=opts.refine)
+    kw = {} if opts.refine is None else {"refine": opts.refine}
+    res = run_identify(meas, mass, opts.damping, opts.stiffness, opts.route, **kw)
     eom, val = res.model.eom, res.validation
     warnings = _pipeline_warnings(res, res.model)
     if val.diverged or not math.isfinite(val.nrmse):

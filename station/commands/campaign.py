@@ -1,7 +1,7 @@
 """``station campaign``: one task over many captures, in parallel on Dask, as one table.
 
     station campaign SOURCE... --out DIR [--task identify|validate|diagnose] [--mass KG]
-                     [--damping TERMS] [--stiffness TERMS] [--route R] [--refine]
+                     [--damping TERMS] [--stiffness TERMS] [--route R] [--[no-]refine]
                      [--model MODEL.json] [--scheduler tcp://HOST:PORT | --workers N]
                      [--chunk K] [--retry-errors] [--json]
 
@@ -44,7 +44,8 @@ def register(subparsers: Any) -> None:
                    help="stiffness candidates (default: %(default)s)")
     p.add_argument("--route", choices=("auto", "potential", "lagrangian"), default="auto",
                    help="phase-two route (default: %(default)s)")
-    p.add_argument("--refine", action="store_true", help="output-error refinement after EDDI (identify)")
+    p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=None,
+                   help="output-error refinement after EDDI (identify; default: as station identify)")
     p.add_argument("--model", metavar="MODEL.json", help="the model to validate (--task validate)")
     p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="use a running Dask scheduler")
     p.add_argument("--workers", type=int, metavar="N", help="local worker processes (default: the cores)")
@@ -74,7 +75,7 @@ def _options(args: argparse.Namespace) -> Any:
     if args.scheduler and args.workers is not None:
         raise ConfigError("--workers sizes a local cluster; with --scheduler the cluster has its own workers")
     return TaskOptions(task=args.task, mass=args.mass, damping=args.damping, stiffness=args.stiffness,
-                       route=args.route, refine=bool(args.refine), model_json=model_json)
+                       route=args.route, refine=args.refine, model_json=model_json)
 
 
 def _text(obj: dict[str, Any]) -> str:
