@@ -27,7 +27,7 @@ from typing import Any, Mapping, Sequence
 
 # The station's pipeline, as its commands run it (issue 9 renames station/pipeline.py: only
 # this import line follows; ``run_identify`` is exactly what ``station identify`` runs).
-from station import pipeline as station_pipeline
+from station import session as station_pipeline
 from station.commands.identify import run_identify
 from station.campaign.sources import CaptureRef
 
@@ -227,7 +227,7 @@ def warm_up() -> float:
     """
     import numpy as np
 
-    from eddi.conditioning import condition
+    from station.readers import Measurement
 
     t0 = time.perf_counter()
     rate, f0, zeta = 2000.0, 10.0, 0.01
@@ -235,9 +235,9 @@ def warm_up() -> float:
     w = 2 * np.pi * f0
     wd = w * math.sqrt(1 - zeta**2)
     x = 1e-3 * np.exp(-zeta * w * t) * np.cos(wd * t)
+    meas = Measurement(t=t, channels={"disp": x}, rate_hz=rate, pretrigger_samples=None, mass=1.0, source="warm-up")
     try:
-        cond = condition(t, disp=x)
-        station_pipeline.identify_measurement(cond, 1.0, damping="v", stiffness="x")
+        run_identify(meas, 1.0, "v", "x")
     except Exception:  # noqa: BLE001 - best effort: the campaign reports real failures itself
         pass
     return time.perf_counter() - t0

@@ -64,7 +64,7 @@ def _options(args: argparse.Namespace) -> Any:
     if args.task == "validate":
         if not args.model:
             raise ConfigError("--task validate needs --model MODEL.json")
-        from station.pipeline import load_model_file
+        from station.session import load_model_file
 
         load_model_file(args.model)  # one clear line now rather than one per capture
         model_json = Path(args.model).read_text(encoding="utf-8")
