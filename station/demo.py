@@ -20,15 +20,17 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
-from eddi.model import EquationOfMotion
-from station.capture import AcquireResult, ImpactPlan, Status, acquire, configure_device, device_metadata
-from station.config import BenchConfig, parse_config
 from station.errors import ConfigError, StationError
-from station.pipeline import SessionResult, mean_of, read_all, run_session
-from station.report import Report, write_report
-from station.storage import CaptureWriter, StorageError, read_capture
+
+if TYPE_CHECKING:  # imported when used: `station demo --help` stays light; the engine and
+    # the report are imported while the rig powers on (warm_up_engine)
+    from eddi.model import EquationOfMotion
+    from station.capture import AcquireResult, Status
+    from station.config import BenchConfig
+    from station.pipeline import SessionResult
+    from station.report import Report
 
 #: The README's first command runs on this device.
 DEMO_DEVICE = "sim://duffing-smooth"
@@ -77,6 +79,10 @@ class DemoResult:
 
 def rig_truth(session_file: str | Path, capture: int = 0) -> EquationOfMotion | None:
     """The simulated rig's equation of motion stored with a capture (None for a real rig)."""
+    from eddi.model import EquationOfMotion
+
+    from station.storage import read_capture
+
     rig = read_capture(session_file, capture, verify=False).rig
     if not rig or not rig.get("scenario"):
         return None
@@ -87,9 +93,26 @@ def rig_truth(session_file: str | Path, capture: int = 0) -> EquationOfMotion | 
         return None
 
 
+def warm_up_engine() -> None:
+    """Import the engine and the report and compile the simulator (before, not inside, any
+    timed step: the demo runs it while the rig process powers on)."""
+    import numpy as np
+
+    import station.pipeline  # noqa: F401  (conditioning, EDDI, validation)
+    import station.report  # noqa: F401  (matplotlib)
+    from eddi.model import EquationOfMotion
+    from eddi.simulate import simulate
+
+    eom = EquationOfMotion(mass=1.0, damping={"v": 0.1}, stiffness={"x": 100.0, "x^3": 1.0})
+    simulate(eom, rate_hz=1000.0, n_samples=8, force=np.zeros(8))
+    simulate(eom, rate_hz=1000.0, n_samples=8, x0=0.1, v0=0.0, substeps=2)
+
+
 def demo_config(device: str, mass_kg: float, levels_n: tuple[float, ...], record_s: float,
                 holdoff_s: float) -> BenchConfig:
     """Bench configuration of the demo: force trigger at a quarter of the lowest level."""
+    from station.config import parse_config
+
     return parse_config({
         "device": {"url": device},
         "trigger": {"channel": "force", "level_n": 0.25 * min(levels_n), "pretrigger_s": DEMO_PRETRIGGER_S,
@@ -143,7 +166,9 @@ def run_demo(
     if not record_s > 0:
         raise ConfigError(f"--record-s: expected > 0 s, got {record_s}")
     from simulated_rig.systems import system_info
+    from station.capture import ImpactPlan, acquire, configure_device, device_metadata
     from station.devices import open_device, parse_sim_url
+    from station.storage import CaptureWriter, StorageError
 
     info = system_info(parse_sim_url(device).system)
     levels = tuple(float(f) for f in info.demo_forces_n[:3])
@@ -159,7 +184,7 @@ def run_demo(
     elapsed: dict[str, float] = {}
     t0 = time.perf_counter()
     writer = CaptureWriter(session_file, session={"bench_config": cfg.model_dump_json()})
-    with open_device(device) as daq:
+    with open_device(device, while_starting=warm_up_engine) as daq:
         configure_device(daq, cfg)
         plan = ImpactPlan(levels * 3, (False,) * (3 * len(levels)))  # repeats for rejected impacts
         acq = acquire(daq, cfg, writer, len(levels), impacts=plan, on_status=on_status, idle_timeout_s=10.0,
@@ -170,6 +195,9 @@ def run_demo(
         raise KeyboardInterrupt
     if acq.error is not None:
         raise StationError(f"acquisition stopped: {acq.error} ({acq.captures} capture(s) kept in {session_file})")
+    from station.pipeline import run_session, read_all
+    from station.report import write_report
+
     t1 = time.perf_counter()
     session = run_session(read_all([str(session_file)]), damping=("v", "x^2*v", "v^3"),  # paper Eq. 21
                           stiffness=("x", "x^2", "x^3", "x^4", "x^5"),  # paper Eq. 22
@@ -192,6 +220,7 @@ def run_demo(
 def demo_object(res: DemoResult) -> dict[str, Any]:
     """The ``--json`` object of ``station demo``."""
     from station.commands.identify import result_object
+    from station.pipeline import mean_of
 
     s = res.session
     fit_meas = s.measurements[s.fit_index]
