@@ -304,8 +304,11 @@ class Daq:
         """The device's STATUS reply (streaming flag, sample counter...)."""
         return self._command(FrameType.STATUS)
 
-    def impact(self, peak_force_n: float, double_hit: bool = False) -> int | None:
+    def impact(self, peak_force_n: float, double_hit: bool = False, at_sample: int | None = None) -> int | None:
         """Deliver a hammer impact of ``peak_force_n`` [N] (simulated rig only).
+
+        With ``at_sample`` the blow is scheduled at that device sample counter (sample time:
+        the run is reproducible whatever the host's speed); else it comes now.
 
         Returns the device sample counter when the command took effect (the blow follows
         the rig's own delay), or None if the device does not say.
@@ -315,7 +318,11 @@ class Daq:
         DeviceError
             On a real DAQ (no hammer) or a refused force.
         """
-        reply = self._command(FrameType.IMPACT, peak_force_n=float(peak_force_n), double_hit=double_hit)
+        if at_sample is not None:
+            reply = self._command(FrameType.IMPACT_AT, peak_force_n=float(peak_force_n), double_hit=double_hit,
+                                  at_sample=int(at_sample))
+        else:
+            reply = self._command(FrameType.IMPACT, peak_force_n=float(peak_force_n), double_hit=double_hit)
         at = reply.get("at_sample")
         return int(at) if isinstance(at, int) else None
 

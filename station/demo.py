@@ -108,6 +108,16 @@ def warm_up_engine() -> None:
     simulate(eom, rate_hz=1000.0, n_samples=8, x0=0.1, v0=0.0, substeps=2)
 
 
+def with_seed(device: str, seed: int) -> str:
+    """``sim://SYSTEM[?...]`` with ``seed=N`` set (replacing one the URL had)."""
+    import urllib.parse
+
+    parts = urllib.parse.urlsplit(device)
+    query = [(k, v) for k, v in urllib.parse.parse_qsl(parts.query, keep_blank_values=True) if k != "seed"]
+    query.append(("seed", str(int(seed))))
+    return urllib.parse.urlunsplit(parts._replace(query=urllib.parse.urlencode(query)))
+
+
 def demo_config(device: str, mass_kg: float, levels_n: tuple[float, ...], record_s: float,
                 holdoff_s: float) -> BenchConfig:
     """Bench configuration of the demo: force trigger at a quarter of the lowest level."""
@@ -130,6 +140,7 @@ def run_demo(
     record_s: float = DEMO_RECORD_S,
     on_status: Callable[[Status], None] | None = None,
     refine: bool = True,
+    seed: int | None = None,
 ) -> DemoResult:
     """Acquire three impacts on the simulated rig, identify on one, validate on two, report.
 
@@ -146,6 +157,9 @@ def run_demo(
     refine : bool
         Follow EDDI with the output-error refinement seeded by it (:mod:`eddi.refine`); the
         plain EDDI estimate and its held-out validation are reported beside the refined model.
+    seed : int, optional
+        Noise seed of the rig (None: the URL's, else the system's default). The impacts come
+        at fixed sample times, so the same seed gives the same captures, bit for bit.
 
     Returns
     -------
@@ -165,6 +179,8 @@ def run_demo(
                           f"got {device!r}")
     if not record_s > 0:
         raise ConfigError(f"--record-s: expected > 0 s, got {record_s}")
+    if seed is not None:
+        device = with_seed(device, seed)
     from simulated_rig.systems import system_info
     from station.capture import ImpactPlan, acquire, configure_device, device_metadata
     from station.devices import open_device, parse_sim_url
@@ -186,7 +202,9 @@ def run_demo(
     writer = CaptureWriter(session_file, session={"bench_config": cfg.model_dump_json()})
     with open_device(device, while_starting=warm_up_engine) as daq:
         configure_device(daq, cfg)
-        plan = ImpactPlan(levels * 3, (False,) * (3 * len(levels)))  # repeats for rejected impacts
+        settings = cfg.trigger_settings(cfg.resolve_channels(daq.info.channels), daq.info.rate_hz)
+        # in sample time (reproducible); repeats for rejected impacts
+        plan = ImpactPlan(levels * 3, (False,) * (3 * len(levels))).scheduled(settings)
         acq = acquire(daq, cfg, writer, len(levels), impacts=plan, on_status=on_status, idle_timeout_s=10.0,
                       device_meta=device_metadata(daq, device))
         stats = daq.stats

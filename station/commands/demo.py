@@ -25,6 +25,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--device", default=DEMO_DEVICE, metavar="URL", help="simulated rig (default: %(default)s)")
     p.add_argument("--record-s", type=float, default=DEMO_RECORD_S, metavar="S",
                    help="record length after the trigger [s] (default: %(default)s)")
+    p.add_argument("--seed", type=int, default=None, metavar="N",
+                   help="noise seed of the rig (the impacts come at fixed sample times: the same seed gives "
+                        "the same captures; default: the rig's)")
     p.add_argument("--no-refine", dest="refine", action="store_false",
                    help="report the plain EDDI estimate only (default: EDDI followed by the output-error "
                         "refinement it seeds; both are reported)")
@@ -40,7 +43,7 @@ def handle(args: argparse.Namespace) -> int:
     live = LiveStatus(enabled=not args.json)
     try:
         res = run_demo(args.out, device=args.device, record_s=args.record_s, on_status=live,
-                       refine=args.refine)
+                       refine=args.refine, seed=args.seed)
     finally:
         live.close()
     obj = demo_object(res)
