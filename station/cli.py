@@ -33,7 +33,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "export": ("station.commands.export", "write force and acceleration of captures to a UFF58 file"),
     "import": ("station.commands.export", "store CSV measurements as captures of an HDF5 session file"),
     "devices": ("station.commands.devices", "list serial ports, USB DAQs and simulated systems"),
-    "rig": ("station.commands.rig", "the simulated rig: serve it on a pty, strike it"),
+    "rig": ("station.commands.rig", "the simulated rig: serve it on a pty, strike it; the firmware in QEMU"),
+    "campaign": ("station.commands.campaign", "identify / validate / diagnose many captures in parallel (Dask)"),
 }
 
 
@@ -131,11 +132,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         parser = build_parser(argv)
         args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version, or a one-line usage error already printed
+        return exc.code if isinstance(exc.code, int) else EXIT_USER_ERROR
     except KeyboardInterrupt:  # Ctrl-C while the command's modules load
         print("station: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-    if getattr(args, "func", None) is None:  # a command whose module did not register it
-        parser.error(f"unknown command {args.command!r}")
     try:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:

@@ -29,7 +29,7 @@ if TYPE_CHECKING:  # imported when used: `station demo --help` stays light; the 
     from eddi.model import EquationOfMotion
     from station.capture import AcquireResult, Status
     from station.config import BenchConfig
-    from station.pipeline import SessionResult
+    from station.session import SessionResult
     from station.report import Report
 
 #: The README's first command runs on this device.
@@ -98,7 +98,7 @@ def warm_up_engine() -> None:
     timed step: the demo runs it while the rig process powers on)."""
     import numpy as np
 
-    import station.pipeline  # noqa: F401  (conditioning, EDDI, validation)
+    import station.session  # noqa: F401  (conditioning, EDDI, validation)
     import station.report  # noqa: F401  (matplotlib)
     from eddi.model import EquationOfMotion
     from eddi.simulate import simulate
@@ -213,7 +213,7 @@ def run_demo(
         raise KeyboardInterrupt
     if acq.error is not None:
         raise StationError(f"acquisition stopped: {acq.error} ({acq.captures} capture(s) kept in {session_file})")
-    from station.pipeline import run_session, read_all
+    from station.session import run_session, read_all
     from station.report import write_report
 
     t1 = time.perf_counter()
@@ -238,7 +238,7 @@ def run_demo(
 def demo_object(res: DemoResult) -> dict[str, Any]:
     """The ``--json`` object of ``station demo``."""
     from station.commands.identify import result_object
-    from station.pipeline import mean_of
+    from station.session import mean_of
 
     s = res.session
     fit_meas = s.measurements[s.fit_index]
