@@ -37,7 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "the others, as station report does")
     p.add_argument("--fit", type=int, default=None, metavar="N",
                    help="with several records: the one to identify on (default: the middle force level)")
-    p.add_argument("--mass", type=finite_positive, default=None,
+    p.add_argument("--mass", type=finite_positive, default=None, metavar="KG",
                    help="mass [kg] (or inertia); required unless the file records it")
     p.add_argument("--damping", type=damping_terms, default=",".join(DEFAULT_DAMPING), metavar="TERMS",
                    help="damping candidates, comma-separated (default: %(default)s)")
