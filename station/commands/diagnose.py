@@ -50,7 +50,7 @@ def register(subparsers: Any) -> None:
                    + ", ".join(MECHANISM_NAMES))
     p.add_argument("--margin", type=fraction, default=DEFAULT_MARGIN, metavar="FRACTION",
                    help="relative cut of the held-out error the winner must exceed (default: %(default)s)")
-    p.add_argument("--fit", default="eddi", choices=FITS,
+    p.add_argument("--method", dest="fit", default="eddi", choices=FITS,
                    help="how the baseline and the extensions are fitted: EDDI over the training "
                         "captures, or least squares on the equation of motion (default: %(default)s)")
     p.add_argument("--save-model", metavar="OUT.json",
