@@ -191,8 +191,8 @@ def time_grid_rate(t: np.ndarray, where: str) -> float:
     ``t[0] + i * step``, ``step = (t[-1] - t[0]) / (n - 1)``. The tolerance is 1 % of a step, or,
     when larger, the rounding the file's own precision explains: the number of significant
     digits ``S`` the times are printed with is found from the values, and each time may be off
-    by half a unit of its last digit, plus the same for ``t[0]`` (the grid's origin): one unit
-    of the last digit of the largest time. A 320 s record at 19.2 kHz printed with 9 digits
+    by half a unit of its last digit from the least-squares grid through all of them (whose
+    step is then the rate's), allowed one unit of the last digit of the largest time. A 320 s record at 19.2 kHz printed with 9 digits
     (``320.000000``, rounding up to 5e-7 s = 1.1 % of a step) is accepted; a sample shifted by
     more than that, a missing sample (half a step off the grid), or times too coarse to tell
     samples apart (a unit of the last digit above 1/4 step) are refused.
@@ -220,6 +220,11 @@ def time_grid_rate(t: np.ndarray, where: str) -> float:
     if rounding > 0.25 * step:
         raise InputFileError(f"{where}: times are printed with {digits} significant digits, too few to tell "
                              f"samples {step:.3g} s apart; expected more digits in column 't'")
+    # rounded times: the grid is the least-squares line through all of them (its slope is
+    # sqrt(n) times less sensitive to rounding than the two end points)
+    k = np.arange(n, dtype=float) - (n - 1) / 2.0
+    step = float(np.dot(k, t - t.mean()) / np.dot(k, k))
+    dev = np.abs(t - (t.mean() + step * k))
     tol = max(0.01 * step, rounding)
     i = int(np.argmax(dev))
     if dev[i] > tol:
