@@ -32,6 +32,7 @@ COMMANDS: dict[str, str] = {
     "validate": "station.commands.validate",
     "replay": "station.commands.replay",
     "report": "station.commands.report",
+    "campaign": "station.commands.campaign",
 }
 
 
