@@ -1,4 +1,5 @@
-"""``station rig serve --system S``: the simulated rig as a serial device on a pty."""
+"""``station rig serve --system S``: the simulated rig as a serial device on a pty;
+``station rig qemu [--system S]``: the open firmware (``firmware/``) in QEMU, on a pty."""
 
 from __future__ import annotations
 

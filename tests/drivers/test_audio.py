@@ -103,3 +103,14 @@ def test_station_acquire_reads_an_alsa_file_pcm_through_portaudio(tmp_path):
         assert k0 <= k <= k0 + int(2e-3 * rate)  # the first sample at or above 50 N
         got = np.stack([cap.channels["force"].si, cap.channels["acc"].si], axis=1)
         np.testing.assert_allclose(got, expected_si[k - pre:k + post], rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.skipif(not HAVE_PORTAUDIO, reason="needs libportaudio2")
+def test_acquire_from_a_missing_audio_device_is_one_line_and_exit_2(tmp_path):
+    env = {**os.environ, "HOME": str(tmp_path), "PYTHONPATH": str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    proc = subprocess.run([sys.executable, "-m", "station.cli", "acquire", "--device", "audio://no-such-sensor",
+                           "--impacts", "1", "--out", str(tmp_path / "x.h5")], capture_output=True, text=True,
+                          env=env, timeout=60)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "no audio input 'no-such-sensor'" in lines[0]

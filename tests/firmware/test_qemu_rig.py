@@ -125,3 +125,15 @@ def test_firmware_commands_configure_refuse_and_hammer():
         k = int(np.argmax(si[:, 0]))
         assert at <= k <= at + 8 + int(0.002 * 7812.5)  # the 2 ms half-sine peaks 1 ms after it lands
         assert si[k, 0] == pytest.approx(900.0, rel=0.02)
+
+
+@pytest.mark.parametrize("argv, why", [
+    (["rig", "qemu", "--system", "nope"], "no firmware system 'nope'; known: duffing"),
+    (["rig", "qemu", "--corrupt-data-frame", "0"], "expected a frame number >= 1"),
+])
+def test_rig_qemu_bad_input_is_one_line_and_exit_2(argv, why, capsys):
+    from station.cli import main
+
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and why in err[0]
