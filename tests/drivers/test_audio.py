@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drivers.audio import audio_channels, parse_audio_url
+from drivers.audio import audio_channels, parse_audio_url, samples_lost_on_overflow
 from drivers.errors import BadUrlError
 
 REPO = Path(__file__).resolve().parents[2]
@@ -114,3 +114,11 @@ def test_acquire_from_a_missing_audio_device_is_one_line_and_exit_2(tmp_path):
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "no audio input 'no-such-sensor'" in lines[0]
+
+
+def test_samples_lost_on_overflow_from_the_stream_clock():
+    """An overflow 2 s into a 48 kHz stream, 90,000 samples taken before, 1024 now, 512 waiting:
+    96,000 produced - 91,536 accounted = 4,464 lost; a lagging clock counts none."""
+    assert samples_lost_on_overflow(12.0, 10.0, 48000.0, 0, 90_000, 1024, 512) == 4464
+    assert samples_lost_on_overflow(12.0, 10.0, 48000.0, 500, 90_000, 1024, 512) == 4964  # counter after configure
+    assert samples_lost_on_overflow(10.5, 10.0, 48000.0, 0, 90_000, 1024, 0) == 0
