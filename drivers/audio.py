@@ -155,6 +155,8 @@ def samples_lost_on_overflow(stream_time_s: float, start_time_s: float, rate_hz:
 def _sounddevice() -> Any:
     try:
         import sounddevice
+    except ImportError:
+        raise DeviceNotFoundError("audio:// needs the sounddevice package (pip install sounddevice)") from None
     except OSError as exc:  # the PortAudio library is missing
         raise DeviceNotFoundError(f"audio:// needs PortAudio (apt-get install libportaudio2): {exc}") from None
     return sounddevice

@@ -17,9 +17,8 @@ import threading
 import tty
 from dataclasses import dataclass
 
-from cobs import cobs
-
-from drivers.protocol import DATA_HEADER, HEADER, DataFrame, FrameType, StreamDecoder
+from drivers.errors import ProtocolError
+from drivers.protocol import DataFrame, StreamDecoder, decode_one
 from simulated_rig.errors import EmulatorError
 
 
@@ -165,16 +164,15 @@ class PtyRelay:
         if not segment or self.corruptions:
             return segment
         try:
-            raw = cobs.decode(segment)
-        except cobs.DecodeError:
+            frame = decode_one(b"\x00" + segment + b"\x00")
+        except ProtocolError:
             return segment
-        if len(raw) < HEADER.size + DATA_HEADER.size + 4 or raw[1] != FrameType.DATA:
+        if not isinstance(frame, DataFrame):
             return segment
         self.data_frames_seen += 1
         if self.data_frames_seen != self.corrupt_data_frame:
             return segment
-        _, _, seq = HEADER.unpack_from(raw)
-        first, n, *_ = DATA_HEADER.unpack_from(raw, HEADER.size)
+        seq, first, n = frame.seq, frame.first_sample, frame.counts.shape[0]
         i = len(segment) // 2
         before = segment[i]
         after = before ^ 0x55 if before != 0x55 else 0xAA   # never 0x00: one frame stays one frame
