@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import select
 import signal
 import subprocess
 import sys
@@ -32,10 +33,12 @@ def _start_rig_cli(system: str) -> tuple[subprocess.Popen[str], dict]:
     proc = subprocess.Popen([sys.executable, "-m", "station.cli", "rig", "qemu", "--system", system, "--json",
                              "--duration-s", "150"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env=env, cwd=REPO)
-    line = proc.stdout.readline()  # the rig prints its port once QEMU runs (after building if needed)
+    # the rig prints its port once QEMU runs (after building the image if needed)
+    ready, _, _ = select.select([proc.stdout], [], [], 180.0)
+    line = proc.stdout.readline() if ready else ""
     if not line:
         proc.kill()
-        pytest.fail(f"station rig qemu printed nothing: {proc.stderr.read()}")
+        pytest.fail(f"station rig qemu printed nothing within 180 s: {proc.stderr.read()[-2000:]}")
     return proc, json.loads(line)
 
 
