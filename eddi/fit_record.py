@@ -33,9 +33,11 @@ from typing import Sequence
 
 import numpy as np
 
+from eddi.calculus import samples_per_cycle_note
 from eddi.conditioning import ConditionedSignal, condition
 from eddi.identify import IdentifiedModel, identify
 from eddi.model import EquationOfMotion
+from eddi.stability import model_warnings
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, parse_terms
 from eddi.validate import Validation, validate
 
@@ -236,7 +238,9 @@ class Pipeline:
             eddi_held = tuple(validate_conditioned(model.unrefined, c)[0] for c in held_out)
             n_ref = _mean_nrmse(held) if held else val.nrmse
             n_eddi = _mean_nrmse(eddi_held) if held else eddi_val.nrmse
-            if n_ref <= n_eddi:
+            div_ref = val.diverged or any(h.diverged for h in held)
+            div_eddi = eddi_val.diverged or any(h.diverged for h in eddi_held)
+            if (div_ref, n_ref) <= (div_eddi, n_eddi):
                 refinement = "kept"
                 reason = (f"displacement nrmse on the {judged_on} {n_eddi:.4g} (EDDI) -> {n_ref:.4g} (refined)")
             else:
@@ -251,13 +255,42 @@ class Pipeline:
         elif by_force and not cond.acc_measured:
             nrmse_sensor = val.nrmse
         eom = model.eom
+        w0, w1 = cond.window
+        warnings = list(cond_warnings(cond))
+        coarse = samples_per_cycle_note(cond.rate_hz, highest_frequency(cond))
+        if coarse:
+            warnings.append(coarse)
+        warnings += model_warnings(eom, cond.x[w0:w1], cond.v[w0:w1])
+        warnings += [f"fit record: {w}" for w in val.warnings]
+        warnings += [f"held-out record {i}: {w}" for i, h in enumerate(held) for w in h.warnings]
         choices = PipelineChoices(
             route=model.route, route_scores=dict(model.route_scores), refinement=refinement,
             refinement_reason=reason, judged_on=judged_on, nrmse_eddi=n_eddi, nrmse_refined=n_ref,
             damping_terms=tuple(eom.damping), stiffness_terms=tuple(eom.stiffness),
             dropped={t: "not in the model" for t in self.damping + self.stiffness
-                     if t not in eom.damping and t not in eom.stiffness})
+                     if t not in eom.damping and t not in eom.stiffness},
+            warnings=tuple(warnings))
         return PipelineResult(cond, model, val, by_force, nrmse_sensor, choices, held, eddi_held, held_force)
+
+
+def highest_frequency(cond: ConditionedSignal, half_cycles: int = 10) -> float:
+    """Frequency [Hz] of the first ``half_cycles`` half cycles of ``x`` in the free response.
+
+    For a hardening (softening) system this is the highest (lowest) of the record; 0 when
+    ``x`` has fewer than two zero crossings there.
+    """
+    w0, w1 = cond.window
+    x = cond.x[w0:w1]
+    idx = np.nonzero(np.signbit(x[1:]) != np.signbit(x[:-1]))[0]
+    if idx.size < 2:
+        return 0.0
+    idx = idx[: half_cycles + 1]
+    return 0.5 * (idx.size - 1) * cond.rate_hz / float(idx[-1] - idx[0])
+
+
+def cond_warnings(cond: ConditionedSignal) -> tuple[str, ...]:
+    """Warnings the conditioning raised (notes starting with ``WARNING:``)."""
+    return tuple(n.removeprefix("WARNING: ") for n in cond.notes if n.startswith("WARNING: "))
 
 
 def _mean_nrmse(vals: Sequence[Validation]) -> float:

@@ -100,6 +100,11 @@ class EmulatedDaq:
         return tuple(i for i in range(len(self.source.channels)) if self.channel_mask >> i & 1)
 
     @property
+    def pending_samples(self) -> int:
+        """Samples acquired and not yet sent in a frame."""
+        return self._pending_n
+
+    @property
     def width(self) -> int:
         """Bytes per sample on the wire for the active channels."""
         return sample_width(max(self.source.channels[i].adc_bits for i in self.active_channels))

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Protocol
@@ -189,6 +190,7 @@ def acquire(
     idle_timeout_s: float | None = None,
     read_timeout_s: float = 0.25,
     device_meta: dict[str, Any] | None = None,
+    wall_clock: Callable[[], float] = time.time,
 ) -> AcquireResult:
     """Record ``n_impacts`` accepted captures into ``writer``'s session file.
 
@@ -211,6 +213,10 @@ def acquire(
         Wait per :meth:`read_block` call [s] (bounds the Ctrl-C latency).
     device_meta : dict, optional
         Stored as each capture's ``device`` group (default: from ``daq.info``).
+    wall_clock : callable
+        UTC wall clock [s since 1970]; read once when the stream starts. Each capture stores
+        ``t0_unix_s`` = that time + (its first sample - the stream's first sample) / rate: the
+        device's sample clock from one host time stamp (off by the start-up latency of the link).
 
     Returns
     -------
@@ -238,6 +244,8 @@ def acquire(
     impact_at: int | None = None  # sample position when the pending impact was requested
     last_peak: tuple[float, bool] | None = None
     idle_s = 0.0
+    origin: list[float] = []  # [wall time at START, first sample of the stream]
+    sensors = config.sensor_metadata()
 
     def report() -> None:
         if on_status is not None:
@@ -252,8 +260,9 @@ def acquire(
             if last_peak is not None:
                 rig["requested_peak_force_n"] = last_peak[0]
                 rig["requested_double_hit"] = last_peak[1]
+        t0 = origin[0] + (cap.first_sample - origin[1]) / rate if len(origin) == 2 else None
         idx = writer.append(
-            cap, device=dev, rig=rig, notes=config.notes, mass_kg=config.specimen.mass_kg,
+            cap, device=dev, rig=rig, notes=config.notes, mass_kg=config.specimen.mass_kg, t0_unix_s=t0, sensors=sensors,
             source=str(dev.get("url", "")), dropped_before_total=trig.dropped_total,
             extra={"peak_force": float(np.nanmax(np.abs(cap.si[:, settings.channel]))) if cap.n_samples else 0.0},
         )
@@ -263,6 +272,7 @@ def acquire(
         message = f"capture {idx} saved" + (" (partial)" if cap.partial else "")
 
     daq.start()
+    origin.append(wall_clock())
     report()
     try:
         while len(result.indices) < n_impacts:
@@ -283,6 +293,8 @@ def acquire(
                     raise StationError(f"no data from {dev.get('url', 'the device')} for {idle_s:.1f} s; expected a sample stream")
                 continue
             idle_s = 0.0
+            if len(origin) == 1:
+                origin.append(float(block.first_sample))
             si = block.counts * scale + offset
             if block.counts.shape[0]:
                 peaks = np.max(np.abs(si), axis=0)

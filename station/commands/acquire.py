@@ -103,10 +103,19 @@ def handle(args: argparse.Namespace) -> int:
     check_output(args.out, "hdf5", [args.config] if args.config else [], option="--out", append=True)
     # one writer per session file: held for the whole run (a second acquire or import waits, then exits 2)
     writer = CaptureWriter(args.out, session={"bench_config": cfg.model_dump_json()}).hold()
+    live = LiveStatus(enabled=not args.json)
+    try:
+        result, stats = _run(args, cfg, url, simulated, writer, live)
+    finally:
+        writer.close()
+    live.close()
+    return _report(args, result, stats)
 
+
+def _run(args: argparse.Namespace, cfg: BenchConfig, url: str, simulated: bool, writer: CaptureWriter,
+         live: LiveStatus) -> tuple[AcquireResult, Any]:
     from station.devices import open_device
 
-    live = LiveStatus(enabled=not args.json)
     with open_device(url) as daq:
         configure_device(daq, cfg)
         channels = cfg.resolve_channels(daq.info.channels)
@@ -117,8 +126,7 @@ def handle(args: argparse.Namespace) -> int:
         result = acquire(daq, cfg, writer, args.impacts, impacts=plan, on_status=live, idle_timeout_s=idle,
                          device_meta=device_metadata(daq, url))
         stats = daq.stats
-    live.close()
-    return _report(args, result, stats)
+    return result, stats
 
 
 def _report(args: argparse.Namespace, result: AcquireResult, stats: Any) -> int:

@@ -14,6 +14,7 @@ from typing import Any
 
 from eddi.fit_record import Pipeline, PipelineResult
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
+from station.argtypes import damping_terms, finite_positive, stiffness_terms
 from station.errors import ConfigError
 from station.output import emit
 from station.readers import Measurement, read_measurement
@@ -36,11 +37,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "the others, as station report does")
     p.add_argument("--fit", type=int, default=None, metavar="N",
                    help="with several records: the one to identify on (default: the middle force level)")
-    p.add_argument("--mass", type=float, default=None,
+    p.add_argument("--mass", type=finite_positive, default=None,
                    help="mass [kg] (or inertia); required unless the file records it")
-    p.add_argument("--damping", default=",".join(DEFAULT_DAMPING), metavar="TERMS",
+    p.add_argument("--damping", type=damping_terms, default=",".join(DEFAULT_DAMPING), metavar="TERMS",
                    help="damping candidates, comma-separated (default: %(default)s)")
-    p.add_argument("--stiffness", default=",".join(DEFAULT_STIFFNESS), metavar="TERMS",
+    p.add_argument("--stiffness", type=stiffness_terms, default=",".join(DEFAULT_STIFFNESS), metavar="TERMS",
                    help="stiffness candidates, comma-separated (default: %(default)s)")
     p.add_argument("--route", choices=("auto", "potential", "lagrangian"), default="auto",
                    help="phase-two route (default: %(default)s)")
@@ -95,7 +96,8 @@ def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
             "driven_by": ("measured impact force from rest (force sensor fused with m*a)"
                           if res.driven_by_force else "measured initial state"),
             "window_s": [float(t[val.window[0]]), float(t[val.window[1] - 1])],
-            "diverged": val.diverged,
+            "diverged": val.diverged or any(h.diverged for h in res.held_out),
+            "warnings": list(val.warnings),
         },
         "conditioning": {
             "method": cond.method,

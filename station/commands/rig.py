@@ -24,6 +24,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     s.add_argument("--duration-s", type=float, default=None, help="stop after this many seconds")
     s.add_argument("--json", action="store_true", help="print one JSON object (the port) first")
     s.set_defaults(func=serve)
+    q = sub.add_parser("qemu", help="run the open DAQ firmware (firmware/) in QEMU on a pty (prints the port) "
+                       "until Ctrl-C")
+    q.add_argument("--system", default="duffing",
+                   help="oscillator the firmware synthesises: duffing (its built-in default), duffing-soft, "
+                        "duffing-stiff, linear")
+    q.add_argument("--machine", default="netduinoplus2", help="QEMU machine (STM32F405): netduinoplus2")
+    q.add_argument("--no-build", action="store_true", help="do not run make first (use the existing image)")
+    q.add_argument("--link", default=None, help="also make a symlink to the pty at this path")
+    q.add_argument("--corrupt-data-frame", type=int, default=None, metavar="K",
+                   help="fault injection: change one byte of the K-th DATA frame on its way to the host")
+    q.add_argument("--duration-s", type=float, default=None, help="stop after this many seconds")
+    q.add_argument("--json", action="store_true", help="print one JSON object (the port) first")
+    q.set_defaults(func=qemu)
 
 
 def serve(args: argparse.Namespace) -> int:
@@ -56,4 +69,38 @@ def serve(args: argparse.Namespace) -> int:
         pass
     finally:
         server.close()
+    return 0
+
+
+def qemu(args: argparse.Namespace) -> int:
+    """``station rig qemu``: build the firmware if needed, run it in QEMU, serve its port."""
+    from simulated_rig.qemu import FIRMWARE_SYSTEMS, QemuRig
+
+    if args.system not in FIRMWARE_SYSTEMS:
+        raise DeviceNotFoundError(f"no firmware system {args.system!r}; known: {', '.join(FIRMWARE_SYSTEMS)}")
+    if args.corrupt_data_frame is not None and args.corrupt_data_frame < 1:
+        raise DeviceNotFoundError(f"--corrupt-data-frame: expected a frame number >= 1, got {args.corrupt_data_frame}")
+    rig = QemuRig(args.system, machine=args.machine, build=not args.no_build, link=args.link,
+                  corrupt_data_frame=args.corrupt_data_frame)
+    rig.start()
+    try:
+        emit(
+            args.json,
+            f"firmware ({args.system}) running in QEMU {args.machine} on {rig.port} (QEMU's own pty "
+            f"{rig.qemu_port}): open {rig.url}; Ctrl-C stops",
+            {"system": args.system, "machine": args.machine, "port": rig.port, "qemu_port": rig.qemu_port,
+             "url": rig.url, "corrupt_data_frame": args.corrupt_data_frame},
+        )
+        done = threading.Event()
+        deadline = None if args.duration_s is None else time.monotonic() + args.duration_s
+        try:
+            while not done.wait(0.2):
+                if rig.error is not None:
+                    raise rig.error
+                if deadline is not None and time.monotonic() >= deadline:
+                    break
+        except KeyboardInterrupt:
+            pass
+    finally:
+        rig.close()
     return 0
