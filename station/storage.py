@@ -359,13 +359,15 @@ class CaptureWriter:
         infos, cols = [], []
         n = None
         for name, arr in values.items():
-            if name not in quantities:
-                raise InputFileError(f"channel {name!r}: expected one of {sorted(quantities)}")
+            base = next((k for k in ("acc", "vel", "disp") if _multi_name(name, k)), name)
+            if base not in quantities:
+                raise InputFileError(f"channel {name!r}: expected one of {sorted(quantities)} "
+                                     "(or acc1, acc2 ... for several sensors)")
             a = np.ascontiguousarray(arr, dtype=np.float64)
             if n is not None and a.shape != (n,):
                 raise InputFileError(f"channel {name!r}: expected {n} samples, got {a.shape}")
             n = a.shape[0]
-            q = quantities[name]
+            q = quantities[base]
             infos.append(ChannelInfo(name=name, quantity=q, unit=QUANTITY_UNITS[q], scale=1.0, adc_bits=0, sensitivity=0.0))
             cols.append(a)
         if n is None:
@@ -586,9 +588,15 @@ def read_measurement(path: str | os.PathLike[str], capture: str | None = None) -
             f"{[int(r) for r, _ in cap.gaps]}); expected a complete record"
         )
     chans: dict[str, np.ndarray] = {}
-    for ch in cap.channels.values():
-        key = MEASUREMENT_KEYS.get(ch.info.quantity)
-        if key is not None and key not in chans:
+    keys = [MEASUREMENT_KEYS.get(ch.info.quantity) for ch in cap.channels.values()]
+    seen: dict[str, int] = {}
+    for ch, key in zip(cap.channels.values(), keys):
+        if key is None:
+            continue
+        if key != "force" and keys.count(key) > 1:  # several sensors of one quantity: acc1, acc2 ...
+            seen[key] = seen.get(key, 0) + 1
+            key = ch.info.name if _multi_name(ch.info.name, key) else f"{key}{seen[key]}"
+        if key not in chans:
             chans[key] = ch.si
     meta = {
         "file": str(path),
@@ -611,6 +619,14 @@ def read_measurement(path: str | os.PathLike[str], capture: str | None = None) -
         source=f"{path}:{cap.index}",
         metadata=meta,
     )
+
+
+def _multi_name(name: str, key: str) -> bool:
+    """True when ``name`` is a suffixed response channel of quantity ``key`` (``acc2``)."""
+    from station.readers import MULTI_COLUMN
+
+    m = MULTI_COLUMN.match(name)
+    return m is not None and m.group(1) == key
 
 
 def import_measurement(writer: CaptureWriter, measurement: Any, notes: str = "") -> int:
