@@ -56,8 +56,21 @@ def register(subparsers: Any) -> None:
                         "the cause is a second mode seen in the measured signal; both load with "
                         "eddi.multimode.load_any_model)")
     p.add_argument("--report", metavar="DIR", help="write figures (PNG) into DIR")
+    p.add_argument("--driving-point", metavar="CHANNEL",
+                   help="multi-channel captures: the response channel at the hammer (default: the first)")
+    p.add_argument("--refine", action="store_true",
+                   help="multi-channel captures: polish the saved model by output error (slower)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handle)
+
+
+def _multichannel(specs: list[str]) -> bool:
+    """True when the first capture has more than one response channel (acc1, acc2 ...)."""
+    from station.mdof_data import is_multichannel
+    from station.pipeline import expand_specs
+    from station.readers import read_measurement
+
+    return is_multichannel(read_measurement(expand_specs(specs)[0]))
 
 
 def load_records(specs: list[str]) -> tuple[list[Record], float | None]:
@@ -90,6 +103,13 @@ def load_records(specs: list[str]) -> tuple[list[Record], float | None]:
 
 
 def handle(args: argparse.Namespace) -> int:
+    if _multichannel(list(args.captures)):
+        from station.mdof_commands import diagnose_mdof_object, diagnose_mdof_text
+
+        obj = diagnose_mdof_object(list(args.captures), driving_point=args.driving_point, margin=args.margin,
+                                   save_model=args.save_model, refine=args.refine)
+        emit(args.json, diagnose_mdof_text(obj), obj)
+        return 0
     base = None
     if args.model:
         from station.pipeline import load_model_file
