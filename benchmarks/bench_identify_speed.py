@@ -76,7 +76,7 @@ def main() -> None:
         # in-process breakdown (warm: everything imported and compiled)
         from eddi.conditioning import condition
         from eddi.identify import identify
-        from eddi.pipeline import identify_measurement
+        from eddi.fit_record import identify_measurement
         from station.readers import read_csv
 
         best: dict[str, float] = {}

@@ -65,9 +65,12 @@ class PtyServer:
         self.port = os.ttyname(self.slave_fd)
         self.link = link
         if link is not None:
-            if os.path.lexists(link):
-                os.unlink(link)
-            os.symlink(self.port, link)
+            try:
+                _replace_own_link(link, self.port)
+            except RigError:
+                os.close(self.master_fd)
+                os.close(self.slave_fd)
+                raise
         self._out = bytearray()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -93,8 +96,8 @@ class PtyServer:
             except OSError:
                 pass
         self.master_fd = self.slave_fd = -1
-        if self.link is not None and os.path.islink(self.link):
-            os.unlink(self.link)
+        if self.link is not None and os.path.islink(self.link) and os.readlink(self.link) == self.port:
+            os.unlink(self.link)  # only our own link: a later server may have taken the name
 
     def __enter__(self) -> "PtyServer":
         return self.start()
@@ -178,3 +181,24 @@ def serve_source(source: object, *, paced: bool, link: str | None = None, **devi
         raise RigError(f"a rig source needs read() and channels, got {type(source).__name__}")
     device = EmulatedDaq(source, **device_options)  # type: ignore[arg-type]
     return PtyServer(device, paced=paced, link=link).start()
+
+
+def _replace_own_link(link: str, port: str) -> None:
+    """Point the symlink ``link`` at ``port``, replacing only a link to a pty (a previous server's).
+
+    Raises
+    ------
+    RigError
+        ``link`` exists and is a regular file, a folder, or a link to something else.
+    """
+    if os.path.lexists(link):
+        if not os.path.islink(link):
+            raise RigError(f"--link {link}: exists and is not a symbolic link; refusing to replace it")
+        target = os.readlink(link)
+        if not target.startswith("/dev/pts/"):
+            raise RigError(f"--link {link}: is a link to {target}, not to a pty a rig made; refusing to replace it")
+        os.unlink(link)
+    try:
+        os.symlink(port, link)
+    except FileNotFoundError:
+        raise RigError(f"--link {link}: the folder {os.path.dirname(link) or '.'} does not exist") from None

@@ -26,7 +26,7 @@ from eddi.model import EquationOfMotion
 from station.capture import AcquireResult, ImpactPlan, Status, acquire, configure_device, device_metadata
 from station.config import BenchConfig, parse_config
 from station.errors import ConfigError, StationError
-from station.pipeline import SessionResult, mean_of, read_all, run_session
+from station.session import SessionResult, mean_of, read_all, run_session
 from station.report import Report, write_report
 from station.storage import CaptureWriter, StorageError, read_capture
 

@@ -27,7 +27,7 @@ from station.mdof_data import condition_all
 
 
 def _read(specs: Sequence[str]):
-    from station.pipeline import expand_specs, read_measurement
+    from station.session import expand_specs, read_measurement
 
     return [read_measurement(s) for s in expand_specs(list(specs))]
 

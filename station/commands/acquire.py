@@ -15,6 +15,7 @@ import time
 from typing import Any
 
 from station.capture import AcquireResult, Status, acquire, configure_device, default_impacts, device_metadata
+from station.argtypes import finite_positive, positive_seconds
 from station.cli import EXIT_INTERRUPTED, EXIT_USER_ERROR
 from station.config import BenchConfig, load_config, parse_config
 from station.errors import ConfigError
@@ -32,8 +33,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--out", required=True, metavar="FILE", help="HDF5 session file (created, or appended to)")
     p.add_argument("--config", metavar="FILE", help="bench configuration (TOML, docs/bench-config.md)")
     p.add_argument("--notes", help="operator notes stored with every capture (replaces the configuration's)")
-    p.add_argument("--mass", type=float, metavar="KG", help="oscillating mass [kg] (replaces the configuration's)")
-    p.add_argument("--idle-timeout", type=float, default=None, metavar="S",
+    p.add_argument("--mass", type=finite_positive, metavar="KG", help="oscillating mass [kg] (replaces the configuration's)")
+    p.add_argument("--idle-timeout", type=positive_seconds, default=None, metavar="S",
                    help="give up when no data comes for S seconds (default: 10 s for sim://, else wait)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handle)
@@ -97,7 +98,11 @@ def handle(args: argparse.Namespace) -> int:
     assert cfg.device is not None
     url = cfg.device.url
     simulated = url.startswith("sim://")
-    writer = CaptureWriter(args.out, session={"bench_config": cfg.model_dump_json()})
+    from station.output_safety import check_output
+
+    check_output(args.out, "hdf5", [args.config] if args.config else [], option="--out", append=True)
+    # one writer per session file: held for the whole run (a second acquire or import waits, then exits 2)
+    writer = CaptureWriter(args.out, session={"bench_config": cfg.model_dump_json()}).hold()
 
     from station.devices import open_device
 

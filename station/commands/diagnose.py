@@ -56,10 +56,11 @@ def register(subparsers: Any) -> None:
                         "the cause is a second mode seen in the measured signal; both load with "
                         "eddi.multimode.load_any_model)")
     p.add_argument("--report", metavar="DIR", help="write figures (PNG) into DIR")
+    from station.commands.identify import add_refine_option
+
+    add_refine_option(p)
     p.add_argument("--driving-point", metavar="CHANNEL",
                    help="multi-channel captures: the response channel at the hammer (default: the first)")
-    p.add_argument("--refine", action="store_true",
-                   help="multi-channel captures: polish the saved model by output error (slower)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handle)
 
@@ -67,18 +68,35 @@ def register(subparsers: Any) -> None:
 def _multichannel(specs: list[str]) -> bool:
     """True when the first capture has more than one response channel (acc1, acc2 ...)."""
     from station.mdof_data import is_multichannel
-    from station.pipeline import expand_specs
     from station.readers import read_measurement
+    from station.session import expand_specs
 
     return is_multichannel(read_measurement(expand_specs(specs)[0]))
 
 
 def load_records(specs: list[str]) -> tuple[list[Record], float | None]:
     """Read and condition every capture; returns the records and the mass found in metadata."""
-    from eddi.conditioning import condition
+    records, mass, _ = load_measurements(specs)
+    return records, mass
+
+
+def load_measurements(specs: list[str]) -> tuple[list[Record], float | None, list[Any]]:
+    """Read and condition (:class:`eddi.fit_record.Pipeline`) every capture.
+
+    Returns
+    -------
+    records : list of Record
+    mass : float or None
+        Found in the metadata.
+    measurements : list of station.readers.Measurement
+    """
     from station.readers import read_measurement
+    from station.session import condition_measurement, expand_specs
+
+    specs = expand_specs(specs)
 
     records: list[Record] = []
+    meas: list[Any] = []
     mass: float | None = None
     rate0: float | None = None
     first = ""
@@ -94,15 +112,38 @@ def load_records(specs: list[str]) -> tuple[list[Record], float | None]:
         if not any(k in ch for k in ("acc", "vel", "disp")):
             raise InputFileError(f"{spec}: no response channel (expected acc, vel or disp; got "
                                  f"{', '.join(ch) or 'none'})")
-        c = condition(m.t, acc=ch.get("acc"), vel=ch.get("vel"), disp=ch.get("disp"),
-                      force=ch.get("force"), pretrigger_samples=getattr(m, "pretrigger_samples", None))
+        c = condition_measurement(m)
         records.append(Record.from_conditioned(c, label=Path(spec).name))
+        meas.append(m)
         if mass is None and getattr(m, "mass", None):
             mass = float(m.mass)
-    return records, mass
+    return records, mass, meas
+
+
+def pipeline_baseline(measurements: list[Any], mass: float, damping: str, stiffness: str,
+                      refine: bool) -> dict[str, Any]:
+    """The baseline every other command gives (:func:`station.session.run_session`), JSON-ready.
+
+    The same model and held-out error as ``station identify`` / ``report`` / ``replay`` on
+    these records: identified on the middle force level, validated on the others.
+    """
+    from station.commands.replay import session_object
+    from station.session import run_session
+
+    session = run_session(measurements, mass, damping=damping, stiffness=stiffness, refine=refine)
+    obj = session_object(session)
+    obj["model"] = session.fit.model.eom.to_dict()
+    return obj
 
 
 def handle(args: argparse.Namespace) -> int:
+    from station.output_safety import check_output
+
+    inputs = [*args.captures, *([args.model] if args.model else [])]
+    if args.save_model:
+        check_output(args.save_model, "json", inputs, option="--save-model")
+    if args.report:
+        check_output(args.report, "dir", inputs, option="--report")
     if _multichannel(list(args.captures)):
         from station.mdof_commands import diagnose_mdof_object, diagnose_mdof_text
 
@@ -112,7 +153,7 @@ def handle(args: argparse.Namespace) -> int:
         return 0
     base = None
     if args.model:
-        from station.pipeline import load_model_file
+        from station.session import load_model_file
 
         loaded = load_model_file(args.model)
         if not isinstance(loaded, EquationOfMotion):
@@ -124,7 +165,7 @@ def handle(args: argparse.Namespace) -> int:
     mechanisms = None
     if args.mechanisms:
         mechanisms = [s.strip() for s in args.mechanisms.split(",") if s.strip()]
-    records, meta_mass = load_records(list(args.captures))
+    records, meta_mass, measurements = load_measurements(list(args.captures))
     mass = args.mass if args.mass is not None else (base.mass if base is not None else meta_mass)
     if mass is None:
         raise InputFileError("no mass: give --mass KG (or --model, or captures with a mass in their metadata)")
@@ -134,6 +175,9 @@ def handle(args: argparse.Namespace) -> int:
                     mechanisms=mechanisms, margin=args.margin, fit=args.fit)
     obj = diag.to_dict()
     obj["captures"] = [r.label for r in records]
+    if base is None:
+        obj["pipeline_baseline"] = pipeline_baseline(measurements, float(mass), args.damping, args.stiffness,
+                                                     args.refine)
     if args.save_model:
         Path(args.save_model).write_text(diag.extended.model.to_json() + "\n")
         obj["saved_model"] = args.save_model
@@ -170,6 +214,13 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
     lines += ["", diag.verdict, f"What the baseline got wrong: {diag.symptom}."]
     lines += [f"Note: {n}." for n in diag.notes]
     lines += ["", f"Baseline: {diag.baseline.model.equation_text()}"]
+    pb = obj.get("pipeline_baseline")
+    if pb is not None:
+        v = pb["validation"]["nrmse"]
+        lines.append(f"Pipeline baseline (as station identify/report, on {pb['fit_record']}): "
+                     f"{pb['identified']['equation']}"
+                     + (f"; held-out nrmse {v:.4g}" if v is not None else
+                        f"; nrmse on itself {pb['identified']['validation']['nrmse']:.4g}"))
     if diag.cause != "none":
         lines.append(f"Extended: {diag.extended.model.equation_text()}")
     if "saved_model" in obj:

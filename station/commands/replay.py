@@ -3,7 +3,7 @@
     station replay session.h5                   # identify on the middle impact, validate on the others
     station replay session.h5 --through-device  # first stream every capture through the emulated DAQ
 
-The pipeline is :func:`station.pipeline.run_session` (as ``station report``, without the
+The pipeline is :func:`station.session.run_session` (as ``station report``, without the
 figures). With ``--through-device`` each stored capture's raw counts are served by a
 :class:`simulated_rig.replay.ReplaySource` inside the emulated DAQ firmware, on a pseudo-terminal, read back with the
 serial driver, and compared with the file: they must arrive bit-exact.
@@ -93,6 +93,8 @@ def stream_through_device(path: str, capture: int, *, timeout_s: float = 5.0) ->
 
 
 def register(subparsers: Any) -> None:
+    from station.commands.identify import add_refine_option
+
     """Add the ``replay`` sub-command."""
     p = subparsers.add_parser("replay", help="rerun the pipeline on saved captures (optionally through the device)",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -104,8 +106,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--stiffness", default=None, metavar="TERMS", help="stiffness candidates, comma-separated")
     p.add_argument("--fit", type=int, default=None, metavar="N",
                    help="record to identify on (default: the middle force level)")
-    p.add_argument("--refine", action="store_true",
-                   help="follow EDDI with the output-error refinement it seeds (as station demo does)")
+    add_refine_option(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handle)
 
@@ -128,6 +129,10 @@ def session_text(obj: dict[str, Any]) -> str:
     """People-friendly lines of :func:`session_object`."""
     ident = obj["identified"]
     lines = [f"identified on {obj['fit_record']}: {ident['equation']}"]
+    p = ident.get("pipeline")
+    if p:
+        lines.append(f"  pipeline: {p['route']} route; refinement {p['refinement']}: {p['refinement_reason']}")
+    lines += [f"  WARNING: {w}" for w in ident.get("warnings", [])]
     for c in obj["validation"]["held_out"]:
         how = "from rest, measured force" if c["driven_by"] == "force" else "from the measured state"
         lines.append(f"  validated on {c['source']}: nrmse {c['nrmse']:.4g} ({how})")
@@ -146,7 +151,7 @@ def terms_or_default(text: str | None, default: tuple[str, ...]) -> str | tuple[
 def handle(args: argparse.Namespace) -> int:
     """Run ``station replay``; return the exit code."""
     from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
-    from station.pipeline import expand_specs, read_all, run_session
+    from station.session import expand_specs, read_all, run_session
     from station.readers import split_spec
 
     specs = expand_specs([args.file])

@@ -4,7 +4,7 @@
     station validate model.json session.h5:0 other.csv
 
 Each record is simulated with the model (an equation of motion, or a modal-sum model) and
-compared with the measurement (see :func:`station.pipeline.validate_measurement`):
+compared with the measurement (see :func:`station.session.validate_measurement`):
 
 * with a force channel: from rest, driven by its measured impact force;
 * without: from its measured initial state (a modal-sum model predicts the velocity).
@@ -34,7 +34,7 @@ def register(subparsers: Any) -> None:
 def validate_object(model_path: str, specs: list[str]) -> dict[str, Any]:
     """Validate the model on every record; the ``--json`` object."""
     from eddi.multimode import ModalSumModel
-    from station.pipeline import load_model_file, mean_of, read_measurement, expand_specs, validate_measurement
+    from station.session import load_model_file, mean_of, read_measurement, expand_specs, validate_measurement
 
     model = load_model_file(model_path)
     if getattr(model, "kind", None) == "mdof":  # several coordinates: every channel predicted

@@ -66,3 +66,17 @@ def test_rig_measures_every_mass(tmp_path):
     meas = read_measurement(str(rec.write_csv(tmp_path / "r.csv")))
     assert list(response_channels(meas.channels)) == ["acc1", "acc2"]
     np.testing.assert_allclose(meas.channels["acc2"], rec.acc_m_s2[1], rtol=1e-8, atol=1e-9)
+
+
+def test_hdf5_capture_with_several_accelerometers_round_trips(tmp_path):
+    from station.mdof_data import channel_names
+    from station.readers import read_measurement
+    from station.storage import CaptureWriter
+
+    rec = mdof_impact_test("two-mass-cubic", 40.0, record_s=0.2)
+    w = CaptureWriter(tmp_path / "s.h5")
+    idx = w.append_si(rec.columns(), rate_hz=rec.rate_hz, pretrigger_samples=rec.pretrigger_samples)
+    meas = read_measurement(f"{tmp_path / 's.h5'}:{idx}")
+    assert channel_names(meas) == ("acc1", "acc2")
+    np.testing.assert_array_equal(meas.channels["acc2"], rec.acc_m_s2[1])
+    np.testing.assert_array_equal(meas.channels["force"], rec.force_n)
