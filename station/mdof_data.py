@@ -14,7 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from eddi.mdof.identify import ChannelRecord
-from eddi.mdof.signals import impact_window, kinematics
+from eddi.mdof.signals import HIGHPASS_HZ, impact_window, kinematics, lowest_mode_hz
 from station.errors import InputFileError
 from station.readers import Measurement, response_channels
 
@@ -56,10 +56,13 @@ def condition_multichannel(meas: Measurement, driving_point: str | None = None) 
     rest = int(meas.pretrigger_samples or 0)
     if rest == 0:  # no pre-trigger count: the samples before t = 0 (a CSV's time starts negative)
         rest = int(np.sum(np.asarray(meas.t) < 0))
+    rate = float(meas.rate_hz)
+    f_low = min(lowest_mode_hz(y[None, rest:], rate, qty) for qty, y in resp.values())
+    cut = max(HIGHPASS_HZ, 0.25 * f_low)  # one drift high-pass for every channel
     parts = []
     for name, (qty, y) in resp.items():
         try:
-            parts.append(kinematics(meas.t, y[None, :], qty, force=force, rest=rest))
+            parts.append(kinematics(meas.t, y[None, :], qty, force=force, rest=rest, highpass_hz=cut))
         except ValueError as exc:
             raise InputFileError(f"{meas.source}: channel {name!r}: {exc}") from None
     k0 = parts[list(resp).index(dp)]
@@ -73,7 +76,8 @@ def condition_multichannel(meas: Measurement, driving_point: str | None = None) 
     return ChannelRecord(
         t=np.asarray(meas.t, float), x=np.vstack([p.x for p in parts]), v=np.vstack([p.v for p in parts]),
         a=np.vstack([p.a for p in parts]), force=f, impact=impact, window=(start, stop),
-        noise=np.concatenate([p.noise for p in parts]), label=str(meas.source))
+        noise=np.concatenate([p.noise for p in parts]), label=str(meas.source),
+        highpass_hz=cut)
 
 
 def condition_all(measurements: Sequence[Measurement], driving_point: str | None = None

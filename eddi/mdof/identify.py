@@ -67,6 +67,8 @@ class ChannelRecord:
     noise : ndarray, shape (n_channels,)
         Noise RMS of each channel's displacement [m] (sets the zero-crossing dead band).
     label : str
+    highpass_hz : float
+        Cut-off of the zero-phase drift high-pass ``x`` and ``v`` went through [Hz].
     """
 
     t: np.ndarray
@@ -78,6 +80,7 @@ class ChannelRecord:
     window: tuple[int, int]
     noise: np.ndarray
     label: str = ""
+    highpass_hz: float = HIGHPASS_HZ
 
 
 @dataclass(frozen=True)
@@ -121,6 +124,9 @@ class EquationFit:
         Energy given to (or taken from) the other coordinates through coupling terms over
         the half cycles, relative to the energy dissipated (phase one).
     half_cycles : int
+    force_residual : float
+        RMS of the force balance ``q_i'' + B_i + K_i`` over the free windows relative to the
+        RMS of ``q_i''``.
     """
 
     damping: dict[str, float]
@@ -129,6 +135,7 @@ class EquationFit:
     energy_residual: float
     exchanged_fraction: float
     half_cycles: int
+    force_residual: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -264,7 +271,10 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
     damping = {t: float(c) for t, c in zip(damp, b)}
     stiffness = {t: float(c) for t, c in zip(own + cpl, k)}
     gain = _input_gain(i, impacts, d_terms, s_terms, b, k)
-    return EquationFit(damping, stiffness, gain, residual, exchanged / max(dissipated, 1e-300), int(dr.size))
+    dmat, smat = _matrix(_terms(damp, n), q, qd), _matrix(_terms(own + cpl, n), q, qd)
+    force_res = float(np.sqrt(np.mean((qdd[i] + dmat @ b + smat @ k) ** 2)) / scale)
+    return EquationFit(damping, stiffness, gain, residual, exchanged / max(dissipated, 1e-300), int(dr.size),
+                       force_res)
 
 
 def _input_gain(i: int, impacts: list[tuple], d_terms: list[MultiTerm], s_terms: list[MultiTerm],
@@ -300,10 +310,10 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
     prune : float
         Relative force below which a term is dropped.
     highpass_hz : float or None
-        Drift high-pass the records were conditioned with: with a force, the identification
-        is run twice, the second time on records with the quasi-static response restored
-        (:func:`eddi.mdof.signals.quasi_static`, flexibility from the first model). None:
-        once.
+        Not None: with a force, the identification is run twice, the second time on records
+        with the quasi-static response the drift high-pass removed (at each record's
+        ``highpass_hz``) restored (:func:`eddi.mdof.signals.quasi_static`, flexibility from
+        the first model). None: once.
 
     Raises
     ------
@@ -322,7 +332,7 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
     g = static_flexibility(first.model)
     if g is None:
         return first
-    fixed = [restore_quasi_static(r, g, highpass_hz) for r in records]
+    fixed = [restore_quasi_static(r, g) for r in records]
     return _identify_once(fixed, channels, driving_point, d, first.coordinates, coupling, tail_fraction,
                           max_freq_hz, prune)
 
@@ -336,12 +346,12 @@ def static_flexibility(model: MdofModel) -> np.ndarray | None:
         return None
 
 
-def restore_quasi_static(r: ChannelRecord, flexibility: np.ndarray, highpass_hz: float) -> ChannelRecord:
+def restore_quasi_static(r: ChannelRecord, flexibility: np.ndarray) -> ChannelRecord:
     """The record with the quasi-static response added back to ``x`` and ``v``."""
     if r.force is None:
         return r
     rate = 1.0 / float(r.t[1] - r.t[0])
-    xl, vl = quasi_static(r.force, rate, flexibility, highpass_hz)
+    xl, vl = quasi_static(r.force, rate, flexibility, r.highpass_hz)
     return replace(r, x=r.x + xl, v=r.v + vl)
 
 
@@ -350,6 +360,35 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
                    prune: float) -> MdofIdentification:
     modes = linear_modes(records, tail_fraction=tail_fraction, max_freq_hz=max_freq_hz, driving_point=d)
     kind, tmat, span = choose_coordinates(records, modes, coordinates=coordinates)
+    fits = _fit_all(records, tmat, coupling, prune)
+    notes_pre: list[str] = []
+    if coordinates == "auto" and kind == "modal":
+        # the tail's modes may not be the structure's (a nonlinear attachment has none):
+        # keep the modal coordinates only when their equations close as well as the physical
+        phys = _fit_all(records, np.eye(tmat.shape[0]), coupling, prune)
+        r_modal = float(np.mean([f.force_residual for f in fits]))
+        r_phys = float(np.mean([f.force_residual for f in phys]))
+        if r_phys < 0.5 * r_modal:
+            notes_pre.append(f"modal equations close to {100 * r_modal:.2g} %, physical ones to "
+                             f"{100 * r_phys:.2g} %: physical coordinates kept")
+            kind, tmat, fits = "physical", np.eye(tmat.shape[0]), phys
+    n = tmat.shape[1]
+    masses, inputs, notes = _masses(kind, fits, tmat, d, n)
+    notes = notes_pre + notes
+    model = MdofModel.create(
+        coordinates=kind, mass=tuple(masses), input=tuple(inputs),
+        damping=tuple({t: c * m for t, c in f.damping.items()} for f, m in zip(fits, masses)),
+        stiffness=tuple({t: c * m for t, c in f.stiffness.items()} for f, m in zip(fits, masses)),
+        channels=channels, shapes=tuple(tuple(float(v) for v in row) for row in tmat),
+        driving_point=driving_point,
+        notes=f"identified by eddi.mdof from {len(records)} record(s); {kind} coordinates; "
+              f"linear modes {', '.join(f'{f:.4g} Hz' for f in modes.frequencies_hz)}")
+    return MdofIdentification(model, modes, kind, fits, span, tuple(notes))
+
+
+def _fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool, prune: float
+             ) -> tuple[EquationFit, ...]:
+    """EDDI per coordinate ``q = pinv(T) y`` over every record."""
     proj = np.linalg.pinv(tmat)
     n = tmat.shape[1]
     data, impacts = [], []
@@ -360,18 +399,8 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
             i0, i1 = r.impact[0], max(r.impact[1], r.window[0]) + 3
             impacts.append((proj @ r.x[:, i0:i1], proj @ r.v[:, i0:i1], proj @ r.a[:, i0:i1], r.force[i0:i1]))
     noise = np.abs(proj) @ np.max([r.noise for r in records], axis=0)
-    fits = tuple(fit_equation(i, data, impacts, default_library(i, n, coupling), float(noise[i]), prune)
+    return tuple(fit_equation(i, data, impacts, default_library(i, n, coupling), float(noise[i]), prune)
                  for i in range(n))
-    masses, inputs, notes = _masses(kind, fits, tmat, d, n)
-    model = MdofModel.create(
-        coordinates=kind, mass=tuple(masses), input=tuple(inputs),
-        damping=tuple({t: c * m for t, c in f.damping.items()} for f, m in zip(fits, masses)),
-        stiffness=tuple({t: c * m for t, c in f.stiffness.items()} for f, m in zip(fits, masses)),
-        channels=channels, shapes=tuple(tuple(float(v) for v in row) for row in tmat),
-        driving_point=driving_point,
-        notes=f"identified by eddi.mdof from {len(records)} record(s); {kind} coordinates; "
-              f"linear modes {', '.join(f'{f:.4g} Hz' for f in modes.frequencies_hz)}")
-    return MdofIdentification(model, modes, kind, fits, span, tuple(notes))
 
 
 def _masses(kind: str, fits: tuple[EquationFit, ...], tmat: np.ndarray, d: int, n: int
