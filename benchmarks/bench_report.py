@@ -3,7 +3,7 @@
 Run: ``python benchmarks/bench_report.py [REPEATS]``. Records two impacts (600 N and 1110 N,
 paper Fig. 12 levels) of 1 s pre-trigger + 44 s from ``sim://duffing-smooth`` through the pty
 and the serial driver, then times, separately: reading + identification + validation
-(:func:`station.pipeline.run_session`) and the report itself (:func:`station.report.write_report`:
+(:func:`station.session.run_session`) and the report itself (:func:`station.report.write_report`:
 6 identification figures, 1 validation figure with two CWT maps, the HTML page). Prints one
 line per stage and repeat, then the best report time.
 """
@@ -18,7 +18,7 @@ from pathlib import Path
 from station.capture import ImpactPlan, acquire, configure_device, device_metadata
 from station.config import parse_config
 from station.devices import open_device
-from station.pipeline import read_all, run_session
+from station.session import read_all, run_session
 from station.report import write_report
 from station.storage import CaptureWriter
 

@@ -36,7 +36,7 @@ from eddi.energy import integrated_term, term_matrix  # noqa: E402
 from eddi.model import EquationOfMotion  # noqa: E402
 from eddi.validate import cwt_map, spectra  # noqa: E402
 from station import figures  # noqa: E402
-from station.pipeline import RecordCheck, SessionResult, peak_force  # noqa: E402
+from station.session import RecordCheck, SessionResult, peak_force  # noqa: E402
 from station.storage import StorageError  # noqa: E402
 
 #: Frequencies of each CWT map.
@@ -234,7 +234,7 @@ def write_report(session: SessionResult, out_dir: str | Path, *, truth: Equation
     Parameters
     ----------
     session : SessionResult
-        From :func:`station.pipeline.run_session`.
+        From :func:`station.session.run_session`.
     out_dir : str or Path
     truth : EquationOfMotion, optional
         The true physics (simulated rig): shown beside the identified coefficients.

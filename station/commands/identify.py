@@ -2,7 +2,8 @@
 
 Reads the record (:func:`station.readers.read_measurement`), conditions it
 (:func:`eddi.conditioning.condition`: drift-free integration, impact end, noise floor),
-identifies with EDDI and validates by simulation (:func:`eddi.pipeline.identify_measurement`).
+identifies with EDDI, refines when that lowers the validation error, and validates by
+simulation: :class:`eddi.fit_record.Pipeline`, the pipeline every command uses.
 """
 
 from __future__ import annotations
@@ -11,9 +12,9 @@ import argparse
 import math
 from typing import Any
 
-from eddi.conditioning import condition
-from eddi.pipeline import PipelineResult, identify_measurement
+from eddi.fit_record import Pipeline, PipelineResult
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
+from station.argtypes import add_refine_option, damping_terms, finite_positive, stiffness_terms  # noqa: F401 (re-export)
 from station.errors import ConfigError
 from station.output import emit
 from station.readers import Measurement, read_measurement
@@ -30,18 +31,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "FILE.h5[:CAPTURE]."
         ),
     )
-    p.add_argument("path", metavar="PATH", help="CSV file, or HDF5 file with optional :CAPTURE")
-    p.add_argument("--mass", type=float, default=None,
+    p.add_argument("path", metavar="PATH", nargs="+",
+                   help="CSV file, or HDF5 file with optional :CAPTURE (FILE.h5 alone: every capture); with "
+                        "several records the model is identified on the middle force level and validated on "
+                        "the others, as station report does")
+    p.add_argument("--fit", type=int, default=None, metavar="N",
+                   help="with several records: the one to identify on (default: the middle force level)")
+    p.add_argument("--mass", type=finite_positive, default=None, metavar="KG",
                    help="mass [kg] (or inertia); required unless the file records it")
-    p.add_argument("--damping", default=",".join(DEFAULT_DAMPING), metavar="TERMS",
+    p.add_argument("--damping", type=damping_terms, default=",".join(DEFAULT_DAMPING), metavar="TERMS",
                    help="damping candidates, comma-separated (default: %(default)s)")
-    p.add_argument("--stiffness", default=",".join(DEFAULT_STIFFNESS), metavar="TERMS",
+    p.add_argument("--stiffness", type=stiffness_terms, default=",".join(DEFAULT_STIFFNESS), metavar="TERMS",
                    help="stiffness candidates, comma-separated (default: %(default)s)")
     p.add_argument("--route", choices=("auto", "potential", "lagrangian"), default="auto",
                    help="phase-two route (default: %(default)s)")
-    p.add_argument("--refine", action="store_true",
-                   help="refine EDDI's coefficients by an output-error fit of the simulated free "
-                        "response to the measurement (slower; the EDDI estimate is reported too)")
+    add_refine_option(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handler)
 
@@ -56,14 +60,12 @@ def _mass(arg: float | None, meas: Measurement) -> float:
 
 
 def run_identify(meas: Measurement, mass: float, damping: str, stiffness: str,
-                 route: str = "auto", refine: bool = False) -> PipelineResult:
-    """Condition, identify and validate one measurement."""
-    ch = meas.channels
-    cond = condition(meas.t, acc=ch.get("acc"), vel=ch.get("vel"), disp=ch.get("disp"),
-                     force=ch.get("force"), pretrigger_samples=meas.pretrigger_samples,
-                     ac_coupling_s=meas.metadata.get("ac_coupling_s"))
-    return identify_measurement(cond, mass, damping=damping, stiffness=stiffness, route=route,
-                                refine=refine)
+                 route: str = "auto", refine: bool = True) -> PipelineResult:
+    """Condition, identify and validate one measurement (:class:`eddi.fit_record.Pipeline`)."""
+    from station.session import condition_measurement
+
+    pipe = Pipeline.create(damping, stiffness, route, refine)
+    return pipe.fit(condition_measurement(meas, pipe), mass)
 
 
 def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
@@ -77,6 +79,8 @@ def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
         "mass": eom.mass,
         "damping": dict(eom.damping),
         "stiffness": dict(eom.stiffness),
+        "units": res.units,
+        "ci95": res.ci95,
         "route": res.model.route,
         "route_scores": dict(res.model.route_scores),
         "equation": eom.equation_text(),
@@ -87,7 +91,8 @@ def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
             "driven_by": ("measured impact force from rest (force sensor fused with m*a)"
                           if res.driven_by_force else "measured initial state"),
             "window_s": [float(t[val.window[0]]), float(t[val.window[1] - 1])],
-            "diverged": val.diverged,
+            "diverged": val.diverged or any(h.diverged for h in res.held_out),
+            "warnings": list(val.warnings),
         },
         "conditioning": {
             "method": cond.method,
@@ -98,11 +103,14 @@ def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
             "notes": list(cond.notes),
         },
         "crossings_used": int(res.model.phase_one.gamma.size),
+        "pipeline": res.choices.as_dict() if res.choices is not None else None,
+        "warnings": list(res.warnings),
         "model": eom.to_dict(),
     }
     ref = res.model.refinement
     if ref is not None and res.model.unrefined is not None:
         obj["refinement"] = {
+            "kept": res.choices is None or res.choices.refinement == "kept",
             "fitted_to": ref.channel,
             "nrmse_before": ref.nrmse_before,
             "nrmse_after": ref.nrmse_after,
@@ -118,7 +126,13 @@ def _text(obj: dict[str, Any]) -> str:
     lines.append(f"  mass        {obj['mass']:.6g} kg")
     for title, key in (("damping", "damping"), ("stiffness", "stiffness")):
         for term, c in obj[key].items():
-            lines.append(f"  {title:<11} {term:<10} {c:+.6g}")
+            ci = obj.get("ci95", {}).get(key, {}).get(term)
+            unit = obj.get("units", {}).get(key, {}).get(term, "")
+            lines.append(f"  {title:<11} {term:<10} {c:+.6g}" + (f" ± {ci:.2g}" if ci is not None else "")
+                         + f" {unit}")
+    p = obj.get("pipeline") or {}
+    for term, why in p.get("dropped", {}).items():
+        lines.append(f"  dropped     {term:<10} {why}")
     v = obj["validation"]
     c = obj["conditioning"]
     lines += [
@@ -129,18 +143,40 @@ def _text(obj: dict[str, Any]) -> str:
     ]
     if "refinement" in obj:
         r = obj["refinement"]
-        lines.append(f"  refined by output error on {r['fitted_to']} ({r['simulations']} simulations): "
+        how = "refined" if r["kept"] else "refinement tried and rejected"
+        lines.append(f"  {how} (output error on {r['fitted_to']}, {r['simulations']} simulations): "
                      f"fit nrmse {r['nrmse_before']:.4g} -> {r['nrmse_after']:.4g}; EDDI estimate:")
         for title, key in (("damping", "eddi_damping"), ("stiffness", "eddi_stiffness")):
             for term, c in r[key].items():
                 lines.append(f"  {title:<11} {term:<10} {c:+.6g}")
+    p = obj.get("pipeline")
+    if p:
+        lines.append(f"  pipeline: {p['route']} route; refinement {p['refinement']}: {p['refinement_reason']}")
+    for w in obj.get("warnings", []):
+        lines.append(f"  WARNING: {w}")
     return "\n".join(lines)
 
 
 def handler(args: argparse.Namespace) -> int:
-    meas = read_measurement(args.path)
-    mass = _mass(args.mass, meas)
-    res = run_identify(meas, mass, args.damping, args.stiffness, args.route, args.refine)
-    obj = result_object(meas, res)
-    emit(args.json, _text(obj), obj)
+    from station.session import expand_specs, read_all, run_session
+
+    specs = expand_specs(list(args.path))
+    if len(specs) == 1:
+        meas = read_measurement(specs[0])
+        mass = _mass(args.mass, meas)
+        res = run_identify(meas, mass, args.damping, args.stiffness, args.route, args.refine)
+        obj = result_object(meas, res)
+        emit(args.json, _text(obj), obj)
+        return 0
+    recs = read_all(specs)
+    session = run_session(recs, args.mass, damping=args.damping, stiffness=args.stiffness, route=args.route,
+                          fit_index=args.fit, refine=args.refine)
+    meas = session.measurements[session.fit_index]
+    obj = result_object(meas, session.fit)
+    obj["held_out"] = {"nrmse": session.mean_nrmse, "nmte": session.mean_nmte,
+                       "records": [c.as_dict() for c in session.held_out]}
+    text = _text(obj) + "".join(f"\n  held out {c['source']}: nrmse {c['nrmse']:.4g}" for c in obj["held_out"]["records"])
+    if session.mean_nrmse is not None:
+        text += f"\n  mean nrmse on the records not used for the fit: {session.mean_nrmse:.4g}"
+    emit(args.json, text, obj)
     return 0

@@ -3,7 +3,7 @@
     station replay session.h5                   # identify on the middle impact, validate on the others
     station replay session.h5 --through-device  # first stream every capture through the emulated DAQ
 
-The pipeline is :func:`station.pipeline.run_session` (as ``station report``, without the
+The pipeline is :func:`station.session.run_session` (as ``station report``, without the
 figures). With ``--through-device`` each stored capture's raw counts are served by a
 :class:`simulated_rig.replay.ReplaySource` inside the emulated DAQ firmware, on a pseudo-terminal, read back with the
 serial driver, and compared with the file: they must arrive bit-exact.
@@ -18,8 +18,10 @@ from typing import Any
 
 import numpy as np
 
+from station.argtypes import damping_terms, finite_positive, nonnegative_int, stiffness_terms
 from station.errors import InputFileError
 from station.output import emit
+
 
 @dataclass(frozen=True)
 class StreamCheck:
@@ -93,19 +95,20 @@ def stream_through_device(path: str, capture: int, *, timeout_s: float = 5.0) ->
 
 
 def register(subparsers: Any) -> None:
+    from station.commands.identify import add_refine_option
+
     """Add the ``replay`` sub-command."""
     p = subparsers.add_parser("replay", help="rerun the pipeline on saved captures (optionally through the device)",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE", help="HDF5 session file (all captures) or FILE.h5:N, or a CSV")
     p.add_argument("--through-device", action="store_true",
                    help="stream every capture through the emulated DAQ and the serial driver, check it bit-exact")
-    p.add_argument("--mass", type=float, default=None, help="mass [kg] (default: the one the captures record)")
-    p.add_argument("--damping", default=None, metavar="TERMS", help="damping candidates, comma-separated")
-    p.add_argument("--stiffness", default=None, metavar="TERMS", help="stiffness candidates, comma-separated")
-    p.add_argument("--fit", type=int, default=None, metavar="N",
+    p.add_argument("--mass", type=finite_positive, default=None, metavar="KG", help="mass [kg] (default: the one the captures record)")
+    p.add_argument("--damping", type=damping_terms, default=None, metavar="TERMS", help="damping candidates, comma-separated")
+    p.add_argument("--stiffness", type=stiffness_terms, default=None, metavar="TERMS", help="stiffness candidates, comma-separated")
+    p.add_argument("--fit", type=nonnegative_int, default=None, metavar="N",
                    help="record to identify on (default: the middle force level)")
-    p.add_argument("--refine", action="store_true",
-                   help="follow EDDI with the output-error refinement it seeds (as station demo does)")
+    add_refine_option(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handle)
 
@@ -128,6 +131,10 @@ def session_text(obj: dict[str, Any]) -> str:
     """People-friendly lines of :func:`session_object`."""
     ident = obj["identified"]
     lines = [f"identified on {obj['fit_record']}: {ident['equation']}"]
+    p = ident.get("pipeline")
+    if p:
+        lines.append(f"  pipeline: {p['route']} route; refinement {p['refinement']}: {p['refinement_reason']}")
+    lines += [f"  WARNING: {w}" for w in ident.get("warnings", [])]
     for c in obj["validation"]["held_out"]:
         how = "from rest, measured force" if c["driven_by"] == "force" else "from the measured state"
         lines.append(f"  validated on {c['source']}: nrmse {c['nrmse']:.4g} ({how})")
@@ -146,7 +153,7 @@ def terms_or_default(text: str | None, default: tuple[str, ...]) -> str | tuple[
 def handle(args: argparse.Namespace) -> int:
     """Run ``station replay``; return the exit code."""
     from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
-    from station.pipeline import expand_specs, read_all, run_session
+    from station.session import expand_specs, read_all, run_session
     from station.readers import split_spec
 
     specs = expand_specs([args.file])

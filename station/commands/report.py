@@ -3,7 +3,7 @@
     station report session.h5 --out report      # identify on the middle impact, validate on the others
 
 Identifies on one record (default: the middle force level; ``--fit N`` to choose) and
-validates on every other one (:func:`station.pipeline.run_session`), then writes
+validates on every other one (:func:`station.session.run_session`), then writes
 ``DIR/index.html`` with PNG figures (:func:`station.report.write_report`): force;
 displacement with its CWT and Fourier spectrum; kinetic energy with T at the zero crossings;
 measured versus modelled dissipated energy; mechanical energy; restoring force (or
@@ -16,24 +16,26 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from station.argtypes import damping_terms, finite_positive, nonnegative_int, stiffness_terms
 from station.output import emit
 
 
 def register(subparsers: Any) -> None:
+    from station.commands.identify import add_refine_option
+
     """Add the ``report`` sub-command."""
     p = subparsers.add_parser("report", help="HTML report with the paper's figures (identify + validate)",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("records", metavar="FILE", nargs="+", help="FILE.h5 (all captures), FILE.h5:N or FILE.csv")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
-    p.add_argument("--mass", type=float, default=None, help="mass [kg] (default: the one the records store)")
-    p.add_argument("--damping", default=None, metavar="TERMS", help="damping candidates, comma-separated")
-    p.add_argument("--stiffness", default=None, metavar="TERMS", help="stiffness candidates, comma-separated")
+    p.add_argument("--mass", type=finite_positive, default=None, metavar="KG", help="mass [kg] (default: the one the records store)")
+    p.add_argument("--damping", type=damping_terms, default=None, metavar="TERMS", help="damping candidates, comma-separated")
+    p.add_argument("--stiffness", type=stiffness_terms, default=None, metavar="TERMS", help="stiffness candidates, comma-separated")
     p.add_argument("--route", choices=("auto", "potential", "lagrangian"), default="auto",
                    help="phase-two route (default: %(default)s)")
-    p.add_argument("--fit", type=int, default=None, metavar="N",
+    p.add_argument("--fit", type=nonnegative_int, default=None, metavar="N",
                    help="record to identify on, 0-based among the records given (default: the middle force level)")
-    p.add_argument("--refine", action="store_true",
-                   help="follow EDDI with the output-error refinement it seeds (as station demo does)")
+    add_refine_option(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handle)
 
@@ -45,9 +47,12 @@ def handle(args: argparse.Namespace) -> int:
     from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
     from station.commands.replay import session_object, session_text, terms_or_default
     from station.demo import rig_truth
-    from station.pipeline import read_all, run_session
+    from station.session import read_all, run_session
     from station.report import write_report
 
+    from station.output_safety import check_output
+
+    check_output(args.out, "dir", args.records, option="--out")
     t0 = time.perf_counter()
     recs = read_all(args.records)
     session = run_session(recs, args.mass, damping=terms_or_default(args.damping, DEFAULT_DAMPING),

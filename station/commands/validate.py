@@ -4,7 +4,7 @@
     station validate model.json session.h5:0 other.csv
 
 Each record is simulated with the model (an equation of motion, or a modal-sum model) and
-compared with the measurement (see :func:`station.pipeline.validate_measurement`):
+compared with the measurement (see :func:`station.session.validate_measurement`):
 
 * with a force channel: from rest, driven by its measured impact force;
 * without: from its measured initial state (a modal-sum model predicts the velocity).
@@ -34,9 +34,13 @@ def register(subparsers: Any) -> None:
 def validate_object(model_path: str, specs: list[str]) -> dict[str, Any]:
     """Validate the model on every record; the ``--json`` object."""
     from eddi.multimode import ModalSumModel
-    from station.pipeline import load_model_file, mean_of, read_measurement, expand_specs, validate_measurement
+    from station.session import load_model_file, mean_of, read_measurement, expand_specs, validate_measurement
 
     model = load_model_file(model_path)
+    if getattr(model, "kind", None) == "mdof":  # several coordinates: every channel predicted
+        from station.mdof_commands import validate_mdof_object
+
+        return validate_mdof_object(model, model_path, specs)  # type: ignore[arg-type]
     checks = [validate_measurement(model, read_measurement(s)) for s in expand_specs(specs)]
     return {
         "model": model_path,
@@ -55,6 +59,7 @@ def _text(obj: dict[str, Any]) -> str:
         nmte = "–" if r["nmte"] is None else f"{r['nmte']:.4g}"
         lines.append(f"  {r['source']:<40} nrmse {r['nrmse']:.4g}  nmte {nmte}  ({how}"
                      + (", diverged" if r["diverged"] else "") + ")")
+        lines += [f"    WARNING: {w}" for w in r.get("warnings", [])]
     nmte = "–" if obj["nmte"] is None else f"{obj['nmte']:.4g}"
     lines.append(f"  mean over {len(obj['records'])} record(s): nrmse {obj['nrmse']:.4g}  nmte {nmte}")
     return "\n".join(lines)
@@ -63,5 +68,10 @@ def _text(obj: dict[str, Any]) -> str:
 def handle(args: argparse.Namespace) -> int:
     """Run ``station validate``; return the exit code."""
     obj = validate_object(args.model, list(args.records))
+    if obj["model_kind"] == "mdof":
+        from station.mdof_commands import validate_mdof_text
+
+        emit(args.json, validate_mdof_text(obj), obj)
+        return 0
     emit(args.json, _text(obj), obj)
     return 0

@@ -15,7 +15,7 @@ import pytest
 from eddi import EquationOfMotion
 from eddi.conditioning import condition
 from eddi.identify import identify
-from eddi.pipeline import identify_measurement
+from eddi.fit_record import identify_measurement
 from eddi.sindy import sindy_identify
 from simulated_rig.bench import impact_test
 from tests.eddi.impact_cases import SYSTEMS, impact_record
@@ -35,7 +35,7 @@ def test_force_and_acc_only_45db(system: str, seed: int) -> None:
     r = impact_record(system, snr_db=45.0, seed=seed)
     cond = condition(r.t, acc=r.acc, force=r.force)  # no pre-trigger length given: detected
     res = identify_measurement(cond, spec["mass"], damping=tuple(spec["damping"]),
-                               stiffness=tuple(spec["stiffness"]))
+                               stiffness=tuple(spec["stiffness"]), refine=False)
     assert res.driven_by_force
     _check(res.model.eom, spec, res.validation.nrmse)
     assert res.model.unrefined is None and res.model.refinement is None
@@ -50,6 +50,7 @@ def test_force_and_acc_only_45db(system: str, seed: int) -> None:
     assert ref.validation.nrmse <= 0.01
     assert ref.model.refinement.channel == "a"
     assert ref.model.refinement.nrmse_after <= ref.model.refinement.nrmse_before
+    assert ref.choices.refinement == "kept" and ref.choices.nrmse_refined <= ref.choices.nrmse_eddi
 
 
 def _coef_error(eom: EquationOfMotion, truth: dict) -> float:

@@ -118,13 +118,13 @@ def test_validate_faults_are_one_line_exit_2(model_text: str | None, record: str
 
 
 def test_validate_ctrl_c_exits_130(capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
-    import station.pipeline
+    import station.session
 
     demo, _ = demo_run()
 
     def interrupted(*a: Any, **k: Any) -> Any:
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(station.pipeline, "validate_measurement", interrupted)
+    monkeypatch.setattr(station.session, "validate_measurement", interrupted)
     code, _, err = _run(["validate", str(demo / "model.json"), str(demo / "session.h5")], capsys)
     assert code == 130 and err.count("\n") == 1 and "interrupted" in err

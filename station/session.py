@@ -1,4 +1,4 @@
-"""Station-level pipeline: read captures -> condition -> identify on one -> validate on the others.
+"""A session of records: read captures -> identify on one -> validate on the others.
 
 The paper identified each system on one impact and validated the model on impacts not used
 for the fit (Lopez et al., EDDI, Sec. 3.3.1 and Fig. 12). :func:`run_session` does the same on
@@ -6,10 +6,11 @@ measurements read by :func:`station.readers.read_measurement`:
 
 * :func:`choose_fit_index` picks the impact of the middle force level (the paper's
   identification case lies between its two validation impacts of 246 N and 1110 N);
-* the fit is :func:`eddi.pipeline.identify_measurement` (conditioning as ``station identify``);
+* the fit is :meth:`eddi.fit_record.Pipeline.fit` (the one pipeline every command uses), with
+  the other records held out: they decide whether the output-error refinement is kept;
 * every other record is validated by :func:`validate_measurement`: simulated from rest driven
   by its measured impact force (force sensor fused with ``m a`` when the acceleration was
-  measured, as :mod:`eddi.pipeline` does), or from its measured initial state when it has no
+  measured, as :mod:`eddi.fit_record` does), or from its measured initial state when it has no
   force. A modal-sum model (:class:`eddi.multimode.ModalSumModel`) predicts a velocity record
   from its initial state (:func:`eddi.multimode.predict_record`).
 
@@ -25,12 +26,11 @@ from typing import Sequence
 
 import numpy as np
 
-from eddi.conditioning import ConditionedSignal, condition
+from eddi.conditioning import ConditionedSignal
 from eddi.model import EquationOfMotion
 from eddi.multimode import ModalSumModel, predict_record
-from eddi.pipeline import PipelineResult, fused_impact_force, identify_measurement
-from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
-from eddi.validate import Validation, validate
+from eddi.fit_record import Pipeline, PipelineResult, validate_conditioned
+from eddi.validate import Validation
 from station.errors import ConfigError, InputFileError
 from station.readers import Measurement, read_measurement, split_spec
 
@@ -60,6 +60,9 @@ class RecordCheck:
     quantity : str
         ``"displacement"`` or ``"velocity"``: what ``measured`` / ``simulated`` are.
     diverged : bool
+        The simulation blew up, grew, or does not decay where the record does.
+    warnings : tuple of str
+        Why (:func:`eddi.stability.response_warnings`).
     """
 
     source: str
@@ -72,12 +75,13 @@ class RecordCheck:
     simulated: np.ndarray
     quantity: str
     diverged: bool
+    warnings: tuple[str, ...] = ()
 
     def as_dict(self) -> dict[str, object]:
         """JSON-ready figures of merit (no arrays)."""
         return {"source": self.source, "nrmse": self.nrmse, "nmte": self.nmte, "driven_by": self.driven_by,
                 "peak_force_n": self.peak_force_n, "window_s": [float(self.t[0]), float(self.t[-1])],
-                "diverged": self.diverged}
+                "diverged": self.diverged, "warnings": list(self.warnings)}
 
 
 @dataclass(frozen=True)
@@ -147,6 +151,50 @@ def read_all(specs: Sequence[str]) -> tuple[Measurement, ...]:
     return tuple(read_measurement(s) for s in expand_specs(specs))
 
 
+def on_one_grid(measurements: Sequence[Measurement]) -> tuple[list[Measurement], str | None]:
+    """Records whose clocks differ by up to 200 ppm, resampled onto the first one's rate.
+
+    Returns
+    -------
+    measurements : list of Measurement
+        Unchanged when the rates agree within 1 ppm.
+    note : str or None
+        What was resampled (to be said), None when nothing was.
+
+    Raises
+    ------
+    InputFileError
+        When rates differ by more than 200 ppm (:data:`eddi.calculus.RATE_TOLERANCE`).
+    """
+    from dataclasses import replace
+
+    from eddi.calculus import common_rate, resample
+
+    recs = list(measurements)
+    if not recs:
+        return recs, None
+    try:
+        rate = common_rate([m.rate_hz for m in recs])
+    except ValueError as exc:
+        raise InputFileError(f"{recs[0].source} and the others: {exc}") from None
+    if rate is None:
+        return recs, None
+    out: list[Measurement] = []
+    moved: list[str] = []
+    for m in recs:
+        if abs(m.rate_hz - rate) <= 1e-6 * rate:
+            out.append(m)
+            continue
+        chans = {}
+        t_new = m.t
+        for name, y in m.channels.items():
+            t_new, chans[name] = resample(m.t, y, rate)
+        pre = None if m.pretrigger_samples is None else int(round(m.pretrigger_samples * rate / m.rate_hz))
+        out.append(replace(m, t=t_new, channels=chans, rate_hz=rate, pretrigger_samples=pre))
+        moved.append(f"{m.source} ({(m.rate_hz / rate - 1) * 1e6:+.0f} ppm)")
+    return out, (f"resampled onto {rate:.6g} Hz (5th-order spline): " + ", ".join(moved))
+
+
 def session_mass(measurements: Sequence[Measurement], mass: float | None) -> float:
     """The mass given, else the one the first record stores.
 
@@ -163,10 +211,10 @@ def session_mass(measurements: Sequence[Measurement], mass: float | None) -> flo
     return float(m)
 
 
-def condition_measurement(meas: Measurement) -> ConditionedSignal:
-    """Condition a record as ``station identify`` does (:func:`eddi.conditioning.condition`)."""
+def condition_measurement(meas: Measurement, pipeline: Pipeline | None = None) -> ConditionedSignal:
+    """Condition a record as every command does (:meth:`eddi.fit_record.Pipeline.condition`)."""
     ch = meas.channels
-    return condition(meas.t, acc=ch.get("acc"), vel=ch.get("vel"), disp=ch.get("disp"), force=ch.get("force"),
+    return (pipeline or Pipeline()).condition(meas.t, acc=ch.get("acc"), vel=ch.get("vel"), disp=ch.get("disp"), force=ch.get("force"),
                      pretrigger_samples=meas.pretrigger_samples,
                      ac_coupling_s=meas.metadata.get("ac_coupling_s"))
 
@@ -187,33 +235,6 @@ def choose_fit_index(measurements: Sequence[Measurement]) -> int:
         return 0
     order = sorted(range(len(peaks)), key=lambda i: peaks[i])  # type: ignore[arg-type,return-value]
     return order[(len(order) - 1) // 2]
-
-
-def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal) -> tuple[Validation, bool]:
-    """Simulate ``eom`` for a conditioned record, compare over its free-response window.
-
-    Driven from rest by the measured impact force when the record has a force and a rest
-    before the impact (fused with ``m a + B + K`` when the acceleration was measured, see
-    :func:`eddi.pipeline.fused_impact_force`); otherwise a free response from the measured
-    state at the start of the window.
-
-    Returns
-    -------
-    validation : Validation
-        Window in the indices of ``cond``.
-    driven_by_force : bool
-    """
-    force = cond.impact_force
-    if force is not None and cond.impact_start > 0:
-        s, e = cond.impact_start, cond.free_stop
-        drive = fused_impact_force(cond, eom) if cond.acc_measured else force
-        val = validate(eom, cond.t[s:e], cond.x[s:e], v=cond.v[s:e], force=drive[s:e],
-                       window=(cond.free_start - s, cond.free_stop - s))
-        w0, w1 = val.window
-        return Validation(nrmse=val.nrmse, nmte=val.nmte, t=val.t, x_measured=val.x_measured,
-                          x_simulated=val.x_simulated, v_measured=val.v_measured, v_simulated=val.v_simulated,
-                          window=(w0 + s, w1 + s), diverged=val.diverged), True
-    return validate(eom, cond.t, cond.x, v=cond.v, window=cond.window), False
 
 
 def validate_measurement(model: EquationOfMotion | ModalSumModel, meas: Measurement) -> RecordCheck:
@@ -238,19 +259,26 @@ def validate_measurement(model: EquationOfMotion | ModalSumModel, meas: Measurem
                            p.v_measured, p.v_predicted, "velocity", not math.isfinite(p.errors.nrmse))
     cond = condition_measurement(meas)
     val, by_force = validate_conditioned(model, cond)
-    return RecordCheck(meas.source, val.nrmse, val.nmte, "force" if by_force else "initial state", pf, val.t,
-                       val.x_measured, val.x_simulated, "displacement", val.diverged)
+    return record_check(meas, val, by_force)
+
+
+def record_check(meas: Measurement, val: Validation, by_force: bool) -> RecordCheck:
+    """A :class:`RecordCheck` of a validation of ``meas``."""
+    return RecordCheck(meas.source, val.nrmse, val.nmte, "force" if by_force else "initial state",
+                       peak_force(meas), val.t, val.x_measured, val.x_simulated, "displacement", val.diverged,
+                       val.warnings)
 
 
 def run_session(
     measurements: Sequence[Measurement],
     mass: float | None = None,
     *,
-    damping: str | Sequence[str] = DEFAULT_DAMPING,
-    stiffness: str | Sequence[str] = DEFAULT_STIFFNESS,
+    damping: str | Sequence[str] | None = None,
+    stiffness: str | Sequence[str] | None = None,
     route: str = "auto",
     fit_index: int | None = None,
-    refine: bool = False,
+    refine: bool = True,
+    pipeline: Pipeline | None = None,
 ) -> SessionResult:
     """Identify on one record, validate on all the others.
 
@@ -260,15 +288,18 @@ def run_session(
         At least one record.
     mass : float, optional
         [kg]; default the mass the records store.
-    damping, stiffness : str or sequence of str
-        Candidate terms.
+    damping, stiffness : str or sequence of str, optional
+        Candidate terms (default: the pipeline's default library).
     route : {"auto", "potential", "lagrangian"}
     fit_index : int, optional
         Record to identify on (negative counts from the end); default
         :func:`choose_fit_index`.
     refine : bool
-        Follow EDDI with the output-error refinement (:mod:`eddi.refine`); the EDDI estimate
-        stays in ``fit.model.unrefined`` and is validated in ``eddi_held_out``.
+        Try the output-error refinement (:mod:`eddi.refine`), kept when it lowers the mean
+        held-out nrmse; the EDDI estimate stays in ``fit.model.unrefined`` and is validated
+        in ``eddi_held_out``.
+    pipeline : Pipeline, optional
+        Overrides ``damping``, ``stiffness``, ``route`` and ``refine``.
 
     Raises
     ------
@@ -281,21 +312,31 @@ def run_session(
     if not recs:
         raise ConfigError("expected at least one record, got none")
     m = session_mass(recs, mass)
-    if fit_index is None:
-        k = choose_fit_index(recs)
-    else:
-        k = int(fit_index) + (len(recs) if fit_index < 0 else 0)
-        if not 0 <= k < len(recs):
-            raise ConfigError(f"--fit: expected a record index 0..{len(recs) - 1}, got {fit_index}")
-    dmp = damping if isinstance(damping, str) else tuple(damping)
-    stf = stiffness if isinstance(stiffness, str) else tuple(stiffness)
-    fit = identify_measurement(condition_measurement(recs[k]), m, damping=dmp, stiffness=stf, route=route,
-                               refine=refine)
+    k = fit_record_index(recs, fit_index)
+    pipe = pipeline if pipeline is not None else Pipeline.create(damping, stiffness, route, refine)
     others = [r for i, r in enumerate(recs) if i != k]
-    held = tuple(validate_measurement(fit.model.eom, r) for r in others)
-    unrefined = fit.model.unrefined
-    eddi_held = tuple(validate_measurement(unrefined, r) for r in others) if unrefined is not None else ()
+    fit = pipe.fit(condition_measurement(recs[k], pipe), m,
+                   held_out=[condition_measurement(r, pipe) for r in others])
+    held = tuple(record_check(r, v, fit.driven_by_force_of(i)) for i, (r, v) in enumerate(zip(others, fit.held_out)))
+    eddi_held = tuple(record_check(r, v, fit.driven_by_force_of(i))
+                      for i, (r, v) in enumerate(zip(others, fit.eddi_held_out)))
     return SessionResult(recs, k, fit, held, eddi_held)
+
+
+def fit_record_index(recs: Sequence[Measurement], fit_index: int | None) -> int:
+    """``fit_index`` checked (negative from the end), or :func:`choose_fit_index`.
+
+    Raises
+    ------
+    ConfigError
+        Out of range.
+    """
+    if fit_index is None:
+        return choose_fit_index(recs)
+    k = int(fit_index) + (len(recs) if fit_index < 0 else 0)
+    if not 0 <= k < len(recs):
+        raise ConfigError(f"--fit: expected a record index 0..{len(recs) - 1}, got {fit_index}")
+    return k
 
 
 def load_model_file(path: str | Path) -> EquationOfMotion | ModalSumModel:

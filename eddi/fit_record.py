@@ -1,0 +1,421 @@
+"""The identification pipeline: conditioned record -> EDDI -> refinement -> validation.
+
+:class:`Pipeline` is the one object every command and the library use (``station identify``,
+``validate``, ``report``, ``replay``, ``demo``, ``diagnose``'s pipeline baseline): its
+fields are the choices (term libraries, phase-two route, refinement) with one set of
+defaults, and its steps add no numerics of their own:
+
+1. :meth:`Pipeline.condition`: :func:`eddi.conditioning.condition` (drift-free integration,
+   impact end, free-response window);
+2. :meth:`Pipeline.fit`: :func:`eddi.identify.identify` (EDDI) on the free-response window,
+   then the output-error refinement it seeds (:mod:`eddi.refine`), kept only when it lowers
+   the validation error on records not used for the fit (or, with none, on the fit record's
+   displacement simulation, a quantity the refinement did not fit), then validation;
+3. :meth:`Pipeline.validate`: the simulation of a model for a conditioned record:
+
+   * with a measured force and a rest seen before the impact: simulated from rest at the
+     start of the motion, driven by the measured hammer force (zero after the impact has
+     ended). During the impact the accelerometer measures the force too
+     (``F = m a + B + K``); when the acceleration was measured, the two estimates are
+     averaged with inverse-variance weights (:func:`fused_impact_force`);
+     ``nrmse_force_sensor`` reports the validation driven by the force sensor alone;
+   * otherwise: a free response from the measured state at the start of the window.
+
+The choices the pipeline made (route, refinement kept or not and why, terms) are in
+:attr:`PipelineResult.choices`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Sequence
+
+import numpy as np
+
+from eddi.calculus import samples_per_cycle_note
+from eddi.conditioning import ConditionedSignal, condition
+from eddi.identify import IdentifiedModel, identify
+from eddi.model import EquationOfMotion
+from eddi.stability import model_warnings
+from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, coefficient_unit, parse_terms
+from eddi.validate import Validation, validate
+
+#: The measured-signal name of each conditioned response: what the refinement fits.
+REFINE_CHANNEL = {"acc": "a", "vel": "v", "disp": "x"}
+
+
+@dataclass(frozen=True)
+class PipelineChoices:
+    """What the pipeline chose, and why (for the JSON and the report).
+
+    Attributes
+    ----------
+    route : str
+        Phase-two route used (``"potential"`` or ``"lagrangian"``).
+    route_scores : dict of str to float
+        Free-response nrmse of each route tried (``route="auto"``).
+    refinement : str
+        ``"kept"``, ``"rejected"`` (tried, EDDI estimate kept) or ``"off"``.
+    refinement_reason : str
+        One line: the errors compared and on what.
+    judged_on : str
+        ``"held-out records (N)"`` or ``"fit record"``.
+    nrmse_eddi, nrmse_refined : float or None
+        The compared validation errors (None when not refined).
+    damping_terms, stiffness_terms : tuple of str
+        Terms in the returned model.
+    dropped : dict of str to str
+        Candidate terms not in the model, and why.
+    warnings : tuple of str
+        Plain sentences (unstable model, coarse sampling...).
+    """
+
+    route: str
+    route_scores: dict[str, float]
+    refinement: str
+    refinement_reason: str
+    judged_on: str
+    nrmse_eddi: float | None
+    nrmse_refined: float | None
+    damping_terms: tuple[str, ...]
+    stiffness_terms: tuple[str, ...]
+    dropped: dict[str, str] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+
+    def as_dict(self) -> dict[str, object]:
+        """JSON-ready."""
+        return {"route": self.route, "route_scores": dict(self.route_scores),
+                "refinement": self.refinement, "refinement_reason": self.refinement_reason,
+                "judged_on": self.judged_on, "nrmse_eddi": self.nrmse_eddi,
+                "nrmse_refined": self.nrmse_refined, "damping_terms": list(self.damping_terms),
+                "stiffness_terms": list(self.stiffness_terms), "dropped": dict(self.dropped),
+                "warnings": list(self.warnings)}
+
+
+@dataclass(frozen=True)
+class PipelineResult:
+    """An identified and validated model.
+
+    Attributes
+    ----------
+    conditioned : ConditionedSignal
+        The signals identification ran on.
+    model : IdentifiedModel
+        What :func:`eddi.identify.identify` returned, with ``model.eom`` the model the
+        pipeline chose (refined or EDDI's; ``model.unrefined`` is EDDI's when refinement ran).
+    validation : Validation
+        Simulation of ``model.eom`` against ``conditioned.x`` over the free-response window
+        (``validation.window`` is in the indices of ``conditioned``).
+    driven_by_force : bool
+        True when the validation was driven by the measured force from rest.
+    nrmse_force_sensor : float or None
+        The nrmse when driven by the force sensor alone (None when not computed).
+    choices : PipelineChoices or None
+        What the pipeline chose (None only for results built by hand).
+    held_out : tuple of Validation
+        Validation of ``model.eom`` on the held-out records given to :meth:`Pipeline.fit`.
+    eddi_held_out : tuple of Validation
+        The same for the EDDI estimate, when refinement ran.
+    held_out_driven_by_force : tuple of bool
+        Per held-out record: simulated from rest with its measured force.
+    ci95 : dict
+        ``{"damping": {term: half width}, "stiffness": {...}}``: 95 % confidence intervals of
+        ``model.eom``'s coefficients (output-error covariance, :mod:`eddi.refine`).
+    units : dict
+        The same keys: SI unit of each coefficient (:func:`eddi.terms.coefficient_unit`).
+    """
+
+    conditioned: ConditionedSignal
+    model: IdentifiedModel
+    validation: Validation
+    driven_by_force: bool
+    nrmse_force_sensor: float | None = None
+    choices: PipelineChoices | None = None
+    held_out: tuple[Validation, ...] = ()
+    eddi_held_out: tuple[Validation, ...] = ()
+    held_out_driven_by_force: tuple[bool, ...] = ()
+    ci95: dict[str, dict[str, float]] = field(default_factory=dict)
+    units: dict[str, dict[str, str]] = field(default_factory=dict)
+
+    def driven_by_force_of(self, i: int) -> bool:
+        """Whether held-out record ``i`` was simulated driven by its measured force."""
+        return self.held_out_driven_by_force[i]
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """The pipeline's warnings (empty when none)."""
+        return self.choices.warnings if self.choices is not None else ()
+
+
+def _texts(spec: str | Sequence[str]) -> tuple[str, ...]:
+    return tuple(t.text for t in parse_terms(spec if isinstance(spec, str) else list(spec)))
+
+
+@dataclass(frozen=True)
+class Pipeline:
+    """The identification pipeline, with one set of defaults for every caller.
+
+    Parameters
+    ----------
+    damping, stiffness : str or sequence of str
+        Candidate terms (comma-separated text or a sequence; see :mod:`eddi.terms`).
+    route : {"auto", "potential", "lagrangian"}
+        Phase-two route.
+    refine : bool
+        Try the output-error refinement after EDDI and keep it when it lowers the
+        validation error (see the module notes).
+    select : bool
+        With ``refine``: drop the terms the data do not support (BIC backward elimination
+        in the refinement, :mod:`eddi.refine`); the dropped terms and why are in
+        ``choices.dropped``.
+    """
+
+    damping: tuple[str, ...] = DEFAULT_DAMPING
+    stiffness: tuple[str, ...] = DEFAULT_STIFFNESS
+    route: str = "auto"
+    refine: bool = True
+    select: bool = True
+
+    @classmethod
+    def create(cls, damping: str | Sequence[str] | None = None, stiffness: str | Sequence[str] | None = None,
+               route: str = "auto", refine: bool = True, select: bool = True) -> "Pipeline":
+        """A pipeline from CLI-style arguments (None: the default library).
+
+        Raises
+        ------
+        TermError
+            On an unknown or duplicated term.
+        """
+        return cls(damping=_texts(damping) if damping else DEFAULT_DAMPING,
+                   stiffness=_texts(stiffness) if stiffness else DEFAULT_STIFFNESS,
+                   route=route, refine=bool(refine), select=bool(select))
+
+    def condition(self, t: np.ndarray, *, acc: np.ndarray | None = None, vel: np.ndarray | None = None,
+                  disp: np.ndarray | None = None, force: np.ndarray | None = None,
+                  pretrigger_samples: int | None = None, ac_coupling_s: float | None = None) -> ConditionedSignal:
+        """Step 1: :func:`eddi.conditioning.condition` (see there)."""
+        return condition(t, acc=acc, vel=vel, disp=disp, force=force, pretrigger_samples=pretrigger_samples,
+                         ac_coupling_s=ac_coupling_s)
+
+    def validate(self, eom: EquationOfMotion, cond: ConditionedSignal) -> tuple[Validation, bool]:
+        """Step 3: simulate ``eom`` for a conditioned record, compare over its free response.
+
+        Returns
+        -------
+        validation : Validation
+            Window in the indices of ``cond``.
+        driven_by_force : bool
+        """
+        return validate_conditioned(eom, cond)
+
+    def fit(self, cond: ConditionedSignal, mass: float, *, held_out: Sequence[ConditionedSignal] = (),
+            sensor_only: bool = False) -> PipelineResult:
+        """Step 2: EDDI, the refinement when it helps, validation.
+
+        Parameters
+        ----------
+        cond : ConditionedSignal
+            The record to identify on.
+        mass : float
+            Mass [kg] (or inertia), > 0.
+        held_out : sequence of ConditionedSignal
+            Records not used for the fit: the refinement is kept only when it lowers their
+            mean validation nrmse (with none: the fit record's).
+        sensor_only : bool
+            Also validate with the force sensor alone, filling ``nrmse_force_sensor``.
+
+        Returns
+        -------
+        PipelineResult
+
+        Raises
+        ------
+        ModelError, TermError, SignalError, IdentificationError
+            As :func:`eddi.identify.identify`.
+        """
+        model = identify(cond.t, cond.x, cond.v, mass, damping=self.damping, stiffness=self.stiffness,
+                         route=self.route, a=cond.a, window=cond.window,
+                         refine=REFINE_CHANNEL[cond.response] if self.refine else False,
+                         select=self.refine and self.select)
+        val, by_force = validate_conditioned(model.eom, cond)
+        pairs = [validate_conditioned(model.eom, c) for c in held_out]
+        held = tuple(v for v, _ in pairs)
+        held_force = tuple(f for _, f in pairs)
+        eddi_held: tuple[Validation, ...] = ()
+        judged_on = f"held-out records ({len(held)})" if held else "fit record"
+        if model.unrefined is None:
+            refinement, reason, n_eddi, n_ref = "off", "refinement not asked for (--no-refine)", None, None
+        else:
+            eddi_val, _ = validate_conditioned(model.unrefined, cond)
+            eddi_held = tuple(validate_conditioned(model.unrefined, c)[0] for c in held_out)
+            n_ref = _mean_nrmse(held) if held else val.nrmse
+            n_eddi = _mean_nrmse(eddi_held) if held else eddi_val.nrmse
+            div_ref = val.diverged or any(h.diverged for h in held)
+            div_eddi = eddi_val.diverged or any(h.diverged for h in eddi_held)
+            if (div_ref, n_ref) <= (div_eddi, n_eddi):
+                refinement = "kept"
+                reason = (f"displacement nrmse on the {judged_on} {n_eddi:.4g} (EDDI) -> {n_ref:.4g} (refined)")
+            else:
+                refinement = "rejected"
+                reason = (f"refinement raised the displacement nrmse on the {judged_on}: {n_eddi:.4g} (EDDI) -> "
+                          f"{n_ref:.4g}; EDDI estimate kept")
+                model = replace(model, eom=model.unrefined)
+                val, held = eddi_val, eddi_held
+        nrmse_sensor = None
+        if sensor_only and by_force and cond.acc_measured:
+            nrmse_sensor = validate_conditioned(model.eom, cond, fused=False)[0].nrmse
+        elif by_force and not cond.acc_measured:
+            nrmse_sensor = val.nrmse
+        eom = model.eom
+        w0, w1 = cond.window
+        ref = model.refinement
+        if refinement == "kept" and ref is not None and ref.ci95:
+            ci95 = ref.ci95
+        else:
+            from eddi.refine import confidence_intervals  # local: scipy.optimize
+
+            ci95 = confidence_intervals(eom, cond.t[w0:w1], cond.x[w0:w1], cond.v[w0:w1], cond.a[w0:w1],
+                                        channel=REFINE_CHANNEL[cond.response])
+        dropped = {t: "not in the model" for t in self.damping + self.stiffness
+                   if t not in eom.damping and t not in eom.stiffness}
+        if refinement == "kept" and ref is not None:
+            dropped.update(ref.dropped)
+        warnings = list(cond_warnings(cond))
+        coarse = samples_per_cycle_note(cond.rate_hz, highest_frequency(cond))
+        if coarse:
+            warnings.append(coarse)
+        warnings += model_warnings(eom, cond.x[w0:w1], cond.v[w0:w1])
+        warnings += [f"fit record: {w}" for w in val.warnings]
+        warnings += [f"held-out record {i}: {w}" for i, h in enumerate(held) for w in h.warnings]
+        choices = PipelineChoices(
+            route=model.route, route_scores=dict(model.route_scores), refinement=refinement,
+            refinement_reason=reason, judged_on=judged_on, nrmse_eddi=n_eddi, nrmse_refined=n_ref,
+            damping_terms=tuple(eom.damping), stiffness_terms=tuple(eom.stiffness),
+            dropped=dropped, warnings=tuple(warnings))
+        return PipelineResult(cond, model, val, by_force, nrmse_sensor, choices, held, eddi_held, held_force,
+                              ci95, units_of(eom))
+
+
+def units_of(eom: EquationOfMotion) -> dict[str, dict[str, str]]:
+    """SI unit of every coefficient of ``eom`` (``rad`` / ``N m`` for an angle)."""
+    angle = "rad" in eom.coordinate
+    cu, fu = ("rad", "N m") if angle else ("m", "N")
+    return {"damping": {t: coefficient_unit(t, cu, fu) for t in eom.damping},
+            "stiffness": {t: coefficient_unit(t, cu, fu) for t in eom.stiffness}}
+
+
+def highest_frequency(cond: ConditionedSignal, half_cycles: int = 10) -> float:
+    """Frequency [Hz] of the first ``half_cycles`` half cycles of ``x`` in the free response.
+
+    For a hardening (softening) system this is the highest (lowest) of the record; 0 when
+    ``x`` has fewer than two zero crossings there.
+    """
+    w0, w1 = cond.window
+    x = cond.x[w0:w1]
+    idx = np.nonzero(np.signbit(x[1:]) != np.signbit(x[:-1]))[0]
+    if idx.size < 2:
+        return 0.0
+    idx = idx[: half_cycles + 1]
+    return 0.5 * (idx.size - 1) * cond.rate_hz / float(idx[-1] - idx[0])
+
+
+def cond_warnings(cond: ConditionedSignal) -> tuple[str, ...]:
+    """Warnings the conditioning raised (notes starting with ``WARNING:``)."""
+    return tuple(n.removeprefix("WARNING: ") for n in cond.notes if n.startswith("WARNING: "))
+
+
+def _mean_nrmse(vals: Sequence[Validation]) -> float:
+    x = [v.nrmse for v in vals]
+    return float(np.mean(x)) if x and all(math.isfinite(e) for e in x) else math.inf
+
+
+def identify_measurement(
+    cond: ConditionedSignal,
+    mass: float,
+    *,
+    damping: str | tuple[str, ...] | list[str] = DEFAULT_DAMPING,
+    stiffness: str | tuple[str, ...] | list[str] = DEFAULT_STIFFNESS,
+    route: str = "auto",
+    sensor_only: bool = False,
+    refine: bool = True,
+) -> PipelineResult:
+    """Identify and validate one conditioned record: ``Pipeline.create(...).fit(cond, mass)``.
+
+    Parameters
+    ----------
+    cond : ConditionedSignal
+        From :func:`eddi.conditioning.condition`.
+    mass : float
+        Mass [kg] (or inertia), > 0.
+    damping, stiffness : str or sequence of str
+        Candidate terms.
+    route : {"auto", "potential", "lagrangian"}
+    sensor_only : bool
+        Also validate with the force sensor alone (``nrmse_force_sensor``).
+    refine : bool
+        Try the output-error refinement (kept when it lowers the validation error).
+
+    Returns
+    -------
+    PipelineResult
+    """
+    return Pipeline.create(damping, stiffness, route, refine).fit(cond, mass, sensor_only=sensor_only)
+
+
+def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal,
+                         fused: bool = True) -> tuple[Validation, bool]:
+    """Simulate ``eom`` for a conditioned record, compare over its free-response window.
+
+    Driven from rest by the measured impact force when the record has a force and a rest
+    before the impact (fused with ``m a + B + K`` when the acceleration was measured and
+    ``fused``, see :func:`fused_impact_force`); otherwise a free response from the measured
+    state at the start of the window.
+
+    Returns
+    -------
+    validation : Validation
+        Window in the indices of ``cond``.
+    driven_by_force : bool
+    """
+    force = cond.impact_force
+    if force is not None and cond.impact_start > 0:
+        s, e = cond.impact_start, cond.free_stop
+        drive = fused_impact_force(cond, eom) if (cond.acc_measured and fused) else force
+        val = validate(eom, cond.t[s:e], cond.x[s:e], v=cond.v[s:e], force=drive[s:e],
+                       window=(cond.free_start - s, cond.free_stop - s))
+        return _shift(val, s), True
+    return validate(eom, cond.t, cond.x, v=cond.v, window=cond.window), False
+
+
+def fused_impact_force(cond: ConditionedSignal, eom: EquationOfMotion) -> np.ndarray:
+    """Impact force from the force sensor and the accelerometer, inverse-variance weighted.
+
+    Parameters
+    ----------
+    cond : ConditionedSignal
+        With a force channel and a measured acceleration.
+    eom : EquationOfMotion
+        Gives ``F_acc = m a + restoring_force(x, v)`` during the impact.
+
+    Returns
+    -------
+    ndarray, shape (n,), [N]
+        Zero outside ``[impact_start, impact_end)``.
+    """
+    f = cond.impact_force
+    assert f is not None
+    s0, s1 = cond.impact_start, cond.impact_end
+    f_acc = eom.mass * cond.a[s0:s1] + eom.restoring_force(cond.x[s0:s1], cond.v[s0:s1])
+    var_f = cond.force_noise_rms**2
+    var_a = (eom.mass * cond.noise_rms) ** 2
+    w = var_a / (var_f + var_a) if var_f + var_a > 0 else 0.5
+    out = np.zeros_like(f)
+    out[s0:s1] = w * f[s0:s1] + (1.0 - w) * f_acc
+    return out
+
+
+def _shift(val: Validation, offset: int) -> Validation:
+    """The same validation with its window in the indices of the whole record."""
+    w0, w1 = val.window
+    return replace(val, window=(w0 + offset, w1 + offset))
