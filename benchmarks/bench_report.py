@@ -10,7 +10,7 @@ line per stage and repeat, then the best report time.
 
 from __future__ import annotations
 
-import sys
+import argparse
 import tempfile
 import time
 from pathlib import Path
@@ -52,4 +52,6 @@ def main(repeats: int = 3) -> None:
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 3)
+    _ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    _ap.add_argument("repeats", nargs="?", type=int, default=3, help="report repeats (default 3)")
+    main(_ap.parse_args().repeats)

@@ -5,11 +5,13 @@ k1 = 390 N/m, k3 = 1.3e7 N/m^3) with more damping (b1 = 1.0 Ns/m) so that it rin
 within the 5 s record. Simulated with :func:`simulated_rig.bench.impact_test`: a 200 N
 hammer blow, 1 s pre-trigger, 5 kHz, force and accelerometer at 45 dB SNR, 24-bit ADC.
 
-Run: ``python benchmarks/make_example.py`` (prints the true coefficients).
+Run: ``python benchmarks/make_example.py`` (prints the true coefficients); ``--out FILE`` to
+write elsewhere instead of replacing the packaged example.
 """
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import numpy as np
@@ -25,12 +27,15 @@ TRUTH = EquationOfMotion.create(
 
 
 def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--out", type=Path, default=OUT, help="CSV to write (default: the packaged example, %(default)s)")
+    out = ap.parse_args().out
     rec = impact_test(TRUTH, 200.0, rate_hz=5000.0, pretrigger_s=1.0, record_s=5.0,
                       snr_db=45.0, force_snr_db=45.0, seed=7)
     data = np.column_stack((rec.t, rec.force_n, rec.acc_m_s2))
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    np.savetxt(OUT, data, delimiter=",", header="t,force,acc", comments="", fmt="%.9g")
-    print(f"wrote {OUT} ({OUT.stat().st_size / 1e6:.2f} MB, {rec.n_samples} samples)")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    np.savetxt(out, data, delimiter=",", header="t,force,acc", comments="", fmt="%.9g")
+    print(f"wrote {out} ({out.stat().st_size / 1e6:.2f} MB, {rec.n_samples} samples)")
     print(f"truth: mass {TRUTH.mass} kg, damping {TRUTH.damping}, stiffness {TRUTH.stiffness}")
 
 
