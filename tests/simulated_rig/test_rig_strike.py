@@ -40,9 +40,14 @@ def test_strike_with_nothing_served_is_one_line_exit_2(tmp_path: Path, capsys: p
 def test_a_control_path_holding_another_file_is_never_replaced(tmp_path: Path) -> None:
     keep = tmp_path / "notes.txt"
     keep.write_text("mine")
-    with pytest.raises(OSError):
+    with pytest.raises(RigError, match="exists and is not a socket; refusing to replace it"):
         PtyServer(EmulatedDaq(PatternSource()), control=str(keep))
     assert keep.read_text() == "mine"
+    live = str(tmp_path / "live.ctl")
+    with PtyServer(EmulatedDaq(PatternSource()), control=live):
+        with pytest.raises(RigError, match="another rig serves there"):
+            PtyServer(EmulatedDaq(PatternSource()), control=live)
+        assert strike(live, 10.0) == 0  # the first server still owns its socket
 
 
 @pytest.mark.slow
