@@ -57,6 +57,21 @@ def is_user_error(exc: BaseException) -> bool:
             return True
     return False
 
+#: Optional libraries -> the extra that installs them (``pip install "eddi-station[EXTRA]"``).
+OPTIONAL_MODULES: dict[str, str] = {"matplotlib": "report", "dask": "campaign", "distributed": "campaign",
+                                    "pyarrow": "campaign", "libusb_package": "usb"}
+
+
+def missing_extra(exc: BaseException) -> str | None:
+    """The one-line error for a missing optional library, or None when ``exc`` is not that."""
+    if not isinstance(exc, ModuleNotFoundError) or exc.name is None:
+        return None
+    extra = OPTIONAL_MODULES.get(exc.name.split(".")[0])
+    if extra is None:
+        return None
+    return f"this needs {exc.name.split('.')[0]}, which is not installed: pip install \"eddi-station[{extra}]\""
+
+
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
 
@@ -143,6 +158,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("station: interrupted (what was saved is kept)", file=sys.stderr)
         return EXIT_INTERRUPTED
     except Exception as exc:
+        extra = missing_extra(exc)
+        if extra is not None:
+            print(f"station: error: {extra}", file=sys.stderr)
+            return EXIT_USER_ERROR
         if is_user_error(exc):
             print(f"station: error: {exc}", file=sys.stderr)
             return EXIT_USER_ERROR
