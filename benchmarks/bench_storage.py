@@ -1,12 +1,12 @@
 """Save and read times of HDF5 session files at the paper's settings (19200 Hz, 45 s, 2 channels).
 
-Run: ``python benchmarks/bench_storage.py [N_CAPTURES]``; prints one line per save.
+Run: python benchmarks/bench_storage.py [N_CAPTURES]; prints one line per save.
 The counts are noise-like 24-bit values (the worst case for compression).
 """
 
 from __future__ import annotations
 
-import sys
+import argparse
 import tempfile
 import time
 from pathlib import Path
@@ -41,4 +41,7 @@ def main(n_captures: int = 10) -> None:
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 10)
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter,
+                                 epilog=__doc__.split("\n\n", 1)[1])
+    ap.add_argument("n_captures", nargs="?", type=int, default=10, help="captures to save (default: %(default)s)")
+    main(ap.parse_args().n_captures)

@@ -75,6 +75,9 @@ def missing_extra(exc: BaseException) -> str | None:
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
 
+#: Commands that draw their own live status (the others get :class:`station.progress.Working`).
+OWN_PROGRESS = frozenset({"acquire", "demo", "rig", "campaign"})
+
 
 _ROLE = re.compile(r":[a-z]+:`~?([^`]+)`")
 
@@ -153,7 +156,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("station: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     try:
-        return int(args.func(args) or 0)
+        from station.progress import Working
+
+        quiet = bool(getattr(args, "json", False)) or args.command in OWN_PROGRESS
+        with Working(f"station {args.command}", enabled=not quiet):
+            return int(args.func(args) or 0)
     except KeyboardInterrupt:
         print("station: interrupted (what was saved is kept)", file=sys.stderr)
         return EXIT_INTERRUPTED
