@@ -8,13 +8,16 @@ units. ``.csv`` is read here (:func:`read_csv`); ``.h5`` / ``.hdf5`` captures ar
 
 CSV format: a header line naming the columns among ``t``, ``force``, ``acc``, ``vel``,
 ``disp`` (SI units: s, N, m/s^2, m/s, m), then one row per sample, comma-separated, uniform
-sampling. At least ``t`` and one of ``acc``, ``vel``, ``disp``.
+sampling. At least ``t`` and one of ``acc``, ``vel``, ``disp``. Several response channels
+(several sensors) are named by a quantity and a suffix: ``acc1, acc2, ...`` or
+``acc_tip, vel_root`` (:data:`MULTI_COLUMN`); :func:`response_channels` lists them.
 """
 
 from __future__ import annotations
 
 import importlib
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -43,6 +46,25 @@ MAX_VALUE = 1e12
 MAX_TIME_S = 1e9
 #: Fewest samples a record may hold.
 MIN_SAMPLES = 16
+#: A response column of a multi-sensor record: a quantity and a suffix (``acc2``, ``vel_tip``).
+MULTI_COLUMN = re.compile(r"^(acc|vel|disp)(?:[0-9]+|_[a-z0-9_]+)$")
+
+
+def response_channels(channels: Mapping[str, np.ndarray]) -> dict[str, tuple[str, np.ndarray]]:
+    """Response channels of a record, in order: ``name -> (quantity, samples)``.
+
+    ``quantity`` is ``acc``, ``vel`` or ``disp``; plain ``acc`` and suffixed names
+    (``acc1``, ``acc_tip``) both count. Force and time are left out.
+    """
+    out: dict[str, tuple[str, np.ndarray]] = {}
+    for name, y in channels.items():
+        if name in RESPONSE_CHANNELS:
+            out[name] = (name, y)
+        else:
+            m = MULTI_COLUMN.match(name)
+            if m is not None:
+                out[name] = (m.group(1), y)
+    return out
 
 
 @dataclass(frozen=True)
@@ -318,16 +340,17 @@ _POW10 = np.array([10.0**i for i in range(23)])
 
 
 def _check_header(path: Path, names: list[str]) -> None:
-    unknown = [n for n in names if n not in CSV_COLUMNS]
+    unknown = [n for n in names if n not in CSV_COLUMNS and not MULTI_COLUMN.match(n)]
     if unknown:
         raise InputFileError(
-            f"{path}: unknown column {unknown[0]!r} in the header; expected names among {', '.join(CSV_COLUMNS)}"
+            f"{path}: unknown column {unknown[0]!r} in the header; expected names among {', '.join(CSV_COLUMNS)} "
+            "(several sensors: acc1, acc2, ... or acc_NAME)"
         )
     if len(set(names)) != len(names):
         raise InputFileError(f"{path}: a column is named twice in the header {','.join(names)}")
     if "t" not in names:
         raise InputFileError(f"{path}: no time column 't' in the header {','.join(names)}")
-    if not any(n in names for n in RESPONSE_CHANNELS):
+    if not any(n in RESPONSE_CHANNELS or MULTI_COLUMN.match(n) for n in names):
         raise InputFileError(
             f"{path}: no response column in the header {','.join(names)}; expected one of acc, vel, disp"
         )
