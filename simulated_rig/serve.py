@@ -323,7 +323,9 @@ def build_firmware(system: str, seed: int | None = None, block_size: int = 256) 
         For an unknown system (the message lists the known ones).
     """
     from simulated_rig.source import RigSource
+    from simulated_rig.systems import system_info
 
+    system_info(system)  # an unknown name: one line that lists the known ones
     source = RigSource.from_system(system, seed=seed)
     warm_up(source)
     return EmulatedDaq(source, model=f"EDDI-SIM ({system})", serial=f"SIM-{system}", block_size=block_size)

@@ -110,3 +110,10 @@ def _terms(text: str, damping: bool) -> str:
             raise argparse.ArgumentTypeError(f"stiffness term {t.text!r} involves the rate v; expected terms of "
                                              "x only, such as x, x^3 (v terms are damping)")
     return text
+
+
+def add_refine_option(p: argparse.ArgumentParser) -> None:
+    """``--refine/--no-refine``, the same on every command that identifies."""
+    p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=True,
+                   help="try the output-error refinement EDDI seeds and keep it when it lowers the "
+                        "validation error (default: on; the EDDI estimate is reported too)")

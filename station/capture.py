@@ -49,10 +49,23 @@ class ImpactPlan:
         Peak force of each impact [N].
     double_hits : tuple of bool
         Whether each impact is a double hit.
+    at_samples : tuple of int
+        When given, each blow's device sample counter counted from the stream's first sample:
+        the rig delivers them in sample time, so a run is the same whatever the host's speed.
+        Empty: each blow is asked for when the trigger is armed.
     """
 
     peaks_n: tuple[float, ...]
     double_hits: tuple[bool, ...]
+    at_samples: tuple[int, ...] = ()
+
+    def scheduled(self, settings: TriggerSettings) -> "ImpactPlan":
+        """The same blows at fixed sample times: the first once the pre-trigger is full, then one
+        every record + hold-off + pre-trigger (plus a margin), so each meets an armed trigger."""
+        margin = settings.pretrigger_samples // 2 + 1
+        period = settings.posttrigger_samples + settings.holdoff_samples + settings.pretrigger_samples + margin
+        first = settings.pretrigger_samples + margin
+        return ImpactPlan(self.peaks_n, self.double_hits, tuple(first + k * period for k in range(len(self.peaks_n))))
 
     @classmethod
     def varied(cls, n: int, low_n: float, high_n: float, double_hit_every: int = 0, seed: int = 0) -> "ImpactPlan":
@@ -271,13 +284,18 @@ def acquire(
             result.partial_index = idx
         message = f"capture {idx} saved" + (" (partial)" if cap.partial else "")
 
+    blows = _schedule(daq, impacts)  # (device sample, peak, double hit) of each scheduled blow
     daq.start()
     origin.append(wall_clock())
     report()
     try:
         while len(result.indices) < n_impacts:
-            # a simulated rig: ask for the next impact once the trigger is armed
-            if impacts is not None and impact_at is None and trig.state == "armed":
+            if blows and trig.next_sample is not None and trig.state != "triggered" and (
+                    trig.next_sample > blows[-1][0] + settings.record_samples + settings.holdoff_samples):
+                raise StationError(f"the simulated rig gave all {len(blows)} scheduled impacts; "
+                                   f"{len(result.indices)} accepted, {len(result.rejected)} rejected; giving up")
+            # a simulated rig without a schedule: ask for the next impact once the trigger is armed
+            if impacts is not None and not blows and impact_at is None and trig.state == "armed":
                 if next_impact >= len(impacts.peaks_n):
                     raise StationError(f"the simulated rig gave {result.missed_impacts} impacts that did not trigger "
                                        f"(level {settings.level:g}) and {len(result.rejected)} rejected; giving up")
@@ -300,6 +318,8 @@ def acquire(
                 peaks = np.max(np.abs(si), axis=0)
                 levels = {c.name: float(p) for c, p in zip(channels, peaks)}
             for cap in trig.feed(_Block(block.first_sample, block.counts, si)):
+                if blows:
+                    last_peak = _blow_of(blows, cap.trigger_sample)
                 reason = cap.rejection(*policy)
                 if reason is not None:
                     result.rejected.append(reason)
@@ -340,6 +360,24 @@ def acquire(
             result.interrupted = True
         report()
     return result
+
+
+def _schedule(daq: Any, impacts: ImpactPlan | None) -> list[tuple[int, float, bool]]:
+    """Send a plan's scheduled blows to the rig, before START (the counter stands still until then)."""
+    if impacts is None or not impacts.at_samples:
+        return []
+    first = int(daq.status().get("next_sample", 0))
+    blows = [(first + int(at), float(peak), bool(dh))
+             for peak, dh, at in zip(impacts.peaks_n, impacts.double_hits, impacts.at_samples)]
+    for at, peak, dh in blows:
+        daq.impact(peak, double_hit=dh, at_sample=at)
+    return blows
+
+
+def _blow_of(blows: list[tuple[int, float, bool]], trigger_sample: int) -> tuple[float, bool] | None:
+    """(peak, double hit) of the last scheduled blow at or before a trigger sample."""
+    before = [b for b in blows if b[0] <= trigger_sample]
+    return (before[-1][1], before[-1][2]) if before else None
 
 
 def device_metadata(daq: Any, url: str | None = None) -> dict[str, Any]:

@@ -415,8 +415,13 @@ def measurement_of(cap: StoredCapture, path: str | os.PathLike[str]) -> Any:
             f"{[int(r) for r, _ in cap.gaps]}); expected a complete record"
         )
     chans: dict[str, np.ndarray] = {}
-    for ch in cap.channels.values():
-        key = MEASUREMENT_KEYS.get(ch.info.quantity)
+    keys = [MEASUREMENT_KEYS.get(ch.info.quantity) for ch in cap.channels.values()]
+    seen: dict[str, int] = {}
+    for ch, key in zip(cap.channels.values(), keys):
+        if key is not None and key != "force" and keys.count(key) > 1:
+            # several sensors of one quantity (multi-DOF): acc1, acc2 ... or their own names
+            seen[key] = seen.get(key, 0) + 1
+            key = ch.info.name if multi_channel_name(ch.info.name, key) else f"{key}{seen[key]}"
         if key is not None and key not in chans:
             _check_values(ch.si, f"capture {cap.index} of {path}: channel {ch.info.name!r}")
             chans[key] = ch.si
@@ -453,3 +458,11 @@ def _check_values(x: np.ndarray, what: str) -> None:
         i = int(bad[0])
         raise InputFileError(f"{what} holds {x[i]:g} at row {i}; expected finite values within "
                              f"+-{MAX_SI_MAGNITUDE:g} SI units (not a measurement)")
+
+
+def multi_channel_name(name: str, key: str) -> bool:
+    """True when ``name`` is a suffixed response channel of quantity ``key`` (``acc2``, ``acc_tip``)."""
+    from station.readers import MULTI_COLUMN
+
+    m = MULTI_COLUMN.match(name)
+    return m is not None and m.group(1) == key

@@ -54,6 +54,9 @@ def row_key(row: dict[str, Any]) -> tuple[str, int]:
 
 
 def _finite_or_none(v: Any) -> Any:
+    """JSON-safe: a non-finite float becomes None (null), inside mappings too."""
+    if isinstance(v, dict):
+        return {k: _finite_or_none(x) for k, x in v.items()}
     return v if not isinstance(v, float) or math.isfinite(v) else None
 
 

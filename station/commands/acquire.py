@@ -4,7 +4,8 @@
 
 Shows a live status on stderr (armed / triggered / levels / progress), saves each capture as
 soon as it completes, exits cleanly on Ctrl-C keeping what was saved. With a ``sim://``
-device the simulated rig delivers the impacts itself, at varied force levels.
+device the simulated rig delivers the impacts itself, at varied force levels and at fixed
+sample times (the same seed gives the same captures, however busy the machine).
 """
 
 from __future__ import annotations
@@ -120,7 +121,7 @@ def _run(args: argparse.Namespace, cfg: BenchConfig, url: str, simulated: bool, 
         configure_device(daq, cfg)
         channels = cfg.resolve_channels(daq.info.channels)
         settings = cfg.trigger_settings(channels, daq.info.rate_hz)
-        plan = (default_impacts(cfg, settings, channels, args.impacts, daq.info.scenario_json)
+        plan = (default_impacts(cfg, settings, channels, args.impacts, daq.info.scenario_json).scheduled(settings)
                 if simulated else None)
         idle = args.idle_timeout if args.idle_timeout is not None else (10.0 if simulated else None)
         result = acquire(daq, cfg, writer, args.impacts, impacts=plan, on_status=live, idle_timeout_s=idle,

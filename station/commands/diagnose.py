@@ -50,7 +50,7 @@ def register(subparsers: Any) -> None:
                    + ", ".join(MECHANISM_NAMES))
     p.add_argument("--margin", type=fraction, default=DEFAULT_MARGIN, metavar="FRACTION",
                    help="relative cut of the held-out error the winner must exceed (default: %(default)s)")
-    p.add_argument("--fit", default="eddi", choices=FITS,
+    p.add_argument("--method", dest="fit", default="eddi", choices=FITS,
                    help="how the baseline and the extensions are fitted: EDDI over the training "
                         "captures, or least squares on the equation of motion (default: %(default)s)")
     p.add_argument("--save-model", metavar="OUT.json",
@@ -61,8 +61,19 @@ def register(subparsers: Any) -> None:
     from station.commands.identify import add_refine_option
 
     add_refine_option(p)
+    p.add_argument("--driving-point", metavar="CHANNEL",
+                   help="multi-channel captures: the response channel at the hammer (default: the first)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handle)
+
+
+def _multichannel(specs: list[str]) -> bool:
+    """True when the first capture has more than one response channel (acc1, acc2 ...)."""
+    from station.mdof_data import is_multichannel
+    from station.readers import read_measurement
+    from station.session import expand_specs
+
+    return is_multichannel(read_measurement(expand_specs(specs)[0]))
 
 
 def load_records(specs: list[str]) -> tuple[list[Record], float | None]:
@@ -132,6 +143,13 @@ def handle(args: argparse.Namespace) -> int:
         check_output(args.save_model, "json", inputs, option="--save-model")
     if args.report:
         check_output(args.report, "dir", inputs, option="--report")
+    if _multichannel(list(args.captures)):
+        from station.mdof_commands import diagnose_mdof_object, diagnose_mdof_text
+
+        obj = diagnose_mdof_object(list(args.captures), driving_point=args.driving_point, margin=args.margin,
+                                   save_model=args.save_model, refine=args.refine)
+        emit(args.json, diagnose_mdof_text(obj), obj)
+        return 0
     base = None
     if args.model:
         from station.session import load_model_file

@@ -103,7 +103,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("file", metavar="FILE", help="HDF5 session file (all captures) or FILE.h5:N, or a CSV")
     p.add_argument("--through-device", action="store_true",
                    help="stream every capture through the emulated DAQ and the serial driver, check it bit-exact")
-    p.add_argument("--mass", type=finite_positive, default=None, help="mass [kg] (default: the one the captures record)")
+    p.add_argument("--mass", type=finite_positive, default=None, metavar="KG", help="mass [kg] (default: the one the captures record)")
     p.add_argument("--damping", type=damping_terms, default=None, metavar="TERMS", help="damping candidates, comma-separated")
     p.add_argument("--stiffness", type=stiffness_terms, default=None, metavar="TERMS", help="stiffness candidates, comma-separated")
     p.add_argument("--fit", type=nonnegative_int, default=None, metavar="N",

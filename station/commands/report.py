@@ -28,7 +28,7 @@ def register(subparsers: Any) -> None:
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("records", metavar="FILE", nargs="+", help="FILE.h5 (all captures), FILE.h5:N or FILE.csv")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
-    p.add_argument("--mass", type=finite_positive, default=None, help="mass [kg] (default: the one the records store)")
+    p.add_argument("--mass", type=finite_positive, default=None, metavar="KG", help="mass [kg] (default: the one the records store)")
     p.add_argument("--damping", type=damping_terms, default=None, metavar="TERMS", help="damping candidates, comma-separated")
     p.add_argument("--stiffness", type=stiffness_terms, default=None, metavar="TERMS", help="stiffness candidates, comma-separated")
     p.add_argument("--route", choices=("auto", "potential", "lagrangian"), default="auto",

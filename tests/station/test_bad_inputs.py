@@ -310,6 +310,10 @@ CASES: list[tuple[str, list[str]]] = [
     ("out-acquire-onto-config", ["acquire", "--config", _f("cfg_good"), "--device", "sim://duffing-smooth",
                                  "--impacts", "1", "--out", _f("cfg_good")]),
     ("out-demo-onto-file", ["demo", "--out", G]),
+    ("out-campaign-onto-input", ["campaign", G, "--out", G]),
+    ("out-campaign-onto-file", ["campaign", G, "--out", _f("model_list")]),
+    ("opt-campaign-mass-nan", ["campaign", G, "--out", "{tmp}/camp", "--mass", "nan"]),
+    ("opt-campaign-damping-x", ["campaign", G, "--out", "{tmp}/camp", "--damping", "x"]),
     # -- models (station validate MODEL CAPTURE)
     ("model-not-json", ["validate", _f("model_not_json"), G]),
     ("model-wrong-schema", ["validate", _f("model_wrong_schema"), G]),

@@ -145,6 +145,25 @@ def test_campaign_table_row_by_row_and_resume(captures, client, tmp_path):
     assert len((tmp_path / "out" / "rows.jsonl").read_text().splitlines()) == 8
 
 
+def test_validate_and_diagnose_tasks(captures, client, tmp_path):
+    h5 = str(captures / "session.h5")
+    refs = [CaptureRef(h5, 0), CaptureRef(h5, 1)]
+    ident = run_campaign(client, refs[:1], _mass_opts(), Journal(tmp_path / "id", _mass_opts().as_dict()), quiet=True)
+    fitted = pq.read_table(ident.parquet).to_pylist()[0]
+    model_json = (tmp_path / "id" / fitted["model_json"]).read_text()
+    vopts = TaskOptions(task="validate", model_json=model_json)
+    val = run_campaign(client, refs, vopts, Journal(tmp_path / "val", vopts.as_dict()), quiet=True)
+    rows = pq.read_table(val.parquet).to_pylist()
+    assert [r["status"] for r in rows] == ["ok", "ok"] and "b[v]" not in rows[0]  # no coefficients fitted
+    assert rows[0]["nrmse"] == fitted["nrmse"]  # the same model on the same record: the same score
+    assert 0 < rows[1]["nrmse"] < 0.1 and rows[1]["driven_by"] == "force"  # another blow of the same system
+    # a 1 s ring-down is too short for diagnose's three amplitude bands: a row says so
+    dopts = TaskOptions(task="diagnose", mass=SYSTEM.eom.mass, damping=OPTS.damping, stiffness=OPTS.stiffness)
+    diag = run_campaign(client, refs[:1], dopts, Journal(tmp_path / "diag", dopts.as_dict()), quiet=True)
+    row = pq.read_table(diag.parquet).to_pylist()[0]
+    assert row["status"] == "error" and "too short to split into 3 amplitude bands" in row["error"]
+
+
 def test_resume_refuses_other_options(tmp_path):
     Journal(tmp_path, _mass_opts().as_dict())
     with pytest.raises(ConfigError, match="other options \\(stiffness\\)"):
