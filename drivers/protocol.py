@@ -45,6 +45,8 @@ REPLY_HEADER = struct.Struct("<IBB")
 CONFIGURE_BODY = struct.Struct("<dIH")
 #: IMPACT body: peak_force_n f64, double_hit u8.
 IMPACT_BODY = struct.Struct("<dB")
+#: IMPACT_AT body: peak_force_n f64, double_hit u8, at_sample u64.
+IMPACT_AT_BODY = struct.Struct("<dBQ")
 CRC = struct.Struct("<I")
 
 DATA_OFFSET = HEADER.size + DATA_HEADER.size  # first sample byte in a decoded data frame
@@ -62,10 +64,12 @@ class FrameType(enum.IntEnum):
     STOP = 0x44
     STATUS = 0x45
     IMPACT = 0x46  # simulated rig only: deliver a hammer impact
+    IMPACT_AT = 0x47  # simulated rig only: deliver a hammer impact at a given sample counter
 
 
 COMMAND_TYPES = frozenset(
-    {FrameType.IDENTIFY, FrameType.CONFIGURE, FrameType.START, FrameType.STOP, FrameType.STATUS, FrameType.IMPACT}
+    {FrameType.IDENTIFY, FrameType.CONFIGURE, FrameType.START, FrameType.STOP, FrameType.STATUS, FrameType.IMPACT,
+     FrameType.IMPACT_AT}
 )
 
 
@@ -197,12 +201,15 @@ def encode_command(
     block_size: int = 0,
     peak_force_n: float = 0.0,
     double_hit: bool = False,
+    at_sample: int = 0,
 ) -> bytes:
     """A command frame from the host (only the arguments its type uses are read)."""
     if command == FrameType.CONFIGURE:
         body = CONFIGURE_BODY.pack(rate_hz, channel_mask, block_size)
     elif command == FrameType.IMPACT:
         body = IMPACT_BODY.pack(peak_force_n, int(double_hit))
+    elif command == FrameType.IMPACT_AT:
+        body = IMPACT_AT_BODY.pack(peak_force_n, int(double_hit), at_sample)
     else:
         body = b""
     return encode_frame(command, seq, body)

@@ -45,6 +45,7 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 from scipy.interpolate import BSpline
 
+from eddi.calculus import integrate, spline_cumulative_integral
 from eddi.errors import SignalError
 
 #: Minimum number of acceleration zero crossings in the free response.
@@ -424,29 +425,6 @@ class EquilibriumIntegral:
     f1_hz: np.ndarray
 
 
-def spline_cumulative_integral(t: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Cumulative integral of ``y`` from ``t[0]`` through its interpolating cubic spline.
-
-    The trapezoid rule shrinks a sinusoid's integral by ``(w h)^2 / 12`` (0.2 % at 42
-    samples a period, 0.75 % at 21); the spline's error is ``O((w h)^4)``.
-
-    Parameters
-    ----------
-    t : ndarray, shape (n,), [s]
-    y : ndarray, shape (n,)
-
-    Returns
-    -------
-    ndarray, shape (n,)
-        ``int_{t0}^{t} y dt`` (units of ``y`` times s).
-    """
-    from scipy.interpolate import make_interp_spline
-
-    s = make_interp_spline(t, y, k=3).antiderivative()
-    out = s(t)
-    return out - out[0]
-
-
 def _spectral_peaks(y: np.ndarray, rate: float, power: int, rel: float,
                     max_peaks: int = 4) -> list[float]:
     """Frequencies [Hz] of the largest local maxima of ``|Y(f)| / f**power`` (Hann window).
@@ -720,6 +698,52 @@ def condition(
     SignalError
         Bad time base, NaN, no response channel, no motion, too few zero crossings.
     """
+    w = _inputs(t, acc, vel, disp, force)
+    _onset_and_rest(w, pretrigger_samples)
+    _remove_rest_offsets(w, ac_coupling_s)
+    _impact_end_from_force(w)
+    _period(w)
+    if w.disp is not None:
+        _kinematics_from_disp(w)
+    elif w.vel is not None or w.acc is not None:
+        _kinematics_by_integration(w, noise_factor)
+    return _free_window(w, noise_factor)
+
+
+@dataclass
+class _Work:
+    """State passed between the steps of :func:`condition` (internal, mutable)."""
+
+    t: np.ndarray
+    rate: float
+    acc: np.ndarray | None
+    vel: np.ndarray | None
+    disp: np.ndarray | None
+    force: np.ndarray | None
+    resp_name: str
+    resp: np.ndarray
+    notes: list[str]
+    margin: int = 2
+    start: int = 0
+    rest: bool = False
+    noise_stop: int = 0
+    sigma: float = 0.0
+    f_sigma: float = 0.0
+    impact_end: int = -1
+    period_s: float = 0.0
+    x: np.ndarray | None = None
+    v: np.ndarray | None = None
+    a: np.ndarray | None = None
+    method: str = ""
+
+    @property
+    def n(self) -> int:
+        return self.t.size
+
+
+def _inputs(t: np.ndarray, acc: np.ndarray | None, vel: np.ndarray | None, disp: np.ndarray | None,
+            force: np.ndarray | None) -> _Work:
+    """Check the channels; the exact uniform grid; the response channel that shows the motion."""
     rate = check_time(t)
     t = np.asarray(t, dtype=float)
     n = t.size
@@ -731,185 +755,243 @@ def condition(
     vel = None if vel is None else check_channel("vel", vel, n)
     disp = None if disp is None else check_channel("disp", disp, n)
     force = None if force is None else check_channel("force", force, n)
-    notes: list[str] = []
-
-    # the measured response channel that says where the motion is
     if acc is not None:
-        resp_name, resp = "acc", acc
+        name, resp = "acc", acc
     elif vel is not None:
-        resp_name, resp = "vel", vel
+        name, resp = "vel", vel
     else:
-        resp_name, resp = "disp", disp  # type: ignore[assignment]
+        name, resp = "disp", disp
+    return _Work(t, rate, acc, vel, disp, force, name, resp, [],  # type: ignore[arg-type]
+                 margin=max(2, int(round(2e-4 * rate))))
 
-    # -- onset of the motion and the rest before it --------------------------------------
-    margin = max(2, int(round(2e-4 * rate)))
+
+def _onset_and_rest(w: _Work, pretrigger_samples: int | None) -> None:
+    """Onset of the motion, whether a rest was seen before it, and the response's noise RMS."""
+    n, resp = w.n, w.resp
     head = max(8, min(pretrigger_samples or n // 20, n // 5))
-    if force is not None and np.ptp(force) > 0:
-        onset, _ = _onset(force - np.median(force[:head]), head)
+    if w.force is not None and np.ptp(w.force) > 0:
+        onset, _ = _onset(w.force - np.median(w.force[:head]), head)
     else:
         onset, _ = _onset(resp - np.median(resp[:head]), head)
     if pretrigger_samples is not None:
         if not 0 <= pretrigger_samples < n:
             raise SignalError(f"pretrigger_samples must be in 0..{n - 1}, got {pretrigger_samples}")
         onset = min(onset, int(pretrigger_samples)) if pretrigger_samples > 0 else onset
-    start = max(0, onset - margin)
+    start = max(0, onset - w.margin)
     rest = start >= 32 if pretrigger_samples is None else (pretrigger_samples > 0 and start > 0)
     if rest and pretrigger_samples is None:
         # rest means quiet: the head must be small compared with the response
-        head = resp[:start]
-        if np.std(head) > 0.02 * np.max(np.abs(resp - np.mean(head))):
+        quiet = resp[:start]
+        if np.std(quiet) > 0.02 * np.max(np.abs(resp - np.mean(quiet))):
             rest = False
-    if not rest:
-        start = 0
-    noise_stop = max(0, start - margin) if rest else 0
-    sigma = noise_rms(resp, noise_stop)
-    notes.append(f"motion starts at sample {start} ({'rest before' if rest else 'no rest seen'})")
+    w.start = start if rest else 0
+    w.rest = rest
+    w.noise_stop = max(0, w.start - w.margin) if rest else 0
+    w.sigma = noise_rms(resp, w.noise_stop)
+    w.notes.append(f"motion starts at sample {w.start} ({'rest before' if rest else 'no rest seen'})")
 
-    # remove offsets seen at rest
-    if force is not None:
-        f_off = float(np.mean(force[:noise_stop])) if noise_stop >= 8 else float(np.median(force[: max(8, n // 50)]))
-        force = force - f_off
-    if acc is not None and rest and noise_stop >= 8:
-        acc = acc - float(np.mean(acc[:noise_stop]))
-    if acc is not None and ac_coupling_s is not None:
+
+def _remove_rest_offsets(w: _Work, ac_coupling_s: float | None) -> None:
+    """Offsets seen at rest removed from the force and the acceleration; AC coupling inverted."""
+    n, ns = w.n, w.noise_stop
+    if w.force is not None:
+        f_off = float(np.mean(w.force[:ns])) if ns >= 8 else float(np.median(w.force[: max(8, n // 50)]))
+        w.force = w.force - f_off
+    if w.acc is not None and w.rest and ns >= 8:
+        w.acc = w.acc - float(np.mean(w.acc[:ns]))
+    if w.acc is not None and ac_coupling_s is not None:
         if not ac_coupling_s > 0:
             raise SignalError(f"ac_coupling_s must be > 0, got {ac_coupling_s}")
-        acc = acc + cumulative_trapezoid(acc, t, initial=0.0) / ac_coupling_s
-        notes.append(f"AC coupling ({ac_coupling_s:g} s) inverted")
+        w.acc = w.acc + cumulative_trapezoid(w.acc, w.t, initial=0.0) / ac_coupling_s
+        w.notes.append(f"AC coupling ({ac_coupling_s:g} s) inverted")
 
-    # -- impact end --------------------------------------------------------------------
-    f_sigma = 0.0
-    if force is not None and np.ptp(force) > 0:
-        f_sigma = noise_rms(force, noise_stop)
-        f_peak_i = int(np.argmax(np.abs(force)))
-        thr = max(5.0 * f_sigma, 0.01 * abs(float(force[f_peak_i])))
-        look = force[f_peak_i: min(n, f_peak_i + int(0.1 * rate))]
-        above = np.nonzero(np.abs(look) > thr)[0]
-        impact_end = min(n - 1, f_peak_i + int(above[-1]) + 1 + margin)
-        notes.append(f"impact ends at sample {impact_end} (force within {thr:.3g} N of zero)")
-    else:
-        impact_end = -1  # decided after integration (first extremum of x)
 
-    # -- period and crossings of the measured response -----------------------------------
-    hyst = max(3.0 * sigma, 1e-9 * float(np.max(np.abs(resp))))
-    base = resp if resp_name == "acc" else resp - np.median(resp[start:])
-    crs = crossings(base, hyst, start=max(start, impact_end))
+def _impact_end_from_force(w: _Work) -> None:
+    """End of the impact where the force returns within its noise of zero (force measured)."""
+    f = w.force
+    if f is None or not np.ptp(f) > 0:
+        return  # decided after integration (first extremum of x)
+    w.f_sigma = noise_rms(f, w.noise_stop)
+    f_peak_i = int(np.argmax(np.abs(f)))
+    thr = max(5.0 * w.f_sigma, 0.01 * abs(float(f[f_peak_i])))
+    look = f[f_peak_i: min(w.n, f_peak_i + int(0.1 * w.rate))]
+    above = np.nonzero(np.abs(look) > thr)[0]
+    w.impact_end = min(w.n - 1, f_peak_i + int(above[-1]) + 1 + w.margin)
+    w.notes.append(f"impact ends at sample {w.impact_end} (force within {thr:.3g} N of zero)")
+
+
+def _period(w: _Work) -> None:
+    """Longest period of the response, from its zero crossings."""
+    resp = w.resp
+    hyst = max(3.0 * w.sigma, 1e-9 * float(np.max(np.abs(resp))))
+    base = resp if w.resp_name == "acc" else resp - np.median(resp[w.start:])
+    crs = crossings(base, hyst, start=max(w.start, w.impact_end))
     if crs.size < MIN_CROSSINGS:
         raise SignalError(
-            f"too few zero crossings of {resp_name} in the response: {crs.size}, expected >= {MIN_CROSSINGS}"
+            f"too few zero crossings of {w.resp_name} in the response: {crs.size}, expected >= {MIN_CROSSINGS}"
         )
     half = np.diff(crs)
-    period_s = 2.0 * float(np.percentile(half[: max(4, half.size // 2)], 90)) / rate
-    knot_s = KNOT_PERIODS * period_s
-    notes.append(f"longest period {period_s:.4g} s; drift knots every {knot_s:.4g} s")
+    w.period_s = 2.0 * float(np.percentile(half[: max(4, half.size // 2)], 90)) / w.rate
+    w.notes.append(f"longest period {w.period_s:.4g} s; drift knots every {KNOT_PERIODS * w.period_s:.4g} s")
 
-    # -- x, v, a -----------------------------------------------------------------------
-    def anchored(x_int: np.ndarray, v_int: np.ndarray, a_for_anchor: np.ndarray, first: int) -> BSpline:
-        a_sigma = noise_rms(a_for_anchor, noise_stop)
-        h = max(3.0 * a_sigma, 1e-9 * float(np.max(np.abs(a_for_anchor))))
-        anc = crossings(a_for_anchor, h, start=first)
-        if impact_end < 0 and anc.size:
-            anc = anc[1:]  # no force: the first crossing is at the end of the impact
-        stop = _envelope_stop(a_for_anchor, first, a_sigma, noise_factor, period_s, rate)
-        anc = anc[anc < stop]
-        if anc.size < MIN_CROSSINGS:
-            raise SignalError(
-                f"too few zero crossings of the acceleration above the noise: {anc.size}, expected >= {MIN_CROSSINGS}"
-            )
-        # samples within +-2 % of a period of each crossing (|x| below ~12 % of its amplitude)
-        half_w = max(1, int(round(ANCHOR_HALF_WIDTH * period_s * rate)))
-        centre = np.rint(anc).astype(int)
-        near = (centre[:, None] + np.arange(-half_w, half_w + 1)[None, :]).ravel()
-        near = near[(near > max(first, start)) & (near < stop)]
-        step = max(1, int(round(period_s * rate / (2 * half_w + 1) / 2.0)))
-        tail = np.arange(stop, n, step)
-        pts = np.unique(np.concatenate((near, tail)))
-        local = -np.column_stack((a_for_anchor[pts], v_int[pts]))
-        return _drift_spline(t, x_int, pts, knot_s, start, clamped=rest, local=local)
 
-    first_anchor = max(start, impact_end)
-    split = impact_end if impact_end >= 0 else start
-    if disp is not None and vel is not None:
-        x, v = disp, vel
-        a = acc if acc is not None else _sg_derivative(v, rate, period_s, 1, split)
-        method = "disp and vel as measured" + (", acc as measured" if acc is not None else ", acc by Savitzky-Golay derivative of vel")
-    elif disp is not None:
-        x = disp
-        v = _sg_derivative(x, rate, period_s, 1, split) if vel is None else vel
-        a = acc if acc is not None else _sg_derivative(x, rate, period_s, 2, split)
-        method = "disp as measured; vel and acc by Savitzky-Golay derivatives"
+def _kinematics_from_disp(w: _Work) -> None:
+    """A measured displacement: ``v`` and ``a`` as measured or by Savitzky-Golay derivatives."""
+    split = w.impact_end if w.impact_end >= 0 else w.start
+    x = w.disp
+    assert x is not None
+    if w.vel is not None:
+        w.x, w.v = x, w.vel
+        w.a = w.acc if w.acc is not None else _sg_derivative(w.vel, w.rate, w.period_s, 1, split)
+        w.method = "disp and vel as measured" + (", acc as measured" if w.acc is not None
+                                                 else ", acc by Savitzky-Golay derivative of vel")
+        return
+    w.x = x
+    w.v = _sg_derivative(x, w.rate, w.period_s, 1, split)
+    w.a = w.acc if w.acc is not None else _sg_derivative(x, w.rate, w.period_s, 2, split)
+    w.method = "disp as measured; vel and acc by Savitzky-Golay derivatives"
+
+
+def _anchored_drift(w: _Work, x_int: np.ndarray, v_int: np.ndarray, a_for_anchor: np.ndarray,
+                    noise_factor: float) -> tuple[np.ndarray, np.ndarray]:
+    """The drift ``d, d'`` of an integrated ``x``, anchored where ``a = 0`` and in the noise tail."""
+    first = max(w.start, w.impact_end)
+    a_sigma = noise_rms(a_for_anchor, w.noise_stop)
+    h = max(3.0 * a_sigma, 1e-9 * float(np.max(np.abs(a_for_anchor))))
+    anc = crossings(a_for_anchor, h, start=first)
+    if w.impact_end < 0 and anc.size:
+        anc = anc[1:]  # no force: the first crossing is at the end of the impact
+    stop = _envelope_stop(a_for_anchor, first, a_sigma, noise_factor, w.period_s, w.rate)
+    anc = anc[anc < stop]
+    if anc.size < MIN_CROSSINGS:
+        raise SignalError(
+            f"too few zero crossings of the acceleration above the noise: {anc.size}, expected >= {MIN_CROSSINGS}"
+        )
+    # samples within +-2 % of a period of each crossing (|x| below ~12 % of its amplitude)
+    half_w = max(1, int(round(ANCHOR_HALF_WIDTH * w.period_s * w.rate)))
+    centre = np.rint(anc).astype(int)
+    near = (centre[:, None] + np.arange(-half_w, half_w + 1)[None, :]).ravel()
+    near = near[(near > max(first, w.start)) & (near < stop)]
+    step = max(1, int(round(w.period_s * w.rate / (2 * half_w + 1) / 2.0)))
+    tail = np.arange(stop, w.n, step)
+    pts = np.unique(np.concatenate((near, tail)))
+    local = -np.column_stack((a_for_anchor[pts], v_int[pts]))
+    spl = _drift_spline(w.t, x_int, pts, KNOT_PERIODS * w.period_s, w.start, clamped=w.rest, local=local)
+    return _drift_spline_eval(spl, w.t, w.start)
+
+
+def _kinematics_by_integration(w: _Work, noise_factor: float) -> None:
+    """Velocity and/or acceleration: integrate (from rest, or about the equilibrium), remove the drift."""
+    eq: EquilibriumIntegral | None = None
+    one_force = True
+    if not w.rest:
+        # recorded already in motion: integration constants unknown; first integrate about the
+        # equilibrium (valid for any number of modes), then check whether the record behaves as
+        # one restoring force (x ~ 0 where a = 0)
+        eq = integrate_about_equilibrium(w.t, vel=w.vel) if w.vel is not None else \
+            integrate_about_equilibrium(w.t, acc=w.acc)
+        w.a = w.acc if w.acc is not None else _sg_derivative_modes(w.vel, w.rate, w.period_s)  # type: ignore[arg-type]
+        v_eq = w.vel if w.vel is not None else eq.v
+        resid = anchor_residual(eq.x, v_eq, w.a)
+        one_force = resid < ONE_FORCE_RESIDUAL
+        w.notes.append(_equilibrium_note(eq) + f"; x at the acc zero crossings off a single "
+                       f"restoring force by {resid:.3g} of its RMS")
+    if not one_force:
+        assert eq is not None
+        w.x, w.v = eq.x, (w.vel if w.vel is not None else eq.v)
+        w.method = ("vel as measured" if w.vel is not None else "acc") + \
+            "; integrated about the equilibrium (zero mean over every cycle of every mode)" + \
+            ("; acc as measured" if w.acc is not None else "; acc by Savitzky-Golay derivative of vel")
+    elif w.vel is not None:
+        _integrate_velocity(w, noise_factor)
     else:
-        # vel (and maybe acc), or acc alone
-        eq: EquilibriumIntegral | None = None
-        one_force = True
-        if not rest:
-            # recorded already in motion: integration constants unknown; first integrate
-            # about the equilibrium (valid for any number of modes), then check whether the
-            # record behaves as one restoring force (x ~ 0 where a = 0)
-            eq = integrate_about_equilibrium(t, vel=vel) if vel is not None else \
-                integrate_about_equilibrium(t, acc=acc)
-            a = acc if acc is not None else _sg_derivative_modes(vel, rate, period_s)  # type: ignore[arg-type]
-            v_eq = vel if vel is not None else eq.v
-            resid = anchor_residual(eq.x, v_eq, a)
-            one_force = resid < ONE_FORCE_RESIDUAL
-            notes.append(_equilibrium_note(eq) + f"; x at the acc zero crossings off a single "
-                         f"restoring force by {resid:.3g} of its RMS")
-        if not one_force:
-            assert eq is not None
-            x, v = eq.x, (vel if vel is not None else eq.v)
-            method = ("vel as measured" if vel is not None else "acc") + \
-                "; integrated about the equilibrium (zero mean over every cycle of every mode)" + \
-                ("; acc as measured" if acc is not None else "; acc by Savitzky-Golay derivative of vel")
-        elif vel is not None:
-            v = vel
-            if rest:
-                a = acc if acc is not None else _sg_derivative(v, rate, period_s, 1, split)
-            v0 = v - (float(np.mean(v[:noise_stop])) if rest and noise_stop >= 8 else 0.0)
-            x_int = np.zeros(n)
-            x_int[start:] = cumulative_trapezoid(v0[start:], t[start:], initial=0.0) if rest \
-                else spline_cumulative_integral(t, v0)
-            d = _drift_spline_eval(anchored(x_int, v0, a, first_anchor), t, start)
-            x = x_int - d[0]
-            method = ("vel as measured; disp by integration " + ("from rest" if rest else "from the start")
-                      + " with drift anchored at acc zero crossings")
-        else:
-            assert acc is not None
-            a = acc
-            if eq is None:
-                v_int = np.zeros(n)
-                x_int = np.zeros(n)
-                v_int[start:] = cumulative_trapezoid(a[start:], t[start:], initial=0.0)
-                x_int[start:] = cumulative_trapezoid(v_int[start:], t[start:], initial=0.0)
-            else:
-                # unknown v0 and x0: a line in x, removed by least squares before the anchored
-                # fit (it dwarfs x; the cycle-mean v is biased where a damped response chirps)
-                v_int = spline_cumulative_integral(t, a)
-                x_int = spline_cumulative_integral(t, v_int)
-                line = np.polynomial.polynomial.polyfit(t - t[0], x_int, 1)
-                x_int = x_int - line[0] - line[1] * (t - t[0])
-                v_int = v_int - line[1]
-            d, dd = _drift_spline_eval(anchored(x_int, v_int, a, first_anchor), t, start)
-            x = x_int - d
-            v = v_int - dd
-            method = ("acc integrated from rest" if rest else "acc integrated about the equilibrium") + \
-                "; drift anchored at acc zero crossings (x = 0) and the noise tail"
+        _integrate_acceleration(w, eq, noise_factor)
 
-    # -- free-response window -------------------------------------------------------------
+
+def _integrate_velocity(w: _Work, noise_factor: float) -> None:
+    """A measured velocity (one restoring force): ``x`` by integration, drift anchored."""
+    vel, start, dt = w.vel, w.start, 1.0 / w.rate
+    assert vel is not None
+    split = w.impact_end if w.impact_end >= 0 else start
+    if w.rest:
+        w.a = w.acc if w.acc is not None else _sg_derivative(vel, w.rate, w.period_s, 1, split)
+    v0 = vel - (float(np.mean(vel[:w.noise_stop])) if w.rest and w.noise_stop >= 8 else 0.0)
+    x_int = np.zeros(w.n)
+    x_int[start:] = (integrate(v0[start:], dt, smooth_from=_pulse_end(v0, start, w.impact_end) - start)
+                     if w.rest else spline_cumulative_integral(w.t, v0))
+    assert w.a is not None
+    d, _ = _anchored_drift(w, x_int, v0, w.a, noise_factor)
+    w.x, w.v = x_int - d, vel
+    w.method = ("vel as measured; disp by integration " + ("from rest" if w.rest else "from the start")
+                + " with drift anchored at acc zero crossings")
+
+
+def _integrate_acceleration(w: _Work, eq: EquilibriumIntegral | None, noise_factor: float) -> None:
+    """A measured acceleration alone: ``v, x`` by integration, drift anchored."""
+    a, start, t = w.acc, w.start, w.t
+    assert a is not None
+    w.a = a
+    if eq is None:
+        v_int = np.zeros(w.n)
+        x_int = np.zeros(w.n)
+        # 4th-order integration (the trapezoid loses (w h)^2 / 12 a pass: eddi.calculus),
+        # trapezoid over the impact (a pulse is not smooth)
+        smooth = _pulse_end(a, start, w.impact_end) - start
+        v_int[start:] = integrate(a[start:], 1.0 / w.rate, smooth_from=smooth)
+        x_int[start:] = integrate(v_int[start:], 1.0 / w.rate, smooth_from=smooth)
+    else:
+        # unknown v0 and x0: a line in x, removed by least squares before the anchored fit (it
+        # dwarfs x; the cycle-mean v is biased where a damped response chirps)
+        v_int = spline_cumulative_integral(t, a)
+        x_int = spline_cumulative_integral(t, v_int)
+        line = np.polynomial.polynomial.polyfit(t - t[0], x_int, 1)
+        x_int = x_int - line[0] - line[1] * (t - t[0])
+        v_int = v_int - line[1]
+    d, dd = _anchored_drift(w, x_int, v_int, a, noise_factor)
+    w.x, w.v = x_int - d, v_int - dd
+    w.method = ("acc integrated from rest" if w.rest else "acc integrated about the equilibrium") + \
+        "; drift anchored at acc zero crossings (x = 0) and the noise tail"
+
+
+def _free_window(w: _Work, noise_factor: float) -> ConditionedSignal:
+    """The free-response window: after the impact, until the response sinks into the noise."""
+    x, v, a, n, start = w.x, w.v, w.a, w.n, w.start
+    assert x is not None and v is not None and a is not None
+    impact_end = w.impact_end
     if impact_end < 0:
-        # without force: from the first extremum of x after the motion starts
-        vx = crossings(v, max(3.0 * noise_rms(v, noise_stop), 1e-12), start=start)
-        impact_end = int(math.ceil(vx[0])) if (rest and vx.size) else start
+        # without force: from the first extremum of x after the motion starts (the first
+        # crossing of v after v has left its rest: at the onset v is still ~0)
+        moving = np.nonzero(np.abs(v[start:]) >= 0.3 * float(np.max(np.abs(v[start:]))))[0]
+        first_move = start + (int(moving[0]) if moving.size else 0)
+        vx = crossings(v, max(3.0 * noise_rms(v, w.noise_stop), 1e-12), start=first_move)
+        impact_end = int(math.ceil(vx[0])) if (w.rest and vx.size) else start
     free_start = min(impact_end, n - 2)
-    free_stop = _envelope_stop(resp if resp_name != "disp" else x, free_start, sigma, noise_factor, period_s, rate)
+    free_stop = _envelope_stop(w.resp if w.resp_name != "disp" else x, free_start, w.sigma, noise_factor,
+                               w.period_s, w.rate)
     free_stop = max(free_stop, min(n, free_start + 2))
-    notes.append(f"noise RMS of {resp_name}: {sigma:.3g}; free response [{free_start}, {free_stop})")
+    w.notes.append(f"noise RMS of {w.resp_name}: {w.sigma:.3g}; free response [{free_start}, {free_stop})")
     return ConditionedSignal(
-        t=t, x=np.ascontiguousarray(x), v=np.ascontiguousarray(v), a=np.ascontiguousarray(a),
-        force=force, rate_hz=rate, free_start=int(free_start), free_stop=int(free_stop),
-        method=method, notes=tuple(notes), impact_start=int(start), impact_end=int(impact_end),
-        noise_rms=sigma, force_noise_rms=f_sigma, acc_measured=acc is not None,
-        response=resp_name,
+        t=w.t, x=np.ascontiguousarray(x), v=np.ascontiguousarray(v), a=np.ascontiguousarray(a),
+        force=w.force, rate_hz=w.rate, free_start=int(free_start), free_stop=int(free_stop),
+        method=w.method, notes=tuple(w.notes), impact_start=int(start), impact_end=int(impact_end),
+        noise_rms=w.sigma, force_noise_rms=w.f_sigma, acc_measured=w.acc is not None,
+        response=w.resp_name,
     )
+
+
+def _pulse_end(y: np.ndarray, start: int, impact_end: int) -> int:
+    """Last sample of the impact (plus 3, the stencil's reach) for the integration.
+
+    From the force when it was measured (``impact_end >= 0``); otherwise symmetric about the
+    first peak of ``|y|`` after ``start`` (a hammer pulse is near a half-sine).
+    """
+    if impact_end >= 0:
+        return impact_end + 3
+    seg = np.abs(y[start:])
+    if seg.size == 0:
+        return start
+    first_peak = int(np.argmax(seg[: max(4, seg.size // 20)]))
+    return start + 2 * first_peak + 3
 
 
 def _equilibrium_note(eq: EquilibriumIntegral) -> str:

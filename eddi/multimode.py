@@ -46,6 +46,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 from scipy import interpolate, optimize, signal
 
+from eddi.calculus import differentiate, integrate
 from eddi.errors import IdentificationError, ModelError, SignalError
 from eddi.model import EquationOfMotion
 from eddi.simulate import simulate
@@ -214,47 +215,6 @@ def _check_signal(t: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray,
     return grid, v, dt
 
 
-def integrate_high_order(v: np.ndarray, dt: float) -> np.ndarray:
-    """Cumulative integral of a sampled rate, 4th-order accurate in the interior.
-
-    ``x[n+1] = x[n] + dt/24 (-v[n-1] + 13 v[n] + 13 v[n+1] - v[n+2])`` (trapezoid at the ends),
-    ``x[0] = 0``. The constant and the drift are left to the caller (a band-pass removes them).
-
-    Parameters
-    ----------
-    v : ndarray, shape (n,)
-    dt : float, [s]
-
-    Returns
-    -------
-    ndarray, shape (n,)
-    """
-    v = np.asarray(v, dtype=float)
-    inc = 0.5 * dt * (v[:-1] + v[1:])
-    inc[1:-1] = dt / 24.0 * (-v[:-3] + 13.0 * v[1:-2] + 13.0 * v[2:-1] - v[3:])
-    return np.concatenate(([0.0], np.cumsum(inc)))
-
-
-def differentiate_high_order(v: np.ndarray, dt: float) -> np.ndarray:
-    """Derivative of a sampled signal, 6th-order central difference (lower order at the ends).
-
-    Parameters
-    ----------
-    v : ndarray, shape (n,)
-    dt : float, [s]
-
-    Returns
-    -------
-    ndarray, shape (n,)
-    """
-    v = np.asarray(v, dtype=float)
-    a = np.gradient(v, dt, edge_order=2)
-    a[3:-3] = (
-        -v[:-6] + 9.0 * v[1:-5] - 45.0 * v[2:-4] + 45.0 * v[4:-2] - 9.0 * v[5:-1] + v[6:]
-    ) / (60.0 * dt)
-    return a
-
-
 def _ar_predict(seed: np.ndarray, n: int, order: int, fit: np.ndarray) -> np.ndarray:
     """Continue ``seed`` forward by ``n`` samples with an AR model fitted on ``fit``."""
     p = int(min(order, max(1, fit.size // 4)))
@@ -358,8 +318,8 @@ def separate_modes(
     n = v.size
     n_pad = min(n, int(round(pad_s * fs)))
     vp = _ar_extend(v, n_pad, ar_order)
-    x_raw = signal.detrend(integrate_high_order(vp, dt), type="linear")
-    a_raw = differentiate_high_order(vp, dt)
+    x_raw = signal.detrend(integrate(vp, dt), type="linear")
+    a_raw = differentiate(vp, dt)
     keep = slice(n_pad, n_pad + n)
     xs, vs, as_ = [], [], []
     for lo, hi in bands_hz:
@@ -901,11 +861,9 @@ __all__ = [
     "Prediction",
     "TrajectoryErrors",
     "as_modal_sum",
-    "differentiate_high_order",
     "estimate_initial_states",
     "identify_modes",
     "impact_index",
-    "integrate_high_order",
     "load_any_model",
     "predict_record",
     "separate_modes",

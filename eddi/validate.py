@@ -21,6 +21,7 @@ from eddi.energy import check_series, sample_window
 from eddi.errors import SignalError
 from eddi.model import EquationOfMotion
 from eddi.simulate import simulate
+from eddi.stability import response_warnings
 
 
 @dataclass(frozen=True)
@@ -41,7 +42,11 @@ class Validation:
     window : tuple of int
         ``[start, stop)`` sample indices compared.
     diverged : bool
-        True when the simulation blew up.
+        True when the simulation blew up, exceeds the measured peak by
+        :data:`eddi.stability.PEAK_RATIO`, grows, or does not decay where the measurement
+        does (:func:`eddi.stability.response_warnings`).
+    warnings : tuple of str
+        Why it diverged, in plain sentences (empty otherwise).
     """
 
     nrmse: float
@@ -53,6 +58,7 @@ class Validation:
     v_simulated: np.ndarray
     window: tuple[int, int]
     diverged: bool
+    warnings: tuple[str, ...] = ()
 
 
 def validate(
@@ -120,6 +126,7 @@ def validate(
         xs, vs, div = sim.x, sim.v, sim.diverged
     xm = x[w0:w1]
     vm = v[w0:w1] if v is not None else None
+    warnings = response_warnings(xm, xs, blew_up=bool(div))
     denom = float(np.linalg.norm(xm)) or 1.0
     if div or not np.all(np.isfinite(xs)):
         nrmse = float("inf")
@@ -132,7 +139,8 @@ def validate(
             nmte = float(np.mean(np.abs(vs - vm)) / vmax)
     return Validation(
         nrmse=nrmse, nmte=nmte, t=t[w0:w1], x_measured=xm, x_simulated=xs,
-        v_measured=vm, v_simulated=vs, window=(w0, w1), diverged=bool(div),
+        v_measured=vm, v_simulated=vs, window=(w0, w1), diverged=bool(div) or bool(warnings),
+        warnings=warnings,
     )
 
 

@@ -82,3 +82,38 @@ def nonnegative_int(text: str) -> int:
     if v < 0:
         raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}")
     return v
+
+
+def damping_terms(text: str) -> str:
+    """Comma-separated damping candidates; each must involve the rate ``v`` (else it is not damping)."""
+    return _terms(text, damping=True)
+
+
+def stiffness_terms(text: str) -> str:
+    """Comma-separated stiffness candidates; each must depend on ``x`` only."""
+    return _terms(text, damping=False)
+
+
+def _terms(text: str, damping: bool) -> str:
+    from eddi.errors import EddiError
+    from eddi.terms import parse_terms
+
+    try:
+        terms = parse_terms(text)
+    except (EddiError, ValueError) as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    for t in terms:
+        if damping and not t.depends_on_v:
+            raise argparse.ArgumentTypeError(f"damping term {t.text!r} does not involve the rate v; expected "
+                                             "terms such as v, x^2*v, v^3 (x-only terms are stiffness)")
+        if not damping and t.depends_on_v:
+            raise argparse.ArgumentTypeError(f"stiffness term {t.text!r} involves the rate v; expected terms of "
+                                             "x only, such as x, x^3 (v terms are damping)")
+    return text
+
+
+def add_refine_option(p: argparse.ArgumentParser) -> None:
+    """``--refine/--no-refine``, the same on every command that identifies."""
+    p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=True,
+                   help="try the output-error refinement EDDI seeds and keep it when it lowers the "
+                        "validation error (default: on; the EDDI estimate is reported too)")

@@ -60,6 +60,9 @@ class RecordCheck:
     quantity : str
         ``"displacement"`` or ``"velocity"``: what ``measured`` / ``simulated`` are.
     diverged : bool
+        The simulation blew up, grew, or does not decay where the record does.
+    warnings : tuple of str
+        Why (:func:`eddi.stability.response_warnings`).
     """
 
     source: str
@@ -72,12 +75,13 @@ class RecordCheck:
     simulated: np.ndarray
     quantity: str
     diverged: bool
+    warnings: tuple[str, ...] = ()
 
     def as_dict(self) -> dict[str, object]:
         """JSON-ready figures of merit (no arrays)."""
         return {"source": self.source, "nrmse": self.nrmse, "nmte": self.nmte, "driven_by": self.driven_by,
                 "peak_force_n": self.peak_force_n, "window_s": [float(self.t[0]), float(self.t[-1])],
-                "diverged": self.diverged}
+                "diverged": self.diverged, "warnings": list(self.warnings)}
 
 
 @dataclass(frozen=True)
@@ -145,6 +149,50 @@ def expand_specs(specs: Sequence[str]) -> list[str]:
 def read_all(specs: Sequence[str]) -> tuple[Measurement, ...]:
     """Read every record of :func:`expand_specs` (``FILE.h5`` means all its captures)."""
     return tuple(read_measurement(s) for s in expand_specs(specs))
+
+
+def on_one_grid(measurements: Sequence[Measurement]) -> tuple[list[Measurement], str | None]:
+    """Records whose clocks differ by up to 200 ppm, resampled onto the first one's rate.
+
+    Returns
+    -------
+    measurements : list of Measurement
+        Unchanged when the rates agree within 1 ppm.
+    note : str or None
+        What was resampled (to be said), None when nothing was.
+
+    Raises
+    ------
+    InputFileError
+        When rates differ by more than 200 ppm (:data:`eddi.calculus.RATE_TOLERANCE`).
+    """
+    from dataclasses import replace
+
+    from eddi.calculus import common_rate, resample
+
+    recs = list(measurements)
+    if not recs:
+        return recs, None
+    try:
+        rate = common_rate([m.rate_hz for m in recs])
+    except ValueError as exc:
+        raise InputFileError(f"{recs[0].source} and the others: {exc}") from None
+    if rate is None:
+        return recs, None
+    out: list[Measurement] = []
+    moved: list[str] = []
+    for m in recs:
+        if abs(m.rate_hz - rate) <= 1e-6 * rate:
+            out.append(m)
+            continue
+        chans = {}
+        t_new = m.t
+        for name, y in m.channels.items():
+            t_new, chans[name] = resample(m.t, y, rate)
+        pre = None if m.pretrigger_samples is None else int(round(m.pretrigger_samples * rate / m.rate_hz))
+        out.append(replace(m, t=t_new, channels=chans, rate_hz=rate, pretrigger_samples=pre))
+        moved.append(f"{m.source} ({(m.rate_hz / rate - 1) * 1e6:+.0f} ppm)")
+    return out, (f"resampled onto {rate:.6g} Hz (5th-order spline): " + ", ".join(moved))
 
 
 def session_mass(measurements: Sequence[Measurement], mass: float | None) -> float:
@@ -217,7 +265,8 @@ def validate_measurement(model: EquationOfMotion | ModalSumModel, meas: Measurem
 def record_check(meas: Measurement, val: Validation, by_force: bool) -> RecordCheck:
     """A :class:`RecordCheck` of a validation of ``meas``."""
     return RecordCheck(meas.source, val.nrmse, val.nmte, "force" if by_force else "initial state",
-                       peak_force(meas), val.t, val.x_measured, val.x_simulated, "displacement", val.diverged)
+                       peak_force(meas), val.t, val.x_measured, val.x_simulated, "displacement", val.diverged,
+                       val.warnings)
 
 
 def run_session(

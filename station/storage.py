@@ -190,12 +190,13 @@ def _check_root(f: h5py.File, p: Path) -> None:
         fmt = fmt.decode()
     if fmt != FORMAT_NAME:
         raise CaptureFormatError(f"capture file {p}: expected root attribute format={FORMAT_NAME!r}, got {fmt!r} (foreign HDF5 file)")
+    raw = _decode(f.attrs.get("format_version"))
     try:
-        version = int(f.attrs.get("format_version", -1))
+        version = int(raw)
     except (TypeError, ValueError):
-        version = -1
+        version = None
     if version not in READABLE_VERSIONS:
-        raise CaptureFormatError(f"capture file {p}: expected format_version in {list(READABLE_VERSIONS)}, got {version}")
+        raise CaptureFormatError(f"capture file {p}: expected format_version in {list(READABLE_VERSIONS)}, got {raw!r}")
     caps = f.get("captures", getlink=False) if "captures" in f else None
     if not isinstance(caps, h5py.Group):
         found = "none" if caps is None else f"a {type(caps).__name__.lower()}"
@@ -259,7 +260,11 @@ def _resolve(f: h5py.File, path: Path, capture: int | str | None) -> tuple[int, 
         idx += n
     if not 0 <= idx < n:
         raise InputFileError(f"capture {capture}: expected an index 0..{n - 1}, the file {path.name} holds {n} capture(s)")
-    return idx, caps[names[idx]]
+    g = caps[names[idx]]
+    if not isinstance(g, h5py.Group):
+        raise CaptureFormatError(f"capture {idx} of {path}: /captures/{names[idx]} is a {type(g).__name__.lower()}, "
+                                 "expected a group (damaged file)")
+    return idx, g
 
 
 def list_captures(path: str | os.PathLike[str]) -> list[CaptureSummary]:

@@ -4,11 +4,11 @@ The single-channel conditioning (:func:`eddi.conditioning.condition`) anchors th
 one oscillation (cycle means of the lowest mode); on a channel that carries two modes of
 different decay it leaves 10-20 % error in the displacement (measured on the two-mass rig).
 Here, as in :mod:`eddi.multimode`: 4th-order cumulative integration
-(:func:`eddi.multimode.integrate_high_order`) from rest, then a zero-phase Butterworth
+(:func:`eddi.calculus.integrate`) from rest, then a zero-phase Butterworth
 high-pass (``sosfiltfilt``) at ``highpass_hz`` (default a quarter of the lowest mode) that
 removes the integration drift; a zero-phase linear filter commutes with differentiation, so
 ``x, v, a`` stay consistent. A velocity channel is integrated once and differentiated
-(:func:`eddi.multimode.differentiate_high_order`); a displacement channel differentiated twice.
+(:func:`eddi.calculus.differentiate`); a displacement channel differentiated twice.
 
 The impact is where the force exceeds ``force_sigmas`` times its noise before the trigger;
 the free window runs from the end of the impact to where the largest channel's envelope
@@ -22,11 +22,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage, signal
 
+from eddi.calculus import differentiate, integrate
 from eddi.errors import SignalError
 
 #: Default drift-removal cut-off [Hz].
 HIGHPASS_HZ = 2.0
-from eddi.multimode import differentiate_high_order, integrate_high_order
 
 
 @dataclass(frozen=True)
@@ -116,16 +116,16 @@ def kinematics(t: np.ndarray, y: np.ndarray, quantity: str, *, force: np.ndarray
         y0[:, :start] = 0.0
     if quantity == "acc":
         a = y0
-        v = signal.sosfiltfilt(sos, np.array([integrate_high_order(c, dt) for c in a]), axis=1)
-        x = signal.sosfiltfilt(sos, np.array([integrate_high_order(c, dt) for c in v]), axis=1)
+        v = signal.sosfiltfilt(sos, np.array([integrate(c, dt) for c in a]), axis=1)
+        x = signal.sosfiltfilt(sos, np.array([integrate(c, dt) for c in v]), axis=1)
     elif quantity == "vel":
         v = signal.sosfiltfilt(sos, y0, axis=1)
-        x = signal.sosfiltfilt(sos, np.array([integrate_high_order(c, dt) for c in v]), axis=1)
-        a = np.array([differentiate_high_order(c, dt) for c in v])
+        x = signal.sosfiltfilt(sos, np.array([integrate(c, dt) for c in v]), axis=1)
+        a = np.array([differentiate(c, dt) for c in v])
     else:
         x = signal.sosfiltfilt(sos, y0, axis=1)
-        v = np.array([differentiate_high_order(c, dt) for c in x])
-        a = np.array([differentiate_high_order(c, dt) for c in v])
+        v = np.array([differentiate(c, dt) for c in x])
+        a = np.array([differentiate(c, dt) for c in v])
     meas = {"acc": a, "vel": v, "disp": x}[quantity]
     noise_src = y[:, :rest] if rest > 16 else meas[:, -max(16, t.size // 20):]
     noise = np.std(noise_src, axis=1)

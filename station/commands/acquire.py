@@ -4,7 +4,8 @@
 
 Shows a live status on stderr (armed / triggered / levels / progress), saves each capture as
 soon as it completes, exits cleanly on Ctrl-C keeping what was saved. With a ``sim://``
-device the simulated rig delivers the impacts itself, at varied force levels.
+device the simulated rig delivers the impacts itself, at varied force levels and at fixed
+sample times (the same seed gives the same captures, however busy the machine).
 """
 
 from __future__ import annotations
@@ -103,22 +104,30 @@ def handle(args: argparse.Namespace) -> int:
     check_output(args.out, "hdf5", [args.config] if args.config else [], option="--out", append=True)
     # one writer per session file: held for the whole run (a second acquire or import waits, then exits 2)
     writer = CaptureWriter(args.out, session={"bench_config": cfg.model_dump_json()}).hold()
+    live = LiveStatus(enabled=not args.json)
+    try:
+        result, stats = _run(args, cfg, url, simulated, writer, live)
+    finally:
+        writer.close()
+    live.close()
+    return _report(args, result, stats)
 
+
+def _run(args: argparse.Namespace, cfg: BenchConfig, url: str, simulated: bool, writer: CaptureWriter,
+         live: LiveStatus) -> tuple[AcquireResult, Any]:
     from station.devices import open_device
 
-    live = LiveStatus(enabled=not args.json)
     with open_device(url) as daq:
         configure_device(daq, cfg)
         channels = cfg.resolve_channels(daq.info.channels)
         settings = cfg.trigger_settings(channels, daq.info.rate_hz)
-        plan = (default_impacts(cfg, settings, channels, args.impacts, daq.info.scenario_json)
+        plan = (default_impacts(cfg, settings, channels, args.impacts, daq.info.scenario_json).scheduled(settings)
                 if simulated else None)
         idle = args.idle_timeout if args.idle_timeout is not None else (10.0 if simulated else None)
         result = acquire(daq, cfg, writer, args.impacts, impacts=plan, on_status=live, idle_timeout_s=idle,
                          device_meta=device_metadata(daq, url))
         stats = daq.stats
-    live.close()
-    return _report(args, result, stats)
+    return result, stats
 
 
 def _report(args: argparse.Namespace, result: AcquireResult, stats: Any) -> int:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +26,7 @@ from eddi.errors import ModelError
 from eddi.mechanisms import MECHANISM_NAMES
 from eddi.model import EquationOfMotion
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
+from station.argtypes import damping_terms, finite_positive, fraction, stiffness_terms
 from station.errors import InputFileError
 from station.output import emit
 
@@ -36,19 +38,19 @@ def register(subparsers: Any) -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("captures", nargs="+", metavar="CAPTURE",
                    help="capture files (CSV or HDF5; FILE.h5:N picks capture N of a session)")
-    p.add_argument("--mass", type=float, metavar="KG",
+    p.add_argument("--mass", type=finite_positive, metavar="KG",
                    help="oscillating mass [kg] (default: the model's, or the capture's metadata)")
-    p.add_argument("--damping", default=",".join(DEFAULT_DAMPING), metavar="TERMS",
+    p.add_argument("--damping", type=damping_terms, default=",".join(DEFAULT_DAMPING), metavar="TERMS",
                    help="baseline damping terms (default: %(default)s)")
-    p.add_argument("--stiffness", default=",".join(DEFAULT_STIFFNESS), metavar="TERMS",
+    p.add_argument("--stiffness", type=stiffness_terms, default=",".join(DEFAULT_STIFFNESS), metavar="TERMS",
                    help="baseline stiffness terms (default: %(default)s)")
     p.add_argument("--model", metavar="BASE.json", help="baseline equation of motion (JSON); its "
                    "coefficients are kept and only the mechanisms are fitted")
     p.add_argument("--mechanisms", metavar="NAMES", help="comma-separated subset of: "
                    + ", ".join(MECHANISM_NAMES))
-    p.add_argument("--margin", type=float, default=DEFAULT_MARGIN, metavar="FRACTION",
+    p.add_argument("--margin", type=fraction, default=DEFAULT_MARGIN, metavar="FRACTION",
                    help="relative cut of the held-out error the winner must exceed (default: %(default)s)")
-    p.add_argument("--fit", default="eddi", choices=FITS,
+    p.add_argument("--method", dest="fit", default="eddi", choices=FITS,
                    help="how the baseline and the extensions are fitted: EDDI over the training "
                         "captures, or least squares on the equation of motion (default: %(default)s)")
     p.add_argument("--save-model", metavar="OUT.json",
@@ -76,11 +78,11 @@ def _multichannel(specs: list[str]) -> bool:
 
 def load_records(specs: list[str]) -> tuple[list[Record], float | None]:
     """Read and condition every capture; returns the records and the mass found in metadata."""
-    records, mass, _ = load_measurements(specs)
+    records, mass, _, _ = load_measurements(specs)
     return records, mass
 
 
-def load_measurements(specs: list[str]) -> tuple[list[Record], float | None, list[Any]]:
+def load_measurements(specs: list[str]) -> tuple[list[Record], float | None, list[Any], str | None]:
     """Read and condition (:class:`eddi.fit_record.Pipeline`) every capture.
 
     Returns
@@ -89,35 +91,32 @@ def load_measurements(specs: list[str]) -> tuple[list[Record], float | None, lis
     mass : float or None
         Found in the metadata.
     measurements : list of station.readers.Measurement
+    resampled : str or None
+        What was resampled onto one grid (clocks differing by up to 200 ppm), None if nothing.
     """
     from station.readers import read_measurement
     from station.session import condition_measurement, expand_specs
 
-    specs = expand_specs(specs)
+    from station.session import on_one_grid
 
-    records: list[Record] = []
-    meas: list[Any] = []
-    mass: float | None = None
-    rate0: float | None = None
-    first = ""
-    for spec in specs:
-        m = read_measurement(spec)
-        rate = float(m.rate_hz)
-        if rate0 is None:
-            rate0, first = rate, spec
-        elif abs(rate - rate0) > 1e-6 * rate0:
-            raise InputFileError(f"captures have different sample rates: {first} at {rate0:g} Hz, "
-                                 f"{spec} at {rate:g} Hz; resample them to one rate first")
+    specs = expand_specs(specs)
+    read = [read_measurement(spec) for spec in specs]
+    for spec, m in zip(specs, read):
         ch = m.channels
         if not any(k in ch for k in ("acc", "vel", "disp")):
             raise InputFileError(f"{spec}: no response channel (expected acc, vel or disp; got "
                                  f"{', '.join(ch) or 'none'})")
+    meas, note = on_one_grid(read)  # clocks differing by up to 200 ppm: one grid (said below)
+    records: list[Record] = []
+    mass: float | None = None
+    for spec, m in zip(specs, meas):
         c = condition_measurement(m)
+        if note:
+            c = replace(c, notes=c.notes + (note,))
         records.append(Record.from_conditioned(c, label=Path(spec).name))
-        meas.append(m)
         if mass is None and getattr(m, "mass", None):
             mass = float(m.mass)
-    return records, mass, meas
+    return records, mass, meas, note
 
 
 def pipeline_baseline(measurements: list[Any], mass: float, damping: str, stiffness: str,
@@ -165,7 +164,7 @@ def handle(args: argparse.Namespace) -> int:
     mechanisms = None
     if args.mechanisms:
         mechanisms = [s.strip() for s in args.mechanisms.split(",") if s.strip()]
-    records, meta_mass, measurements = load_measurements(list(args.captures))
+    records, meta_mass, measurements, resampled = load_measurements(list(args.captures))
     mass = args.mass if args.mass is not None else (base.mass if base is not None else meta_mass)
     if mass is None:
         raise InputFileError("no mass: give --mass KG (or --model, or captures with a mass in their metadata)")
@@ -175,6 +174,7 @@ def handle(args: argparse.Namespace) -> int:
                     mechanisms=mechanisms, margin=args.margin, fit=args.fit)
     obj = diag.to_dict()
     obj["captures"] = [r.label for r in records]
+    obj["resampled"] = resampled
     if base is None:
         obj["pipeline_baseline"] = pipeline_baseline(measurements, float(mass), args.damping, args.stiffness,
                                                      args.refine)
@@ -213,6 +213,8 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
                         if c.reference != "baseline" else ""))
     lines += ["", diag.verdict, f"What the baseline got wrong: {diag.symptom}."]
     lines += [f"Note: {n}." for n in diag.notes]
+    if obj.get("resampled"):
+        lines.append(f"Note: {obj['resampled']}.")
     lines += ["", f"Baseline: {diag.baseline.model.equation_text()}"]
     pb = obj.get("pipeline_baseline")
     if pb is not None:

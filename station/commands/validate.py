@@ -59,6 +59,7 @@ def _text(obj: dict[str, Any]) -> str:
         nmte = "–" if r["nmte"] is None else f"{r['nmte']:.4g}"
         lines.append(f"  {r['source']:<40} nrmse {r['nrmse']:.4g}  nmte {nmte}  ({how}"
                      + (", diverged" if r["diverged"] else "") + ")")
+        lines += [f"    WARNING: {w}" for w in r.get("warnings", [])]
     nmte = "–" if obj["nmte"] is None else f"{obj['nmte']:.4g}"
     lines.append(f"  mean over {len(obj['records'])} record(s): nrmse {obj['nrmse']:.4g}  nmte {nmte}")
     return "\n".join(lines)

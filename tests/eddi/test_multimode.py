@@ -17,8 +17,8 @@ import pytest
 from eddi.errors import ModelError, SignalError
 from eddi.model import EquationOfMotion
 from eddi.multimode import (
-    ModalSumModel, differentiate_high_order, estimate_initial_states, identify_modes,
-    integrate_high_order, load_any_model, predict_record, separate_modes, simulate_modal,
+    ModalSumModel, estimate_initial_states, identify_modes,
+    load_any_model, predict_record, separate_modes, simulate_modal,
     suggest_bands, trajectory_errors,
 )
 
@@ -46,26 +46,6 @@ def identified() -> ModalSumModel:
     model, fits = identify_modes(recs, BANDS)
     assert [f.n_crossings > 1000 for f in fits] == [True, True]
     return model
-
-
-@pytest.mark.parametrize("f_hz", [122.4, 243.4])
-def test_high_order_calculus_is_exact_at_the_modal_frequencies(f_hz: float) -> None:
-    dt = 1.0 / FS
-    t = np.arange(20000) * dt
-    w = 2 * math.pi * f_hz
-    v = np.cos(w * t)
-    x = integrate_high_order(v, dt)
-    a = differentiate_high_order(v, dt)
-    inner = slice(50, -50)
-    exact_x = np.sin(w * t[inner]) / w
-    dx = x[inner] - exact_x
-    # up to the integration constant (removed by the band-pass in use)
-    assert np.max(np.abs(dx - np.mean(dx))) * w < 2e-4
-    assert np.max(np.abs(a[inner] + w * np.sin(w * t[inner]))) / w < 1e-5
-    # a trapezoid would be off by (w dt)^2 / 12 = 1.9e-3 at 122 Hz: the reason for the stencils
-    trap = np.concatenate(([0.0], np.cumsum(0.5 * dt * (v[1:] + v[:-1]))))
-    dt_x = trap[inner] - exact_x
-    assert np.max(np.abs(dt_x - np.mean(dt_x))) * w > 1e-3
 
 
 def test_separation_recovers_each_mode_without_edge_ringing() -> None:

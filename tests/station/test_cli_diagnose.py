@@ -56,7 +56,7 @@ def test_bad_inputs_give_one_line_and_exit_2(tmp_path: Path, capsys: pytest.Capt
     bad_model = tmp_path / "bad.json"
     bad_model.write_text("{not json")
     cases = [
-        ([str(a), str(b), "--mass", "0.1"], "different sample rates"),
+        ([str(a), str(b), "--mass", "0.1"], "sample rates differ by"),
         ([str(short), "--mass", "0.1"], "too short to split"),
         ([str(a), "--model", str(bad_model)], "not valid JSON"),
         ([str(a), str(a), "--mass", "0.1", "--mechanisms", "magic"], "unknown mechanism"),
@@ -95,3 +95,14 @@ def test_real_ringdowns_name_second_mode_save_modal_sum_and_report(
     assert pngs == sorted(["timeseries.png", "energy_per_cycle.png", "backbone.png",
                            "residual_force.png", "spectra.png"])
     assert all((tmp_path / "rep" / p).stat().st_size > 20000 for p in pngs)
+
+
+def test_clocks_36_ppm_apart_are_resampled_and_said(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    a = _capture(tmp_path / "a.csv", 20.0, 0, record_s=2.0)
+    b = _capture(tmp_path / "b.csv", 30.0, 1, rate_hz=5000.0 * (1 + 36e-6), record_s=2.0)
+    code, out, err = _run(["diagnose", str(a), str(b), "--mass", "0.1", "--mechanisms", "coulomb_friction",
+                           "--no-refine", "--json"], capsys)
+    assert code == 0, err
+    obj = json.loads(out)
+    assert "resampled onto 5000 Hz" in obj["resampled"] and "b.csv (+36 ppm)" in obj["resampled"]
+    assert obj["pipeline_baseline"]["validation"]["nrmse"] is not None

@@ -136,7 +136,7 @@ def _good_rows() -> np.ndarray:
         ("ragged", "line 6 has 2 values, expected 3"),
         ("clipped", "column 'acc' looks clipped"),
         ("few_crossings", "zero crossings"),
-        ("mass", "--mass must be a number > 0"),
+        ("mass", "argument --mass: expected a finite number > 0"),
         ("term", "unknown term 'y'"),
         ("suffix", "unknown file type '.txt'"),
         ("missing", "no such file"),

@@ -84,7 +84,7 @@ def test_cli_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[s
         (["import", str(tmp_path / "none.csv"), "--out", str(path)], "no such file"),
         (["acquire", "--impacts", "2", "--out", str(path)], "--device: expected a device URL"),
         (["acquire", "--device", "sim://duffing-smooth", "--impacts", "0", "--out", str(path)], "--impacts: expected at least 1"),
-        (["acquire", "--device", "sim://x", "--impacts", "1", "--out", str(junk)], "expected an HDF5 file"),
+        (["acquire", "--device", "sim://x", "--impacts", "1", "--out", str(junk)], "is a file of another kind"),
     ]
     for argv, message in cases:
         rc = main(argv)

@@ -1,0 +1,129 @@
+"""Is a model physically sound at the record's amplitudes, and does its response behave?
+
+Two families of checks, each returning plain sentences (no printing):
+
+* :func:`model_warnings`: the model's own forces over the measured range: a negative secant
+  stiffness ``K(x) / x`` (the restoring force pushes away from equilibrium: a model that
+  cannot ring down about ``x = 0``) or a negative damping power ``B(x, v) v`` (the model
+  feeds energy in) at some ``|x| <= x_max``, ``|v| <= v_max``;
+* :func:`response_warnings`: the simulated response against the measured one over the
+  compared window: a simulation that blows up, exceeds the measurement's peak by
+  :data:`PEAK_RATIO`, grows (late envelope above the early one by :data:`GROWTH`), or
+  does not decay where the measurement does (:data:`DECAYS` / :data:`STEADY`).
+
+Any response warning makes the validation ``diverged``: its nrmse is then not a
+meaningful score of a good model (it says how far a wrong one went).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from eddi.model import EquationOfMotion
+
+#: A simulation whose peak exceeds the measured peak by this factor has diverged.
+PEAK_RATIO = 2.0
+#: A simulated envelope (last fifth / first fifth of the window) above this grows.
+GROWTH = 1.1
+#: A measured envelope ratio below this decays ...
+DECAYS = 0.5
+#: ... and a simulated one above this then does not.
+STEADY = 0.9
+#: Grid points per axis of the model checks.
+GRID = 41
+
+
+def envelope_ratio(y: np.ndarray) -> float:
+    """Peak ``|y|`` over the last fifth of ``y`` over that of the first fifth (inf for 0 start)."""
+    y = np.abs(np.asarray(y, dtype=float))
+    k = max(1, y.size // 5)
+    early = float(np.max(y[:k]))
+    late = float(np.max(y[-k:]))
+    return late / early if early > 0 else (np.inf if late > 0 else 1.0)
+
+
+def response_warnings(x_measured: np.ndarray, x_simulated: np.ndarray, blew_up: bool = False) -> tuple[str, ...]:
+    """Why a simulated response is not a valid prediction (empty when it is fine).
+
+    Parameters
+    ----------
+    x_measured, x_simulated : ndarray, shape (k,)
+        Over the compared window.
+    blew_up : bool
+        The simulator stopped on a non-finite or runaway state.
+
+    Returns
+    -------
+    tuple of str
+    """
+    xs = np.asarray(x_simulated, dtype=float)
+    xm = np.asarray(x_measured, dtype=float)
+    if blew_up or not np.all(np.isfinite(xs)):
+        return ("the simulated response blows up (non-finite or runaway)",)
+    out: list[str] = []
+    peak_m = float(np.max(np.abs(xm))) if xm.size else 0.0
+    peak_s = float(np.max(np.abs(xs))) if xs.size else 0.0
+    if peak_m > 0 and peak_s > PEAK_RATIO * peak_m:
+        out.append(f"the simulated response reaches {peak_s / peak_m:.3g}x the measured peak")
+    rm, rs = envelope_ratio(xm), envelope_ratio(xs)
+    if rs > GROWTH and rs > 1.5 * rm:
+        out.append(f"the simulated free response grows (envelope x{rs:.3g} from the first to the last fifth "
+                   f"of the window; measured x{rm:.3g})")
+    elif rm < DECAYS and rs > STEADY:
+        out.append(f"the simulated response does not decay (envelope x{rs:.3g}) where the measurement does "
+                   f"(x{rm:.3g})")
+    return tuple(out)
+
+
+def model_warnings(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> tuple[str, ...]:
+    """Negative stiffness or damping of ``eom`` along the measured trajectory.
+
+    Parameters
+    ----------
+    eom : EquationOfMotion
+    x, v : ndarray, shape (n,)
+        Measured coordinate and rate over the free response.
+
+    Returns
+    -------
+    tuple of str
+        Empty when the linear stiffness and the secant stiffness ``K(x)/x`` over
+        ``[min x, max x]`` are >= 0 and every half cycle of the record dissipates energy
+        (``sum B(x, v) v >= 0`` between zero crossings of ``x``; the instantaneous power
+        of a model such as ``b1 v - b2 x^2 v`` may be negative near the turning points).
+    """
+    x = np.asarray(x, dtype=float)
+    v = np.asarray(v, dtype=float)
+    out: list[str] = []
+    if x.size < 4 or not (np.all(np.isfinite(x)) and np.all(np.isfinite(v))):
+        return ()
+    k1 = eom.linear_stiffness()
+    if k1 < 0:
+        out.append(f"negative linear stiffness k[x] = {k1:.4g} N/m: the model has no stable equilibrium at "
+                   f"x = 0 (friction or a missing term forced into the stiffness?)")
+    grid = np.linspace(float(np.min(x)), float(np.max(x)), GRID)
+    grid = grid[np.abs(grid) > 1e-12 * float(np.max(np.abs(grid)) or 1.0)]
+    ks = np.zeros_like(grid)
+    for text, c in eom.stiffness.items():
+        ks = ks + c * _term(text)(grid, np.zeros_like(grid))
+    secant = ks / grid
+    if k1 >= 0 and np.any(secant < 0):
+        bad = grid[secant < 0]
+        out.append(f"negative stiffness K(x)/x < 0 at x = {float(bad[np.argmax(np.abs(bad))]):.3g} (the record "
+                   f"spans {grid[0]:.3g} .. {grid[-1]:.3g}): the restoring force pushes away from equilibrium")
+    power = np.zeros_like(x)
+    for text, c in eom.damping.items():
+        power = power + c * _term(text)(x, v) * v
+    edges = np.nonzero(np.signbit(x[1:]) != np.signbit(x[:-1]))[0] + 1
+    sums = np.array([float(np.sum(p)) for p in np.split(power, edges) if p.size > 1])
+    scale = float(np.max(np.abs(sums))) if sums.size else 0.0
+    if scale > 0 and np.any(sums < -1e-6 * scale):
+        out.append(f"negative damping: the model feeds energy in over {int(np.sum(sums < -1e-6 * scale))} of "
+                   f"{sums.size} half cycles of the record (b[v] = {eom.damping.get('v', 0.0):.4g} N s/m)")
+    return tuple(out)
+
+
+def _term(text: str):  # local import keeps this module light
+    from eddi.terms import parse_term
+
+    return parse_term(text)

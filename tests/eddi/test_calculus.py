@@ -1,0 +1,109 @@
+"""The numerical toolbox (:mod:`eddi.calculus`): accuracy at the sampling a bench gives.
+
+Exact references: sinusoids (closed-form integrals and derivatives) and simulated Duffing
+impacts sampled at 41 samples per period (2048 Hz, 50 Hz), the case where the trapezoid
+rule biased k3 by percents.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from eddi.calculus import (
+    common_rate, differentiate, integrate, resample, samples_per_cycle_note, spline_cumulative_integral,
+)
+from eddi.conditioning import condition
+from eddi.fit_record import Pipeline
+from tests.eddi.impact_cases import impact_record
+
+FS = 5120.3277  # sample rate of the double-beam records [Hz]
+
+
+@pytest.mark.parametrize("f_hz", [122.4, 243.4])
+def test_high_order_calculus_is_exact_at_the_modal_frequencies(f_hz: float) -> None:
+    dt = 1.0 / FS
+    t = np.arange(20000) * dt
+    w = 2 * math.pi * f_hz
+    v = np.cos(w * t)
+    x = integrate(v, dt)
+    a = differentiate(v, dt)
+    inner = slice(50, -50)
+    exact_x = np.sin(w * t[inner]) / w
+    dx = x[inner] - exact_x
+    # up to the integration constant
+    assert np.max(np.abs(dx - np.mean(dx))) * w < 2e-4
+    assert np.max(np.abs(a[inner] + w * np.sin(w * t[inner]))) / w < 1e-5
+    # a trapezoid would be off by (w dt)^2 / 12 = 1.9e-3 at 122 Hz: the reason for the stencils
+    trap = np.concatenate(([0.0], np.cumsum(0.5 * dt * (v[1:] + v[:-1]))))
+    dt_x = trap[inner] - exact_x
+    assert np.max(np.abs(dt_x - np.mean(dt_x))) * w > 1e-3
+
+
+@pytest.mark.parametrize("spc", [20.0, 41.0])
+def test_integrals_at_20_and_41_samples_per_cycle(spc: float) -> None:
+    dt = 1.0 / spc  # 1 Hz
+    t = np.arange(int(40 * spc)) * dt
+    w = 2 * math.pi
+    y = np.cos(w * t)
+    exact = np.sin(w * t) / w
+    trap = np.concatenate(([0.0], np.cumsum(0.5 * dt * (y[1:] + y[:-1]))))
+    inner = slice(3, -3)
+    for got in (integrate(y, dt), spline_cumulative_integral(t, y), trap):
+        d = (got - exact)[inner]
+        err = np.max(np.abs(d - np.mean(d))) * w  # relative to the amplitude, up to the constant
+        if got is trap:
+            assert err > 0.9 * (w * dt) ** 2 / 12  # the trapezoid's loss, 0.8 % at 20 per cycle
+        else:
+            assert err < 2e-4 * (20.0 / spc) ** 4  # (w h)^4 terms: 1e-4 at 20, 6e-6 at 41
+
+
+def test_resample_36_and_200_ppm_onto_one_grid() -> None:
+    rate = 2048.0
+    for ppm in (36.0, 200.0, -200.0):
+        r = rate * (1 + ppm * 1e-6)
+        t = np.arange(8192) / r
+        y = np.sin(2 * math.pi * 50.0 * t) * np.exp(-t)
+        tn, yn = resample(t, y, rate)
+        assert np.allclose(np.diff(tn), 1 / rate) and tn[0] == 0.0 and tn[-1] <= t[-1]
+        exact = np.sin(2 * math.pi * 50.0 * tn) * np.exp(-tn)
+        assert np.max(np.abs(yn - exact)[5:-5]) < 1e-5
+    assert common_rate([rate, rate * (1 + 36e-6)]) == rate
+    assert common_rate([rate, rate * (1 + 0.5e-6)]) is None
+    with pytest.raises(ValueError, match="ppm"):
+        common_rate([rate, rate * (1 + 300e-6)])
+
+
+def test_coarse_sampling_warning_states_the_accuracy() -> None:
+    assert samples_per_cycle_note(2048.0, 50.0) is None  # 41 per cycle: handled
+    note = samples_per_cycle_note(1000.0, 80.0)  # 12.5 per cycle
+    assert note is not None and "12.5 samples per cycle" in note and "%" in note
+
+
+#: 50 Hz hardening oscillator, weakly nonlinear (k3 x^2 / k1 ~ 0.1 at the first peak), so
+#: that a small bias of x shows as a large relative error of k3.
+COARSE = dict(mass=1.0, damping={"v": 6.28}, stiffness={"x": 98696.0, "x^3": 2.8e8}, peak_n=1000.0)
+
+
+@pytest.mark.parametrize("snr_db", [None, 45.0])
+def test_41_samples_per_period_k3_within_1_percent(snr_db: float | None) -> None:
+    r = impact_record(COARSE, rate_hz=2048.0, duration_s=3.0, pretrigger_s=0.5, pulse_s=3e-3,
+                      snr_db=snr_db, seed=4)
+    cond = condition(r.t, acc=r.acc, force=r.force)
+    res = Pipeline(damping=("v",), stiffness=("x", "x^3")).fit(cond, 1.0)
+    eom = res.model.eom
+    assert eom.stiffness["x^3"] == pytest.approx(2.8e8, rel=0.01)
+    assert eom.stiffness["x"] == pytest.approx(98696.0, rel=0.002)
+    assert eom.damping["v"] == pytest.approx(6.28, rel=0.01)
+    assert res.warnings == ()
+
+
+def test_pipeline_warns_below_20_samples_per_cycle() -> None:
+    # the same 50 Hz oscillator sampled at 800 Hz: 16 samples per cycle
+    r = impact_record(COARSE, rate_hz=800.0, duration_s=3.0, pretrigger_s=0.5, pulse_s=5e-3, snr_db=45.0, seed=5)
+    cond = condition(r.t, acc=r.acc, force=r.force)
+    res = Pipeline(damping=("v",), stiffness=("x", "x^3"), refine=False).fit(cond, 1.0)
+    coarse = [w for w in res.warnings if "samples per cycle" in w]
+    assert len(coarse) == 1 and "fewer than 20" in coarse[0]

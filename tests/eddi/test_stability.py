@@ -1,0 +1,98 @@
+"""Stable or flagged: growing, non-decaying and negative-stiffness/damping models are flagged.
+
+Records: the simulated acceleration-only impacts of :mod:`tests.eddi.impact_cases` (true
+models known). Validation starts at the first free-response sample whatever the layout.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from eddi.conditioning import condition
+from eddi.fit_record import Pipeline, validate_conditioned
+from eddi.stability import model_warnings, response_warnings
+from tests.eddi.impact_cases import SYSTEMS, impact_record
+
+
+def _variant(eom, **update):
+    return eom.model_copy(update=update)
+
+
+@pytest.mark.parametrize("system", ["paper_do", "nl_damping"])
+def test_acc_only_record_with_pretrigger_validates_the_true_model(system: str) -> None:
+    r = impact_record(system, snr_db=45.0, seed=3)
+    for pre in (r.pretrigger_samples, None):  # given, or detected
+        cond = condition(r.t, acc=r.acc, pretrigger_samples=pre)
+        # the free response starts after the impact (x is no longer ~0 there)
+        assert cond.free_start > r.pretrigger_samples
+        val, by_force = validate_conditioned(r.eom, cond)
+        assert not by_force and not val.diverged and val.warnings == ()
+        assert val.nrmse < 0.02  # measured 0.001-0.005 (0.9985 before: started at the onset)
+
+
+def test_growing_and_non_decaying_models_are_flagged() -> None:
+    r = impact_record("paper_do", snr_db=45.0, seed=1)
+    cond = condition(r.t, acc=r.acc, force=r.force)
+    b = r.eom.damping["v"]
+    growing = _variant(r.eom, damping={"v": -1.0 * b})
+    steady = _variant(r.eom, damping={"v": 0.0})
+    val, _ = validate_conditioned(growing, cond)
+    assert val.diverged and any("grows" in w or "measured peak" in w for w in val.warnings)
+    peak = float(np.max(np.abs(val.x_simulated))) / float(np.max(np.abs(val.x_measured)))
+    assert peak > 4  # a simulation growing to more than 4x the measurement ...
+    val, _ = validate_conditioned(steady, cond)
+    assert val.diverged and any("does not decay" in w for w in val.warnings)
+    # the true model: silent
+    val, _ = validate_conditioned(r.eom, cond)
+    assert not val.diverged and val.warnings == ()
+
+
+def test_response_warnings_thresholds_from_the_contract() -> None:
+    t = np.linspace(0, 10, 5001)
+    decay = np.exp(-0.3 * t) * np.sin(2 * np.pi * 3 * t)
+    assert response_warnings(decay, 1.01 * decay) == ()
+    assert "blows up" in response_warnings(decay, decay, blew_up=True)[0]
+    assert "reaches" in response_warnings(decay, 4 * np.sin(2 * np.pi * 3 * t))[0]  # ~4x the measured peak
+    assert "does not decay" in response_warnings(decay, np.sin(2 * np.pi * 3 * t))[0]
+    grow = np.exp(0.05 * t) * np.sin(2 * np.pi * 3 * t)
+    assert "grows" in response_warnings(decay, grow)[0]
+
+
+def test_negative_linear_stiffness_and_damping_are_named() -> None:
+    r = impact_record("nl_damping", snr_db=45.0, seed=2)
+    w0 = int(np.argmax(np.abs(r.x)))
+    x, v = r.x[w0:], r.v[w0:]
+    assert model_warnings(r.eom, x, v) == ()  # b1 v + b2 x^2 v: positive
+    bad_k = _variant(r.eom, stiffness={"x": -14684.0, "x^3": 1.5e8})
+    assert any("negative linear stiffness" in w for w in model_warnings(bad_k, x, v))
+    bad_b = _variant(r.eom, damping={"v": -0.45, "x^2*v": 1.0e4})
+    assert any("negative damping" in w for w in model_warnings(bad_b, x, v))
+    # the paper's b1 v - b2 x^2 v + b3 v^3 (negative x^2*v, energy still dissipated per half cycle)
+    paper = _variant(r.eom, damping={"v": 0.45, "x^2*v": -1.0e4, "v^3": 0.0})
+    amp = float(np.max(np.abs(x)))
+    assert 1.0e4 * amp**2 < 0.45 or any("negative damping" in w for w in model_warnings(paper, x, v))
+
+
+def test_pipeline_flags_a_model_that_does_not_decay_and_validate_says_diverged(tmp_path: Path) -> None:
+    from station.cli import main
+
+    r = impact_record("paper_do", snr_db=45.0, seed=2)
+    csv = tmp_path / "rec.csv"
+    np.savetxt(csv, np.column_stack((r.t, r.force, r.acc)), delimiter=",", header="t,force,acc", comments="")
+    model = tmp_path / "m.json"
+    model.write_text(_variant(r.eom, damping={"v": -0.3 * r.eom.damping["v"]}).to_json())
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(["validate", str(model), str(csv), "--json"]) == 0
+    rec = json.loads(buf.getvalue())["records"][0]
+    assert rec["diverged"] is True and rec["warnings"]
+    # the pipeline on the same record: a sound model, nothing to flag
+    cond = condition(r.t, acc=r.acc, force=r.force)
+    res = Pipeline(damping=("v",), stiffness=("x", "x^3"), refine=False).fit(cond, r.eom.mass)
+    assert res.warnings == () and not res.validation.diverged

@@ -1,0 +1,68 @@
+"""``station --help`` / ``--version``: plain text, and no heavy import on paths that do not need it."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from station.cli import COMMANDS, main
+
+REPO = Path(__file__).resolve().parents[2]
+HEAVY = ("numpy", "scipy", "numba", "matplotlib", "pysindy", "h5py", "pydantic")
+
+
+def _modules_after(argv: list[str]) -> tuple[int, set[str], str]:
+    """Run ``station ARGV`` in a fresh interpreter; (exit code, heavy modules it imported, stdout)."""
+    code = (
+        "import sys, json\n"
+        "from station.cli import main\n"
+        "try:\n"
+        f"    rc = main({argv!r})\n"
+        "except SystemExit as e:\n"
+        "    rc = e.code\n"
+        f"print(json.dumps([rc, sorted(m for m in {HEAVY!r} if m in sys.modules)]), file=sys.stderr)\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    rc, heavy = json.loads(res.stderr.strip().splitlines()[-1])
+    return rc, set(heavy), res.stdout
+
+
+def test_top_level_help_imports_no_command_and_no_heavy_library() -> None:
+    rc, heavy, out = _modules_after(["--help"])
+    assert rc == 0 and heavy == set()
+    for name in COMMANDS:
+        assert f"\n    {name} " in out, name
+
+
+@pytest.mark.parametrize("command", ["acquire", "demo", "rig", "devices"])
+def test_acquisition_commands_help_imports_no_engine(command: str) -> None:
+    rc, heavy, out = _modules_after([command, "--help"])
+    assert rc == 0 and f"usage: station {command}" in out
+    assert not heavy & {"numba", "matplotlib", "pysindy", "scipy"}, heavy
+
+
+def test_version_is_printed_and_exits_0(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["--version"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("station ") and len(out.split()) == 2
+
+
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_help_of_every_command_is_plain_text(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main([command, "--help"]) == 0
+    out = capsys.readouterr().out
+    assert f"usage: station {command}" in out
+    for markup in (":mod:`", ":func:`", ":class:`", ":data:`", ":meth:`", "``"):
+        assert markup not in out, (command, markup)
+
+
+def test_unknown_command_is_one_line_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["idnetify", "x.csv"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "invalid choice: 'idnetify'" in err
