@@ -337,13 +337,22 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
                           max_freq_hz, prune)
 
 
-def static_flexibility(model: MdofModel) -> np.ndarray | None:
-    """Static displacement of every channel per newton at the driving point [m/N], or None."""
-    _m, _c, k = model.linear_matrices()
+def static_flexibility(model: MdofModel, freq_hz: float = 0.5) -> np.ndarray | None:
+    """Quasi-static displacement of every channel per newton at the driving point [m/N], or None.
+
+    The real part of the linear receptance ``(K - w^2 M + i w C)^-1 u`` at a low frequency
+    ``freq_hz`` (below the drift high-pass): the static flexibility when ``K`` is regular, and
+    still finite for a mass held by a dashpot and an essentially nonlinear spring only (the
+    energy sink follows its host at low frequency).
+    """
+    m, c, k = model.linear_matrices()
+    w = 2 * math.pi * freq_hz
     try:
-        return model.phi @ np.linalg.solve(k, np.asarray(model.input, float))
+        h = np.linalg.solve(k - w**2 * m + 1j * w * c, np.asarray(model.input, float))
     except np.linalg.LinAlgError:
         return None
+    g = model.phi @ h.real
+    return g if np.all(np.isfinite(g)) else None
 
 
 def restore_quasi_static(r: ChannelRecord, flexibility: np.ndarray) -> ChannelRecord:
