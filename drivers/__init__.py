@@ -23,7 +23,8 @@ def open_device(url: str, *, timeout_s: float = 2.0, queue_blocks: int = 1024, u
     ----------
     url : str
         ``serial:///dev/ttyACM0?baudrate=921600``, ``loop://``, ``socket://host:port``,
-        ``rfc2217://host:port`` or ``usb://VID:PID[/SERIAL]``. (``sim://SYSTEM`` is opened by
+        ``rfc2217://host:port``, ``usb://VID:PID[/SERIAL]`` or ``audio://DEVICE?channels=...``
+        (a PortAudio input, :mod:`drivers.audio`). (``sim://SYSTEM`` is opened by
         :func:`station.devices.open_device`, which starts the simulated rig.)
     timeout_s : float
         Reply timeout of every command, [s].
@@ -41,6 +42,10 @@ def open_device(url: str, *, timeout_s: float = 2.0, queue_blocks: int = 1024, u
     """
     if isinstance(url, str) and url.lower().startswith("sim://"):
         raise BadUrlError(f"{url}: sim:// URLs are opened by station.devices.open_device (which starts the rig)")
+    if isinstance(url, str) and url.lower().startswith("audio://"):
+        from drivers.audio import open_audio
+
+        return open_audio(url, timeout_s=timeout_s, queue_blocks=queue_blocks)  # type: ignore[return-value]
     transport = open_transport(url, usb_backend=usb_backend)
     try:
         return Daq(transport, timeout_s=timeout_s, queue_blocks=queue_blocks)

@@ -133,7 +133,11 @@ class Stats:
     dropped_samples : int
         Samples missing from the stream (from the device sample counter).
     lost_frames : int
-        Gaps in the device frame sequence.
+        Frames missing from the device frame sequence (forward gaps only; never wraps).
+    stale_frames : int
+        Frames whose sequence number lies behind the last one (duplicated or reordered).
+    repeated_samples : int
+        Samples of blocks going backwards in the sample counter (never delivered twice).
     samples : int
         Samples received in good blocks.
     malformed : int
@@ -149,6 +153,8 @@ class Stats:
     resyncs: int = 0
     dropped_samples: int = 0
     lost_frames: int = 0
+    stale_frames: int = 0
+    repeated_samples: int = 0
     samples: int = 0
     malformed: int = 0
     queue_max: int = 0
@@ -193,6 +199,7 @@ class Daq:
         self._cond = threading.Condition()
         self._blocks: collections.deque[Block] = collections.deque()
         self._replies: dict[int, Message] = {}
+        self._awaited: set[int] = set()  # seqs of commands waiting for their reply
         self._waiting_command = 0
         self._error: BaseException | None = None
         self._closed = False
@@ -297,8 +304,11 @@ class Daq:
         """The device's STATUS reply (streaming flag, sample counter...)."""
         return self._command(FrameType.STATUS)
 
-    def impact(self, peak_force_n: float, double_hit: bool = False) -> int | None:
+    def impact(self, peak_force_n: float, double_hit: bool = False, at_sample: int | None = None) -> int | None:
         """Deliver a hammer impact of ``peak_force_n`` [N] (simulated rig only).
+
+        With ``at_sample`` the blow is scheduled at that device sample counter (sample time:
+        the run is reproducible whatever the host's speed); else it comes now.
 
         Returns the device sample counter when the command took effect (the blow follows
         the rig's own delay), or None if the device does not say.
@@ -308,7 +318,11 @@ class Daq:
         DeviceError
             On a real DAQ (no hammer) or a refused force.
         """
-        reply = self._command(FrameType.IMPACT, peak_force_n=float(peak_force_n), double_hit=double_hit)
+        if at_sample is not None:
+            reply = self._command(FrameType.IMPACT_AT, peak_force_n=float(peak_force_n), double_hit=double_hit,
+                                  at_sample=int(at_sample))
+        else:
+            reply = self._command(FrameType.IMPACT, peak_force_n=float(peak_force_n), double_hit=double_hit)
         at = reply.get("at_sample")
         return int(at) if isinstance(at, int) else None
 
@@ -366,7 +380,7 @@ class Daq:
         return Stats(
             frames=s.frames, bytes=s.bytes, crc_errors=s.crc_errors, framing_errors=s.framing_errors,
             resyncs=s.resyncs, dropped_samples=s.dropped_samples, lost_frames=s.lost_frames,
-            samples=s.samples, malformed=s.malformed, queue_max=self._queue_max,
+            stale_frames=s.stale_frames, repeated_samples=s.repeated_samples, samples=s.samples, malformed=s.malformed, queue_max=self._queue_max,
         )
 
     # ------------------------------------------------------------------ internals
@@ -389,6 +403,7 @@ class Daq:
             seq = self._seq
             self._seq = (self._seq + 1) & 0xFFFFFFFF
             self._waiting_command += 1
+            self._awaited.add(seq)
         try:
             self.transport.write(encode_command(seq, command, **params))
             deadline = time.monotonic() + self.timeout_s
@@ -408,6 +423,8 @@ class Daq:
         finally:
             with self._cond:
                 self._waiting_command -= 1
+                self._awaited.discard(seq)
+                self._replies.pop(seq, None)
         _, ctype, status, content = msg.reply()
         if ctype != command:
             raise ProtocolError(f"reply to {command.name} names command 0x{ctype:02x}")
@@ -431,8 +448,9 @@ class Daq:
                         except ProtocolError:
                             continue
                         with self._cond:
-                            self._replies[cseq] = frame
-                            self._cond.notify_all()
+                            if cseq in self._awaited:  # a duplicated or unasked-for reply is dropped
+                                self._replies[cseq] = frame
+                                self._cond.notify_all()
         except DriverError as exc:
             with self._cond:
                 if not self._closed:

@@ -9,8 +9,10 @@ all integers little-endian, CRC-32 (zlib polynomial) over everything before it. 
 carry the device's sample counter, so every lost sample is counted exactly from the next
 good frame.
 
-The bulk path (:class:`StreamDecoder`) splits on 0x00 with numpy, COBS-decodes and checks the
-CRC of every frame in one compiled pass (numba), and unpacks 16/24-bit samples with numpy.
+The bulk path (:class:`StreamDecoder`) splits on 0x00, COBS-decodes every frame with the
+``cobs`` package's C codec, checks its CRC with :func:`zlib.crc32` and unpacks the 16/24-bit
+samples of all frames of one layout in one numpy pass. Nothing is compiled at run time, so the
+first frame of a process decodes as fast as the millionth (no JIT inside a command timeout).
 """
 
 from __future__ import annotations
@@ -18,11 +20,12 @@ from __future__ import annotations
 import enum
 import json
 import struct
+import zlib
 from dataclasses import dataclass, field
 from typing import Any
 
-import numba
 import numpy as np
+from cobs import cobs as _cobs
 
 from drivers.errors import ProtocolError, ProtocolVersionError
 
@@ -42,6 +45,8 @@ REPLY_HEADER = struct.Struct("<IBB")
 CONFIGURE_BODY = struct.Struct("<dIH")
 #: IMPACT body: peak_force_n f64, double_hit u8.
 IMPACT_BODY = struct.Struct("<dB")
+#: IMPACT_AT body: peak_force_n f64, double_hit u8, at_sample u64.
+IMPACT_AT_BODY = struct.Struct("<dBQ")
 CRC = struct.Struct("<I")
 
 DATA_OFFSET = HEADER.size + DATA_HEADER.size  # first sample byte in a decoded data frame
@@ -59,10 +64,12 @@ class FrameType(enum.IntEnum):
     STOP = 0x44
     STATUS = 0x45
     IMPACT = 0x46  # simulated rig only: deliver a hammer impact
+    IMPACT_AT = 0x47  # simulated rig only: deliver a hammer impact at a given sample counter
 
 
 COMMAND_TYPES = frozenset(
-    {FrameType.IDENTIFY, FrameType.CONFIGURE, FrameType.START, FrameType.STOP, FrameType.STATUS, FrameType.IMPACT}
+    {FrameType.IDENTIFY, FrameType.CONFIGURE, FrameType.START, FrameType.STOP, FrameType.STATUS, FrameType.IMPACT,
+     FrameType.IMPACT_AT}
 )
 
 
@@ -77,180 +84,46 @@ class ReplyStatus(enum.IntEnum):
 
 
 # --------------------------------------------------------------------------------------------
-# compiled kernels
+# checksum and byte stuffing: C codecs, nothing compiled at run time
 
 
-def _crc_table() -> np.ndarray:
-    table = np.zeros(256, dtype=np.uint32)
-    for i in range(256):
-        c = i
-        for _ in range(8):
-            c = (c >> 1) ^ 0xEDB88320 if c & 1 else c >> 1
-        table[i] = c
-    return table
-
-
-_CRC_TABLE = _crc_table()
-
-
-@numba.njit(cache=True, nogil=True)
-def _crc32(data: np.ndarray, start: int, stop: int, table: np.ndarray) -> np.uint32:
-    c = np.uint32(0xFFFFFFFF)
-    for i in range(start, stop):
-        c = table[(c ^ data[i]) & 0xFF] ^ (c >> np.uint32(8))
-    return c ^ np.uint32(0xFFFFFFFF)
-
-
-@numba.njit(cache=True, nogil=True)
-def _decode_frames(buf, seg_start, seg_stop, table):  # pragma: no cover - compiled
-    """COBS-decode and CRC-check each segment ``buf[seg_start[k]:seg_stop[k]]`` (no zeros inside).
-
-    Returns the decoded bytes, each frame's start and length in them, and a status per frame:
-    0 ok, 1 empty, 2 COBS error, 3 too short, 4 CRC mismatch, 5 too long.
-    """
-    n_seg = seg_start.shape[0]
-    out = np.empty(buf.shape[0], dtype=np.uint8)
-    starts = np.empty(n_seg, dtype=np.int64)
-    lengths = np.zeros(n_seg, dtype=np.int64)
-    status = np.zeros(n_seg, dtype=np.uint8)
-    o = 0
-    for k in range(n_seg):
-        s = seg_start[k]
-        e = seg_stop[k]
-        starts[k] = o
-        if e == s:
-            status[k] = 1
-            continue
-        if e - s > 65536 + 2 + 65536 // 254:
-            status[k] = 5
-            continue
-        p = s
-        fo = o
-        bad = False
-        while p < e:
-            code = np.int64(buf[p])
-            p += 1
-            if p + code - 1 > e:
-                bad = True
-                break
-            for j in range(code - 1):
-                out[fo + j] = buf[p + j]
-            fo += code - 1
-            p += code - 1
-            if code < 255 and p < e:
-                out[fo] = 0
-                fo += 1
-        if bad:
-            status[k] = 2
-            continue
-        length = fo - o
-        if length < 10:
-            status[k] = 3
-            continue
-        crc = _crc32(out, o, fo - 4, table)
-        got = (
-            np.uint32(out[fo - 4])
-            | (np.uint32(out[fo - 3]) << np.uint32(8))
-            | (np.uint32(out[fo - 2]) << np.uint32(16))
-            | (np.uint32(out[fo - 1]) << np.uint32(24))
-        )
-        if crc != got:
-            status[k] = 4
-            continue
-        lengths[k] = length
-        o = fo
-    return out[:o], starts, lengths, status
-
-
-@numba.njit(cache=True, nogil=True)
-def _cobs_encode(data):  # pragma: no cover - compiled
-    """COBS-encode ``data`` (uint8) and append the 0x00 delimiter."""
-    n = data.shape[0]
-    out = np.empty(n + n // 254 + 2, dtype=np.uint8)
-    code_pos = 0
-    o = 1
-    code = 1
-    for i in range(n):
-        b = data[i]
-        if b == 0:
-            out[code_pos] = code
-            code_pos = o
-            o += 1
-            code = 1
-        else:
-            out[o] = b
-            o += 1
-            code += 1
-            if code == 255:
-                out[code_pos] = code
-                code_pos = o
-                o += 1
-                code = 1
-    out[code_pos] = code
-    out[o] = 0
-    return out[: o + 1]
-
-
-@numba.njit(cache=True, nogil=True)
-def _unpack_samples(out, offsets, n, nch, width):  # pragma: no cover - compiled
-    """Little-endian two's-complement samples of ``offsets.size`` frames -> int32 (g, n, nch)."""
-    g = offsets.shape[0]
-    res = np.empty((g, n, nch), dtype=np.int32)
-    for f in range(g):
-        p = offsets[f]
-        for i in range(n):
-            for c in range(nch):
-                if width == 3:
-                    v = np.int32(out[p]) | (np.int32(out[p + 1]) << 8) | (np.int32(out[p + 2]) << 16)
-                    res[f, i, c] = (v ^ 0x800000) - 0x800000
-                else:
-                    v = np.int32(out[p]) | (np.int32(out[p + 1]) << 8)
-                    res[f, i, c] = (v ^ 0x8000) - 0x8000
-                p += width
-    return res
-
-
-@numba.njit(cache=True, nogil=True)
-def _parse_headers(out, starts, lengths):  # pragma: no cover - compiled
-    """Header fields of every decoded frame: (version, type, seq, first, n, nch, width, mask)."""
-    g = starts.shape[0]
-    version = np.empty(g, dtype=np.int64)
-    ftype = np.empty(g, dtype=np.int64)
-    seq = np.empty(g, dtype=np.int64)
-    first = np.zeros(g, dtype=np.int64)
-    n = np.zeros(g, dtype=np.int64)
-    nch = np.zeros(g, dtype=np.int64)
-    width = np.zeros(g, dtype=np.int64)
-    mask = np.zeros(g, dtype=np.int64)
-    for k in range(g):
-        p = starts[k]
-        version[k] = out[p]
-        ftype[k] = out[p + 1]
-        seq[k] = np.int64(out[p + 2]) | (np.int64(out[p + 3]) << 8) | (np.int64(out[p + 4]) << 16) | (
-            np.int64(out[p + 5]) << 24)
-        if ftype[k] == 1 and lengths[k] >= 26:
-            q = p + 6
-            v = np.int64(0)
-            for j in range(8):  # u64, kept below 2**63
-                v |= np.int64(out[q + j]) << (8 * j)
-            first[k] = v
-            n[k] = np.int64(out[q + 8]) | (np.int64(out[q + 9]) << 8)
-            nch[k] = out[q + 10]
-            width[k] = out[q + 11]
-            mask[k] = np.int64(out[q + 12]) | (np.int64(out[q + 13]) << 8) | (np.int64(out[q + 14]) << 16) | (
-                np.int64(out[q + 15]) << 24)
-    return version, ftype, seq, first, n, nch, width, mask
-
-
-def crc32(data: bytes | np.ndarray) -> int:
-    """CRC-32 as used by the protocol (same as :func:`zlib.crc32`)."""
-    arr = np.frombuffer(bytes(data), dtype=np.uint8)
-    return int(_crc32(arr, 0, arr.shape[0], _CRC_TABLE))
+def crc32(data: bytes | bytearray | memoryview | np.ndarray) -> int:
+    """CRC-32 as used by the protocol (:func:`zlib.crc32`, CRC-32/ISO-HDLC)."""
+    return zlib.crc32(data)
 
 
 def cobs_encode(payload: bytes) -> bytes:
-    """COBS-encode ``payload`` and append the 0x00 frame delimiter."""
-    return _cobs_encode(np.frombuffer(payload, dtype=np.uint8)).tobytes()
+    """COBS-encode ``payload`` (the ``cobs`` package's C codec) and append the 0x00 delimiter."""
+    return _cobs.encode(payload) + b"\x00"
+
+
+def unpack_samples(buffer: bytes, offset: int, stride: int, n_frames: int, n: int, nch: int,
+                   width: int) -> np.ndarray:
+    """Little-endian two's-complement samples of ``n_frames`` equal frames -> int32, in one pass.
+
+    Parameters
+    ----------
+    buffer : bytes
+        The frames back to back, ``stride`` bytes each; at least one byte follows the last
+        sample (a frame's CRC does).
+    offset : int
+        First sample byte of frame 0.
+    n_frames, n, nch, width : int
+        Frames, samples per frame, channels, bytes per sample (2 or 3).
+
+    Returns
+    -------
+    ndarray, shape (n_frames, n, nch), int32
+    """
+    if width == 2:
+        raw = np.ndarray((n_frames, n * nch), dtype="<i2", buffer=buffer, offset=offset, strides=(stride, 2))
+        return raw.astype(np.int32).reshape(n_frames, n, nch)
+    # each 24-bit sample read as the 32-bit word starting at it; the top byte is the next
+    # sample's (or the CRC's) and is shifted out, the arithmetic shift extends the sign
+    raw = np.ndarray((n_frames, n * nch), dtype="<i4", buffer=buffer, offset=offset, strides=(stride, 3))
+    out = np.left_shift(raw, 8)
+    out >>= 8
+    return out.reshape(n_frames, n, nch)
 
 
 # --------------------------------------------------------------------------------------------
@@ -328,12 +201,15 @@ def encode_command(
     block_size: int = 0,
     peak_force_n: float = 0.0,
     double_hit: bool = False,
+    at_sample: int = 0,
 ) -> bytes:
     """A command frame from the host (only the arguments its type uses are read)."""
     if command == FrameType.CONFIGURE:
         body = CONFIGURE_BODY.pack(rate_hz, channel_mask, block_size)
     elif command == FrameType.IMPACT:
         body = IMPACT_BODY.pack(peak_force_n, int(double_hit))
+    elif command == FrameType.IMPACT_AT:
+        body = IMPACT_AT_BODY.pack(peak_force_n, int(double_hit), at_sample)
     else:
         body = b""
     return encode_frame(command, seq, body)
@@ -391,7 +267,7 @@ class Message:
 
 @dataclass
 class DecoderStats:
-    """Counters of a :class:`StreamDecoder` (all exact, never reset).
+    """Counters of a :class:`StreamDecoder` (all exact, never reset, never wrapping).
 
     Attributes
     ----------
@@ -400,7 +276,7 @@ class DecoderStats:
     frames : int
         Frames that passed the CRC.
     data_frames : int
-        Of which DATA frames.
+        Of which DATA frames delivered.
     samples : int
         Samples (rows) delivered in DATA frames.
     crc_errors : int
@@ -413,7 +289,15 @@ class DecoderStats:
     malformed : int
         CRC-valid frames whose content contradicts the protocol (e.g. a wrong length).
     lost_frames : int
-        Gaps in the device's frame sequence numbers.
+        Frames missing from the sender's sequence: the forward gaps of ``seq`` (mod 2**32,
+        a gap of less than 2**31 frames). A frame whose ``seq`` lies behind the last one seen
+        (duplicated, reordered, or a restarted sender) is counted in ``stale_frames``
+        instead and never makes this counter jump.
+    stale_frames : int
+        CRC-valid frames whose ``seq`` lies behind the last one seen.
+    repeated_samples : int
+        Samples of DATA frames that go backwards in the device sample counter (a duplicated
+        or reordered frame): never delivered, since each sample is delivered at most once.
     dropped_samples : int
         Samples missing between good DATA frames (from the device sample counter).
     discarded_bytes : int
@@ -429,8 +313,16 @@ class DecoderStats:
     resyncs: int = 0
     malformed: int = 0
     lost_frames: int = 0
+    stale_frames: int = 0
+    repeated_samples: int = 0
     dropped_samples: int = 0
     discarded_bytes: int = 0
+
+
+#: Longest COBS-encoded segment of a conforming frame, [bytes].
+MAX_ENCODED_BYTES = MAX_FRAME_BYTES + 2 + MAX_FRAME_BYTES // 254
+#: Half the sequence space: a ``seq`` this far or more ahead of the expected one is behind it.
+_SEQ_HALF = 1 << 31
 
 
 @dataclass
@@ -441,13 +333,19 @@ class StreamDecoder:
     order. Corrupt input never raises: it is counted in :attr:`stats` and skipped. Only a
     CRC-valid frame of another protocol version raises :class:`ProtocolVersionError`.
 
+    Sample accounting (``docs/protocol.md``): the decoder keeps the device sample counter
+    the next DATA frame should start at. Only the first START reply after opening or after a
+    CONFIGURE (which resets the device counter) sets it; a repeated or late START reply never
+    moves it, so the stream is never rewound. Counters are Python integers: the u64 sample
+    counter is exact beyond 2**63.
+
     Parameters
     ----------
     max_frame_bytes : int
         Pending bytes without a delimiter beyond which they are discarded (a resync).
     """
 
-    max_frame_bytes: int = MAX_FRAME_BYTES + MAX_FRAME_BYTES // 254 + 2
+    max_frame_bytes: int = MAX_ENCODED_BYTES
     stats: DecoderStats = field(default_factory=DecoderStats)
     _pending: bytearray = field(default_factory=bytearray)
     _expected_sample: int | None = None
@@ -491,118 +389,146 @@ class StreamDecoder:
         st.bytes += len(data)
         if not data:
             return []
-        self._pending += data
-        buf = np.frombuffer(self._pending, dtype=np.uint8)
-        zeros = np.flatnonzero(buf == 0)
-        if zeros.size == 0:
-            del buf
-            if len(self._pending) > self.max_frame_bytes:
+        pending = self._pending
+        pending += data
+        end = pending.rfind(0)
+        if end < 0:
+            if len(pending) > self.max_frame_bytes:
                 st.resyncs += 1
                 st.framing_errors += 1
-                st.discarded_bytes += len(self._pending)
-                self._pending = bytearray()
+                st.discarded_bytes += len(pending)
+                pending.clear()
             return []
-        end = int(zeros[-1]) + 1
-        seg_start = np.empty(zeros.size, dtype=np.int64)
-        seg_start[0] = 0
-        seg_start[1:] = zeros[:-1] + 1
-        seg_stop = zeros.astype(np.int64)
-        chunk = buf[:end].copy()
+        # segments are read in place (numpy views, no copy) and only decoded frames are kept
+        buf = np.frombuffer(pending, dtype=np.uint8, count=end + 1)
+        stops = np.flatnonzero(buf == 0).tolist()
+        raws = []
+        begin = 0
+        decode, crc, DecodeError = _cobs.decode, zlib.crc32, _cobs.DecodeError
+        for stop in stops:
+            size = stop - begin
+            if size:  # (two delimiters in a row mean nothing)
+                raw = None
+                if size <= MAX_ENCODED_BYTES:
+                    try:
+                        raw = decode(buf[begin:stop])
+                    except DecodeError:
+                        raw = None
+                if raw is None or len(raw) < FRAME_OVERHEAD:
+                    st.framing_errors += 1
+                elif crc(memoryview(raw)[:-4]) != int.from_bytes(raw[-4:], "little"):
+                    st.crc_errors += 1
+                else:
+                    raws.append(raw)
+                    size = 0
+                if size:  # not a good frame: skipped to this delimiter
+                    st.resyncs += 1
+                    st.discarded_bytes += size + 1
+            begin = stop + 1
         del buf
-        del self._pending[:end]
-        out, starts, lengths, status = _decode_frames(chunk, seg_start, seg_stop, _CRC_TABLE)
-        n_crc = int(np.count_nonzero(status == 4))
-        n_framing = int(np.count_nonzero((status == 2) | (status == 3) | (status == 5)))
-        st.crc_errors += n_crc
-        st.framing_errors += n_framing
-        st.resyncs += n_crc + n_framing
-        bad = (status > 1)
-        st.discarded_bytes += int(np.sum(seg_stop[bad] - seg_start[bad] + 1))
-        good = np.flatnonzero(status == 0)
-        if good.size == 0:
-            return []
-        return self._interpret(out, starts[good], lengths[good])
+        del pending[: end + 1]
+        return self._interpret(raws) if raws else []
 
-    def _interpret(self, out: np.ndarray, starts: np.ndarray, lengths: np.ndarray) -> list[DataFrame | Message]:
+    def _interpret(self, raws: list[bytes]) -> list[DataFrame | Message]:
+        """Turn CRC-valid frames into DataFrame / Message, in order, with the loss accounting."""
         st = self.stats
-        st.frames += starts.size
-        version, ftype, seq, first, n, nch, width, mask = _parse_headers(out, starts, lengths)
-        if np.any(version != PROTOCOL_VERSION):
-            other = int(version[np.flatnonzero(version != PROTOCOL_VERSION)[0]])
-            raise ProtocolVersionError(
-                f"device speaks protocol version {other}, this driver speaks version {PROTOCOL_VERSION}"
-            )
-        results: list[DataFrame | Message | None] = [None] * starts.size
-        is_data = ftype == FrameType.DATA
-        if np.any(is_data):
-            ok = is_data & ((width == 2) | (width == 3)) & (nch > 0) & (n > 0) & (nch <= 32)
-            ok &= lengths == DATA_OFFSET + n * nch * width + CRC.size
-            st.malformed += int(np.count_nonzero(is_data & ~ok))
-            idx_ok = np.flatnonzero(ok)
-            if idx_ok.size:
-                key = (n * 256 + nch) * 4 + width
-                keys = key[idx_ok]
-                groups = [keys[0]] if keys.min() == keys.max() else np.unique(keys)
-                for kv in groups:
-                    sel = idx_ok if len(groups) == 1 else idx_ok[keys == kv]
-                    k0 = int(sel[0])
-                    vals = _unpack_samples(out, starts[sel] + DATA_OFFSET, int(n[k0]), int(nch[k0]), int(width[k0]))
-                    for j, i in enumerate(sel.tolist()):
-                        results[i] = DataFrame(seq=int(seq[i]), first_sample=int(first[i]), counts=vals[j],
-                                               channel_mask=int(mask[i]))
-        for k in np.flatnonzero(~is_data).tolist():
-            s = int(starts[k])
-            results[k] = Message(int(ftype[k]), int(seq[k]), out[s + HEADER.size : s + int(lengths[k]) - CRC.size].tobytes())
-        frames: list[DataFrame | Message] = []
-        seqs = seq.tolist()
-        for k, r in enumerate(results):
-            if r is None:
+        st.frames += len(raws)
+        kinds: list[Any] = []  # per frame: a Message, a DATA header tuple, or None (malformed)
+        layouts: dict[tuple[int, int, int], list[int]] = {}
+        seqs = []
+        for k, raw in enumerate(raws):
+            version, ftype, seq = HEADER.unpack_from(raw)
+            if version != PROTOCOL_VERSION:
+                raise ProtocolVersionError(
+                    f"device speaks protocol version {version}, this driver speaks version {PROTOCOL_VERSION}"
+                )
+            seqs.append(seq)
+            if ftype != FrameType.DATA:
+                kinds.append(Message(ftype, seq, raw[HEADER.size : -CRC.size]))
                 continue
-            if self._expected_seq is not None and seqs[k] != self._expected_seq:
-                st.lost_frames += (seqs[k] - self._expected_seq) & 0xFFFFFFFF
-            self._expected_seq = (seqs[k] + 1) & 0xFFFFFFFF
-            if isinstance(r, DataFrame):
-                r = self._account(r)
-                if r is None:
-                    continue
-            elif r.frame_type == FrameType.REPLY:
-                self._track_reply(r)
-            frames.append(r)
+            head = DATA_HEADER.unpack_from(raw, HEADER.size) if len(raw) >= DATA_OFFSET + CRC.size else None
+            if head is None or head[3] not in (2, 3) or not 0 < head[2] <= 32 or head[1] == 0 or (
+                    len(raw) != DATA_OFFSET + head[1] * head[2] * head[3] + CRC.size):
+                st.malformed += 1  # still counts in the sequence, delivers nothing
+                kinds.append(None)
+                continue
+            layouts.setdefault(head[1:4], []).append(k)
+            kinds.append(head)
+        values: dict[int, np.ndarray] = {}
+        for (n, nch, width), ks in layouts.items():
+            joined = b"".join([raws[k] for k in ks]) if len(ks) > 1 else raws[ks[0]]
+            block = unpack_samples(joined, DATA_OFFSET, len(raws[ks[0]]), len(ks), n, nch, width)
+            values.update(zip(ks, block))
+        frames: list[DataFrame | Message] = []
+        for k, kind in enumerate(kinds):
+            self._count_seq(seqs[k])
+            if kind is None:
+                continue
+            if isinstance(kind, Message):
+                if kind.frame_type == FrameType.REPLY:
+                    self._track_reply(kind)
+                frames.append(kind)
+                continue
+            frame = self._account(seqs[k], kind[0], values[k], kind[4])
+            if frame is not None:
+                frames.append(frame)
         return frames
 
+    def _count_seq(self, seq: int) -> None:
+        """Forward gaps of the sender's ``seq`` are lost frames; a frame behind is stale."""
+        exp = self._expected_seq
+        if exp is not None:
+            gap = (seq - exp) & 0xFFFFFFFF
+            if gap >= _SEQ_HALF:  # behind: duplicated, reordered or a restarted sender
+                self.stats.stale_frames += 1
+                return
+            self.stats.lost_frames += gap
+        self._expected_seq = (seq + 1) & 0xFFFFFFFF
+
     def _track_reply(self, msg: Message) -> None:
-        """A START reply sets the expected sample counter; a STOP reply counts the tail lost."""
+        """The first START reply sets the expected counter, a CONFIGURE resets it, a STOP counts the tail."""
         if len(msg.body) < REPLY_HEADER.size:
             return
         _, ctype, status = REPLY_HEADER.unpack_from(msg.body)
-        if status != ReplyStatus.OK or ctype not in (FrameType.START, FrameType.STOP):
+        if status != ReplyStatus.OK or ctype not in (FrameType.START, FrameType.STOP, FrameType.CONFIGURE):
+            return
+        if ctype == FrameType.CONFIGURE:
+            self._expected_sample = None  # the device counter restarts at 0
             return
         try:
             content = msg.reply()[3]
             if ctype == FrameType.START:
-                self.expect_sample(int(content["first_sample"]))
+                first = _counter(content["first_sample"])
+                if self._expected_sample is None:
+                    self._expected_sample = first
             else:
-                self.account_tail(int(content["next_sample"]))
+                self.account_tail(_counter(content["next_sample"]))
         except (ProtocolError, KeyError, TypeError, ValueError):
             self.stats.malformed += 1
 
-    def _account(self, frame: DataFrame) -> DataFrame | None:
+    def _account(self, seq: int, first: int, counts: np.ndarray, mask: int) -> DataFrame | None:
+        """Check a block against the expected sample counter; None when it goes backwards."""
         st = self.stats
-        n = frame.counts.shape[0]
+        n = counts.shape[0]
         exp = self._expected_sample
         dropped = 0
         if exp is not None:
-            if frame.first_sample < exp:
-                st.malformed += 1  # goes backwards: never deliver a sample twice
+            if first < exp:  # goes backwards: never deliver a sample twice
+                st.repeated_samples += n
                 return None
-            dropped = frame.first_sample - exp
+            dropped = first - exp
             st.dropped_samples += dropped
-        self._expected_sample = frame.first_sample + n
+        self._expected_sample = first + n
         st.data_frames += 1
         st.samples += n
-        if dropped:
-            return DataFrame(frame.seq, frame.first_sample, frame.counts, frame.channel_mask, dropped)
-        return frame
+        return DataFrame(seq, first, counts, mask, dropped)
+
+
+def _counter(value: object) -> int:
+    """A u64 sample counter from a reply's JSON (an integer in [0, 2**64))."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 1 << 64:
+        raise ValueError(f"sample counter must be an integer in [0, 2**64), got {value!r}")
+    return value
 
 
 def decode_one(frame: bytes) -> DataFrame | Message:

@@ -22,6 +22,7 @@ import numpy as np
 from drivers.channels import ChannelInfo
 from drivers.protocol import (
     CONFIGURE_BODY,
+    IMPACT_AT_BODY,
     IMPACT_BODY,
     PROTOCOL_VERSION,
     FrameType,
@@ -91,6 +92,8 @@ class EmulatedDaq:
         self._seq = 0
         self._pending: list[np.ndarray] = []  # acquired samples not yet in a frame
         self._pending_n = 0
+        self._scheduled: list[tuple[int, float, bool]] = []  # IMPACT_AT blows: (at_sample, peak, double)
+        self.impact_errors: list[str] = []
         self._decoder = StreamDecoder()
 
     # ------------------------------------------------------------------ information
@@ -98,6 +101,11 @@ class EmulatedDaq:
     def active_channels(self) -> tuple[int, ...]:
         """Indices of the channels in the current mask, ascending."""
         return tuple(i for i in range(len(self.source.channels)) if self.channel_mask >> i & 1)
+
+    @property
+    def pending_samples(self) -> int:
+        """Samples acquired and not yet sent in a frame."""
+        return self._pending_n
 
     @property
     def width(self) -> int:
@@ -158,6 +166,8 @@ class EmulatedDaq:
             return self._configure(msg)
         if t == FrameType.IMPACT:
             return self._impact(msg)
+        if t == FrameType.IMPACT_AT:
+            return self._impact_at(msg)
         return self._reply(msg, ReplyStatus.BAD_COMMAND, {"error": f"unknown command type 0x{t:02x}"})
 
     def _configure(self, msg: Message) -> bytes:
@@ -193,6 +203,7 @@ class EmulatedDaq:
             self.block_size = block_size
         self.next_sample = 0
         self._pending, self._pending_n = [], 0
+        self._scheduled = []
         return self._reply(msg, ReplyStatus.OK, self.info())
 
     def _impact(self, msg: Message) -> bytes:
@@ -210,6 +221,27 @@ class EmulatedDaq:
         except (RigError, ValueError) as exc:
             return self._reply(msg, ReplyStatus.BAD_VALUE, {"error": str(exc)})
         return self._reply(msg, ReplyStatus.OK, {"at_sample": self.next_sample + self._pending_n})
+
+    def _impact_at(self, msg: Message) -> bytes:
+        """Schedule a blow at a sample counter: sample time, so a run is reproducible."""
+        deliver = getattr(self.source, "deliver_impact", None)
+        if not callable(deliver):
+            return self._reply(msg, ReplyStatus.UNSUPPORTED, {"error": "this device has no hammer"})
+        if len(msg.body) != IMPACT_AT_BODY.size:
+            return self._reply(
+                msg, ReplyStatus.BAD_COMMAND,
+                {"error": f"impact-at body must be {IMPACT_AT_BODY.size} bytes, got {len(msg.body)}"},
+            )
+        peak, double, at = IMPACT_AT_BODY.unpack(msg.body)
+        now = self.next_sample + self._pending_n
+        if at < now:
+            return self._reply(msg, ReplyStatus.BAD_VALUE,
+                               {"error": f"impact at sample {at} is in the past (the device is at {now})"})
+        if not (np.isfinite(peak) and peak > 0):
+            return self._reply(msg, ReplyStatus.BAD_VALUE, {"error": f"impact peak force must be > 0 N, got {peak}"})
+        self._scheduled.append((at, peak, bool(double)))
+        self._scheduled.sort(key=lambda x: x[0])
+        return self._reply(msg, ReplyStatus.OK, {"at_sample": at})
 
     def status(self) -> dict[str, Any]:
         """The STATUS reply content."""
@@ -229,7 +261,7 @@ class EmulatedDaq:
         """
         if not self.streaming or n_samples <= 0:
             return b""
-        counts = np.asarray(self.source.read(n_samples), dtype=np.int32)
+        counts = self._read_source(n_samples)
         if counts.shape != (n_samples, len(self.source.channels)):
             raise RigError(
                 f"source returned shape {counts.shape}, expected ({n_samples}, {len(self.source.channels)})"
@@ -247,6 +279,25 @@ class EmulatedDaq:
         self._pending = [rest] if rest.shape[0] else []
         self._pending_n = rest.shape[0]
         return self._frames(allc[:n_full])
+
+    def _read_source(self, n_samples: int) -> np.ndarray:
+        """``n_samples`` from the source, delivering scheduled blows at their exact sample."""
+        parts = []
+        pos = self.next_sample + self._pending_n
+        left = n_samples
+        while self._scheduled and self._scheduled[0][0] < pos + left:
+            at, peak, double = self._scheduled.pop(0)
+            if at > pos:
+                parts.append(np.asarray(self.source.read(at - pos), dtype=np.int32))
+                left -= at - pos
+                pos = at
+            try:
+                self.source.deliver_impact(peak, double_hit=double)  # type: ignore[attr-defined]
+            except (RigError, ValueError) as exc:  # e.g. the system diverges: no blow
+                self.impact_errors.append(str(exc))
+        if left or not parts:
+            parts.append(np.asarray(self.source.read(left), dtype=np.int32))
+        return parts[0] if len(parts) == 1 else np.concatenate(parts)
 
     def _flush(self) -> bytes:
         if not self._pending_n:

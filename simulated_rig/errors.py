@@ -9,3 +9,7 @@ class RigError(Exception):
 
 class ScenarioError(RigError, ValueError):
     """A scenario file or system description is invalid (the message names the field)."""
+
+
+class EmulatorError(RigError, OSError):
+    """The firmware emulator (QEMU, the ARM toolchain) is missing or failed to start."""

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Protocol
@@ -48,10 +49,23 @@ class ImpactPlan:
         Peak force of each impact [N].
     double_hits : tuple of bool
         Whether each impact is a double hit.
+    at_samples : tuple of int
+        When given, each blow's device sample counter counted from the stream's first sample:
+        the rig delivers them in sample time, so a run is the same whatever the host's speed.
+        Empty: each blow is asked for when the trigger is armed.
     """
 
     peaks_n: tuple[float, ...]
     double_hits: tuple[bool, ...]
+    at_samples: tuple[int, ...] = ()
+
+    def scheduled(self, settings: TriggerSettings) -> "ImpactPlan":
+        """The same blows at fixed sample times: the first once the pre-trigger is full, then one
+        every record + hold-off + pre-trigger (plus a margin), so each meets an armed trigger."""
+        margin = settings.pretrigger_samples // 2 + 1
+        period = settings.posttrigger_samples + settings.holdoff_samples + settings.pretrigger_samples + margin
+        first = settings.pretrigger_samples + margin
+        return ImpactPlan(self.peaks_n, self.double_hits, tuple(first + k * period for k in range(len(self.peaks_n))))
 
     @classmethod
     def varied(cls, n: int, low_n: float, high_n: float, double_hit_every: int = 0, seed: int = 0) -> "ImpactPlan":
@@ -189,6 +203,7 @@ def acquire(
     idle_timeout_s: float | None = None,
     read_timeout_s: float = 0.25,
     device_meta: dict[str, Any] | None = None,
+    wall_clock: Callable[[], float] = time.time,
 ) -> AcquireResult:
     """Record ``n_impacts`` accepted captures into ``writer``'s session file.
 
@@ -211,6 +226,10 @@ def acquire(
         Wait per :meth:`read_block` call [s] (bounds the Ctrl-C latency).
     device_meta : dict, optional
         Stored as each capture's ``device`` group (default: from ``daq.info``).
+    wall_clock : callable
+        UTC wall clock [s since 1970]; read once when the stream starts. Each capture stores
+        ``t0_unix_s`` = that time + (its first sample - the stream's first sample) / rate: the
+        device's sample clock from one host time stamp (off by the start-up latency of the link).
 
     Returns
     -------
@@ -238,6 +257,8 @@ def acquire(
     impact_at: int | None = None  # sample position when the pending impact was requested
     last_peak: tuple[float, bool] | None = None
     idle_s = 0.0
+    origin: list[float] = []  # [wall time at START, first sample of the stream]
+    sensors = config.sensor_metadata()
 
     def report() -> None:
         if on_status is not None:
@@ -252,8 +273,9 @@ def acquire(
             if last_peak is not None:
                 rig["requested_peak_force_n"] = last_peak[0]
                 rig["requested_double_hit"] = last_peak[1]
+        t0 = origin[0] + (cap.first_sample - origin[1]) / rate if len(origin) == 2 else None
         idx = writer.append(
-            cap, device=dev, rig=rig, notes=config.notes, mass_kg=config.specimen.mass_kg,
+            cap, device=dev, rig=rig, notes=config.notes, mass_kg=config.specimen.mass_kg, t0_unix_s=t0, sensors=sensors,
             source=str(dev.get("url", "")), dropped_before_total=trig.dropped_total,
             extra={"peak_force": float(np.nanmax(np.abs(cap.si[:, settings.channel]))) if cap.n_samples else 0.0},
         )
@@ -262,12 +284,18 @@ def acquire(
             result.partial_index = idx
         message = f"capture {idx} saved" + (" (partial)" if cap.partial else "")
 
+    blows = _schedule(daq, impacts)  # (device sample, peak, double hit) of each scheduled blow
     daq.start()
+    origin.append(wall_clock())
     report()
     try:
         while len(result.indices) < n_impacts:
-            # a simulated rig: ask for the next impact once the trigger is armed
-            if impacts is not None and impact_at is None and trig.state == "armed":
+            if blows and trig.next_sample is not None and trig.state != "triggered" and (
+                    trig.next_sample > blows[-1][0] + settings.record_samples + settings.holdoff_samples):
+                raise StationError(f"the simulated rig gave all {len(blows)} scheduled impacts; "
+                                   f"{len(result.indices)} accepted, {len(result.rejected)} rejected; giving up")
+            # a simulated rig without a schedule: ask for the next impact once the trigger is armed
+            if impacts is not None and not blows and impact_at is None and trig.state == "armed":
                 if next_impact >= len(impacts.peaks_n):
                     raise StationError(f"the simulated rig gave {result.missed_impacts} impacts that did not trigger "
                                        f"(level {settings.level:g}) and {len(result.rejected)} rejected; giving up")
@@ -283,11 +311,15 @@ def acquire(
                     raise StationError(f"no data from {dev.get('url', 'the device')} for {idle_s:.1f} s; expected a sample stream")
                 continue
             idle_s = 0.0
+            if len(origin) == 1:
+                origin.append(float(block.first_sample))
             si = block.counts * scale + offset
             if block.counts.shape[0]:
                 peaks = np.max(np.abs(si), axis=0)
                 levels = {c.name: float(p) for c, p in zip(channels, peaks)}
             for cap in trig.feed(_Block(block.first_sample, block.counts, si)):
+                if blows:
+                    last_peak = _blow_of(blows, cap.trigger_sample)
                 reason = cap.rejection(*policy)
                 if reason is not None:
                     result.rejected.append(reason)
@@ -328,6 +360,24 @@ def acquire(
             result.interrupted = True
         report()
     return result
+
+
+def _schedule(daq: Any, impacts: ImpactPlan | None) -> list[tuple[int, float, bool]]:
+    """Send a plan's scheduled blows to the rig, before START (the counter stands still until then)."""
+    if impacts is None or not impacts.at_samples:
+        return []
+    first = int(daq.status().get("next_sample", 0))
+    blows = [(first + int(at), float(peak), bool(dh))
+             for peak, dh, at in zip(impacts.peaks_n, impacts.double_hits, impacts.at_samples)]
+    for at, peak, dh in blows:
+        daq.impact(peak, double_hit=dh, at_sample=at)
+    return blows
+
+
+def _blow_of(blows: list[tuple[int, float, bool]], trigger_sample: int) -> tuple[float, bool] | None:
+    """(peak, double hit) of the last scheduled blow at or before a trigger sample."""
+    before = [b for b in blows if b[0] <= trigger_sample]
+    return (before[-1][1], before[-1][2]) if before else None
 
 
 def device_metadata(daq: Any, url: str | None = None) -> dict[str, Any]:

@@ -14,24 +14,27 @@ from __future__ import annotations
 import argparse
 import errno
 import importlib
+import re
 import sys
-from typing import Sequence
+from typing import Any, Sequence
 
 
-#: Sub-command name -> module that provides it (``register(subparsers)``). Only the module of
-#: the command being run is imported, so ``station identify`` does not pay for the drivers.
-COMMANDS: dict[str, str] = {
-    "acquire": "station.commands.acquire",
-    "export": "station.commands.export",
-    "import": "station.commands.export",
-    "identify": "station.commands.identify",
-    "diagnose": "station.commands.diagnose",
-    "devices": "station.commands.devices",
-    "rig": "station.commands.rig",
-    "demo": "station.commands.demo",
-    "validate": "station.commands.validate",
-    "replay": "station.commands.replay",
-    "report": "station.commands.report",
+#: Sub-command name -> (module that provides it with ``register(subparsers)``, one-line help).
+#: Only the module of the command being run is imported, so ``station identify`` does not
+#: pay for the drivers and ``station --help`` imports no command at all.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "demo": ("station.commands.demo", "acquire, identify, validate and report on the simulated rig"),
+    "acquire": ("station.commands.acquire", "record triggered impacts into an HDF5 session file"),
+    "identify": ("station.commands.identify", "identify the equation of motion of one record"),
+    "validate": ("station.commands.validate", "simulate a model for measured records and score it"),
+    "diagnose": ("station.commands.diagnose", "what a model gets wrong, why, and the extended model"),
+    "report": ("station.commands.report", "HTML report with the paper's figures (identify + validate)"),
+    "replay": ("station.commands.replay", "rerun the pipeline on saved captures (optionally through the device)"),
+    "export": ("station.commands.export", "write force and acceleration of captures to a UFF58 file"),
+    "import": ("station.commands.export", "store CSV measurements as captures of an HDF5 session file"),
+    "devices": ("station.commands.devices", "list serial ports, USB DAQs and simulated systems"),
+    "rig": ("station.commands.rig", "the simulated rig: serve it on a pty, strike it; the firmware in QEMU"),
+    "campaign": ("station.commands.campaign", "identify / validate / diagnose many captures in parallel (Dask)"),
 }
 
 
@@ -54,44 +57,130 @@ def is_user_error(exc: BaseException) -> bool:
             return True
     return False
 
+#: Optional libraries -> the extra that installs them (``pip install "eddi-station[EXTRA]"``).
+OPTIONAL_MODULES: dict[str, str] = {"matplotlib": "report", "dask": "campaign", "distributed": "campaign",
+                                    "pyarrow": "campaign", "libusb_package": "usb"}
+
+
+def missing_extra(exc: BaseException) -> str | None:
+    """The one-line error for a missing optional library, or None when ``exc`` is not that."""
+    if not isinstance(exc, ModuleNotFoundError) or exc.name is None:
+        return None
+    extra = OPTIONAL_MODULES.get(exc.name.split(".")[0])
+    if extra is None:
+        return None
+    return f"this needs {exc.name.split('.')[0]}, which is not installed: pip install \"eddi-station[{extra}]\""
+
+
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
 
+#: Commands that draw their own live status (the others get :class:`station.progress.Working`).
+OWN_PROGRESS = frozenset({"acquire", "demo", "rig", "campaign"})
+
+
+_ROLE = re.compile(r":[a-z]+:`~?([^`]+)`")
+
+
+def plain(text: str) -> str:
+    """Docstring text without reStructuredText / Sphinx markup (for ``--help``)."""
+    return _ROLE.sub(r"\1", text).replace("``", "")
+
+
+def version() -> str:
+    """The installed version of the package (or "unknown" when run from a bare checkout)."""
+    from importlib.metadata import PackageNotFoundError
+    from importlib.metadata import version as dist_version
+
+    try:
+        return dist_version("eddi-station")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+class _Version(argparse.Action):
+    """``--version``: looked up only when asked (importlib.metadata is not free)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS, **kw: Any) -> None:
+        super().__init__(option_strings, dest, nargs=0, help="print the version and exit", **kw)
+
+    def __call__(self, parser: argparse.ArgumentParser, *args: Any) -> None:
+        sys.stdout.write(f"station {version()}\n")
+        parser.exit(0)
+
 
 class _Parser(argparse.ArgumentParser):
-    """An argument parser whose errors are one line."""
+    """An argument parser whose errors are one line and whose help is plain text."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(EXIT_USER_ERROR, f"{self.prog}: error: {message}\n")
 
+    def format_help(self) -> str:
+        return plain(super().format_help())
+
 
 def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
-    """The parser; with ``argv`` naming a known command, only that command's module is loaded."""
+    """The parser; with ``argv`` naming a known command, only that command's module is loaded.
+
+    Without one (``station --help``, a typo) no command module is imported: the list of
+    commands comes from :data:`COMMANDS`.
+    """
     parser = _Parser(
         prog="station",
         description="EDDI Station: impact testing and identification of nonlinear equations of motion.",
+        epilog="Run `station COMMAND --help` for a command's options. Every command prints text for "
+               "people, or one JSON object with --json; a bad input ends in one line and exit code 2.",
     )
+    parser.add_argument("--version", action=_Version)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     first = next((a for a in (argv or ()) if not a.startswith("-")), None)
-    modules = [COMMANDS[first]] if first in COMMANDS else list(dict.fromkeys(COMMANDS.values()))
-    for name in modules:
-        importlib.import_module(name).register(sub)
+    if first in COMMANDS:
+        importlib.import_module(COMMANDS[first][0]).register(sub)
+    else:
+        for name, (_, what) in COMMANDS.items():
+            sub.add_parser(name, help=what, add_help=False)
     return parser
+
+
+def _missing_package(exc: ModuleNotFoundError) -> int:
+    """One line for an installation that lacks a package the command needs; exit code 2."""
+    name = exc.name or str(exc)
+    print(f"station: error: this command needs the Python package '{name}', which is not installed "
+          f"(reinstall with `pip install -e .` or add the extra that names it)", file=sys.stderr)
+    return EXIT_USER_ERROR
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI and return the exit code."""
     if argv is None:
         argv = sys.argv[1:]
-    parser = build_parser(argv)
-    args = parser.parse_args(argv)
     try:
-        return int(args.func(args) or 0)
+        parser = build_parser(argv)
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version, or a one-line usage error already printed
+        return exc.code if isinstance(exc.code, int) else EXIT_USER_ERROR
+    except KeyboardInterrupt:  # Ctrl-C while the command's modules load
+        print("station: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except ModuleNotFoundError as exc:
+        return _missing_package(exc)
+    try:
+        from station.progress import Working
+
+        quiet = bool(getattr(args, "json", False)) or args.command in OWN_PROGRESS
+        with Working(f"station {args.command}", enabled=not quiet):
+            return int(args.func(args) or 0)
     except KeyboardInterrupt:
         print("station: interrupted (what was saved is kept)", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except ModuleNotFoundError as exc:
+        return _missing_package(exc)
     except Exception as exc:
+        extra = missing_extra(exc)
+        if extra is not None:
+            print(f"station: error: {extra}", file=sys.stderr)
+            return EXIT_USER_ERROR
         if is_user_error(exc):
             print(f"station: error: {exc}", file=sys.stderr)
             return EXIT_USER_ERROR

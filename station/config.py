@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 import sys
+from datetime import date
 from pathlib import Path
 from typing import Any, Literal, Sequence
 
@@ -49,6 +50,10 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 
+#: Longest record, pre-trigger or hold-off [s]: an hour (a record is held in memory; 1e9 s is a typo).
+MAX_RECORD_S = 3600.0
+
+
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
@@ -57,7 +62,8 @@ class DeviceConfig(_Strict):
     """Which DAQ and how it runs."""
 
     url: str = Field(min_length=1, description="device URL: sim://SYSTEM, serial:///dev/ttyACM0, usb://VID:PID")
-    rate_hz: float | None = Field(default=None, gt=0, description="sample rate [Hz]; device default when absent")
+    rate_hz: float | None = Field(default=None, gt=0, le=10_000_000, allow_inf_nan=False,
+                                  description="sample rate [Hz]; device default when absent")
     block_size: int | None = Field(default=None, ge=1, le=65535, description="samples per block; device default when absent")
 
     @field_validator("url")
@@ -75,7 +81,14 @@ class ChannelConfig(_Strict):
     quantity: Literal["force", "acceleration", "velocity", "displacement"]
     sensitivity: float | None = Field(default=None, gt=0, description="sensor sensitivity from its calibration sheet")
     sensitivity_unit: str | None = None
-    range: float | None = Field(default=None, gt=0, description="largest valid magnitude [SI]; beyond it is overload")
+    range: float | None = Field(default=None, gt=0, allow_inf_nan=False,
+                                description="largest valid magnitude [SI]; beyond it is overload")
+    sensor_model: str | None = Field(default=None, min_length=1, description="sensor make and model (e.g. PCB 086C03)")
+    sensor_serial: str | None = Field(default=None, min_length=1, description="sensor serial number")
+    calibration_date: date | None = Field(default=None, description="date of the sensor's calibration (YYYY-MM-DD)")
+    node: int | None = Field(default=None, ge=0, description="measurement point (UFF node number)")
+    direction: Literal["+X", "-X", "+Y", "-Y", "+Z", "-Z"] | None = Field(
+        default=None, description="measured direction at the node (UFF: +X=1, +Y=2, +Z=3, negative reversed)")
 
 
 class TriggerConfig(_Strict):
@@ -84,9 +97,12 @@ class TriggerConfig(_Strict):
     channel: str = Field(default="force", min_length=1)
     level_n: float | None = Field(default=None, description="trigger level [SI unit of the channel]; 5 % of its range when absent")
     slope: Literal["rising", "falling", "either"] = "rising"
-    pretrigger_s: float = Field(default=1.0, ge=0, description="paper: 1 s")  # paper Sec. 3.3.1 (pre-trigger length of 1 s)
-    record_s: float = Field(default=4.0, gt=0, description="record length from the trigger on [s]")
-    holdoff_s: float = Field(default=0.0, ge=0, description="wait after a record before re-arming [s]")
+    pretrigger_s: float = Field(default=1.0, ge=0, le=MAX_RECORD_S, allow_inf_nan=False,
+                                description="paper: 1 s")  # paper Sec. 3.3.1 (pre-trigger length of 1 s)
+    record_s: float = Field(default=4.0, gt=0, le=MAX_RECORD_S, allow_inf_nan=False,
+                            description="record length from the trigger on [s]")
+    holdoff_s: float = Field(default=0.0, ge=0, le=MAX_RECORD_S, allow_inf_nan=False,
+                             description="wait after a record before re-arming [s]")
     release_fraction: float = Field(default=0.5, gt=0, lt=1)
     on_double_hit: Literal["flag", "reject"] = "flag"
     on_overload: Literal["flag", "reject"] = "flag"
@@ -102,8 +118,10 @@ class TriggerConfig(_Strict):
 class SpecimenConfig(_Strict):
     """The structure under test."""
 
-    mass_kg: float | None = Field(default=None, gt=0, description="oscillating mass [kg]")
+    mass_kg: float | None = Field(default=None, gt=0, allow_inf_nan=False, description="oscillating mass [kg]")
     name: str = ""
+    driving_point: str | None = Field(default=None, description="multi-DOF: the response channel at the "
+                                      "hammer (acc1, acc_tip ...); default the first response channel")
 
 
 class IdentifyConfig(_Strict):
@@ -201,6 +219,21 @@ class BenchConfig(_Strict):
         if missing:
             raise ConfigError(f"channels: {missing} not found on the device, which has {[c.name for c in device_channels]}")
         return tuple(out)
+
+    def sensor_metadata(self) -> dict[str, dict[str, Any]]:
+        """Per-channel sensor fields that are set: ``{name: {sensor_model, ..., node, direction}}``.
+
+        Stored with each capture (``docs/capture-format.md``); dates as ISO text.
+        """
+        out: dict[str, dict[str, Any]] = {}
+        for c in self.channels:
+            d = {k: getattr(c, k) for k in ("sensor_model", "sensor_serial", "calibration_date", "node", "direction")
+                 if getattr(c, k) is not None}
+            if "calibration_date" in d:
+                d["calibration_date"] = d["calibration_date"].isoformat()
+            if d:
+                out[c.name] = d
+        return out
 
     def trigger_settings(self, channels: Sequence[ChannelInfo], rate_hz: float) -> TriggerSettings:
         """Trigger settings in samples for a device running at ``rate_hz`` [Hz]."""

@@ -20,15 +20,17 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
-from eddi.model import EquationOfMotion
-from station.capture import AcquireResult, ImpactPlan, Status, acquire, configure_device, device_metadata
-from station.config import BenchConfig, parse_config
 from station.errors import ConfigError, StationError
-from station.session import SessionResult, mean_of, read_all, run_session
-from station.report import Report, write_report
-from station.storage import CaptureWriter, StorageError, read_capture
+
+if TYPE_CHECKING:  # imported when used: `station demo --help` stays light; the engine and
+    # the report are imported while the rig powers on (warm_up_engine)
+    from eddi.model import EquationOfMotion
+    from station.capture import AcquireResult, Status
+    from station.config import BenchConfig
+    from station.session import SessionResult
+    from station.report import Report
 
 #: The README's first command runs on this device.
 DEMO_DEVICE = "sim://duffing-smooth"
@@ -47,8 +49,8 @@ class DemoResult:
     device : str
     session_file, model_file : Path
         ``OUT/session.h5`` and ``OUT/model.json``.
-    report : Report
-        ``OUT/report/index.html`` and its figures.
+    report : Report or None
+        ``OUT/report/index.html`` and its figures (None without matplotlib, the ``report`` extra).
     acquisition : AcquireResult
     link_dropped_samples, crc_errors : int
         Link statistics of the driver.
@@ -65,7 +67,7 @@ class DemoResult:
     device: str
     session_file: Path
     model_file: Path
-    report: Report
+    report: Report | None
     acquisition: AcquireResult
     link_dropped_samples: int
     crc_errors: int
@@ -77,6 +79,10 @@ class DemoResult:
 
 def rig_truth(session_file: str | Path, capture: int = 0) -> EquationOfMotion | None:
     """The simulated rig's equation of motion stored with a capture (None for a real rig)."""
+    from eddi.model import EquationOfMotion
+
+    from station.storage import read_capture
+
     rig = read_capture(session_file, capture, verify=False).rig
     if not rig or not rig.get("scenario"):
         return None
@@ -87,9 +93,48 @@ def rig_truth(session_file: str | Path, capture: int = 0) -> EquationOfMotion | 
         return None
 
 
+#: What the demo says when matplotlib (the ``report`` extra) is not installed.
+NO_REPORT = 'report skipped: matplotlib is not installed (pip install "eddi-station[report]")'
+
+
+def report_available() -> bool:
+    """True when the report's plotting library (the ``report`` extra) is installed."""
+    import importlib.util
+
+    return importlib.util.find_spec("matplotlib") is not None
+
+
+def warm_up_engine() -> None:
+    """Import the engine and the report and compile the simulator (before, not inside, any
+    timed step: the demo runs it while the rig process powers on)."""
+    import numpy as np
+
+    import station.session  # noqa: F401  (conditioning, EDDI, validation)
+    from eddi.model import EquationOfMotion
+    from eddi.simulate import simulate
+
+    if report_available():
+        import station.report  # noqa: F401  (matplotlib)
+    eom = EquationOfMotion(mass=1.0, damping={"v": 0.1}, stiffness={"x": 100.0, "x^3": 1.0})
+    simulate(eom, rate_hz=1000.0, n_samples=8, force=np.zeros(8))
+    simulate(eom, rate_hz=1000.0, n_samples=8, x0=0.1, v0=0.0, substeps=2)
+
+
+def with_seed(device: str, seed: int) -> str:
+    """``sim://SYSTEM[?...]`` with ``seed=N`` set (replacing one the URL had)."""
+    import urllib.parse
+
+    parts = urllib.parse.urlsplit(device)
+    query = [(k, v) for k, v in urllib.parse.parse_qsl(parts.query, keep_blank_values=True) if k != "seed"]
+    query.append(("seed", str(int(seed))))
+    return urllib.parse.urlunsplit(parts._replace(query=urllib.parse.urlencode(query)))
+
+
 def demo_config(device: str, mass_kg: float, levels_n: tuple[float, ...], record_s: float,
                 holdoff_s: float) -> BenchConfig:
     """Bench configuration of the demo: force trigger at a quarter of the lowest level."""
+    from station.config import parse_config
+
     return parse_config({
         "device": {"url": device},
         "trigger": {"channel": "force", "level_n": 0.25 * min(levels_n), "pretrigger_s": DEMO_PRETRIGGER_S,
@@ -107,6 +152,7 @@ def run_demo(
     record_s: float = DEMO_RECORD_S,
     on_status: Callable[[Status], None] | None = None,
     refine: bool = True,
+    seed: int | None = None,
 ) -> DemoResult:
     """Acquire three impacts on the simulated rig, identify on one, validate on two, report.
 
@@ -123,6 +169,9 @@ def run_demo(
     refine : bool
         Follow EDDI with the output-error refinement seeded by it (:mod:`eddi.refine`); the
         plain EDDI estimate and its held-out validation are reported beside the refined model.
+    seed : int, optional
+        Noise seed of the rig (None: the URL's, else the system's default). The impacts come
+        at fixed sample times, so the same seed gives the same captures, bit for bit.
 
     Returns
     -------
@@ -142,8 +191,12 @@ def run_demo(
                           f"got {device!r}")
     if not record_s > 0:
         raise ConfigError(f"--record-s: expected > 0 s, got {record_s}")
+    if seed is not None:
+        device = with_seed(device, seed)
     from simulated_rig.systems import system_info
+    from station.capture import ImpactPlan, acquire, configure_device, device_metadata
     from station.devices import open_device, parse_sim_url
+    from station.storage import CaptureWriter, StorageError
 
     info = system_info(parse_sim_url(device).system)
     levels = tuple(float(f) for f in info.demo_forces_n[:3])
@@ -159,9 +212,11 @@ def run_demo(
     elapsed: dict[str, float] = {}
     t0 = time.perf_counter()
     writer = CaptureWriter(session_file, session={"bench_config": cfg.model_dump_json()})
-    with open_device(device) as daq:
+    with open_device(device, while_starting=warm_up_engine) as daq:
         configure_device(daq, cfg)
-        plan = ImpactPlan(levels * 3, (False,) * (3 * len(levels)))  # repeats for rejected impacts
+        settings = cfg.trigger_settings(cfg.resolve_channels(daq.info.channels), daq.info.rate_hz)
+        # in sample time (reproducible); repeats for rejected impacts
+        plan = ImpactPlan(levels * 3, (False,) * (3 * len(levels))).scheduled(settings)
         acq = acquire(daq, cfg, writer, len(levels), impacts=plan, on_status=on_status, idle_timeout_s=10.0,
                       device_meta=device_metadata(daq, device))
         stats = daq.stats
@@ -170,6 +225,8 @@ def run_demo(
         raise KeyboardInterrupt
     if acq.error is not None:
         raise StationError(f"acquisition stopped: {acq.error} ({acq.captures} capture(s) kept in {session_file})")
+    from station.session import run_session, read_all
+
     t1 = time.perf_counter()
     session = run_session(read_all([str(session_file)]), damping=("v", "x^2*v", "v^3"),  # paper Eq. 21
                           stiffness=("x", "x^2", "x^3", "x^4", "x^5"),  # paper Eq. 22
@@ -182,7 +239,11 @@ def run_demo(
     elapsed["identify_validate"] = time.perf_counter() - t1
     truth = rig_truth(session_file)
     t2 = time.perf_counter()
-    report = write_report(session, out / "report", truth=truth, title=f"EDDI Station demo: {device}")
+    report = None
+    if report_available():
+        from station.report import write_report
+
+        report = write_report(session, out / "report", truth=truth, title=f"EDDI Station demo: {device}")
     elapsed["report"] = time.perf_counter() - t2
     elapsed["total"] = time.perf_counter() - t0
     return DemoResult(device, session_file, model_file, report, acq, int(getattr(stats, "dropped_samples", 0)),
@@ -192,6 +253,7 @@ def run_demo(
 def demo_object(res: DemoResult) -> dict[str, Any]:
     """The ``--json`` object of ``station demo``."""
     from station.commands.identify import result_object
+    from station.session import mean_of
 
     s = res.session
     fit_meas = s.measurements[s.fit_index]
@@ -215,8 +277,8 @@ def demo_object(res: DemoResult) -> dict[str, Any]:
         "paths": {
             "session": str(res.session_file),
             "model": str(res.model_file),
-            "report": str(res.report.index),
-            "figures": [str(p) for p in res.report.figures],
+            "report": str(res.report.index) if res.report is not None else None,
+            "figures": [str(p) for p in res.report.figures] if res.report is not None else [],
         },
         "elapsed_s": dict(res.elapsed_s),
     }
@@ -260,6 +322,9 @@ def demo_text(obj: dict[str, Any]) -> str:
         lines.append(f"  (plain EDDI, before the refinement: k1 {plain['stiffness'].get('x', float('nan')):.5g}, "
                      f"mean held-out nrmse {plain['validation']['nrmse']:.3g})")
     lines.append(f"model: {obj['paths']['model']}")
-    lines.append(f"report: {obj['paths']['report']} ({len(obj['paths']['figures'])} figures)")
+    if obj["paths"]["report"] is None:
+        lines.append(NO_REPORT)
+    else:
+        lines.append(f"report: {obj['paths']['report']} ({len(obj['paths']['figures'])} figures)")
     lines.append(f"done in {obj['elapsed_s']['total']:.1f} s")
     return "\n".join(lines)

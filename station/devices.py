@@ -3,8 +3,10 @@
 ``sim://SYSTEM[?seed=N&paced=1&transport=pty|usb]`` starts the simulated rig (physics of the
 named system, emulated DAQ firmware) and opens it through the real driver code path:
 
-* ``transport=pty`` (default): the firmware is served on a pseudo-terminal in a thread and the
-  driver opens it as a serial port;
+* ``transport=pty`` (default): the rig runs in a process of its own, like a real device
+  (:class:`simulated_rig.serve.RigProcess`): it builds its physics and compiles its simulator
+  before it powers on and serves its firmware on a pseudo-terminal, which the driver opens as
+  a serial port. A busy host or a cold JIT cache delays its power-on, never a command;
 * ``transport=usb``: the firmware sits behind the emulated pyusb backend and the driver opens
   ``usb://1209:edd1/SIM-SYSTEM``.
 
@@ -16,7 +18,7 @@ from __future__ import annotations
 
 import urllib.parse
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 import serial.tools.list_ports
 
@@ -101,7 +103,8 @@ def parse_sim_url(url: str) -> SimUrl:
     return SimUrl(system, **opts)
 
 
-def open_device(url: str, *, timeout_s: float = 2.0, queue_blocks: int = 1024, usb_backend: object = None) -> drivers.Daq:
+def open_device(url: str, *, timeout_s: float = 2.0, queue_blocks: int = 1024, usb_backend: object = None,
+                while_starting: Callable[[], None] | None = None) -> drivers.Daq:
     """Open a DAQ by URL; ``sim://SYSTEM`` starts the simulated rig first.
 
     Parameters
@@ -115,6 +118,8 @@ def open_device(url: str, *, timeout_s: float = 2.0, queue_blocks: int = 1024, u
         Bound of the driver's block queue.
     usb_backend : pyusb backend or None
         For ``usb://`` URLs.
+    while_starting : callable, optional
+        Run while a simulated rig process powers on (e.g. to warm up the host's JIT).
 
     Raises
     ------
@@ -124,32 +129,30 @@ def open_device(url: str, *, timeout_s: float = 2.0, queue_blocks: int = 1024, u
     if not isinstance(url, str) or not url.lower().startswith("sim://"):
         return drivers.open_device(url, timeout_s=timeout_s, queue_blocks=queue_blocks, usb_backend=usb_backend)
     sim = parse_sim_url(url)
-    from simulated_rig.device import EmulatedDaq
-    from simulated_rig.source import RigSource
-
-    source = RigSource.from_system(sim.system, seed=sim.seed)
-    serial_no = f"SIM-{sim.system}"
-    firmware = EmulatedDaq(source, model=f"EDDI-SIM ({sim.system})", serial=serial_no)
     if sim.transport == "usb":
         if sim.paced:
             raise BadUrlError("sim option paced=1 is only available with transport=pty")
+        from simulated_rig.serve import build_firmware
         from simulated_rig.usb import EmulatedUsbBackend
 
-        backend = EmulatedUsbBackend(firmware)
+        backend = EmulatedUsbBackend(build_firmware(sim.system, sim.seed))
         return drivers.open_device(
-            f"usb://{DEFAULT_VID:04x}:{DEFAULT_PID:04x}/{serial_no}",
+            f"usb://{DEFAULT_VID:04x}:{DEFAULT_PID:04x}/SIM-{sim.system}",
             timeout_s=timeout_s, queue_blocks=queue_blocks, usb_backend=backend,
         )
     from drivers.daq import Daq
     from drivers.transport import open_transport
-    from simulated_rig.serve import PtyServer
+    from simulated_rig.serve import RigProcess
 
-    server = PtyServer(firmware, paced=sim.paced).start()
+    rig = RigProcess(sim.system, seed=sim.seed, paced=sim.paced)
     try:
-        transport = open_transport(f"serial://{server.port}")
-        return Daq(transport, timeout_s=timeout_s, queue_blocks=queue_blocks, on_close=[server.close])
+        if while_starting is not None:
+            while_starting()
+        port = rig.wait_ready()
+        transport = open_transport(f"serial://{port}")
+        return Daq(transport, timeout_s=timeout_s, queue_blocks=queue_blocks, on_close=[rig.close])
     except BaseException:
-        server.close()
+        rig.close()
         raise
 
 

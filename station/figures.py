@@ -70,7 +70,15 @@ def envelope(t: np.ndarray, y: np.ndarray, max_points: int = PLOT_POINTS) -> tup
 
 
 def save(fig: Figure, path: str | Path, dpi: int = 100) -> Path:
-    """Write ``fig`` as PNG to ``path`` and return the path."""
+    """Write ``fig`` as PNG to ``path`` and return the path.
+
+    Every text is drawn as plain text (no mathtext): a file name such as ``ring$x^2$.csv`` in a
+    title is shown as it is, never parsed (a lone ``$`` would otherwise stop the report).
+    """
+    from matplotlib.text import Text
+
+    for text in fig.findobj(Text):
+        text.set_parse_math(False)
     path = Path(path)
     fig.savefig(path, dpi=dpi, format="png")
     return path

@@ -1,59 +1,82 @@
 """HDF5 capture files: one test session per file, many captures, one versioned schema.
 
 The schema is documented in ``docs/capture-format.md``; this module is its reference
-implementation. In short::
+implementation (reading; appending is :mod:`station.session_writer`). In short::
 
-    /                      attrs format="eddi-station-captures", format_version=1, ...
-    /captures/0000/        attrs time base, flags, drop statistics, notes, mass_kg, source
+    /                      attrs format="eddi-station-captures", format_version=2, ...
+    /captures/0000/        attrs time base, t0 (wall clock of row 0), flags, drop statistics,
+                           notes, mass_kg, source, session_index
     /captures/0000/channels/<name>   (n,) int32 counts (encoding="counts": SI = counts*scale+offset)
                                      or (n,) float64 SI values (encoding="si", imported data)
-                                     attrs quantity, unit, scale, offset, ..., sha256
+                                     attrs quantity, unit, scale, offset, ..., sensor, node, sha256
     /captures/0000/gaps    (k, 2) int64 (row, length) of missing samples
     /captures/0000/device  attrs model, serial, firmware, protocol_version, url
     /captures/0000/rig     attrs of the simulated rig (only for simulated captures)
 
-Crash safety: the session file is never modified in place. Each save reads it into memory,
-adds the capture there (h5py on a ``BytesIO``), writes the result to a temporary file beside
-it with plain OS writes, ``fsync``s it, and atomically renames it over the original
-(``os.replace``). A process killed at any moment
-leaves either the old file or the new one, both complete; a stale temporary file is all that
-can remain (removed by the next save). The price is one read and one write of the whole file per save (see
-``benchmarks/bench_storage.py``).
+Readers take the file's shared commit lock (:mod:`station.locks`) and finish a save a killed
+writer left half-committed (:func:`station.journal.recover`) before they read.
+:func:`iter_captures` streams captures one at a time (one in memory, the file open only while
+one is read).
 """
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
-import errno
 import hashlib
-import io
 import json
+import math
 import os
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterator, Sequence
 
 import h5py
 import numpy as np
 
-from drivers.channels import QUANTITY_UNITS, ChannelInfo
+from drivers.channels import ChannelInfo
+from station import journal
 from station.errors import CaptureFormatError, InputFileError, StationError
-from station.trigger import Capture
+from station.locks import FileLock
 
 #: Value of the root attribute ``format``.
 FORMAT_NAME = "eddi-station-captures"
 #: Version of the schema this module writes (root attribute ``format_version``).
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+#: Versions this module reads (version 1 lacks the optional metadata of version 2).
+READABLE_VERSIONS = (1, 2)
 #: Quantity of a channel -> key of ``Measurement.channels``.
 MEASUREMENT_KEYS: dict[str, str] = {"force": "force", "acceleration": "acc", "velocity": "vel", "displacement": "disp"}
+#: Largest magnitude accepted for a stored or imported SI value (no sensor reads 1e12 N, m/s^2, m/s or m).
+MAX_SI_MAGNITUDE = 1e12
 
 _CHANNEL_ATTRS = ("quantity", "unit", "scale", "offset", "range_si", "adc_bits", "sensitivity", "sensitivity_unit")
 _COMPRESSION: dict[str, Any] = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
 
 
-class StorageError(StationError, OSError):
-    """Saving a capture failed (disk full, file too large, permission); earlier captures are intact."""
+def __getattr__(name: str) -> Any:  # the writer lives in station.session_writer (imports this module)
+    if name in ("CaptureWriter", "StorageError", "import_measurement"):
+        from station import session_writer
+
+        return getattr(session_writer, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def attr_value(v: Any) -> Any:
+    """A value as a typed HDF5 attribute: bool, int64, float64 or str; dict/list as JSON text; None skipped."""
+    if v is None:
+        return None
+    if isinstance(v, (bool, np.bool_)):
+        return np.bool_(v)
+    if isinstance(v, (int, np.integer)):
+        return np.int64(v)
+    if isinstance(v, (float, np.floating)):
+        return np.float64(v)
+    if isinstance(v, str):
+        return v
+    if isinstance(v, np.ndarray):
+        return v
+    return json.dumps(v, default=str)
 
 
 def _now() -> str:
@@ -88,6 +111,7 @@ class ChannelData:
     info: ChannelInfo
     counts: np.ndarray | None
     si: np.ndarray
+    attrs: dict[str, Any] = field(default_factory=dict, repr=False)
 
 
 @dataclass(frozen=True)
@@ -158,287 +182,55 @@ class CaptureSummary:
     notes: str
 
 
-# ------------------------------------------------------------------------------------ writing
-@dataclass(frozen=True)
-class _Record:
-    """What is written for one capture (internal)."""
-
-    channels: tuple[ChannelInfo, ...]
-    columns: tuple[np.ndarray, ...]  # int32 counts or float64 SI per channel
-    encoding: str  # "counts" or "si"
-    attrs: dict[str, Any]
-    gaps: np.ndarray
-
-
-def _record_from_capture(cap: Capture) -> _Record:
-    attrs = {
-        "rate_hz": float(cap.rate_hz),
-        "n_samples": cap.n_samples,
-        "pretrigger_samples": cap.pretrigger_samples,
-        "trigger_sample": cap.trigger_sample,
-        "first_sample": cap.first_sample,
-        "trigger_time_s": cap.trigger_time_s,
-        "double_hit": bool(cap.double_hit),
-        "overload": bool(cap.overload),
-        "overload_channels": json.dumps(list(cap.overload_channels)),
-        "partial": bool(cap.partial),
-        "dropped_samples": int(cap.dropped_samples),
-    }
-    gaps = np.asarray(cap.gaps, dtype=np.int64).reshape(-1, 2)
-    cols = tuple(np.ascontiguousarray(cap.counts[:, j]) for j in range(len(cap.channels)))
-    return _Record(tuple(cap.channels), cols, "counts", attrs, gaps)
-
-
-def _write_record(f: h5py.File, rec: _Record, meta: Mapping[str, Any]) -> int:
-    caps = f.require_group("captures")
-    index = len(caps)
-    g = caps.create_group(f"{index:04d}")
-    for k, v in rec.attrs.items():
-        g.attrs[k] = v
-    g.attrs["index"] = index
-    g.attrs["saved_utc"] = _now()
-    g.attrs["channel_order"] = json.dumps([c.name for c in rec.channels])
-    g.attrs["checksum_algorithm"] = "sha256"
-    mass = meta.get("mass_kg")
-    g.attrs["mass_kg"] = float("nan") if mass is None else float(mass)
-    g.attrs["notes"] = str(meta.get("notes") or "")
-    g.attrs["source"] = str(meta.get("source") or "")
-    g.attrs["dropped_before_total"] = int(meta.get("dropped_before_total") or 0)
-    for k, v in (meta.get("extra") or {}).items():
-        g.attrs[k] = v
-    chg = g.create_group("channels")
-    for info, col in zip(rec.channels, rec.columns):
-        ds = chg.create_dataset(info.name, data=col, **_COMPRESSION)
-        ds.attrs["encoding"] = rec.encoding
-        for a in _CHANNEL_ATTRS:
-            ds.attrs[a] = getattr(info, a)
-        ds.attrs["sha256"] = sha256_of(col)
-    g.create_dataset("gaps", data=rec.gaps.astype(np.int64).reshape(-1, 2))
-    dev = g.create_group("device")
-    for k, v in (meta.get("device") or {}).items():
-        dev.attrs[k] = v if isinstance(v, (int, float, str, bool)) else json.dumps(v)
-    rig = meta.get("rig")
-    if rig is not None:
-        rg = g.create_group("rig")
-        for k, v in rig.items():
-            rg.attrs[k] = v if isinstance(v, (int, float, str, bool)) else json.dumps(v)
-    caps.attrs["count"] = index + 1
-    return index
-
-
-def _new_file(target: Any, session: Mapping[str, Any]) -> None:
-    with h5py.File(target, "w", libver="latest") as f:
-        f.attrs["format"] = FORMAT_NAME
-        f.attrs["format_version"] = FORMAT_VERSION
-        f.attrs["created_utc"] = _now()
-        f.attrs["software"] = "eddi-station"
-        for k, v in session.items():
-            f.attrs[k] = v if isinstance(v, (int, float, str, bool)) else json.dumps(v)
-        f.create_group("captures").attrs["count"] = 0
-
-
-def _write_bytes(path: Path, data: memoryview, chunk: int = 1 << 22) -> None:
-    """Write ``data`` to a new file and ``fsync`` it (plain OS writes: errors are clean OSErrors)."""
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
-    try:
-        for i in range(0, len(data), chunk):
-            view = data[i : i + chunk]
-            while len(view):
-                n = os.write(fd, view)
-                view = view[n:]
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def _fsync_path(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def _storage_error(exc: BaseException, path: Path, what: str) -> StorageError:
-    code = getattr(exc, "errno", None)
-    text = str(exc)
-    if code == errno.ENOSPC or "No space left" in text:
-        reason = "disk full"
-    elif code == errno.EFBIG or "File too large" in text:
-        reason = "file size limit reached"
-    elif code == errno.EACCES or "ermission denied" in text:
-        reason = "permission denied"
-    else:
-        reason = text.splitlines()[0] if text else type(exc).__name__
-    err = StorageError(f"cannot save {what} to {path}: {reason}; captures saved before are intact")
-    err.errno = code if code is not None else errno.EIO
-    return err
-
-
-class CaptureWriter:
-    """Appends captures to a session file, crash-safely (copy, fsync, atomic rename).
-
-    Parameters
-    ----------
-    path : str or Path
-        The session file. Created (with ``session`` attributes) if missing; an existing file
-        must be a capture file of this schema, and new captures are appended to it.
-    session : mapping, optional
-        Root attributes for a new file (``bench_config`` JSON, ``session_notes``...).
-    """
-
-    def __init__(self, path: str | os.PathLike[str], session: Mapping[str, Any] | None = None) -> None:
-        self.path = Path(path)
-        self._session = dict(session or {})
-        if self.path.exists():
-            check_file(self.path)  # refuse to append to a foreign or damaged file
-        elif not self.path.parent.is_dir():
-            raise InputFileError(f"output file {self.path}: expected an existing directory {self.path.parent}")
-        self._remove_stale_temporaries()
-
-    def _tmp_path(self) -> Path:
-        return self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
-
-    def _remove_stale_temporaries(self) -> None:
-        pat = re.compile(rf"^\.{re.escape(self.path.name)}\.(\d+)\.tmp$")
-        for p in self.path.parent.iterdir():
-            m = pat.match(p.name)
-            if not m:
-                continue
-            pid = int(m.group(1))
-            alive = pid != os.getpid()
-            if alive:
-                try:
-                    os.kill(pid, 0)
-                except ProcessLookupError:
-                    alive = False
-                except PermissionError:
-                    pass
-            if not alive:
-                p.unlink(missing_ok=True)
-
-    @property
-    def count(self) -> int:
-        """Captures in the file now."""
-        if not self.path.exists():
-            return 0
-        with _open(self.path) as f:
-            return len(f["captures"])
-
-    def append(self, capture: Capture, **meta: Any) -> int:
-        """Save one trigger capture; return its index in the file.
-
-        Parameters
-        ----------
-        capture : Capture
-        **meta
-            ``device`` (dict), ``rig`` (dict or None), ``notes`` (str), ``mass_kg`` (float),
-            ``source`` (str), ``dropped_before_total`` (int), ``extra`` (dict of attributes).
-        """
-        return self._save(_record_from_capture(capture), meta)
-
-    def append_si(
-        self,
-        values: Mapping[str, np.ndarray],
-        rate_hz: float,
-        pretrigger_samples: int = 0,
-        **meta: Any,
-    ) -> int:
-        """Save imported data given in SI units (stored as float64, ``encoding="si"``).
-
-        Parameters
-        ----------
-        values : mapping of str to ndarray, shape (n,)
-            Keyed ``force``, ``acc``, ``vel`` or ``disp`` [N, m/s^2, m/s, m].
-        rate_hz : float
-            Sample rate [Hz].
-        pretrigger_samples : int
-            Rows before the trigger (0 when unknown).
-        """
-        quantities = {v: k for k, v in MEASUREMENT_KEYS.items()}
-        infos, cols = [], []
-        n = None
-        for name, arr in values.items():
-            if name not in quantities:
-                raise InputFileError(f"channel {name!r}: expected one of {sorted(quantities)}")
-            a = np.ascontiguousarray(arr, dtype=np.float64)
-            if n is not None and a.shape != (n,):
-                raise InputFileError(f"channel {name!r}: expected {n} samples, got {a.shape}")
-            n = a.shape[0]
-            q = quantities[name]
-            infos.append(ChannelInfo(name=name, quantity=q, unit=QUANTITY_UNITS[q], scale=1.0, adc_bits=0, sensitivity=0.0))
-            cols.append(a)
-        if n is None:
-            raise InputFileError("import: expected at least one channel")
-        if not 0 <= pretrigger_samples < n:
-            raise InputFileError(f"pre-trigger samples: expected 0..{n - 1}, got {pretrigger_samples}")
-        attrs = {
-            "rate_hz": float(rate_hz),
-            "n_samples": n,
-            "pretrigger_samples": int(pretrigger_samples),
-            "trigger_sample": int(pretrigger_samples),
-            "first_sample": 0,
-            "trigger_time_s": pretrigger_samples / float(rate_hz),
-            "double_hit": False,
-            "overload": False,
-            "overload_channels": "[]",
-            "partial": False,
-            "dropped_samples": 0,
-        }
-        rec = _Record(tuple(infos), tuple(cols), "si", attrs, np.zeros((0, 2), dtype=np.int64))
-        return self._save(rec, meta)
-
-    def _save(self, rec: _Record, meta: Mapping[str, Any]) -> int:
-        # The new version of the file is built in memory (HDF5 never meets a file-system
-        # error half-way through its metadata), written to a temporary file with plain OS
-        # writes and fsync, then renamed over the original: old or new file, never a mix.
-        tmp = self._tmp_path()
-        what = "a capture"
-        try:
-            buf = io.BytesIO(self.path.read_bytes()) if self.path.exists() else io.BytesIO()
-            if not self.path.exists():
-                _new_file(buf, self._session)
-            with h5py.File(buf, "r+") as f:
-                index = _write_record(f, rec, meta)
-            what = f"capture {index}"
-            _write_bytes(tmp, buf.getbuffer())
-            os.replace(tmp, self.path)
-            _fsync_path(self.path.parent)
-        except (OSError, RuntimeError) as exc:
-            tmp.unlink(missing_ok=True)
-            if isinstance(exc, StationError):
-                raise
-            raise _storage_error(exc, self.path, what) from None
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
-        return index
-
-
 # ------------------------------------------------------------------------------------ reading
-def _open(path: str | os.PathLike[str]) -> h5py.File:
-    p = Path(path)
-    if not p.exists():
-        raise InputFileError(f"capture file {p}: no such file")
-    try:
-        f = h5py.File(p, "r")
-    except OSError as exc:
-        first = str(exc).splitlines()[0] if str(exc) else "unreadable"
-        raise CaptureFormatError(f"capture file {p}: expected an HDF5 file, cannot open it ({first})") from None
+def _check_root(f: h5py.File, p: Path) -> None:
+    """Refuse a foreign file, an unknown version or a ``/captures`` that is not a group."""
     fmt = f.attrs.get("format")
     if isinstance(fmt, bytes):
         fmt = fmt.decode()
     if fmt != FORMAT_NAME:
-        f.close()
         raise CaptureFormatError(f"capture file {p}: expected root attribute format={FORMAT_NAME!r}, got {fmt!r} (foreign HDF5 file)")
-    version = int(f.attrs.get("format_version", -1))
-    if version != FORMAT_VERSION:
-        f.close()
-        raise CaptureFormatError(f"capture file {p}: expected format_version {FORMAT_VERSION}, got {version}")
-    if "captures" not in f:
-        f.close()
-        raise CaptureFormatError(f"capture file {p}: expected a /captures group, found none")
-    return f
+    raw = _decode(f.attrs.get("format_version"))
+    try:
+        version = int(raw)
+    except (TypeError, ValueError):
+        version = None
+    if version not in READABLE_VERSIONS:
+        raise CaptureFormatError(f"capture file {p}: expected format_version in {list(READABLE_VERSIONS)}, got {raw!r}")
+    caps = f.get("captures", getlink=False) if "captures" in f else None
+    if not isinstance(caps, h5py.Group):
+        found = "none" if caps is None else f"a {type(caps).__name__.lower()}"
+        raise CaptureFormatError(f"capture file {p}: expected a /captures group, found {found}")
+
+
+@contextlib.contextmanager
+def _open(path: str | os.PathLike[str]) -> Iterator[h5py.File]:
+    """Open a capture file for reading under its shared commit lock (a dead writer's save finished first)."""
+    p = Path(path)
+    if not p.exists():
+        raise InputFileError(f"capture file {p}: no such file")
+    if not p.is_file():
+        raise InputFileError(f"capture file {p}: expected a file, got a directory or device")
+    for _ in range(3):
+        with FileLock(p, exclusive=False):
+            # checked under the shared lock: a writer that died mid-commit left its journal
+            if not journal.journal_path(p).exists():
+                try:
+                    f = h5py.File(p, "r")
+                except OSError as exc:
+                    first = str(exc).splitlines()[0] if str(exc) else "unreadable"
+                    raise CaptureFormatError(f"capture file {p}: expected an HDF5 file, cannot open it ({first})") from None
+                with f:
+                    _check_root(f, p)
+                    yield f
+                return
+        try:
+            with FileLock(p, exclusive=True):
+                journal.recover(p)
+        except PermissionError:
+            raise CaptureFormatError(f"capture file {p}: a save was interrupted; open it once with write "
+                                     "permission to finish it") from None
+    raise CaptureFormatError(f"capture file {p}: a save is being finished by another process; try again")
 
 
 def check_file(path: str | os.PathLike[str]) -> int:
@@ -472,7 +264,11 @@ def _resolve(f: h5py.File, path: Path, capture: int | str | None) -> tuple[int, 
         idx += n
     if not 0 <= idx < n:
         raise InputFileError(f"capture {capture}: expected an index 0..{n - 1}, the file {path.name} holds {n} capture(s)")
-    return idx, caps[names[idx]]
+    g = caps[names[idx]]
+    if not isinstance(g, h5py.Group):
+        raise CaptureFormatError(f"capture {idx} of {path}: /captures/{names[idx]} is a {type(g).__name__.lower()}, "
+                                 "expected a group (damaged file)")
+    return idx, g
 
 
 def list_captures(path: str | os.PathLike[str]) -> list[CaptureSummary]:
@@ -513,7 +309,7 @@ def read_capture(path: str | os.PathLike[str], capture: int | str | None = None,
         idx, g = _resolve(f, p, capture)
         try:
             return _read_group(p, idx, g, verify)
-        except (KeyError, ValueError, TypeError, OSError) as exc:
+        except (KeyError, ValueError, TypeError, OSError, AttributeError, IndexError) as exc:
             if isinstance(exc, StationError):
                 raise
             raise CaptureFormatError(f"capture {idx} of {p}: damaged or incomplete ({exc})") from None
@@ -521,6 +317,11 @@ def read_capture(path: str | os.PathLike[str], capture: int | str | None = None,
 
 def _read_group(p: Path, idx: int, g: h5py.Group, verify: bool) -> StoredCapture:
     a = {k: _decode(v) for k, v in g.attrs.items()}
+    rate, n = float(a["rate_hz"]), int(a["n_samples"])
+    if not (math.isfinite(rate) and rate > 0):
+        raise CaptureFormatError(f"capture {idx} of {p}: sample rate {rate} Hz; expected a finite rate > 0")
+    if n < 0:
+        raise CaptureFormatError(f"capture {idx} of {p}: {n} samples; expected a count >= 0")
     order = json.loads(a["channel_order"])
     gaps = np.asarray(g["gaps"][()], dtype=np.int64).reshape(-1, 2)
     missing = np.zeros(int(a["n_samples"]), dtype=bool)
@@ -544,7 +345,7 @@ def _read_group(p: Path, idx: int, g: h5py.Group, verify: bool) -> StoredCapture
             raise CaptureFormatError(f"capture {idx} of {p}: channel {name!r} encoding expected 'counts' or 'si', got {da['encoding']!r}")
         if si.shape != (int(a["n_samples"]),):
             raise CaptureFormatError(f"capture {idx} of {p}: channel {name!r} expected {a['n_samples']} samples, got {si.shape}")
-        channels[name] = ChannelData(info, counts, si)
+        channels[name] = ChannelData(info, counts, si, da)
     mass = float(a.get("mass_kg", float("nan")))
     dev = {k: _decode(v) for k, v in g["device"].attrs.items()} if "device" in g else {}
     rig = {k: _decode(v) for k, v in g["rig"].attrs.items()} if "rig" in g else None
@@ -571,25 +372,65 @@ def _read_group(p: Path, idx: int, g: h5py.Group, verify: bool) -> StoredCapture
     )
 
 
+def iter_captures(path: str | os.PathLike[str], indices: Sequence[int] | None = None,
+                  verify: bool = True) -> Iterator[StoredCapture]:
+    """Stream captures one at a time (default: all, in order), each read when it is asked for.
+
+    Only one capture is in memory, and the file is open (and its shared lock held) only while
+    that capture is read, so a writer can append between two of them.
+
+    Parameters
+    ----------
+    path : str or Path
+    indices : sequence of int, optional
+        0-based indices (negative count from the end); all captures when None.
+    verify : bool
+        Check SHA-256 checksums.
+    """
+    if indices is None:
+        indices = range(check_file(path))
+    for i in indices:
+        yield read_capture(path, i, verify)
+
+
+def iter_measurements(path: str | os.PathLike[str], indices: Sequence[int] | None = None) -> Iterator[Any]:
+    """Stream captures as :class:`station.readers.Measurement` (see :func:`iter_captures`)."""
+    for cap in iter_captures(path, indices):
+        yield measurement_of(cap, path)
+
+
 def read_measurement(path: str | os.PathLike[str], capture: str | None = None) -> Any:
     """Read one capture as a :class:`station.readers.Measurement` (SI units, time from row 0).
 
     Channels are keyed by quantity (``force``, ``acc``, ``vel``, ``disp``); a capture with
-    missing samples is refused (its time series has holes).
+    missing samples, or with values that are not finite or beyond :data:`MAX_SI_MAGNITUDE`,
+    is refused.
     """
+    return measurement_of(read_capture(path, capture), path)
+
+
+def measurement_of(cap: StoredCapture, path: str | os.PathLike[str]) -> Any:
+    """A stored capture as a :class:`station.readers.Measurement` (refusals as :func:`read_measurement`)."""
     from station.readers import Measurement  # station.readers dispatches .h5 files here
 
-    cap = read_capture(path, capture)
     if cap.dropped_samples:
         raise InputFileError(
             f"capture {cap.index} of {path}: {cap.dropped_samples} samples are missing (gaps at rows "
             f"{[int(r) for r, _ in cap.gaps]}); expected a complete record"
         )
     chans: dict[str, np.ndarray] = {}
-    for ch in cap.channels.values():
-        key = MEASUREMENT_KEYS.get(ch.info.quantity)
+    keys = [MEASUREMENT_KEYS.get(ch.info.quantity) for ch in cap.channels.values()]
+    seen: dict[str, int] = {}
+    for ch, key in zip(cap.channels.values(), keys):
+        if key is not None and key != "force" and keys.count(key) > 1:
+            # several sensors of one quantity (multi-DOF): acc1, acc2 ... or their own names
+            seen[key] = seen.get(key, 0) + 1
+            key = ch.info.name if multi_channel_name(ch.info.name, key) else f"{key}{seen[key]}"
         if key is not None and key not in chans:
+            _check_values(ch.si, f"capture {cap.index} of {path}: channel {ch.info.name!r}")
             chans[key] = ch.si
+    if cap.n_samples < 2:
+        raise InputFileError(f"capture {cap.index} of {path}: {cap.n_samples} sample(s); expected a record")
     meta = {
         "file": str(path),
         "capture": cap.index,
@@ -613,30 +454,19 @@ def read_measurement(path: str | os.PathLike[str], capture: str | None = None) -
     )
 
 
-def import_measurement(writer: CaptureWriter, measurement: Any, notes: str = "") -> int:
-    """Append a :class:`station.readers.Measurement` (e.g. read from CSV) as an SI capture.
 
-    Parameters
-    ----------
-    writer : CaptureWriter
-    measurement : Measurement
-        ``t`` (n,) [s] uniform, ``channels`` keyed force/acc/vel/disp [SI], ``rate_hz``,
-        ``pretrigger_samples``, ``mass`` [kg] or None, ``source``.
+def _check_values(x: np.ndarray, what: str) -> None:
+    """Refuse NaN/inf and magnitudes beyond :data:`MAX_SI_MAGNITUDE` (one line naming the row)."""
+    bad = np.flatnonzero(~(np.abs(x) <= MAX_SI_MAGNITUDE))
+    if bad.size:
+        i = int(bad[0])
+        raise InputFileError(f"{what} holds {x[i]:g} at row {i}; expected finite values within "
+                             f"+-{MAX_SI_MAGNITUDE:g} SI units (not a measurement)")
 
-    Returns
-    -------
-    int
-        Index of the new capture.
-    """
-    t = np.asarray(measurement.t, dtype=float)
-    chans = {k: np.asarray(v, dtype=float) for k, v in measurement.channels.items() if v is not None}
-    meta = dict(getattr(measurement, "metadata", None) or {})
-    return writer.append_si(
-        chans,
-        rate_hz=float(measurement.rate_hz),
-        pretrigger_samples=int(measurement.pretrigger_samples or 0),
-        mass_kg=measurement.mass,
-        source=str(measurement.source),
-        notes=notes,
-        extra={"t0_s": float(t[0]) if t.size else 0.0, "import_metadata": json.dumps(meta, default=str)},
-    )
+
+def multi_channel_name(name: str, key: str) -> bool:
+    """True when ``name`` is a suffixed response channel of quantity ``key`` (``acc2``, ``acc_tip``)."""
+    from station.readers import MULTI_COLUMN
+
+    m = MULTI_COLUMN.match(name)
+    return m is not None and m.group(1) == key

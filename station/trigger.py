@@ -233,9 +233,7 @@ class Trigger:
     _next: int | None = field(default=None, init=False)
     _armed_at: int = field(default=0, init=False)
     _prev: float | None = field(default=None, init=False)
-    _hist_counts: np.ndarray = field(init=False)
-    _hist_si: np.ndarray = field(init=False)
-    _hist_valid: np.ndarray = field(init=False)
+    _history: "_Ring" = field(init=False)
     _pending: _Pending | None = field(default=None, init=False)
     _dropped_total: int = field(default=0, init=False)
     _n_triggered: int = field(default=0, init=False)
@@ -247,9 +245,7 @@ class Trigger:
             raise TriggerError(f"trigger channel: expected a column index < {n_ch}, got {self.settings.channel}")
         if not self.rate_hz > 0:
             raise TriggerError(f"sample rate: expected > 0 Hz, got {self.rate_hz}")
-        self._hist_counts = np.zeros((0, n_ch), dtype=np.int32)
-        self._hist_si = np.zeros((0, n_ch), dtype=float)
-        self._hist_valid = np.zeros(0, dtype=bool)
+        self._history = _Ring(self.settings.pretrigger_samples, n_ch)
         self._lo = np.array([c.min_count for c in self.channels], dtype=np.int64)
         self._hi = np.array([c.max_count for c in self.channels], dtype=np.int64)
         self._range = np.array([c.range_si for c in self.channels], dtype=float)
@@ -337,20 +333,12 @@ class Trigger:
                 out.append(self._finish(p))
                 self._pending = None
         keep = min(n_missing, self.settings.pretrigger_samples)
-        self._push_history(
+        self._history.push(
             np.zeros((keep, n_ch), dtype=np.int32), np.full((keep, n_ch), np.nan), np.zeros(keep, dtype=bool)
         )
         self._next += n_missing
         self._prev = None
         return out
-
-    def _push_history(self, counts: np.ndarray, si: np.ndarray, valid: np.ndarray) -> None:
-        p = self.settings.pretrigger_samples
-        if p == 0:
-            return
-        self._hist_counts = np.concatenate([self._hist_counts, counts[-p:]])[-p:]
-        self._hist_si = np.concatenate([self._hist_si, si[-p:]])[-p:]
-        self._hist_valid = np.concatenate([self._hist_valid, valid[-p:]])[-p:]
 
     def _find_crossing(self, f: np.ndarray, prev: float | None, start_abs: int) -> int | None:
         """Index into ``f`` of the first crossing at or after absolute ``self._armed_at``."""
@@ -399,10 +387,6 @@ class Trigger:
             k += i
             trig_abs = start_abs + k
             pre = s.pretrigger_samples
-            # pre-trigger rows: the history (before this block) then block rows [0, k)
-            h_counts = np.concatenate([self._hist_counts, counts[:k]])[len(self._hist_counts) + k - pre :]
-            h_si = np.concatenate([self._hist_si, si[:k]])[len(self._hist_si) + k - pre :]
-            h_valid = np.concatenate([self._hist_valid, np.ones(k, dtype=bool)])[len(self._hist_valid) + k - pre :]
             total = s.record_samples
             p = _Pending(
                 counts=np.zeros((total, counts.shape[1]), dtype=np.int32),
@@ -412,14 +396,17 @@ class Trigger:
                 trigger_sample=trig_abs,
                 first_sample=trig_abs - pre,
             )
-            p.counts[:pre] = h_counts
-            p.si[:pre] = h_si
-            p.valid[:pre] = h_valid
+            # pre-trigger rows: the history (before this block), then block rows [0, k)
+            from_block = min(k, pre)
+            self._history.copy_last(pre - from_block, p.counts, p.si, p.valid)
+            p.counts[pre - from_block : pre] = counts[k - from_block : k]
+            p.si[pre - from_block : pre] = si[k - from_block : k]
+            p.valid[pre - from_block : pre] = True
             self._pending = p
             self._n_triggered += 1
             self._armed_at = trig_abs + s.posttrigger_samples + s.holdoff_samples
             i = k
-        self._push_history(counts, si, np.ones(n, dtype=bool))
+        self._history.push(counts, si, None)
         self._prev = float(f[-1])
         self._next = start_abs + n
         return out
@@ -455,6 +442,47 @@ class Trigger:
             gaps=gaps,
             dropped_samples=int(sum(g[1] for g in gaps)),
         )
+
+
+class _Ring:
+    """The last ``size`` samples seen (counts, SI values, received flag), kept in place.
+
+    A push writes only the rows of the new block (at most ``size``), so keeping the
+    pre-trigger history costs O(block) per block, not O(pre-trigger) as re-concatenating it did.
+    """
+
+    def __init__(self, size: int, n_channels: int) -> None:
+        self.size = size
+        self.counts = np.zeros((size, n_channels), dtype=np.int32)
+        self.si = np.full((size, n_channels), np.nan)
+        self.valid = np.zeros(size, dtype=bool)
+        self.pos = 0  # row the next sample goes to
+
+    def push(self, counts: np.ndarray, si: np.ndarray, valid: np.ndarray | None) -> None:
+        """Append rows (``valid`` None: all received)."""
+        size = self.size
+        n = counts.shape[0]
+        if size == 0 or n == 0:
+            return
+        if n >= size:
+            counts, si = counts[n - size :], si[n - size :]
+            valid = None if valid is None else valid[n - size :]
+            n = size
+        first = min(n, size - self.pos)  # up to the end of the buffer, then from row 0
+        for dst, src in ((slice(self.pos, self.pos + first), slice(0, first)), (slice(0, n - first), slice(first, n))):
+            self.counts[dst] = counts[src]
+            self.si[dst] = si[src]
+            self.valid[dst] = True if valid is None else valid[src]
+        self.pos = (self.pos + n) % size
+
+    def copy_last(self, m: int, counts: np.ndarray, si: np.ndarray, valid: np.ndarray) -> None:
+        """Write the last ``m`` rows, oldest first, into rows ``[0, m)`` of the given arrays."""
+        if m <= 0:
+            return
+        rows = (self.pos - m + np.arange(m)) % self.size
+        counts[:m] = self.counts[rows]
+        si[:m] = self.si[rows]
+        valid[:m] = self.valid[rows]
 
 
 def _double_hit(after: np.ndarray, s: TriggerSettings) -> bool:

@@ -4,7 +4,8 @@
 
 Shows a live status on stderr (armed / triggered / levels / progress), saves each capture as
 soon as it completes, exits cleanly on Ctrl-C keeping what was saved. With a ``sim://``
-device the simulated rig delivers the impacts itself, at varied force levels.
+device the simulated rig delivers the impacts itself, at varied force levels and at fixed
+sample times (the same seed gives the same captures, however busy the machine).
 """
 
 from __future__ import annotations
@@ -12,14 +13,17 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from station.capture import AcquireResult, Status, acquire, configure_device, default_impacts, device_metadata
+from station.argtypes import finite_positive, positive_seconds
 from station.cli import EXIT_INTERRUPTED, EXIT_USER_ERROR
-from station.config import BenchConfig, load_config, parse_config
 from station.errors import ConfigError
 from station.output import emit
-from station.storage import CaptureWriter
+
+if TYPE_CHECKING:  # imported by the handler: `station acquire --help` stays light
+    from station.capture import AcquireResult, Status
+    from station.config import BenchConfig
+    from station.storage import CaptureWriter
 
 
 def register(subparsers: Any) -> None:
@@ -32,8 +36,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--out", required=True, metavar="FILE", help="HDF5 session file (created, or appended to)")
     p.add_argument("--config", metavar="FILE", help="bench configuration (TOML, docs/bench-config.md)")
     p.add_argument("--notes", help="operator notes stored with every capture (replaces the configuration's)")
-    p.add_argument("--mass", type=float, metavar="KG", help="oscillating mass [kg] (replaces the configuration's)")
-    p.add_argument("--idle-timeout", type=float, default=None, metavar="S",
+    p.add_argument("--mass", type=finite_positive, metavar="KG", help="oscillating mass [kg] (replaces the configuration's)")
+    p.add_argument("--idle-timeout", type=positive_seconds, default=None, metavar="S",
                    help="give up when no data comes for S seconds (default: 10 s for sim://, else wait)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handle)
@@ -75,6 +79,8 @@ class LiveStatus:
 
 
 def _config(args: argparse.Namespace) -> BenchConfig:
+    from station.config import load_config, parse_config
+
     cfg = load_config(args.config) if args.config else parse_config({})
     data = cfg.model_dump()
     if args.device:
@@ -97,23 +103,38 @@ def handle(args: argparse.Namespace) -> int:
     assert cfg.device is not None
     url = cfg.device.url
     simulated = url.startswith("sim://")
-    writer = CaptureWriter(args.out, session={"bench_config": cfg.model_dump_json()})
+    from station.output_safety import check_output
 
+    check_output(args.out, "hdf5", [args.config] if args.config else [], option="--out", append=True)
+    from station.storage import CaptureWriter
+
+    # one writer per session file: held for the whole run (a second acquire or import waits, then exits 2)
+    writer = CaptureWriter(args.out, session={"bench_config": cfg.model_dump_json()}).hold()
+    live = LiveStatus(enabled=not args.json)
+    try:
+        result, stats = _run(args, cfg, url, simulated, writer, live)
+    finally:
+        writer.close()
+    live.close()
+    return _report(args, result, stats)
+
+
+def _run(args: argparse.Namespace, cfg: BenchConfig, url: str, simulated: bool, writer: CaptureWriter,
+         live: LiveStatus) -> tuple[AcquireResult, Any]:
+    from station.capture import acquire, configure_device, default_impacts, device_metadata
     from station.devices import open_device
 
-    live = LiveStatus(enabled=not args.json)
     with open_device(url) as daq:
         configure_device(daq, cfg)
         channels = cfg.resolve_channels(daq.info.channels)
         settings = cfg.trigger_settings(channels, daq.info.rate_hz)
-        plan = (default_impacts(cfg, settings, channels, args.impacts, daq.info.scenario_json)
+        plan = (default_impacts(cfg, settings, channels, args.impacts, daq.info.scenario_json).scheduled(settings)
                 if simulated else None)
         idle = args.idle_timeout if args.idle_timeout is not None else (10.0 if simulated else None)
         result = acquire(daq, cfg, writer, args.impacts, impacts=plan, on_status=live, idle_timeout_s=idle,
                          device_meta=device_metadata(daq, url))
         stats = daq.stats
-    live.close()
-    return _report(args, result, stats)
+    return result, stats
 
 
 def _report(args: argparse.Namespace, result: AcquireResult, stats: Any) -> int:

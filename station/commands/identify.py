@@ -14,6 +14,7 @@ from typing import Any
 
 from eddi.fit_record import Pipeline, PipelineResult
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
+from station.argtypes import add_refine_option, damping_terms, finite_positive, stiffness_terms  # noqa: F401 (re-export)
 from station.errors import ConfigError
 from station.output import emit
 from station.readers import Measurement, read_measurement
@@ -36,24 +37,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "the others, as station report does")
     p.add_argument("--fit", type=int, default=None, metavar="N",
                    help="with several records: the one to identify on (default: the middle force level)")
-    p.add_argument("--mass", type=float, default=None,
+    p.add_argument("--mass", type=finite_positive, default=None, metavar="KG",
                    help="mass [kg] (or inertia); required unless the file records it")
-    p.add_argument("--damping", default=",".join(DEFAULT_DAMPING), metavar="TERMS",
+    p.add_argument("--damping", type=damping_terms, default=",".join(DEFAULT_DAMPING), metavar="TERMS",
                    help="damping candidates, comma-separated (default: %(default)s)")
-    p.add_argument("--stiffness", default=",".join(DEFAULT_STIFFNESS), metavar="TERMS",
+    p.add_argument("--stiffness", type=stiffness_terms, default=",".join(DEFAULT_STIFFNESS), metavar="TERMS",
                    help="stiffness candidates, comma-separated (default: %(default)s)")
     p.add_argument("--route", choices=("auto", "potential", "lagrangian"), default="auto",
                    help="phase-two route (default: %(default)s)")
     add_refine_option(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handler)
-
-
-def add_refine_option(p: argparse.ArgumentParser) -> None:
-    """``--refine/--no-refine``, the same on every command that identifies."""
-    p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=True,
-                   help="try the output-error refinement EDDI seeds and keep it when it lowers the "
-                        "validation error (default: on; the EDDI estimate is reported too)")
 
 
 def _mass(arg: float | None, meas: Measurement) -> float:

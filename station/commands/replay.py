@@ -18,8 +18,10 @@ from typing import Any
 
 import numpy as np
 
+from station.argtypes import damping_terms, finite_positive, nonnegative_int, stiffness_terms
 from station.errors import InputFileError
 from station.output import emit
+
 
 @dataclass(frozen=True)
 class StreamCheck:
@@ -101,10 +103,10 @@ def register(subparsers: Any) -> None:
     p.add_argument("file", metavar="FILE", help="HDF5 session file (all captures) or FILE.h5:N, or a CSV")
     p.add_argument("--through-device", action="store_true",
                    help="stream every capture through the emulated DAQ and the serial driver, check it bit-exact")
-    p.add_argument("--mass", type=float, default=None, help="mass [kg] (default: the one the captures record)")
-    p.add_argument("--damping", default=None, metavar="TERMS", help="damping candidates, comma-separated")
-    p.add_argument("--stiffness", default=None, metavar="TERMS", help="stiffness candidates, comma-separated")
-    p.add_argument("--fit", type=int, default=None, metavar="N",
+    p.add_argument("--mass", type=finite_positive, default=None, metavar="KG", help="mass [kg] (default: the one the captures record)")
+    p.add_argument("--damping", type=damping_terms, default=None, metavar="TERMS", help="damping candidates, comma-separated")
+    p.add_argument("--stiffness", type=stiffness_terms, default=None, metavar="TERMS", help="stiffness candidates, comma-separated")
+    p.add_argument("--fit", type=nonnegative_int, default=None, metavar="N",
                    help="record to identify on (default: the middle force level)")
     add_refine_option(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")

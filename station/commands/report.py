@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from station.argtypes import damping_terms, finite_positive, nonnegative_int, stiffness_terms
 from station.output import emit
 
 
@@ -27,12 +28,12 @@ def register(subparsers: Any) -> None:
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("records", metavar="FILE", nargs="+", help="FILE.h5 (all captures), FILE.h5:N or FILE.csv")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
-    p.add_argument("--mass", type=float, default=None, help="mass [kg] (default: the one the records store)")
-    p.add_argument("--damping", default=None, metavar="TERMS", help="damping candidates, comma-separated")
-    p.add_argument("--stiffness", default=None, metavar="TERMS", help="stiffness candidates, comma-separated")
+    p.add_argument("--mass", type=finite_positive, default=None, metavar="KG", help="mass [kg] (default: the one the records store)")
+    p.add_argument("--damping", type=damping_terms, default=None, metavar="TERMS", help="damping candidates, comma-separated")
+    p.add_argument("--stiffness", type=stiffness_terms, default=None, metavar="TERMS", help="stiffness candidates, comma-separated")
     p.add_argument("--route", choices=("auto", "potential", "lagrangian"), default="auto",
                    help="phase-two route (default: %(default)s)")
-    p.add_argument("--fit", type=int, default=None, metavar="N",
+    p.add_argument("--fit", type=nonnegative_int, default=None, metavar="N",
                    help="record to identify on, 0-based among the records given (default: the middle force level)")
     add_refine_option(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -49,6 +50,9 @@ def handle(args: argparse.Namespace) -> int:
     from station.session import read_all, run_session
     from station.report import write_report
 
+    from station.output_safety import check_output
+
+    check_output(args.out, "dir", args.records, option="--out")
     t0 = time.perf_counter()
     recs = read_all(args.records)
     session = run_session(recs, args.mass, damping=terms_or_default(args.damping, DEFAULT_DAMPING),

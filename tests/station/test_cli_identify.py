@@ -17,7 +17,10 @@ EXAMPLE = Path(__file__).resolve().parents[2] / "station" / "examples" / "duffin
 
 
 def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    code = main(argv)
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # an option refused by its argument type (station.argtypes)
+        code = int(exc.code or 0)
     out, err = capsys.readouterr()
     return code, out, err
 
@@ -136,7 +139,7 @@ def _good_rows() -> np.ndarray:
         ("ragged", "line 6 has 2 values, expected 3"),
         ("clipped", "column 'acc' looks clipped"),
         ("few_crossings", "zero crossings"),
-        ("mass", "--mass must be a number > 0"),
+        ("mass", "argument --mass: expected a finite number > 0"),
         ("term", "unknown term 'y'"),
         ("suffix", "unknown file type '.txt'"),
         ("missing", "no such file"),

@@ -84,7 +84,7 @@ def test_readable_with_plain_h5py_as_documented(tmp_path: Path) -> None:
     CaptureWriter(path).append(cap, mass_kg=0.088)
     # the example of docs/capture-format.md, verbatim in spirit
     with h5py.File(path, "r") as f:
-        assert f.attrs["format"] == FORMAT_NAME and f.attrs["format_version"] == 1
+        assert f.attrs["format"] == FORMAT_NAME and f.attrs["format_version"] == 2
         g = f["captures/0000"]
         ds = g["channels/force"]
         force_n = ds[:] * ds.attrs["scale"] + ds.attrs["offset"]
@@ -158,18 +158,22 @@ CHILD = textwrap.dedent(
     sys.path.insert(0, {tests!r})
     import h5py
     from test_storage import make_capture
-    from station import storage
+    from station import journal, storage
     path, n_before, point = sys.argv[1], int(sys.argv[2]), sys.argv[3]
     w = storage.CaptureWriter(path)
     for i in range(n_before):
         w.append(make_capture(i, n=40000))
     def die(*a, **k):
         os.kill(os.getpid(), signal.SIGKILL)
-    if point == "mid_write":
-        real_write = storage._write_bytes
-        def half_then_die(path, data, chunk=1 << 22):
-            real_write(path, data[: len(data) // 2]); die()
-        storage._write_bytes = half_then_die
+    real_pwrite = journal.pwrite_all
+    calls = []
+    def half_then_die(fd, data, offset, chunk=1 << 22):
+        calls.append(1)
+        if len(calls) == (1 if point == "mid_tail" else 2):
+            real_pwrite(fd, memoryview(data)[: len(data) // 2], offset); os.fsync(fd); die()
+        real_pwrite(fd, data, offset, chunk)
+    if point in ("mid_tail", "mid_journal"):
+        journal.pwrite_all = half_then_die
     elif point == "mid_channels":
         real_ds = h5py.Group.create_dataset
         def ds_then_die(self, name, *a, **k):
@@ -178,16 +182,20 @@ CHILD = textwrap.dedent(
                 self.file.flush(); die()
             return out
         h5py.Group.create_dataset = ds_then_die
-    elif point == "before_replace":
-        storage.os.replace = die
+    elif point in ("in_place", "mid_patch"):
+        w.hooks[point] = die
     print("writing", n_before, flush=True)
     w.append(make_capture(n_before, n=40000))
     print("survived", flush=True)
     """
 )
+#: Kill points: before the journal is durable the save is lost (the old file stays), after
+#: it the save is complete (the next open replays the journal).
+KILL_POINTS = {"mid_channels": 0, "mid_tail": 0, "mid_journal": 0, "in_place": 1, "mid_patch": 1,
+               "external": None, "external_in_tail": None}
 
 
-@pytest.mark.parametrize("point", ["mid_channels", "mid_write", "before_replace", "external"])
+@pytest.mark.parametrize("point", list(KILL_POINTS))
 def test_kill_9_while_writing_keeps_earlier_captures_bit_exact(tmp_path: Path, point: str) -> None:
     path = tmp_path / "s.h5"
     script = tmp_path / "child.py"
@@ -198,24 +206,27 @@ def test_kill_9_while_writing_keeps_earlier_captures_bit_exact(tmp_path: Path, p
     assert proc.stdout is not None
     line = proc.stdout.readline()
     assert line.startswith("writing")
-    if point == "external":
-        # killed from outside once the new version is being built (its temporary file exists)
-        tmp = path.with_name(f".{path.name}.{proc.pid}.tmp")
-        while not tmp.exists() and proc.poll() is None:
+    if point.startswith("external"):
+        # killed from outside: at once (while h5py builds the capture), or once the new bytes
+        # are being appended to the file on disk
+        size = path.stat().st_size
+        while point == "external_in_tail" and path.stat().st_size == size and proc.poll() is None:
             pass
         proc.send_signal(signal.SIGKILL)
     rc = proc.wait(timeout=60)
     assert rc == -signal.SIGKILL
-    assert check_file(path) == n_before
-    for i in range(n_before):
+    n = check_file(path)  # finishes or discards the interrupted commit first
+    assert n == n_before + KILL_POINTS[point] if KILL_POINTS[point] is not None else n in (n_before, n_before + 1)
+    for i in range(n):
         expected = make_capture(i, n=40000)
         r = read_capture(path, i)  # verifies SHA-256 too
         np.testing.assert_array_equal(r.channels["force"].counts, expected.counts[:, 0])
         np.testing.assert_array_equal(r.channels["acc"].counts, expected.counts[:, 1])
-    # the next session appends normally and removes the dead process's temporary file
-    CaptureWriter(path).append(make_capture(99))
-    assert check_file(path) == n_before + 1
-    assert [p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")] == []
+    # the next session appends normally; no journal or temporary file is left
+    assert CaptureWriter(path).append(make_capture(99)) == n
+    assert check_file(path) == n + 1
+    assert read_capture(path, n).trigger_sample == make_capture(99).trigger_sample
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == [".s.h5.lock"]
 
 
 # --------------------------------------------------------------------------- disk full
@@ -276,6 +287,6 @@ def test_real_disk_full_on_tiny_tmpfs(tmp_path: Path) -> None:
         for i in range(saved):
             np.testing.assert_array_equal(read_capture(path, i).channels["force"].counts,
                                           make_capture(i, n=20000).counts[:, 0])
-        assert [p.name for p in mnt.iterdir()] == ["s.h5"]  # no temporary left behind
+        assert sorted(p.name for p in mnt.iterdir()) == [".s.h5.lock", "s.h5"]  # no temporary left behind
     finally:
         subprocess.run(["umount", str(mnt)], check=False)

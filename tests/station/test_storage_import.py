@@ -30,7 +30,8 @@ def write_csv(path: Path, n: int, rate: float, seed: int) -> Path:
 def test_import_csv_round_trips_exactly(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     csvs = [write_csv(tmp_path / "a.csv", 3000, 2000.0, 1), write_csv(tmp_path / "b.csv", 1000, 5120.0, 2)]
     out = tmp_path / "beam.h5"
-    rc = main(["import", *map(str, csvs), "--out", str(out), "--mass", "1", "--notes", "bench", "--json"])
+    rc = main(["import", *map(str, csvs), "--out", str(out), "--mass", "1", "--notes", "bench", "--json",
+               "--new-session"])  # two rates: refused without --new-session (test_storage_concurrency)
     assert rc == 0
     assert '"captures": 2' in capsys.readouterr().out
     for i, csv in enumerate(csvs):
@@ -83,7 +84,7 @@ def test_cli_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[s
         (["import", str(tmp_path / "none.csv"), "--out", str(path)], "no such file"),
         (["acquire", "--impacts", "2", "--out", str(path)], "--device: expected a device URL"),
         (["acquire", "--device", "sim://duffing-smooth", "--impacts", "0", "--out", str(path)], "--impacts: expected at least 1"),
-        (["acquire", "--device", "sim://x", "--impacts", "1", "--out", str(junk)], "expected an HDF5 file"),
+        (["acquire", "--device", "sim://x", "--impacts", "1", "--out", str(junk)], "is a file of another kind"),
     ]
     for argv, message in cases:
         rc = main(argv)

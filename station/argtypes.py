@@ -1,0 +1,119 @@
+"""Argument types for the command line: invalid values are refused where they enter.
+
+Each is an ``argparse`` ``type=`` callable: it returns the parsed value or raises
+``argparse.ArgumentTypeError`` with what was expected, which the CLI prints as one line with
+exit code 2 (``station X: error: argument --mass: expected a finite number > 0 [kg], got 'inf'``).
+``float("nan")``, ``inf`` and ``1e400`` are all refused where a physical value is meant.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+#: Longest record or wait a command accepts [s] (a day): beyond it a typo, not a test.
+MAX_SECONDS = 86_400.0
+
+
+def _number(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return v
+
+
+def finite_float(text: str) -> float:
+    """Any finite number."""
+    return _number(text)
+
+
+def finite_positive(text: str) -> float:
+    """A finite number > 0 (a mass [kg], a rate [Hz], a level)."""
+    v = _number(text)
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return v
+
+
+def nonnegative_seconds(text: str) -> float:
+    """A duration [s] in 0..:data:`MAX_SECONDS`."""
+    v = _number(text)
+    if not 0 <= v <= MAX_SECONDS:
+        raise argparse.ArgumentTypeError(f"expected a duration in 0..{MAX_SECONDS:g} s, got {text!r}")
+    return v
+
+
+def positive_seconds(text: str) -> float:
+    """A duration [s] in (0, :data:`MAX_SECONDS`]."""
+    v = nonnegative_seconds(text)
+    if v == 0:
+        raise argparse.ArgumentTypeError(f"expected a duration > 0 s, got {text!r}")
+    return v
+
+
+def fraction(text: str) -> float:
+    """A number in [0, 1]."""
+    v = _number(text)
+    if not 0 <= v <= 1:
+        raise argparse.ArgumentTypeError(f"expected a fraction in 0..1, got {text!r}")
+    return v
+
+
+def positive_int(text: str) -> int:
+    """An integer >= 1."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
+    return v
+
+
+def nonnegative_int(text: str) -> int:
+    """An integer >= 0."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}")
+    return v
+
+
+def damping_terms(text: str) -> str:
+    """Comma-separated damping candidates; each must involve the rate ``v`` (else it is not damping)."""
+    return _terms(text, damping=True)
+
+
+def stiffness_terms(text: str) -> str:
+    """Comma-separated stiffness candidates; each must depend on ``x`` only."""
+    return _terms(text, damping=False)
+
+
+def _terms(text: str, damping: bool) -> str:
+    from eddi.errors import EddiError
+    from eddi.terms import parse_terms
+
+    try:
+        terms = parse_terms(text)
+    except (EddiError, ValueError) as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    for t in terms:
+        if damping and not t.depends_on_v:
+            raise argparse.ArgumentTypeError(f"damping term {t.text!r} does not involve the rate v; expected "
+                                             "terms such as v, x^2*v, v^3 (x-only terms are stiffness)")
+        if not damping and t.depends_on_v:
+            raise argparse.ArgumentTypeError(f"stiffness term {t.text!r} involves the rate v; expected terms of "
+                                             "x only, such as x, x^3 (v terms are damping)")
+    return text
+
+
+def add_refine_option(p: argparse.ArgumentParser) -> None:
+    """``--refine/--no-refine``, the same on every command that identifies."""
+    p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=True,
+                   help="try the output-error refinement EDDI seeds and keep it when it lowers the "
+                        "validation error (default: on; the EDDI estimate is reported too)")
