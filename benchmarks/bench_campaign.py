@@ -93,23 +93,27 @@ def _own_cpu_s(client=None) -> float:
     return total
 
 
-def floor_loop(refs: list, n: int) -> tuple[float, int]:
-    """Plain in-process loop: (seconds, captures) after one warm-up capture."""
+def floor_loop(refs: list, n: int, opts: tasks.TaskOptions) -> tuple[float, float, int]:
+    """Plain in-process loop after one warm-up capture: (wall s, CPU s, captures)."""
     tasks.warm_up()
-    tasks.run_capture(refs[0], OPTS)
+    tasks.run_capture(refs[0], opts)
     part = refs[1:n + 1]
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     for r in part:
-        tasks.run_capture(r, OPTS)
-    return time.perf_counter() - t0, len(part)
+        tasks.run_capture(r, opts)
+    return time.perf_counter() - t0, time.process_time() - c0, len(part)
 
 
-def run_on(workers: int, refs: list, out: Path, chunk: int) -> dict:
+def run_on(workers: int, refs: list, out: Path, chunk: int, opts: tasks.TaskOptions, idle_s: float = 5.0) -> dict:
     """One campaign on a fresh LocalCluster; figures of merit and the machine's load."""
     with dask_client(None, workers) as client:
+        client.run(tasks.warm_up)
+        i0, c0 = time.perf_counter(), _own_cpu_s()
+        time.sleep(idle_s)  # the cluster idle: its background CPU (heartbeats, event loops)
+        idle_cores = (_own_cpu_s() - c0) / (time.perf_counter() - i0)
         load0 = os.getloadavg()[0]
         busy0, own0 = _busy_cpu_s(), _own_cpu_s()
-        res = run_campaign(client, refs, OPTS, Journal(out, OPTS.as_dict()), chunk=chunk, quiet=True)
+        res = run_campaign(client, refs, opts, Journal(out, opts.as_dict()), chunk=chunk, quiet=True)
         busy1, own1 = _busy_cpu_s(), _own_cpu_s()
         load1 = os.getloadavg()[0]
     import pyarrow.parquet as pq
@@ -122,7 +126,10 @@ def run_on(workers: int, refs: list, out: Path, chunk: int) -> dict:
             "task_median_s": statistics.median(task_s), "task_sum_s": sum(task_s),
             "load": (load0, load1), "others_cores": others / res.wall_s if res.wall_s else 0.0,
             "own_cores": (own1 - own0) / res.wall_s if res.wall_s else 0.0,
-            "cpu_per_capture_s": (own1 - own0) / res.processed if res.processed else float("nan")}
+            "cpu_per_capture_s": (own1 - own0) / res.processed if res.processed else float("nan"),
+            "idle_cores": idle_cores,
+            "net_cpu_per_capture_s": ((own1 - own0) - idle_cores * res.wall_s) / res.processed
+            if res.processed else float("nan")}
 
 
 def main() -> None:
@@ -136,7 +143,10 @@ def main() -> None:
     ap.add_argument("--chunk", type=int, default=1, help="captures per Dask task (default 1)")
     ap.add_argument("--floor-n", type=int, default=100, help="captures of the in-process floor loop (default 100)")
     ap.add_argument("--data", help="folder for the generated sessions (kept; default: a temporary folder)")
+    ap.add_argument("--refine", action=argparse.BooleanOptionalAction, default=None,
+                    help="output-error refinement (default: as station identify)")
     args = ap.parse_args()
+    opts = tasks.TaskOptions(task=OPTS.task, damping=OPTS.damping, stiffness=OPTS.stiffness, refine=args.refine)
     systems = [s.strip() for s in args.systems.split(",") if s.strip()]
     counts = [int(w) for w in args.workers.split(",")]
 
@@ -148,12 +158,13 @@ def main() -> None:
         print(f"{len(refs)} captures ({', '.join(systems)}; {args.rate:g} Hz; {size_mb:.0f} MiB in "
               f"{len(list(data.glob('session-*.h5')))} sessions)" + (f", generated in {gen_s:.1f} s" if gen_s else ", reused"))
         print(f"machine: {os.cpu_count()} cores, load average now {os.getloadavg()[0]:.2f}")
-        fl_s, fl_n = floor_loop(refs, min(args.floor_n, len(refs) - 1))
+        fl_s, fl_cpu, fl_n = floor_loop(refs, min(args.floor_n, len(refs) - 1), opts)
         floor_rate = fl_n / fl_s
-        print(f"floor (plain loop in one process, no Dask, {fl_n} captures): {floor_rate:.2f} captures/s")
+        print(f"floor (plain loop in one process, no Dask, {fl_n} captures): {floor_rate:.2f} captures/s, "
+              f"CPU per capture {1000 * fl_cpu / fl_n:.0f} ms (this process got {fl_cpu / fl_s:.2f} of a core)")
         results = []
         for w in counts:
-            r = run_on(w, refs, Path(tmp) / f"out-{w}", args.chunk)
+            r = run_on(w, refs, Path(tmp) / f"out-{w}", args.chunk, opts)
             results.append(r)
             print(f"{w} worker(s): {r['rate']:.2f} captures/s ({r['processed']} in {r['wall']:.1f} s, "
                   f"{r['failed']} failed rows; {r['rate'] / floor_rate:.2f}x the floor), "
@@ -161,7 +172,8 @@ def main() -> None:
                   f"peak memory per worker {', '.join(f'{m:.0f}' for m in r['mem'])} MiB; "
                   f"load avg {r['load'][0]:.2f} -> {r['load'][1]:.2f}, this run used {r['own_cores']:.2f} cores, "
                   f"other processes {r['others_cores']:.2f} cores; CPU per capture {1000 * r['cpu_per_capture_s']:.0f} ms "
-                  f"(client + scheduler + nannies + workers)")
+                  f"(client + scheduler + nannies + workers; {1000 * r['net_cpu_per_capture_s']:.0f} ms without the "
+                  f"idle cluster's {r['idle_cores']:.3f} cores of background)")
         base = next((r for r in results if r["workers"] == 1), None)
         if base is not None:
             for r in results:
@@ -173,15 +185,21 @@ def main() -> None:
                     print(f"  on {r['workers']} cores of its own it would be {cpu_sp:.2f}x (workers x the ratio of CPU "
                           f"per capture, {1000 * base['cpu_per_capture_s']:.0f} ms on 1 worker vs "
                           f"{1000 * r['cpu_per_capture_s']:.0f} ms on {r['workers']}): an estimate, not a measurement")
+                    print(f"  floor CPU per capture {1000 * fl_cpu / fl_n:.0f} ms vs campaign net "
+                          f"{1000 * r['net_cpu_per_capture_s']:.0f} ms: Dask's cost per capture "
+                          f"{1000 * (r['net_cpu_per_capture_s'] - fl_cpu / fl_n):.0f} ms")
             widest = max(results, key=lambda r: r["workers"])
             eff = min(1.0, widest["rate"] / (widest["workers"] * base["rate"]))
             per_worker = base["rate"]
             print(f"projection for 1,000,000 captures (per-worker rate {per_worker:.2f}/s measured on 1 worker, "
                   f"parallel efficiency {eff:.2f} measured on {widest['workers']}; the Dask scheduler handles a few thousand "
                   f"tasks/s, so beyond ~{int(2000 * args.chunk / max(per_worker, 1e-9))} workers use --chunk):")
+            cpu_rate = 1.0 / widest["net_cpu_per_capture_s"]  # captures per core-second, net of idle background
+            print(f"  {'workers':>7}  {'from wall rates here':>20}  {'from CPU per capture (own cores)':>32}")
             for n in (2, 16, 64, 256, 1024):
                 rate = min(n * per_worker * eff, 2000.0 * args.chunk)
-                print(f"  {n:5d} workers: {1e6 / rate / 3600:8.2f} h")
+                rate_cpu = min(n * cpu_rate, 2000.0 * args.chunk)
+                print(f"  {n:7d}  {1e6 / rate / 3600:18.2f} h  {1e6 / rate_cpu / 3600:30.2f} h")
 
 
 if __name__ == "__main__":

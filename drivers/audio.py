@@ -139,9 +139,24 @@ def audio_channels(spec: AudioUrl) -> tuple[ChannelInfo, ...]:
     return tuple(out)
 
 
+def samples_lost_on_overflow(stream_time_s: float, start_time_s: float, rate_hz: float, first_sample: int,
+                             next_sample: int, read_now: int, still_buffered: int) -> int:
+    """Samples PortAudio discarded, estimated when a read reports an input overflow.
+
+    The stream clock says how many samples the device has produced since the start
+    (``first_sample + (stream_time - start_time) * rate``); the host has taken ``next_sample``
+    of them before this read, takes ``read_now`` in it, and ``still_buffered`` wait in
+    PortAudio: the rest were lost. Never negative (a clock that lags counts nothing).
+    """
+    produced = first_sample + int(round((stream_time_s - start_time_s) * rate_hz))
+    return max(0, produced - next_sample - read_now - still_buffered)
+
+
 def _sounddevice() -> Any:
     try:
         import sounddevice
+    except ImportError:
+        raise DeviceNotFoundError("audio:// needs the sounddevice package (pip install sounddevice)") from None
     except OSError as exc:  # the PortAudio library is missing
         raise DeviceNotFoundError(f"audio:// needs PortAudio (apt-get install libportaudio2): {exc}") from None
     return sounddevice
@@ -319,9 +334,8 @@ class AudioDaq:
         lost = 0
         if overflowed:
             self._overflows += 1
-            # samples PortAudio threw away: where the stream clock is, minus what was read
-            expected = self._read0 + int(round((self._stream.time - self._t0) * self._rate))
-            lost = max(0, expected - self._next - data.shape[0] - int(self._stream.read_available))
+            lost = samples_lost_on_overflow(self._stream.time, self._t0, self._rate, self._read0, self._next,
+                                            data.shape[0], int(self._stream.read_available))
             self._dropped += lost
             self._next += lost
         counts = (data[:, cols] >> 8).astype(np.int32)

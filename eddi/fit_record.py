@@ -38,7 +38,7 @@ from eddi.conditioning import ConditionedSignal, condition
 from eddi.identify import IdentifiedModel, identify
 from eddi.model import EquationOfMotion
 from eddi.stability import model_warnings
-from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, parse_terms
+from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, coefficient_unit, parse_terms
 from eddi.validate import Validation, validate
 
 #: The measured-signal name of each conditioned response: what the refinement fits.
@@ -119,6 +119,11 @@ class PipelineResult:
         The same for the EDDI estimate, when refinement ran.
     held_out_driven_by_force : tuple of bool
         Per held-out record: simulated from rest with its measured force.
+    ci95 : dict
+        ``{"damping": {term: half width}, "stiffness": {...}}``: 95 % confidence intervals of
+        ``model.eom``'s coefficients (output-error covariance, :mod:`eddi.refine`).
+    units : dict
+        The same keys: SI unit of each coefficient (:func:`eddi.terms.coefficient_unit`).
     """
 
     conditioned: ConditionedSignal
@@ -130,6 +135,8 @@ class PipelineResult:
     held_out: tuple[Validation, ...] = ()
     eddi_held_out: tuple[Validation, ...] = ()
     held_out_driven_by_force: tuple[bool, ...] = ()
+    ci95: dict[str, dict[str, float]] = field(default_factory=dict)
+    units: dict[str, dict[str, str]] = field(default_factory=dict)
 
     def driven_by_force_of(self, i: int) -> bool:
         """Whether held-out record ``i`` was simulated driven by its measured force."""
@@ -158,16 +165,21 @@ class Pipeline:
     refine : bool
         Try the output-error refinement after EDDI and keep it when it lowers the
         validation error (see the module notes).
+    select : bool
+        With ``refine``: drop the terms the data do not support (BIC backward elimination
+        in the refinement, :mod:`eddi.refine`); the dropped terms and why are in
+        ``choices.dropped``.
     """
 
     damping: tuple[str, ...] = DEFAULT_DAMPING
     stiffness: tuple[str, ...] = DEFAULT_STIFFNESS
     route: str = "auto"
     refine: bool = True
+    select: bool = True
 
     @classmethod
     def create(cls, damping: str | Sequence[str] | None = None, stiffness: str | Sequence[str] | None = None,
-               route: str = "auto", refine: bool = True) -> "Pipeline":
+               route: str = "auto", refine: bool = True, select: bool = True) -> "Pipeline":
         """A pipeline from CLI-style arguments (None: the default library).
 
         Raises
@@ -177,7 +189,7 @@ class Pipeline:
         """
         return cls(damping=_texts(damping) if damping else DEFAULT_DAMPING,
                    stiffness=_texts(stiffness) if stiffness else DEFAULT_STIFFNESS,
-                   route=route, refine=bool(refine))
+                   route=route, refine=bool(refine), select=bool(select))
 
     def condition(self, t: np.ndarray, *, acc: np.ndarray | None = None, vel: np.ndarray | None = None,
                   disp: np.ndarray | None = None, force: np.ndarray | None = None,
@@ -224,7 +236,8 @@ class Pipeline:
         """
         model = identify(cond.t, cond.x, cond.v, mass, damping=self.damping, stiffness=self.stiffness,
                          route=self.route, a=cond.a, window=cond.window,
-                         refine=REFINE_CHANNEL[cond.response] if self.refine else False)
+                         refine=REFINE_CHANNEL[cond.response] if self.refine else False,
+                         select=self.refine and self.select)
         val, by_force = validate_conditioned(model.eom, cond)
         pairs = [validate_conditioned(model.eom, c) for c in held_out]
         held = tuple(v for v, _ in pairs)
@@ -256,6 +269,18 @@ class Pipeline:
             nrmse_sensor = val.nrmse
         eom = model.eom
         w0, w1 = cond.window
+        ref = model.refinement
+        if refinement == "kept" and ref is not None and ref.ci95:
+            ci95 = ref.ci95
+        else:
+            from eddi.refine import confidence_intervals  # local: scipy.optimize
+
+            ci95 = confidence_intervals(eom, cond.t[w0:w1], cond.x[w0:w1], cond.v[w0:w1], cond.a[w0:w1],
+                                        channel=REFINE_CHANNEL[cond.response])
+        dropped = {t: "not in the model" for t in self.damping + self.stiffness
+                   if t not in eom.damping and t not in eom.stiffness}
+        if refinement == "kept" and ref is not None:
+            dropped.update(ref.dropped)
         warnings = list(cond_warnings(cond))
         coarse = samples_per_cycle_note(cond.rate_hz, highest_frequency(cond))
         if coarse:
@@ -267,10 +292,17 @@ class Pipeline:
             route=model.route, route_scores=dict(model.route_scores), refinement=refinement,
             refinement_reason=reason, judged_on=judged_on, nrmse_eddi=n_eddi, nrmse_refined=n_ref,
             damping_terms=tuple(eom.damping), stiffness_terms=tuple(eom.stiffness),
-            dropped={t: "not in the model" for t in self.damping + self.stiffness
-                     if t not in eom.damping and t not in eom.stiffness},
-            warnings=tuple(warnings))
-        return PipelineResult(cond, model, val, by_force, nrmse_sensor, choices, held, eddi_held, held_force)
+            dropped=dropped, warnings=tuple(warnings))
+        return PipelineResult(cond, model, val, by_force, nrmse_sensor, choices, held, eddi_held, held_force,
+                              ci95, units_of(eom))
+
+
+def units_of(eom: EquationOfMotion) -> dict[str, dict[str, str]]:
+    """SI unit of every coefficient of ``eom`` (``rad`` / ``N m`` for an angle)."""
+    angle = "rad" in eom.coordinate
+    cu, fu = ("rad", "N m") if angle else ("m", "N")
+    return {"damping": {t: coefficient_unit(t, cu, fu) for t in eom.damping},
+            "stiffness": {t: coefficient_unit(t, cu, fu) for t in eom.stiffness}}
 
 
 def highest_frequency(cond: ConditionedSignal, half_cycles: int = 10) -> float:

@@ -91,6 +91,7 @@ def identify(
     anchored: bool = True,
     noise: str | tuple[float, float] | None = "auto",
     refine: bool | str = False,
+    select: bool = False,
 ) -> IdentifiedModel:
     """Identify an equation of motion from a free response with the EDDI method.
 
@@ -142,6 +143,9 @@ def identify(
         paper's method; the EDDI estimate is kept in ``unrefined``. Much more accurate on
         noisy records (``docs/eddi-method.md``), and slower (60-130 simulations, of the
         first 1/8, 1/2 and all of the window).
+    select : bool
+        With ``refine``: remove the terms the data do not support (BIC backward
+        elimination, :func:`eddi.refine.refine_output_error`).
 
     Returns
     -------
@@ -228,7 +232,8 @@ def identify(
 
         unrefined = eom
         eom, refinement = refine_output_error(eom, tw, xw, vw, aw,
-                                              channel=refine if isinstance(refine, str) else None)
+                                              channel=refine if isinstance(refine, str) else None,
+                                              select=select)
     return IdentifiedModel(
         eom=eom, route=chosen, phase_one=p1, phase_two=p2, window=(w0, w1),
         route_scores=scores, alternatives=results, unrefined=unrefined, refinement=refinement,

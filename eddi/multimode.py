@@ -175,6 +175,10 @@ def load_any_model(text: str) -> EquationOfMotion | ModalSumModel:
     data = _json_object(text)
     if data.get("kind") == "modal_sum":
         return ModalSumModel.from_json(text)
+    if data.get("kind") == "mdof":  # schema version 2: several coordinates (eddi.mdof.model)
+        from eddi.mdof.model import MdofModel
+
+        return MdofModel.from_json(text)  # type: ignore[return-value]
     return EquationOfMotion.from_json(text)
 
 

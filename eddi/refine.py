@@ -22,11 +22,23 @@ a fraction of a cycle.
 
 This is an explicit option (``identify(..., refine=True)``), not part of the paper's method:
 the EDDI estimate before refinement is kept in :attr:`eddi.identify.IdentifiedModel.unrefined`.
+
+Evidence for each term (``select=True``)
+----------------------------------------
+At the optimum the output-error fit is a nonlinear least-squares problem with white sensor
+noise, so the coefficients' covariance is ``s^2 (J^T J)^-1`` (``J``: the Jacobian of the
+simulated signal, ``s^2 = RSS / (n - p)``): :attr:`Refinement.ci95` is ``1.96`` standard
+errors. Terms are then removed one at a time, the one with the smallest ``|c| / se`` first,
+each removal refitted and kept only when it lowers the Bayesian information criterion
+``BIC = n ln(RSS / n) + p ln(n)``; the linear stiffness ``x`` and the last damping term stay.
+:attr:`Refinement.dropped` says, per term removed, the BIC change and the coefficient it had.
+:func:`confidence_intervals` gives the same covariance for a model that is not refitted
+(only its initial state is fitted).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -35,6 +47,8 @@ from eddi.model import EquationOfMotion
 from eddi.simulate import auto_substeps, simulate
 from eddi.terms import evaluate
 
+#: Parameters after the coefficients: x0, v0 and the measured signal's offset.
+NUISANCE = 3
 #: Fractions of the record fitted in successive stages.
 STAGES = (0.125, 0.5, 1.0)
 
@@ -55,6 +69,11 @@ class Refinement:
         Simulations run (all stages, Jacobians included).
     samples : int
         Samples in the whole window.
+    ci95 : dict of str to dict of str to float
+        ``{"damping": {term: half width}, "stiffness": {...}}`` of the 95 % confidence
+        intervals of the returned coefficients (empty when not computed).
+    dropped : dict of str to str
+        Terms removed by the selection, and why (empty without ``select``).
     """
 
     channel: str
@@ -64,6 +83,127 @@ class Refinement:
     v0: float
     evaluations: int
     samples: int
+    ci95: dict[str, dict[str, float]] = field(default_factory=dict)
+    dropped: dict[str, str] = field(default_factory=dict)
+
+
+class _OutputError:
+    """The output-error problem of one record: parameters scaled, simulations counted."""
+
+    def __init__(self, eom: EquationOfMotion, t: np.ndarray, x: np.ndarray, v: np.ndarray, y: np.ndarray,
+                 channel: str) -> None:
+        self.eom, self.t, self.y, self.channel = eom, t, y, channel
+        d_terms, k_terms = eom.damping_terms(), eom.stiffness_terms()
+        self.names = [("damping", tm.text) for tm in d_terms] + [("stiffness", tm.text) for tm in k_terms]
+        c0 = np.array([eom.damping[tm.text] for tm in d_terms] + [eom.stiffness[tm.text] for tm in k_terms])
+        # parameter scales: the coefficient itself, or (for ~0 coefficients) the value whose term
+        # would reach 1e-3 of the peak inertial force
+        f_scale = eom.mass * float(np.max(np.abs(y if channel == "a" else np.gradient(v, t))))
+        peak = np.max(np.abs(evaluate(d_terms + k_terms, x, v)), axis=0) if self.names else np.zeros(0)
+        floor = 1e-3 * f_scale / np.where(peak > 0, peak, 1.0)
+        # nuisance parameters after the coefficients: the initial state (x0, v0) and a constant
+        # offset of the measured signal (what is left of the sensor's bias after the rest's
+        # mean was removed: unmodelled, it biases every coefficient a little, all the same way)
+        self.scale = np.concatenate((np.maximum(np.abs(c0), floor),
+                                     [max(float(np.max(np.abs(x))), 1e-300), max(float(np.max(np.abs(v))), 1e-300),
+                                      max(1e-3 * float(np.max(np.abs(y))), 1e-300)]))
+        self.p0 = np.concatenate((c0, [x[0], v[0], 0.0])) / self.scale
+        self.active = list(range(len(self.names)))
+        self.substeps = auto_substeps(eom, float(t[1] - t[0]), float(np.max(np.abs(x))), float(np.max(np.abs(v))))
+        self.count = 0
+
+    def model_of(self, p: np.ndarray) -> EquationOfMotion:
+        """The model of the active terms' scaled coefficients ``p[:-NUISANCE]``."""
+        damping: dict[str, float] = {}
+        stiffness: dict[str, float] = {}
+        for k, i in enumerate(self.active):
+            group, name = self.names[i]
+            (damping if group == "damping" else stiffness)[name] = float(p[k] * self.scale[i])
+        return self.eom.model_copy(update={"damping": damping, "stiffness": stiffness})
+
+    def state(self, p: np.ndarray) -> tuple[float, float]:
+        return float(p[-3] * self.scale[-3]), float(p[-2] * self.scale[-2])
+
+    def simulated(self, p: np.ndarray, stop: int) -> np.ndarray:
+        self.count += 1
+        x0, v0 = self.state(p)
+        sim = simulate(self.model_of(p), self.t[:stop] - self.t[0], x0=x0, v0=v0, substeps=self.substeps)
+        out = sim.a if self.channel == "a" else sim.v if self.channel == "v" else sim.x
+        if sim.diverged or not np.all(np.isfinite(out)):
+            return np.full(stop, 1e6 * float(np.max(np.abs(self.y))))
+        return out + float(p[-1] * self.scale[-1])
+
+    def residual(self, p: np.ndarray, stop: int) -> np.ndarray:
+        return self.simulated(p, stop) - self.y[:stop]
+
+    def fit(self, p: np.ndarray, stop: int, max_nfev: int, free: np.ndarray | None = None):
+        """Levenberg-Marquardt from ``p`` over ``[0, stop)``; ``free`` masks the fitted parameters."""
+        from scipy.optimize import least_squares  # local: scipy.optimize only when refining
+
+        if free is None:
+            return least_squares(lambda q: self.residual(q, stop), p, method="lm", x_scale=1.0, max_nfev=max_nfev,
+                                 ftol=1e-12, xtol=1e-12)
+        fixed = p.copy()
+
+        def res(q: np.ndarray) -> np.ndarray:
+            full = fixed.copy()
+            full[free] = q
+            return self.residual(full, stop)
+
+        sol = least_squares(res, p[free], method="lm", x_scale=1.0, max_nfev=max_nfev)
+        out = fixed.copy()
+        out[free] = sol.x
+        sol.x = out
+        return sol
+
+    def ci95(self, p: np.ndarray, jac: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+        """95 % half widths of the active coefficients (their units) and the RSS at ``p``."""
+        n = self.y.size
+        r = self.residual(p, n)
+        if jac is None:
+            jac = self.jacobian(p)
+        rss = float(r @ r)
+        dof = max(1, n - p.size)
+        jtj = jac.T @ jac
+        cov = (rss / dof) * np.linalg.pinv(jtj)
+        se = np.sqrt(np.clip(np.diag(cov)[:-NUISANCE], 0.0, None)) * self.scale[self.active]
+        return 1.959964 * se, rss
+
+    def jacobian(self, p: np.ndarray) -> np.ndarray:
+        """Forward-difference Jacobian of the simulated signal over the whole window."""
+        n = self.y.size
+        base = self.simulated(p, n)
+        cols = []
+        for k in range(p.size):
+            h = 1e-6 * max(1.0, abs(float(p[k])))
+            q = p.copy()
+            q[k] += h
+            cols.append((self.simulated(q, n) - base) / h)
+        return np.column_stack(cols)
+
+    def ci_dict(self, half: np.ndarray) -> dict[str, dict[str, float]]:
+        out: dict[str, dict[str, float]] = {"damping": {}, "stiffness": {}}
+        for k, i in enumerate(self.active):
+            group, name = self.names[i]
+            out[group][name] = float(half[k])
+        return out
+
+
+def _check(t: np.ndarray, x: np.ndarray, v: np.ndarray, a: np.ndarray | None,
+           channel: str | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, str]:
+    t = np.asarray(t, dtype=float)
+    n = t.size
+    if n < 64:
+        raise IdentificationError(f"output-error refinement needs >= 64 samples, got {n}")
+    x = np.asarray(x, dtype=float)
+    v = np.asarray(v, dtype=float)
+    if channel is None:
+        channel = "a" if a is not None else "x"
+    if channel not in ("a", "v", "x") or (channel == "a" and a is None):
+        raise SignalError(f"refinement channel must be 'a' (with a given), 'v' or 'x'; got {channel!r}"
+                          + (" without a" if channel == "a" else ""))
+    y = np.asarray({"a": a, "v": v, "x": x}[channel], dtype=float)
+    return t, x, v, y, channel
 
 
 def refine_output_error(
@@ -75,13 +215,15 @@ def refine_output_error(
     *,
     channel: str | None = None,
     max_nfev: int = 60,
+    select: bool = False,
 ) -> tuple[EquationOfMotion, Refinement]:
     """Refine the coefficients of ``eom`` by fitting its free response to the measurement.
 
     Parameters
     ----------
     eom : EquationOfMotion
-        Starting model (from EDDI); its terms are kept, their coefficients refined.
+        Starting model (from EDDI); its terms are kept (unless ``select``), their
+        coefficients refined.
     t : ndarray, shape (n,), [s]
         Uniform times of a free response (no external force).
     x, v : ndarray, shape (n,)
@@ -94,12 +236,15 @@ def refine_output_error(
     max_nfev : int
         Limit per stage, as :func:`scipy.optimize.least_squares` counts for ``method="lm"``
         (a stage usually converges, by ``ftol``, in 3-5 iterations).
+    select : bool
+        Remove terms the data do not support (BIC, see the module notes).
 
     Returns
     -------
     eom : EquationOfMotion
-        Refined model (same terms, mass and effects).
+        Refined model (same mass and effects; same terms unless ``select``).
     info : Refinement
+        With ``ci95`` of the returned coefficients.
 
     Raises
     ------
@@ -108,64 +253,91 @@ def refine_output_error(
     SignalError
         If ``channel`` is unknown, or ``"a"`` without ``a``.
     """
-    from scipy.optimize import least_squares  # local: scipy.optimize only when refining
-
-    t = np.asarray(t, dtype=float)
+    t, x, v, y, channel = _check(t, x, v, a, channel)
     n = t.size
-    if n < 64:
-        raise IdentificationError(f"output-error refinement needs >= 64 samples, got {n}")
-    x = np.asarray(x, dtype=float)
-    v = np.asarray(v, dtype=float)
-    if channel is None:
-        channel = "a" if a is not None else "x"
-    if channel not in ("a", "v", "x") or (channel == "a" and a is None):
-        raise SignalError(f"refinement channel must be 'a' (with a given), 'v' or 'x'; got {channel!r}"
-                          + (" without a" if channel == "a" else ""))
-    y = {"a": a, "v": v, "x": x}[channel]
-    y = np.asarray(y, dtype=float)
-    d_terms, k_terms = eom.damping_terms(), eom.stiffness_terms()
-    names = [("damping", tm.text) for tm in d_terms] + [("stiffness", tm.text) for tm in k_terms]
-    c0 = np.array([eom.damping[tm.text] for tm in d_terms] + [eom.stiffness[tm.text] for tm in k_terms])
-    # parameter scales: the coefficient itself, or (for ~0 coefficients) the value whose term
-    # would reach 1e-3 of the peak inertial force
-    f_scale = eom.mass * float(np.max(np.abs(y if channel == "a" else np.gradient(v, t))))
-    peak = np.max(np.abs(evaluate(d_terms + k_terms, x, v)), axis=0) if names else np.zeros(0)
-    floor = 1e-3 * f_scale / np.where(peak > 0, peak, 1.0)
-    scale = np.concatenate((np.maximum(np.abs(c0), floor),
-                            [max(float(np.max(np.abs(x))), 1e-300), max(float(np.max(np.abs(v))), 1e-300)]))
-    substeps = auto_substeps(eom, float(t[1] - t[0]), float(np.max(np.abs(x))), float(np.max(np.abs(v))))
-    counter = [0]
-
-    def model_of(p: np.ndarray) -> EquationOfMotion:
-        c = p[:-2] * scale[:-2]
-        damping = {name: float(ci) for (group, name), ci in zip(names, c) if group == "damping"}
-        stiffness = {name: float(ci) for (group, name), ci in zip(names, c) if group == "stiffness"}
-        return eom.model_copy(update={"damping": damping, "stiffness": stiffness})
-
-    def simulated(p: np.ndarray, stop: int) -> np.ndarray:
-        counter[0] += 1
-        sim = simulate(model_of(p), t[:stop] - t[0], x0=float(p[-2] * scale[-2]),
-                       v0=float(p[-1] * scale[-1]), substeps=substeps)
-        out = sim.a if channel == "a" else sim.v if channel == "v" else sim.x
-        if sim.diverged or not np.all(np.isfinite(out)):
-            return np.full(stop, 1e6 * float(np.max(np.abs(y))))
-        return out
-
-    p = np.concatenate((c0, [x[0], v[0]])) / scale
+    prob = _OutputError(eom, t, x, v, y, channel)
+    p = prob.p0.copy()
     norm = float(np.linalg.norm(y)) or 1.0
-    before = float(np.linalg.norm(simulated(p, n) - y)) / norm
+    before = float(np.linalg.norm(prob.residual(p, n))) / norm
+    sol = None
     for frac in STAGES:
         stop = max(64, int(round(frac * n)))
-        sol = least_squares(lambda q, s=stop: simulated(q, s) - y[:s], p, method="lm",
-                            x_scale=1.0, max_nfev=max_nfev)
+        sol = prob.fit(p, stop, max_nfev)
         p = sol.x
-    after = float(np.linalg.norm(simulated(p, n) - y)) / norm
+    after = float(np.linalg.norm(prob.residual(p, n))) / norm
     if not after <= before:  # never return a worse fit than the start
-        p = np.concatenate((c0, [x[0], v[0]])) / scale
-        after = before
-    refined = model_of(p)
+        p, after, sol = prob.p0.copy(), before, None
+    jac = None  # the Jacobian at the optimum (least_squares returns the last one it evaluated)
+    half, rss = prob.ci95(p, jac)
+    dropped: dict[str, str] = {}
+    if select:
+        p, half, dropped = _select(prob, p, half, rss, max_nfev)
+        after = min(after, float(np.linalg.norm(prob.residual(p, n))) / norm)
+    refined = prob.model_of(p)
     refined = refined.model_copy(update={"notes": (eom.notes + "; " if eom.notes else "")
                                          + f"refined by output error on {channel}"})
-    return refined, Refinement(channel=channel, nrmse_before=before, nrmse_after=after,
-                               x0=float(p[-2] * scale[-2]), v0=float(p[-1] * scale[-1]),
-                               evaluations=counter[0], samples=n)
+    x0, v0 = prob.state(p)
+    return refined, Refinement(channel=channel, nrmse_before=before, nrmse_after=after, x0=x0, v0=v0,
+                               evaluations=prob.count, samples=n, ci95=prob.ci_dict(half), dropped=dropped)
+
+
+def _select(prob: _OutputError, p: np.ndarray, half: np.ndarray, rss: float,
+            max_nfev: int) -> tuple[np.ndarray, np.ndarray, dict[str, str]]:
+    """Backward elimination by BIC, smallest ``|c| / se`` first (see the module notes)."""
+    from eddi.terms import coefficient_unit
+
+    n = prob.y.size
+    dropped: dict[str, str] = {}
+    while True:
+        k_of = {i: k for k, i in enumerate(prob.active)}
+        groups = [prob.names[i][0] for i in prob.active]
+        droppable = [i for i in prob.active
+                     if prob.names[i] != ("stiffness", "x")
+                     and not (prob.names[i][0] == "damping" and groups.count("damping") == 1)]
+        if not droppable:
+            break
+        coef = p[:-NUISANCE] * prob.scale[prob.active]
+        se = half / 1.959964
+        tval = {i: abs(coef[k_of[i]]) / se[k_of[i]] if se[k_of[i]] > 0 else np.inf for i in droppable}
+        j = min(droppable, key=lambda i: tval[i])
+        bic_old = n * np.log(rss / n) + p.size * np.log(n)
+        keep = [k for k in range(p.size) if k != k_of[j]]
+        old_active = list(prob.active)
+        prob.active = [i for i in prob.active if i != j]
+        sol = prob.fit(p[keep], n, max(10, max_nfev // 3))
+        trial = sol.x
+        half_new, rss_new = prob.ci95(trial, sol.jac if sol.jac.shape == (n, trial.size) else None)
+        bic_new = n * np.log(rss_new / n) + trial.size * np.log(n)
+        if not bic_new < bic_old:
+            prob.active = old_active
+            break
+        group, name = prob.names[j]
+        dropped[name] = (f"{group} term {coef[k_of[j]]:+.4g} ± {half[k_of[j]]:.2g} {coefficient_unit(name)} "
+                         f"(|c|/se = {tval[j]:.2g}); without it BIC {bic_old:.1f} -> {bic_new:.1f}: "
+                         f"not supported by the data")
+        p, half, rss = trial, half_new, rss_new
+    return p, half, dropped
+
+
+def confidence_intervals(eom: EquationOfMotion, t: np.ndarray, x: np.ndarray, v: np.ndarray,
+                         a: np.ndarray | None = None, *, channel: str | None = None) -> dict[str, dict[str, float]]:
+    """95 % half widths of the coefficients of ``eom`` as they stand (not refitted).
+
+    Only the initial state of the free response is fitted; the covariance is that of the
+    output-error problem at ``eom`` (see the module notes), its residual including any bias
+    of ``eom``.
+
+    Returns
+    -------
+    dict
+        ``{"damping": {term: half width}, "stiffness": {...}}`` in the coefficients' units.
+    """
+    t, x, v, y, channel = _check(t, x, v, a, channel)
+    prob = _OutputError(eom, t, x, v, y, channel)
+    free = np.zeros(prob.p0.size, dtype=bool)
+    free[-NUISANCE:] = True
+    p = prob.p0.copy()
+    for frac in STAGES:
+        p = prob.fit(p, max(64, int(round(frac * t.size))), 20, free=free).x
+    half, _ = prob.ci95(p)
+    return prob.ci_dict(half)

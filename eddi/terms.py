@@ -184,3 +184,30 @@ def evaluate(terms: tuple[Term, ...], x: np.ndarray, v: np.ndarray) -> np.ndarra
     """
     x = np.asarray(x, dtype=float)
     return np.column_stack([t(x, v) for t in terms]) if terms else np.zeros((x.size, 0))
+
+
+def coefficient_unit(term: str | Term, coordinate_unit: str = "m", force_unit: str = "N") -> str:
+    """SI unit of the coefficient of ``term`` in a force balance.
+
+    ``c * x^a * v^b`` is a force, so ``c`` is in ``N s^b / m^(a+b)`` (``N/m``, ``N/m^3``,
+    ``N s/m``, ``N s^3/m^3``, ``N`` for ``sign(v)``); for an angle give ``coordinate_unit="rad"``
+    and ``force_unit="N m"``.
+
+    Parameters
+    ----------
+    term : str or Term
+    coordinate_unit, force_unit : str
+
+    Returns
+    -------
+    str
+    """
+    tm = parse_term(term) if isinstance(term, str) else term
+    a = tm.x_degree
+    b = tm.v_degree
+    num = force_unit + ("" if b == 0 else " s" if b == 1 else f" s^{b}")
+    den_pow = a + b
+    if den_pow == 0:
+        return num
+    den = coordinate_unit if den_pow == 1 else f"{coordinate_unit}^{den_pow}"
+    return f"{num}/{den}"

@@ -180,7 +180,9 @@ class QemuRig:
             self.proc = subprocess.Popen(self.command(image), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                                          stderr=subprocess.STDOUT)
             self.qemu_port = self._wait_for_pty()
-            self.relay = PtyRelay(self.qemu_port, corrupt_data_frame=self.corrupt_data_frame, tap=self.tap).start()
+            self.relay = PtyRelay(self.qemu_port, corrupt_data_frame=self.corrupt_data_frame, tap=self.tap)
+            self.relay.wait_for_device(self.start_timeout_s)   # the firmware runs: no command gets lost
+            self.relay.start()
             if self.link is not None:
                 if os.path.lexists(self.link):
                     os.unlink(self.link)

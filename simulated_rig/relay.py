@@ -14,12 +14,12 @@ import errno
 import os
 import select
 import threading
+import time
 import tty
 from dataclasses import dataclass
 
-from cobs import cobs
-
-from drivers.protocol import DATA_HEADER, HEADER, DataFrame, FrameType, StreamDecoder
+from drivers.errors import ProtocolError
+from drivers.protocol import DataFrame, FrameType, Message, StreamDecoder, decode_one, encode_command
 from simulated_rig.errors import EmulatorError
 
 
@@ -83,6 +83,38 @@ class PtyRelay:
         self.error: BaseException | None = None
 
     # ------------------------------------------------------------------ lifetime
+    def wait_for_device(self, timeout_s: float = 20.0, retry_s: float = 0.5) -> None:
+        """Before :meth:`start`: send IDENTIFY until the device answers (its reply is not passed on).
+
+        A device that is still booting (QEMU's USART drops what arrives before the firmware has
+        enabled it) then cannot lose the host's first command.
+
+        Raises
+        ------
+        EmulatorError
+            When nothing answers within ``timeout_s``.
+        """
+        probe = encode_command(0, FrameType.IDENTIFY)
+        decoder = StreamDecoder()
+        deadline = time.monotonic() + timeout_s
+        next_try = 0.0
+        while time.monotonic() < deadline:
+            if time.monotonic() >= next_try:
+                _write(self.device_fd, bytearray(probe))
+                next_try = time.monotonic() + retry_s
+            r, _, _ = select.select([self.device_fd], [], [], 0.05)
+            if r:
+                try:
+                    frames = decoder.feed(_read(self.device_fd))
+                except ProtocolError:
+                    frames = []
+                if any(isinstance(f, Message) and f.frame_type == FrameType.REPLY for f in frames):
+                    time.sleep(0.05)           # let any duplicate answers to retries arrive, then drop them
+                    while select.select([self.device_fd], [], [], 0.05)[0] and _read(self.device_fd):
+                        pass
+                    return
+        raise EmulatorError(f"the device at {self.device_path} did not answer IDENTIFY within {timeout_s:g} s")
+
     def start(self) -> "PtyRelay":
         self._thread = threading.Thread(target=self._run, name=f"relay {self.device_path}", daemon=True)
         self._thread.start()
@@ -165,16 +197,15 @@ class PtyRelay:
         if not segment or self.corruptions:
             return segment
         try:
-            raw = cobs.decode(segment)
-        except cobs.DecodeError:
+            frame = decode_one(b"\x00" + segment + b"\x00")
+        except ProtocolError:
             return segment
-        if len(raw) < HEADER.size + DATA_HEADER.size + 4 or raw[1] != FrameType.DATA:
+        if not isinstance(frame, DataFrame):
             return segment
         self.data_frames_seen += 1
         if self.data_frames_seen != self.corrupt_data_frame:
             return segment
-        _, _, seq = HEADER.unpack_from(raw)
-        first, n, *_ = DATA_HEADER.unpack_from(raw, HEADER.size)
+        seq, first, n = frame.seq, frame.first_sample, frame.counts.shape[0]
         i = len(segment) // 2
         before = segment[i]
         after = before ^ 0x55 if before != 0x55 else 0xAA   # never 0x00: one frame stays one frame

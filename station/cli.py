@@ -143,6 +143,14 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _missing_package(exc: ModuleNotFoundError) -> int:
+    """One line for an installation that lacks a package the command needs; exit code 2."""
+    name = exc.name or str(exc)
+    print(f"station: error: this command needs the Python package '{name}', which is not installed "
+          f"(reinstall with `pip install -e .` or add the extra that names it)", file=sys.stderr)
+    return EXIT_USER_ERROR
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI and return the exit code."""
     if argv is None:
@@ -155,6 +163,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:  # Ctrl-C while the command's modules load
         print("station: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except ModuleNotFoundError as exc:
+        return _missing_package(exc)
     try:
         from station.progress import Working
 
@@ -164,6 +174,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("station: interrupted (what was saved is kept)", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except ModuleNotFoundError as exc:
+        return _missing_package(exc)
     except Exception as exc:
         extra = missing_extra(exc)
         if extra is not None:

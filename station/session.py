@@ -140,7 +140,10 @@ def expand_specs(specs: Sequence[str]) -> list[str]:
         if capture is None and path.suffix.lower() in (".h5", ".hdf5"):
             if not path.is_file():
                 raise InputFileError(f"{path}: no such file")
-            out += [f"{path}:{i}" for i in range(check_file(path))]
+            count = check_file(path)
+            if count == 0:
+                raise InputFileError(f"capture file {path}: holds no capture")
+            out += [f"{path}:{i}" for i in range(count)]
         else:
             out.append(spec)
     return out

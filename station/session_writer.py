@@ -42,6 +42,7 @@ from station.storage import (
     _now,
     attr_value,
     check_file,
+    multi_channel_name,
     sha256_of,
 )
 from station.trigger import Capture
@@ -277,13 +278,15 @@ class CaptureWriter:
         infos, cols = [], []
         n = None
         for name, arr in values.items():
-            if name not in quantities:
-                raise InputFileError(f"channel {name!r}: expected one of {sorted(quantities)}")
+            base = next((k for k in ("acc", "vel", "disp") if multi_channel_name(name, k)), name)
+            if base not in quantities:
+                raise InputFileError(f"channel {name!r}: expected one of {sorted(quantities)} "
+                                     "(or acc1, acc2 ... for several sensors)")
             a = np.ascontiguousarray(arr, dtype=np.float64)
             if n is not None and a.shape != (n,):
                 raise InputFileError(f"channel {name!r}: expected {n} samples, got {a.shape}")
             n = a.shape[0]
-            q = quantities[name]
+            q = quantities[base]
             infos.append(ChannelInfo(name=name, quantity=q, unit=QUANTITY_UNITS[q], scale=1.0, adc_bits=0, sensitivity=0.0))
             cols.append(a)
         if n is None:

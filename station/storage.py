@@ -211,22 +211,26 @@ def _open(path: str | os.PathLike[str]) -> Iterator[h5py.File]:
         raise InputFileError(f"capture file {p}: no such file")
     if not p.is_file():
         raise InputFileError(f"capture file {p}: expected a file, got a directory or device")
-    if journal.journal_path(p).exists():
+    for _ in range(3):
+        with FileLock(p, exclusive=False):
+            # checked under the shared lock: a writer that died mid-commit left its journal
+            if not journal.journal_path(p).exists():
+                try:
+                    f = h5py.File(p, "r")
+                except OSError as exc:
+                    first = str(exc).splitlines()[0] if str(exc) else "unreadable"
+                    raise CaptureFormatError(f"capture file {p}: expected an HDF5 file, cannot open it ({first})") from None
+                with f:
+                    _check_root(f, p)
+                    yield f
+                return
         try:
             with FileLock(p, exclusive=True):
                 journal.recover(p)
         except PermissionError:
             raise CaptureFormatError(f"capture file {p}: a save was interrupted; open it once with write "
                                      "permission to finish it") from None
-    with FileLock(p, exclusive=False):
-        try:
-            f = h5py.File(p, "r")
-        except OSError as exc:
-            first = str(exc).splitlines()[0] if str(exc) else "unreadable"
-            raise CaptureFormatError(f"capture file {p}: expected an HDF5 file, cannot open it ({first})") from None
-        with f:
-            _check_root(f, p)
-            yield f
+    raise CaptureFormatError(f"capture file {p}: a save is being finished by another process; try again")
 
 
 def check_file(path: str | os.PathLike[str]) -> int:
@@ -415,8 +419,13 @@ def measurement_of(cap: StoredCapture, path: str | os.PathLike[str]) -> Any:
             f"{[int(r) for r, _ in cap.gaps]}); expected a complete record"
         )
     chans: dict[str, np.ndarray] = {}
-    for ch in cap.channels.values():
-        key = MEASUREMENT_KEYS.get(ch.info.quantity)
+    keys = [MEASUREMENT_KEYS.get(ch.info.quantity) for ch in cap.channels.values()]
+    seen: dict[str, int] = {}
+    for ch, key in zip(cap.channels.values(), keys):
+        if key is not None and key != "force" and keys.count(key) > 1:
+            # several sensors of one quantity (multi-DOF): acc1, acc2 ... or their own names
+            seen[key] = seen.get(key, 0) + 1
+            key = ch.info.name if multi_channel_name(ch.info.name, key) else f"{key}{seen[key]}"
         if key is not None and key not in chans:
             _check_values(ch.si, f"capture {cap.index} of {path}: channel {ch.info.name!r}")
             chans[key] = ch.si
@@ -453,3 +462,11 @@ def _check_values(x: np.ndarray, what: str) -> None:
         i = int(bad[0])
         raise InputFileError(f"{what} holds {x[i]:g} at row {i}; expected finite values within "
                              f"+-{MAX_SI_MAGNITUDE:g} SI units (not a measurement)")
+
+
+def multi_channel_name(name: str, key: str) -> bool:
+    """True when ``name`` is a suffixed response channel of quantity ``key`` (``acc2``, ``acc_tip``)."""
+    from station.readers import MULTI_COLUMN
+
+    m = MULTI_COLUMN.match(name)
+    return m is not None and m.group(1) == key

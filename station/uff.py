@@ -10,8 +10,9 @@ func_type     1 (time response)
 id1           ``"<file stem> capture <i> <channel>"``
 id2           quantity and unit (``"force [N]"``)
 load_case_id  capture index (0-based, as in the HDF5 file)
-rsp_node/dir  1 / +1 for every channel (single point, single direction)
-ref_node/dir  1 / +1 (the driving point)
+rsp_node/dir  the channel's ``node`` / ``direction`` (bench config, +X=1 +Y=2 +Z=3, negative
+              reversed); 1 / +1 when the file has none (single point, single direction)
+ref_node/dir  the force channel's node / direction (the driving point); 1 / +1 by default
 abscissa      time [s] from the first sample, even spacing 1 / rate (spec type 17)
 ordinate      SI values; spec type 13 force, 12 acceleration, 11 velocity, 8 displacement
 ============  ======================================================================
@@ -30,13 +31,21 @@ import numpy as np
 import pyuff
 
 from station.errors import InputFileError, StationError
-from station.storage import list_captures, read_capture
+from station.storage import iter_captures, list_captures
 
 #: UFF specific data type of each quantity (UFF58 record 8/9, field 1).
 SPEC_DATA_TYPE: dict[str, int] = {"force": 13, "acceleration": 12, "velocity": 11, "displacement": 8}
 #: Length and force exponents of each quantity's unit (record 9, fields 2-3).
 UNIT_EXPONENTS: dict[str, tuple[int, int]] = {"force": (0, 1), "acceleration": (1, 0), "velocity": (1, 0), "displacement": (1, 0)}
 _TIME = 17
+#: UFF direction code of each bench-config direction.
+DIRECTION_CODES: dict[str, int] = {"+X": 1, "+Y": 2, "+Z": 3, "-X": -1, "-Y": -2, "-Z": -3}
+
+
+def _node_dir(attrs: dict) -> tuple[int, int]:
+    """UFF node and direction of a channel (1, +1 when the file has none)."""
+    node = int(attrs.get("node", 1))
+    return node, DIRECTION_CODES.get(str(attrs.get("direction", "+X")), 1)
 
 
 def export_uff58(
@@ -74,10 +83,11 @@ def export_uff58(
     src = Path(h5_path)
     indices = list(captures) if captures is not None else [c.index for c in list_captures(src)]
     sets = []
-    for i in indices:
-        cap = read_capture(src, i)
+    for cap in iter_captures(src, indices):  # one capture in memory at a time (plus the records)
         if cap.dropped_samples:
             raise InputFileError(f"capture {cap.index} of {src}: {cap.dropped_samples} samples missing; UFF58 needs a complete record")
+        forces = [c for c in cap.channels.values() if c.info.quantity == "force"]
+        ref_node, ref_dir = _node_dir(forces[0].attrs) if forces else (1, 1)
         for name, ch in cap.channels.items():
             q = ch.info.quantity
             if q not in quantities or q not in SPEC_DATA_TYPE:
@@ -94,11 +104,11 @@ def export_uff58(
                     func_type=1,
                     load_case_id=cap.index,
                     rsp_ent_name=name,
-                    rsp_node=1,
-                    rsp_dir=1,
+                    rsp_node=_node_dir(ch.attrs)[0],
+                    rsp_dir=_node_dir(ch.attrs)[1],
                     ref_ent_name="force",
-                    ref_node=1,
-                    ref_dir=1,
+                    ref_node=ref_node,
+                    ref_dir=ref_dir,
                     abscissa_spacing=1,
                     abscissa_spec_data_type=_TIME,
                     abscissa_axis_units_lab="s",
@@ -114,10 +124,12 @@ def export_uff58(
     if not sets:
         raise InputFileError(f"{src}: no {' or '.join(quantities)} channel to export")
     out = Path(out_path)
-    if out.exists():
-        out.unlink()
+    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")  # written beside, then renamed: never half a file
     try:
-        pyuff.UFF(str(out)).write_sets(sets, mode="add")
+        tmp.unlink(missing_ok=True)
+        pyuff.UFF(str(tmp)).write_sets(sets, mode="add")
+        os.replace(tmp, out)
     except OSError as exc:
+        tmp.unlink(missing_ok=True)
         raise StationError(f"cannot write {out}: {exc.strerror or exc}") from None
     return len(sets)

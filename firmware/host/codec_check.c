@@ -7,6 +7,7 @@
  *   decode HEX                                      -> one line per good frame, then the counts
  *   crc TEXT                                        -> CRC-32 of TEXT
  *   f64 VALUE                                       -> the JSON text of a double
+ *   synth RATE N MASS C1 K1 K3 NOISE                -> N lines "force acc" of the on-chip source
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -14,6 +15,7 @@
 
 #include "json.h"
 #include "proto.h"
+#include "synth.h"
 
 static uint8_t raw[70000];
 static uint8_t out[80000];
@@ -116,6 +118,28 @@ static void do_decode(const char *hex)
     printf("stats %lu %lu\n", (unsigned long)rx.crc_errors, (unsigned long)rx.framing_errors);
 }
 
+static void do_synth(const char *args)
+{
+    double rate, mass, c1, k1, k3, noise;
+    unsigned long n;
+    if (sscanf(args, "%lf %lu %lf %lf %lf %lf %lf", &rate, &n, &mass, &c1, &k1, &k3, &noise) != 7)
+        return;
+    synth_params p = SYNTH_DEFAULT;
+    p.mass_kg = (float)mass;
+    p.c1 = (float)c1;
+    p.k1 = (float)k1;
+    p.k3 = (float)k3;
+    p.force_noise_n = (float)noise;
+    p.acc_noise_ms2 = (float)noise;
+    synth s;
+    synth_init(&s, &p, rate, 1u);
+    for (unsigned long i = 0; i < n; i++) {
+        float f, a;
+        synth_next(&s, &f, &a);
+        printf("%.9g %.9g\n", (double)f, (double)a);
+    }
+}
+
 int main(void)
 {
     static char line[200000];
@@ -132,6 +156,8 @@ int main(void)
             do_reply(args);
         else if (!strcmp(line, "decode"))
             do_decode(args);
+        else if (!strcmp(line, "synth"))
+            do_synth(args);
         else if (!strcmp(line, "crc"))
             printf("%08lx\n", (unsigned long)proto_crc32(0, (const uint8_t *)args, strlen(args)));
         else if (!strcmp(line, "f64")) {

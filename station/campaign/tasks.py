@@ -99,8 +99,9 @@ def _capture_warnings(meas: Any) -> list[str]:
 
 
 def _coefficients(eom: Any) -> dict[str, float]:
-    out = {f"b[{t}]": float(c) for t, c in eom.damping.items()}
-    out.update({f"k[{t}]": float(c) for t, c in eom.stiffness.items()})
+    """``{"b[v]": ..., "k[x]": ...}`` of an equation of motion ({} for a modal-sum model)."""
+    out = {f"b[{t}]": float(c) for t, c in getattr(eom, "damping", {}).items()}
+    out.update({f"k[{t}]": float(c) for t, c in getattr(eom, "stiffness", {}).items()})
     return out
 
 

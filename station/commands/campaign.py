@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
+from station.argtypes import damping_terms, finite_positive, stiffness_terms
 from station.errors import ConfigError, InputFileError
 from station.output import emit
 
@@ -37,10 +38,10 @@ def register(subparsers: Any) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (tables, models, journal)")
     p.add_argument("--task", choices=("identify", "validate", "diagnose"), default="identify",
                    help="what to do with each capture (default: %(default)s)")
-    p.add_argument("--mass", type=float, metavar="KG", help="mass [kg]; default: the one each capture records")
-    p.add_argument("--damping", default=",".join(DEFAULT_DAMPING), metavar="TERMS",
+    p.add_argument("--mass", type=finite_positive, metavar="KG", help="mass [kg]; default: the one each capture records")
+    p.add_argument("--damping", type=damping_terms, default=",".join(DEFAULT_DAMPING), metavar="TERMS",
                    help="damping candidates (default: %(default)s)")
-    p.add_argument("--stiffness", default=",".join(DEFAULT_STIFFNESS), metavar="TERMS",
+    p.add_argument("--stiffness", type=stiffness_terms, default=",".join(DEFAULT_STIFFNESS), metavar="TERMS",
                    help="stiffness candidates (default: %(default)s)")
     p.add_argument("--route", choices=("auto", "potential", "lagrangian"), default="auto",
                    help="phase-two route (default: %(default)s)")
@@ -94,12 +95,15 @@ def handle(args: argparse.Namespace) -> int:
     """Run ``station campaign``; return the exit code."""
     from station.campaign.run import dask_client, run_campaign
     from station.campaign.sources import expand_sources
-    from station.campaign.table import Journal
+    from station.campaign.table import Journal, check_out_folder
+    from station.output_safety import check_output
 
+    check_output(args.out, "dir", [*args.sources, *([args.model] if args.model else [])], option="--out")
+    check_out_folder(args.out)
     opts = _options(args)
-    refs = expand_sources(list(args.sources))
+    refs = expand_sources(list(args.sources), exclude=args.out)
     if not refs:
-        raise InputFileError("no capture found in the sources")
+        raise InputFileError("no capture found in the sources (outside --out)")
     journal = Journal(args.out, opts.as_dict())
     errors: list[str] = []
 

@@ -79,6 +79,8 @@ def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
         "mass": eom.mass,
         "damping": dict(eom.damping),
         "stiffness": dict(eom.stiffness),
+        "units": res.units,
+        "ci95": res.ci95,
         "route": res.model.route,
         "route_scores": dict(res.model.route_scores),
         "equation": eom.equation_text(),
@@ -124,7 +126,13 @@ def _text(obj: dict[str, Any]) -> str:
     lines.append(f"  mass        {obj['mass']:.6g} kg")
     for title, key in (("damping", "damping"), ("stiffness", "stiffness")):
         for term, c in obj[key].items():
-            lines.append(f"  {title:<11} {term:<10} {c:+.6g}")
+            ci = obj.get("ci95", {}).get(key, {}).get(term)
+            unit = obj.get("units", {}).get(key, {}).get(term, "")
+            lines.append(f"  {title:<11} {term:<10} {c:+.6g}" + (f" ± {ci:.2g}" if ci is not None else "")
+                         + f" {unit}")
+    p = obj.get("pipeline") or {}
+    for term, why in p.get("dropped", {}).items():
+        lines.append(f"  dropped     {term:<10} {why}")
     v = obj["validation"]
     c = obj["conditioning"]
     lines += [

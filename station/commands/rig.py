@@ -2,6 +2,7 @@
 
     station rig serve --system duffing-smooth --link rig.port --control rig.ctl   # until Ctrl-C
     station rig strike --control rig.ctl --force-n 300                            # a hammer blow
+    station rig qemu --system duffing                 # the open firmware (firmware/) in QEMU, on a pty
 
 ``serve`` powers the rig on (physics built, simulator compiled) and then serves its firmware
 on a pty, printing the port; any host opens it as ``serial://PORT``. ``strike`` delivers a

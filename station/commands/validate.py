@@ -37,6 +37,10 @@ def validate_object(model_path: str, specs: list[str]) -> dict[str, Any]:
     from station.session import load_model_file, mean_of, read_measurement, expand_specs, validate_measurement
 
     model = load_model_file(model_path)
+    if getattr(model, "kind", None) == "mdof":  # several coordinates: every channel predicted
+        from station.mdof_commands import validate_mdof_object
+
+        return validate_mdof_object(model, model_path, specs)  # type: ignore[arg-type]
     checks = [validate_measurement(model, read_measurement(s)) for s in expand_specs(specs)]
     return {
         "model": model_path,
@@ -64,5 +68,10 @@ def _text(obj: dict[str, Any]) -> str:
 def handle(args: argparse.Namespace) -> int:
     """Run ``station validate``; return the exit code."""
     obj = validate_object(args.model, list(args.records))
+    if obj["model_kind"] == "mdof":
+        from station.mdof_commands import validate_mdof_text
+
+        emit(args.json, validate_mdof_text(obj), obj)
+        return 0
     emit(args.json, _text(obj), obj)
     return 0

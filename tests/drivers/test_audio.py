@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drivers.audio import audio_channels, parse_audio_url
+from drivers.audio import audio_channels, parse_audio_url, samples_lost_on_overflow
 from drivers.errors import BadUrlError
 
 REPO = Path(__file__).resolve().parents[2]
@@ -103,3 +103,22 @@ def test_station_acquire_reads_an_alsa_file_pcm_through_portaudio(tmp_path):
         assert k0 <= k <= k0 + int(2e-3 * rate)  # the first sample at or above 50 N
         got = np.stack([cap.channels["force"].si, cap.channels["acc"].si], axis=1)
         np.testing.assert_allclose(got, expected_si[k - pre:k + post], rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.skipif(not HAVE_PORTAUDIO, reason="needs libportaudio2")
+def test_acquire_from_a_missing_audio_device_is_one_line_and_exit_2(tmp_path):
+    env = {**os.environ, "HOME": str(tmp_path), "PYTHONPATH": str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    proc = subprocess.run([sys.executable, "-m", "station.cli", "acquire", "--device", "audio://no-such-sensor",
+                           "--impacts", "1", "--out", str(tmp_path / "x.h5")], capture_output=True, text=True,
+                          env=env, timeout=60)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "no audio input 'no-such-sensor'" in lines[0]
+
+
+def test_samples_lost_on_overflow_from_the_stream_clock():
+    """An overflow 2 s into a 48 kHz stream, 90,000 samples taken before, 1024 now, 512 waiting:
+    96,000 produced - 91,536 accounted = 4,464 lost; a lagging clock counts none."""
+    assert samples_lost_on_overflow(12.0, 10.0, 48000.0, 0, 90_000, 1024, 512) == 4464
+    assert samples_lost_on_overflow(12.0, 10.0, 48000.0, 500, 90_000, 1024, 512) == 4964  # counter after configure
+    assert samples_lost_on_overflow(10.5, 10.0, 48000.0, 0, 90_000, 1024, 0) == 0

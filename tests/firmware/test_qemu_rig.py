@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import select
 import signal
 import subprocess
 import sys
@@ -32,10 +33,12 @@ def _start_rig_cli(system: str) -> tuple[subprocess.Popen[str], dict]:
     proc = subprocess.Popen([sys.executable, "-m", "station.cli", "rig", "qemu", "--system", system, "--json",
                              "--duration-s", "150"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env=env, cwd=REPO)
-    line = proc.stdout.readline()  # the rig prints its port once QEMU runs (after building if needed)
+    # the rig prints its port once QEMU runs (after building the image if needed)
+    ready, _, _ = select.select([proc.stdout], [], [], 180.0)
+    line = proc.stdout.readline() if ready else ""
     if not line:
         proc.kill()
-        pytest.fail(f"station rig qemu printed nothing: {proc.stderr.read()}")
+        pytest.fail(f"station rig qemu printed nothing within 180 s: {proc.stderr.read()[-2000:]}")
     return proc, json.loads(line)
 
 
@@ -125,3 +128,15 @@ def test_firmware_commands_configure_refuse_and_hammer():
         k = int(np.argmax(si[:, 0]))
         assert at <= k <= at + 8 + int(0.002 * 7812.5)  # the 2 ms half-sine peaks 1 ms after it lands
         assert si[k, 0] == pytest.approx(900.0, rel=0.02)
+
+
+@pytest.mark.parametrize("argv, why", [
+    (["rig", "qemu", "--system", "nope"], "no firmware system 'nope'; known: duffing"),
+    (["rig", "qemu", "--corrupt-data-frame", "0"], "expected a frame number >= 1"),
+])
+def test_rig_qemu_bad_input_is_one_line_and_exit_2(argv, why, capsys):
+    from station.cli import main
+
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and why in err[0]

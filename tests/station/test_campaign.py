@@ -145,6 +145,25 @@ def test_campaign_table_row_by_row_and_resume(captures, client, tmp_path):
     assert len((tmp_path / "out" / "rows.jsonl").read_text().splitlines()) == 8
 
 
+def test_validate_and_diagnose_tasks(captures, client, tmp_path):
+    h5 = str(captures / "session.h5")
+    refs = [CaptureRef(h5, 0), CaptureRef(h5, 1)]
+    ident = run_campaign(client, refs[:1], _mass_opts(), Journal(tmp_path / "id", _mass_opts().as_dict()), quiet=True)
+    fitted = pq.read_table(ident.parquet).to_pylist()[0]
+    model_json = (tmp_path / "id" / fitted["model_json"]).read_text()
+    vopts = TaskOptions(task="validate", model_json=model_json)
+    val = run_campaign(client, refs, vopts, Journal(tmp_path / "val", vopts.as_dict()), quiet=True)
+    rows = pq.read_table(val.parquet).to_pylist()
+    assert [r["status"] for r in rows] == ["ok", "ok"] and "b[v]" not in rows[0]  # no coefficients fitted
+    assert rows[0]["nrmse"] == fitted["nrmse"]  # the same model on the same record: the same score
+    assert 0 < rows[1]["nrmse"] < 0.1 and rows[1]["driven_by"] == "force"  # another blow of the same system
+    # a 1 s ring-down is too short for diagnose's three amplitude bands: a row says so
+    dopts = TaskOptions(task="diagnose", mass=SYSTEM.eom.mass, damping=OPTS.damping, stiffness=OPTS.stiffness)
+    diag = run_campaign(client, refs[:1], dopts, Journal(tmp_path / "diag", dopts.as_dict()), quiet=True)
+    row = pq.read_table(diag.parquet).to_pylist()[0]
+    assert row["status"] == "error" and "too short to split into 3 amplitude bands" in row["error"]
+
+
 def test_resume_refuses_other_options(tmp_path):
     Journal(tmp_path, _mass_opts().as_dict())
     with pytest.raises(ConfigError, match="other options \\(stiffness\\)"):
@@ -152,10 +171,32 @@ def test_resume_refuses_other_options(tmp_path):
                                       stiffness="x,x^2,x^3").as_dict())
 
 
-def test_cli_bad_source_is_one_line(tmp_path, capsys):
-    assert main(["campaign", str(tmp_path / "nothing-*.h5"), "--out", str(tmp_path / "o")]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "matches no .csv, .h5, .hdf5 file" in err
+def test_cli_bad_input_is_one_line(captures, tmp_path, capsys):
+    cases = [
+        (["campaign", str(tmp_path / "nothing-*.h5"), "--out", str(tmp_path / "o")], "matches no .csv, .h5, .hdf5 file"),
+        (["campaign", str(captures), "--out", str(captures)], "a folder of other files, not a campaign's"),
+        (["campaign", str(captures), "--out", str(captures / "good.csv")], "refusing to replace it with a folder"),
+        (["campaign", str(captures), "--out", str(tmp_path / "v"), "--task", "validate"], "needs --model MODEL.json"),
+        (["campaign", str(captures), "--out", str(tmp_path / "w"), "--workers", "0"], "--workers must be >= 1"),
+    ]
+    for argv, msg in cases:
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and msg in err, (argv, err)
+    assert sorted(p.name for p in captures.iterdir() if not p.name.startswith(".")) == [
+        "bad.csv", "good.csv", "session.h5"]  # nothing written (the session writer's lock file aside)
+
+
+def test_output_folder_below_a_source_is_not_read(captures, tmp_path):
+    out = captures / "results"
+    out.mkdir()
+    try:
+        (out / "results.csv").write_text("file,capture\n")
+        assert len(expand_sources([str(captures)], exclude=out)) == 6
+        assert len(expand_sources([str(captures)])) == 7
+    finally:
+        (out / "results.csv").unlink()
+        out.rmdir()
 
 
 def test_cli_json_resume_on_an_existing_scheduler(captures, client, tmp_path, capsys):

@@ -1,0 +1,471 @@
+"""Coupled nonlinear equations of motion from several channels: EDDI per coordinate.
+
+Input: conditioned records (displacement, velocity and acceleration of every response channel,
+and the impact force at the driving point). Steps:
+
+1. **Linear modes** (:func:`eddi.mdof.modal.era`) from the low-amplitude tail of the records.
+2. **Coordinates.** ``modal`` when the tail shows as many modes as there are channels with
+   well-separated shapes (``cond(Psi) <= max_shape_condition``) or fewer modes that span the
+   measured motion (projection residual below ``span_tolerance``): ``q = pinv(Psi) y``.
+   Otherwise ``physical`` (one coordinate per channel): the motion has a part no linear mode
+   describes (a nonlinear energy sink has no linear stiffness, hence no linear mode).
+3. **Per coordinate, EDDI with coupling terms** (per unit mass). Library of equation ``i``:
+   damping ``v_1..v_n``; own stiffness ``x_i, x_i^3``; coupling stiffness ``x_j`` and every cubic
+   monomial but ``x_i^3``. *Phase one* (paper Eq. 7) at the zero crossings ``gamma_k`` of
+   ``q_i``, where the coordinate's own potential is zero:
+   ``sum_j b_j int v_i D_j dt + sum_c theta_c int v_i C_c dt = T_i(gamma_k-1) - T_i(gamma_k)``:
+   the energy a coordinate loses per half cycle is what it dissipates plus what it gives to
+   the others through the coupling terms (its own stiffness returns what it stores). Rows are
+   half cycles, each divided by ``T_i`` at its start; all records stacked. *Phase two*:
+   ``K_i(q) = -q_i'' - B_i`` sample by sample, fitted with the own and coupling stiffness terms.
+4. **Sparsity.** A term whose force (RMS over the data) is below ``prune`` times the RMS of
+   ``q_i''`` is dropped and the equation refitted (sequential thresholding).
+5. **Input and masses.** Over the impact, ``q_i'' + B_i + K_i = g_i F`` gives the force per
+   unit mass ``g_i`` by least squares. Modal coordinates: the force enters equation ``i`` as
+   ``psi_di F`` (``d`` the driving point) so the modal mass is ``m_i = psi_di / g_i``, the
+   driving-point residue route: no mass needs to be given. Physical coordinates: the driven
+   mass is ``1 / g_d``; every other mass follows from reciprocity of the coupling springs (a
+   potential term ``theta x_i^a x_j^b`` appears as ``a theta / m_i`` in equation ``i`` and
+   ``b theta / m_j`` in equation ``j``).
+
+No I/O: arrays in, frozen results out.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from eddi.energy import cumulative_energy, rate_interpolant, zero_crossings
+from eddi.errors import IdentificationError
+from eddi.mdof.modal import LinearModes, era, tail_segments
+from eddi.mdof.model import MdofModel
+from eddi.mdof.signals import HIGHPASS_HZ, quasi_static
+from eddi.mdof.terms import MultiTerm, monomial, parse_multi_term
+from eddi.phase_one import scaled_lstsq
+
+
+@dataclass(frozen=True)
+class ChannelRecord:
+    """One conditioned multi-channel record.
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,), [s]
+    x, v, a : ndarray, shape (n_channels, n)
+        Displacement [m], velocity [m/s], acceleration [m/s^2] of every response channel.
+    force : ndarray, shape (n,), [N], or None
+        Impact force at the driving point (zero outside the impact).
+    impact : (int, int)
+        ``[start, end)`` of the impact (``(0, 0)`` without force).
+    window : (int, int)
+        Free-response window ``[start, stop)``.
+    noise : ndarray, shape (n_channels,)
+        Noise RMS of each channel's displacement [m] (sets the zero-crossing dead band).
+    label : str
+    highpass_hz : float
+        Cut-off of the zero-phase drift high-pass ``x`` and ``v`` went through [Hz].
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    force: np.ndarray | None
+    impact: tuple[int, int]
+    window: tuple[int, int]
+    noise: np.ndarray
+    label: str = ""
+    highpass_hz: float = HIGHPASS_HZ
+
+
+@dataclass(frozen=True)
+class Library:
+    """Candidate terms of one equation: damping, own stiffness and coupling stiffness."""
+
+    damping: tuple[str, ...]
+    own: tuple[str, ...]
+    coupling: tuple[str, ...]
+
+
+def default_library(i: int, n: int, coupling: bool = True) -> Library:
+    """The library of equation ``i`` (0-based) of ``n`` (see the module docstring)."""
+    damping = tuple(monomial({j: 1}, n, rate=True) for j in range(n))
+    own = (monomial({i: 1}, n), monomial({i: 3}, n))
+    if not coupling or n == 1:
+        return Library((monomial({i: 1}, n, rate=True),), own, ())
+    cpl = [monomial({j: 1}, n) for j in range(n) if j != i]
+    for combo in itertools.combinations_with_replacement(range(n), 3):
+        powers: dict[int, int] = {}
+        for j in combo:
+            powers[j] = powers.get(j, 0) + 1
+        if powers != {i: 3}:
+            cpl.append(monomial(powers, n))
+    return Library(damping, own, tuple(dict.fromkeys(cpl)))
+
+
+@dataclass(frozen=True)
+class EquationFit:
+    """What EDDI found for one coordinate (per unit mass).
+
+    Attributes
+    ----------
+    damping, stiffness : dict of str to float
+        Per-unit-mass coefficients kept after pruning.
+    input_gain : float
+        ``g_i`` [1/kg]: force at the driving point per unit mass of this coordinate.
+    energy_residual : float
+        RMS relative misfit of the phase-one half-cycle energy balance.
+    exchanged_fraction : float
+        Energy given to (or taken from) the other coordinates through coupling terms over
+        the half cycles, relative to the energy dissipated (phase one).
+    half_cycles : int
+    force_residual : float
+        RMS of the force balance ``q_i'' + B_i + K_i`` over the free windows relative to the
+        RMS of ``q_i''``.
+    """
+
+    damping: dict[str, float]
+    stiffness: dict[str, float]
+    input_gain: float
+    energy_residual: float
+    exchanged_fraction: float
+    half_cycles: int
+    force_residual: float = math.nan
+
+
+@dataclass(frozen=True)
+class MdofIdentification:
+    """Result of :func:`identify_mdof`.
+
+    Attributes
+    ----------
+    model : MdofModel
+    modes : LinearModes
+        From the low-amplitude tail.
+    coordinates : str
+        ``"modal"`` or ``"physical"``.
+    equations : tuple of EquationFit
+    span_residual : float
+        Part of the measured displacement (RMS, relative) the linear mode shapes do not span.
+    notes : tuple of str
+    """
+
+    model: MdofModel
+    modes: LinearModes
+    coordinates: str
+    equations: tuple[EquationFit, ...]
+    span_residual: float
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+def linear_modes(records: Sequence[ChannelRecord], *, tail_fraction: float = 0.2,
+                 max_freq_hz: float | None = None, driving_point: int = 0) -> LinearModes:
+    """ERA on the low-amplitude tail of the measured accelerations of every record."""
+    rate = 1.0 / float(records[0].t[1] - records[0].t[0])
+    segs = [tail_segments(r.a, r.window[0], r.window[1], tail_fraction) for r in records]
+    return era(segs, rate, max_freq_hz=max_freq_hz or 0.2 * rate, driving_point=driving_point)
+
+
+def choose_coordinates(records: Sequence[ChannelRecord], modes: LinearModes, *, max_shape_condition: float = 8.0,
+                       span_tolerance: float = 0.02, coordinates: str = "auto") -> tuple[str, np.ndarray, float]:
+    """``("modal" | "physical", T, span_residual)`` with ``y = T q`` (see the module docstring)."""
+    n_ch = records[0].x.shape[0]
+    psi = modes.shapes
+    if psi.shape[1] > n_ch:  # keep the n_ch least damped
+        keep = np.sort(np.argsort(modes.damping_ratios)[:n_ch])
+        psi = psi[:, keep]
+    y = np.hstack([r.x[:, r.window[0]:r.window[1]] for r in records])
+    proj = psi @ np.linalg.lstsq(psi, y, rcond=None)[0]
+    span = float(np.linalg.norm(y - proj) / max(np.linalg.norm(y), 1e-300))
+    if coordinates == "physical":
+        return "physical", np.eye(n_ch), span
+    cond = float(np.linalg.cond(psi))
+    if coordinates == "modal" or (cond <= max_shape_condition and span <= span_tolerance):
+        return "modal", psi, span
+    return "physical", np.eye(n_ch), span
+
+
+def _terms(texts: Sequence[str], n: int) -> list[MultiTerm]:
+    return [parse_multi_term(t, n) for t in texts]
+
+
+def _matrix(terms: Sequence[MultiTerm], q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    return np.column_stack([t(q, qd) for t in terms]) if terms else np.zeros((q.shape[1], 0))
+
+
+def _phase_one_rows(i: int, rec_q: tuple, terms: list[MultiTerm], hysteresis: float
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Half-cycle rows (dQ, dT, T_start) of equation ``i`` for one record's free window."""
+    t, q, qd, qdd = rec_q
+    gamma = zero_crossings(t, q[i], qd[i], hysteresis=hysteresis)
+    if gamma.size < 3:
+        return np.zeros((0, len(terms))), np.zeros(0), np.zeros(0)
+    power = qd[i][:, None] * _matrix(terms, q, qd)
+    anti = cumulative_energy(t, power)(gamma)
+    vg = rate_interpolant(t, qd[i], qdd[i])(gamma)
+    kin = 0.5 * vg**2
+    return np.diff(anti, axis=0), -np.diff(kin), kin[:-1]
+
+
+def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, noise: float,
+                 prune: float = 3e-3, max_exchange: float = 1.0) -> EquationFit:
+    """EDDI phases one and two for coordinate ``i`` with coupling terms, then the input gain.
+
+    ``data``: per record ``(t, q, qd, qdd)`` over the free window; ``impacts``: per record
+    ``(q, qd, qdd, force)`` over the impact (may be empty). When the energy exchanged through
+    the coupling terms exceeds ``max_exchange`` times the energy dissipated, damping and
+    stiffness are fitted together on the force balance (phase one cannot separate them).
+    """
+    n = data[0][1].shape[0]
+    damp, own, cpl = list(lib.damping), list(lib.own), list(lib.coupling)
+    for _round in range(4):
+        d_terms, s_terms = _terms(damp, n), _terms(own + cpl, n)
+        e_terms = d_terms + _terms(cpl, n)
+        rows, rhs, kin0 = [], [], []
+        for rec in data:
+            dq, dt_, k0 = _phase_one_rows(i, rec, e_terms, 4.0 * noise)
+            rows.append(dq)
+            rhs.append(dt_)
+            kin0.append(k0)
+        dq, dr, k0 = np.vstack(rows), np.concatenate(rhs), np.concatenate(kin0)
+        if dr.size < len(e_terms) + 1:
+            raise IdentificationError(f"coordinate {i + 1}: {dr.size} half cycles for {len(e_terms)} terms; "
+                                      "need longer or more records")
+        w = 1.0 / np.maximum(k0, 1e-12 * float(k0.max()))
+        coef1, _cond = scaled_lstsq(dq * w[:, None], dr * w)
+        b = coef1[: len(d_terms)]
+        theta = coef1[len(d_terms):]
+        # phase two: conservative force sample by sample
+        q = np.hstack([r[1] for r in data])
+        qd = np.hstack([r[2] for r in data])
+        qdd = np.hstack([r[3] for r in data])
+        dmat = _matrix(d_terms, q, qd)
+        smat = _matrix(s_terms, q, qd)
+        k_force = -qdd[i] - dmat @ b
+        k, _ = scaled_lstsq(smat, k_force)
+        exchanged = float(np.sum(np.abs(dq[:, len(d_terms):] @ theta))) if theta.size else 0.0
+        if exchanged > max_exchange * float(np.sum(np.abs(dq[:, : len(d_terms)] @ b))):
+            # the coordinate's energy is mostly exchanged, not dissipated (physical coordinates
+            # joined by springs): the half-cycle balance cannot resolve the damping; fit damping
+            # and stiffness together on the force balance instead
+            both, _ = scaled_lstsq(np.hstack([dmat, smat]), -qdd[i])
+            b, k = both[: len(d_terms)], both[len(d_terms):]
+        scale = float(np.sqrt(np.mean(qdd[i] ** 2))) or 1.0
+        small_d = [t for t, c, col in zip(damp, b, dmat.T) if t != monomial({i: 1}, n, True)
+                   and np.sqrt(np.mean((c * col) ** 2)) < prune * scale]
+        small_s = [t for t, c, col in zip(own + cpl, k, smat.T) if t != monomial({i: 1}, n)
+                   and np.sqrt(np.mean((c * col) ** 2)) < prune * scale]
+        if not small_d and not small_s:
+            break
+        damp = [t for t in damp if t not in small_d]
+        own = [t for t in own if t not in small_s]
+        cpl = [t for t in cpl if t not in small_s]
+    dissipated = float(np.sum(np.abs(dq[:, : len(d_terms)] @ b)))
+    exchanged = float(np.sum(np.abs(dq[:, len(d_terms):] @ theta))) if theta.size else 0.0
+    residual = float(np.sqrt(np.mean(((dq @ coef1 - dr) * w) ** 2)))
+    damping = {t: float(c) for t, c in zip(damp, b)}
+    stiffness = {t: float(c) for t, c in zip(own + cpl, k)}
+    gain = _input_gain(i, impacts, d_terms, s_terms, b, k)
+    dmat, smat = _matrix(_terms(damp, n), q, qd), _matrix(_terms(own + cpl, n), q, qd)
+    force_res = float(np.sqrt(np.mean((qdd[i] + dmat @ b + smat @ k) ** 2)) / scale)
+    return EquationFit(damping, stiffness, gain, residual, exchanged / max(dissipated, 1e-300), int(dr.size),
+                       force_res)
+
+
+def _input_gain(i: int, impacts: list[tuple], d_terms: list[MultiTerm], s_terms: list[MultiTerm],
+                b: np.ndarray, k: np.ndarray) -> float:
+    """``g_i`` from ``q_i'' + B_i + K_i = g_i F`` over the impacts (0 without force)."""
+    num = den = 0.0
+    for q, qd, qdd, f in impacts:
+        r = qdd[i] + _matrix(d_terms, q, qd) @ b + _matrix(s_terms, q, qd) @ k
+        num += float(f @ r)
+        den += float(f @ f)
+    return num / den if den > 0 else 0.0
+
+
+def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], driving_point: str, *,
+                  coordinates: str = "auto", coupling: bool = True, tail_fraction: float = 0.2,
+                  max_freq_hz: float | None = None, prune: float = 3e-3,
+                  highpass_hz: float | None = HIGHPASS_HZ) -> MdofIdentification:
+    """Identify ``M q'' + B(q, q') + K(q) = u F`` from multi-channel records (module docstring).
+
+    Parameters
+    ----------
+    records : sequence of ChannelRecord
+    channels : sequence of str
+        Response channel names, in the order of the rows of ``x``.
+    driving_point : str
+        The channel at the hammer.
+    coordinates : {"auto", "modal", "physical"}
+    coupling : bool
+        Include coupling terms (False: uncoupled modes, the baseline of diagnosis).
+    tail_fraction : float
+        Linear modal analysis uses the record after the envelope falls below this fraction.
+    max_freq_hz : float, optional
+    prune : float
+        Relative force below which a term is dropped.
+    highpass_hz : float or None
+        Not None: with a force, the identification is run twice, the second time on records
+        with the quasi-static response the drift high-pass removed (at each record's
+        ``highpass_hz``) restored (:func:`eddi.mdof.signals.quasi_static`, flexibility from
+        the first model). None: once.
+
+    Raises
+    ------
+    IdentificationError
+    """
+    if not records:
+        raise IdentificationError("no records to identify from")
+    channels = tuple(channels)
+    if driving_point not in channels:
+        raise IdentificationError(f"driving point {driving_point!r} is not a channel ({', '.join(channels)})")
+    d = channels.index(driving_point)
+    first = _identify_once(records, channels, driving_point, d, coordinates, coupling, tail_fraction,
+                           max_freq_hz, prune)
+    if highpass_hz is None or all(r.force is None for r in records):
+        return first
+    g = static_flexibility(first.model)
+    if g is None:
+        return first
+    fixed = [restore_quasi_static(r, g) for r in records]
+    return _identify_once(fixed, channels, driving_point, d, first.coordinates, coupling, tail_fraction,
+                          max_freq_hz, prune)
+
+
+def static_flexibility(model: MdofModel, freq_hz: float = 0.5) -> np.ndarray | None:
+    """Quasi-static displacement of every channel per newton at the driving point [m/N], or None.
+
+    The real part of the linear receptance ``(K - w^2 M + i w C)^-1 u`` at a low frequency
+    ``freq_hz`` (below the drift high-pass): the static flexibility when ``K`` is regular, and
+    still finite for a mass held by a dashpot and an essentially nonlinear spring only (the
+    energy sink follows its host at low frequency).
+    """
+    m, c, k = model.linear_matrices()
+    w = 2 * math.pi * freq_hz
+    try:
+        h = np.linalg.solve(k - w**2 * m + 1j * w * c, np.asarray(model.input, float))
+    except np.linalg.LinAlgError:
+        return None
+    g = model.phi @ h.real
+    return g if np.all(np.isfinite(g)) else None
+
+
+def restore_quasi_static(r: ChannelRecord, flexibility: np.ndarray) -> ChannelRecord:
+    """The record with the quasi-static response added back to ``x`` and ``v``."""
+    if r.force is None:
+        return r
+    rate = 1.0 / float(r.t[1] - r.t[0])
+    xl, vl = quasi_static(r.force, rate, flexibility, r.highpass_hz)
+    return replace(r, x=r.x + xl, v=r.v + vl)
+
+
+def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], driving_point: str, d: int,
+                   coordinates: str, coupling: bool, tail_fraction: float, max_freq_hz: float | None,
+                   prune: float) -> MdofIdentification:
+    modes = linear_modes(records, tail_fraction=tail_fraction, max_freq_hz=max_freq_hz, driving_point=d)
+    kind, tmat, span = choose_coordinates(records, modes, coordinates=coordinates)
+    fits = _fit_all(records, tmat, coupling, prune)
+    notes_pre: list[str] = []
+    if coordinates == "auto" and kind == "modal":
+        # the tail's modes may not be the structure's (a nonlinear attachment has none):
+        # keep the modal coordinates only when their equations close as well as the physical
+        phys = _fit_all(records, np.eye(tmat.shape[0]), coupling, prune)
+        r_modal = float(np.mean([f.force_residual for f in fits]))
+        r_phys = float(np.mean([f.force_residual for f in phys]))
+        if r_phys < 0.5 * r_modal:
+            notes_pre.append(f"modal equations close to {100 * r_modal:.2g} %, physical ones to "
+                             f"{100 * r_phys:.2g} %: physical coordinates kept")
+            kind, tmat, fits = "physical", np.eye(tmat.shape[0]), phys
+    n = tmat.shape[1]
+    masses, inputs, notes = _masses(kind, fits, tmat, d, n)
+    notes = notes_pre + notes
+    model = MdofModel.create(
+        coordinates=kind, mass=tuple(masses), input=tuple(inputs),
+        damping=tuple({t: c * m for t, c in f.damping.items()} for f, m in zip(fits, masses)),
+        stiffness=tuple({t: c * m for t, c in f.stiffness.items()} for f, m in zip(fits, masses)),
+        channels=channels, shapes=tuple(tuple(float(v) for v in row) for row in tmat),
+        driving_point=driving_point,
+        notes=f"identified by eddi.mdof from {len(records)} record(s); {kind} coordinates; "
+              f"linear modes {', '.join(f'{f:.4g} Hz' for f in modes.frequencies_hz)}")
+    return MdofIdentification(model, modes, kind, fits, span, tuple(notes))
+
+
+def _fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool, prune: float
+             ) -> tuple[EquationFit, ...]:
+    """EDDI per coordinate ``q = pinv(T) y`` over every record."""
+    proj = np.linalg.pinv(tmat)
+    n = tmat.shape[1]
+    data, impacts = [], []
+    for r in records:
+        s, e = r.window
+        data.append((r.t[s:e], proj @ r.x[:, s:e], proj @ r.v[:, s:e], proj @ r.a[:, s:e]))
+        if r.force is not None and r.impact[1] > r.impact[0]:
+            i0, i1 = r.impact[0], max(r.impact[1], r.window[0]) + 3
+            impacts.append((proj @ r.x[:, i0:i1], proj @ r.v[:, i0:i1], proj @ r.a[:, i0:i1], r.force[i0:i1]))
+    noise = np.abs(proj) @ np.max([r.noise for r in records], axis=0)
+    return tuple(fit_equation(i, data, impacts, default_library(i, n, coupling), float(noise[i]), prune)
+                 for i in range(n))
+
+
+def _masses(kind: str, fits: tuple[EquationFit, ...], tmat: np.ndarray, d: int, n: int
+            ) -> tuple[list[float], list[float], list[str]]:
+    """Masses and input shares (see step 5 of the module docstring)."""
+    notes: list[str] = []
+    gains = np.array([f.input_gain for f in fits])
+    if not np.any(np.abs(gains) > 0):
+        notes.append("no force: every coordinate identified per unit mass (mass 1)")
+        return [1.0] * n, [0.0] * n, notes
+    if kind == "modal":
+        masses, inputs = [], []
+        for i in range(n):
+            u = float(tmat[d, i])
+            g = gains[i]
+            if abs(u) < 1e-6 or g == 0 or u / g <= 0:
+                notes.append(f"mode {i + 1}: no driving-point residue (node at the driving point?); "
+                             "identified per unit mass")
+                masses.append(1.0)
+                inputs.append(float(g))
+            else:
+                masses.append(u / g)
+                inputs.append(u)
+        return masses, inputs, notes
+    masses = [math.nan] * n
+    masses[d] = 1.0 / gains[d] if gains[d] > 0 else 1.0
+    for _ in range(n):  # spread from the driven mass through the coupling terms
+        for i, j in itertools.permutations(range(n), 2):
+            if math.isnan(masses[i]) or not math.isnan(masses[j]):
+                continue
+            ratio = _reciprocity(fits[i], fits[j], i, j, n)
+            if ratio is not None:
+                masses[j] = masses[i] * ratio
+    for j in range(n):
+        if math.isnan(masses[j]):
+            notes.append(f"coordinate {j + 1}: no coupling to a driven mass; identified per unit mass")
+            masses[j] = 1.0
+    return masses, [1.0 if i == d else 0.0 for i in range(n)], notes
+
+
+def _reciprocity(fi: EquationFit, fj: EquationFit, i: int, j: int, n: int) -> float | None:
+    """``m_j / m_i`` from potential terms shared by equations ``i`` and ``j``, or None."""
+    num = den = 0.0
+    for text_i, ci in fi.stiffness.items():
+        e = parse_multi_term(text_i, n).exponents[0].copy()  # powers of x in d P / d x_i
+        e[i] += 1  # the potential monomial P
+        a, b_ = int(e[i]), int(e[j])
+        if b_ == 0 or int(e.sum()) != int(e[i] + e[j]):
+            continue
+        ej = e.copy()
+        ej[j] -= 1
+        text_j = monomial({k: int(p) for k, p in enumerate(ej) if p}, n)
+        cj = fj.stiffness.get(text_j)
+        if cj is None:
+            continue
+        # theta = m_i ci / a = m_j cj / b  ->  m_j / m_i = b ci / (a cj)
+        num += (b_ * ci / a) * cj
+        den += cj * cj
+    return num / den if den > 0 and num / den > 0 else None

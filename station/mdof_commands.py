@@ -1,0 +1,153 @@
+"""``station validate`` and ``station diagnose`` on multi-channel captures (several sensors).
+
+:func:`validate_mdof_object` scores an :class:`eddi.mdof.model.MdofModel` on every record:
+per-channel nrmse and their mean as ``nrmse``. :func:`diagnose_mdof_object` identifies the
+uncoupled baseline (each coordinate's own terms) and the coupled model (coupling terms found
+from the energy exchanged between coordinates, :mod:`eddi.mdof.identify`), judges both on
+held-out captures (each capture held out in turn) and names ``modal_coupling`` when the
+coupled model wins by more than ``margin``, ``missing_mode`` when the linear mode shapes do
+not span the measured motion (then the coordinates are the physical channels).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from eddi.errors import IdentificationError
+from eddi.mdof.identify import identify_mdof
+from eddi.mdof.model import MdofModel
+from eddi.mdof.validate import validate_mdof
+from station.errors import InputFileError
+from station.mdof_data import condition_all
+
+
+def _read(specs: Sequence[str]):
+    from station.session import expand_specs, read_measurement
+
+    return [read_measurement(s) for s in expand_specs(list(specs))]
+
+
+def validate_mdof_object(model: MdofModel, model_path: str, specs: Sequence[str]) -> dict[str, Any]:
+    """The ``--json`` object of ``station validate`` for an MDOF model."""
+    records, names, _dp = condition_all(_read(specs), model.driving_point)
+    if tuple(names) != tuple(model.channels):
+        raise InputFileError(f"the captures' response channels ({', '.join(names)}) are not the model's "
+                             f"({', '.join(model.channels)})")
+    out = []
+    for r in records:
+        v = validate_mdof(model, r)
+        out.append({"source": r.label, "nrmse": v.nrmse, "channel_nrmse": v.channel_nrmse,
+                    "mode_nrmse": [float(x) for x in v.mode_nrmse], "driven_by": v.driven_by,
+                    "diverged": v.diverged, "nmte": None})
+    per = {c: float(np.mean([o["channel_nrmse"][c] for o in out])) for c in model.channels}
+    return {"model": model_path, "model_kind": "mdof", "compared": "displacement of every channel",
+            "records": out, "channel_nrmse": per, "nrmse": float(np.mean([o["nrmse"] for o in out])),
+            "nmte": None}
+
+
+def validate_mdof_text(obj: dict[str, Any]) -> str:
+    lines = [f"{obj['model']} (mdof, {len(obj['channel_nrmse'])} channels), {obj['compared']} compared:"]
+    for r in obj["records"]:
+        chans = "  ".join(f"{c} {v:.4g}" for c, v in r["channel_nrmse"].items())
+        lines.append(f"  {r['source']:<40} nrmse {r['nrmse']:.4g}  ({chans}; from rest, {r['driven_by']}"
+                     + (", diverged" if r["diverged"] else "") + ")")
+    chans = "  ".join(f"{c} {v:.4g}" for c, v in obj["channel_nrmse"].items())
+    lines.append(f"  mean over {len(obj['records'])} record(s): nrmse {obj['nrmse']:.4g}  ({chans})")
+    return "\n".join(lines)
+
+
+def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = None, margin: float = 0.1,
+                         save_model: str | None = None, refine: bool = False) -> dict[str, Any]:
+    """Baseline (uncoupled) vs coupled, held out; the cause named (module docstring)."""
+    meas = _read(specs)
+    records, names, dp = condition_all(meas, driving_point)
+    if len(records) < 2:
+        raise InputFileError("diagnose on multi-channel captures needs at least 2 captures (one is held out)")
+    folds: dict[str, list] = {"baseline": [], "coupled": []}
+    per_channel = {k: {c: [] for c in names} for k in folds}
+    per_mode: dict[str, list] = {k: [] for k in folds}
+    span = 0.0
+    for k in range(len(records)):
+        train = [r for j, r in enumerate(records) if j != k]
+        for kind, coupling in (("baseline", False), ("coupled", True)):
+            try:
+                ident = identify_mdof(train, names, dp, coupling=coupling)
+            except IdentificationError as exc:
+                raise InputFileError(f"identification failed with {records[k].label} held out: {exc}") from None
+            span = max(span, ident.span_residual)
+            v = validate_mdof(ident.model, records[k])
+            folds[kind].append(v.nrmse)
+            per_mode[kind].append([float(x) for x in v.mode_nrmse])
+            for c, e in v.channel_nrmse.items():
+                per_channel[kind][c].append(e)
+    base = float(np.mean(folds["baseline"]))
+    cpl = float(np.mean(folds["coupled"]))
+    gain = (base - cpl) / base if base > 0 and math.isfinite(base) else (1.0 if math.isfinite(cpl) else 0.0)
+    final = identify_mdof(records, names, dp, coupling=gain > margin)
+    notes = list(final.notes)
+    if final.coordinates == "physical" and (final.span_residual > 0.02 or any("physical coordinates kept" in n
+                                                                              for n in final.notes)):
+        cause = "missing_mode"
+        notes.append(f"the {len(final.modes.frequencies_hz)} linear mode(s) of the low-amplitude tail do not describe "
+                     f"the motion (shapes leave {100 * final.span_residual:.1f} % unexplained, or modal equations do not "
+                     "close): a coordinate with no linear mode (e.g. an essentially nonlinear attachment); "
+                     "physical coordinates used")
+    else:
+        cause = "modal_coupling" if gain > margin else "none"
+    model = final.model
+    if refine:
+        from eddi.mdof.refine import refine_mdof
+
+        model, _b, _a = refine_mdof(model, records)
+    obj: dict[str, Any] = {
+        "captures": [r.label for r in records], "channels": list(names), "driving_point": dp,
+        "scheme": f"leave-one-out over {len(records)} captures",
+        "baseline": {"nrmse": base, "folds": folds["baseline"],
+                     "channel_nrmse": {c: float(np.mean(v)) for c, v in per_channel["baseline"].items()},
+                     "mode_nrmse": np.mean(per_mode["baseline"], axis=0).tolist()},
+        "coupled": {"nrmse": cpl, "folds": folds["coupled"],
+                    "channel_nrmse": {c: float(np.mean(v)) for c, v in per_channel["coupled"].items()},
+                    "mode_nrmse": np.mean(per_mode["coupled"], axis=0).tolist()},
+        "gain": gain, "margin": margin, "cause": cause, "coordinates": final.coordinates,
+        "span_residual": final.span_residual,
+        "linear_modes_hz": final.modes.frequencies_hz.tolist(),
+        "natural_frequencies_hz": model.natural_frequencies_hz().tolist(),
+        "coupling_terms": [sorted(t for t in s if len(_coords(t)) > 1 or _coords(t) != {i})
+                           for i, s in enumerate(model.stiffness)],
+        "exchanged_fraction": [f.exchanged_fraction for f in final.equations],
+        "model": model.equation_text(), "notes": notes,
+    }
+    if save_model:
+        Path(save_model).write_text(model.to_json() + "\n")
+        obj["saved_model"] = save_model
+    return obj
+
+
+def _coords(text: str) -> set[int]:
+    import re
+
+    return {int(k) - 1 for k in re.findall(r"[xv](\d+)", text)}
+
+
+def diagnose_mdof_text(obj: dict[str, Any]) -> str:
+    b, c = obj["baseline"], obj["coupled"]
+    chans = lambda d: "  ".join(f"{k} {v:.4g}" for k, v in d["channel_nrmse"].items())  # noqa: E731
+    modes = lambda d: "  ".join(f"q{i + 1} {v:.4g}" for i, v in enumerate(d["mode_nrmse"]))  # noqa: E731
+    lines = [f"Held-out judging: {obj['scheme']}; channels {', '.join(obj['channels'])} "
+             f"(driving point {obj['driving_point']}); {obj['coordinates']} coordinates",
+             f"  uncoupled baseline  held-out nrmse {b['nrmse']:.4g}   per channel: {chans(b)}   per mode: {modes(b)}",
+             f"  with coupling       held-out nrmse {c['nrmse']:.4g}   per channel: {chans(c)}   per mode: {modes(c)}",
+             f"  gain {100 * obj['gain']:.0f} % (margin {100 * obj['margin']:.0f} %)",
+             f"Cause: {obj['cause']}" + ("" if obj["cause"] != "modal_coupling" else
+                                         f" (coupling terms: {obj['coupling_terms']})"),
+             f"Natural frequencies: {', '.join(f'{f:.5g} Hz' for f in obj['natural_frequencies_hz'])}",
+             f"Model: {obj['model']}"]
+    lines += [f"Note: {n}." for n in obj["notes"]]
+    if "saved_model" in obj:
+        lines.append(f"Model written to {obj['saved_model']}")
+    return "\n".join(lines)

@@ -1,0 +1,119 @@
+"""Multi-channel measurements -> conditioned :class:`eddi.mdof.identify.ChannelRecord`.
+
+A record with more than one response channel (``acc1, acc2, ...`` or ``acc_NAME``; CSV or
+HDF5, see :func:`station.readers.response_channels`) is a multi-DOF record. Every response
+channel is integrated (or differentiated) by :func:`eddi.mdof.signals.kinematics`, which
+keeps several modes in one channel intact; the impact is found on the shared force channel,
+the free window runs from the latest start to the latest stop over the channels.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from eddi.mdof.identify import ChannelRecord
+from eddi.mdof.signals import HIGHPASS_HZ, impact_window, kinematics, lowest_mode_hz
+from station.errors import InputFileError
+from station.readers import Measurement, response_channels
+
+
+def is_multichannel(meas: Measurement) -> bool:
+    """True when the record has more than one response channel."""
+    return len(response_channels(meas.channels)) > 1
+
+
+def channel_names(meas: Measurement) -> tuple[str, ...]:
+    """Response channel names, in file order."""
+    return tuple(response_channels(meas.channels))
+
+
+def resolve_driving_point(meas: Measurement, driving_point: str | None) -> str:
+    """The driving-point channel: ``driving_point`` if given (checked), else the first response."""
+    names = channel_names(meas)
+    if driving_point is None:  # the bench config's [specimen] driving_point, when the capture kept it
+        driving_point = _configured_driving_point(meas)
+    if driving_point is None:
+        return names[0]
+    if driving_point not in names:
+        raise InputFileError(f"{meas.source}: --driving-point {driving_point!r} is not a response channel "
+                             f"(channels: {', '.join(names)})")
+    return driving_point
+
+
+def _configured_driving_point(meas: Measurement) -> str | None:
+    """``specimen.driving_point`` of a bench config stored with the capture, if any."""
+    import json
+
+    cfg = meas.metadata.get("bench_config")
+    if isinstance(cfg, str):
+        try:
+            cfg = json.loads(cfg)
+        except ValueError:
+            return None
+    if isinstance(cfg, dict):
+        dp = (cfg.get("specimen") or {}).get("driving_point")
+        return str(dp) if dp else None
+    return None
+
+
+def condition_multichannel(meas: Measurement, driving_point: str | None = None) -> ChannelRecord:
+    """Condition every response channel of a record (see the module docstring).
+
+    Raises
+    ------
+    InputFileError
+        No response channel; a channel that cannot be conditioned (named).
+    """
+    resp = response_channels(meas.channels)
+    if not resp:
+        raise InputFileError(f"{meas.source}: no response channel (expected acc, vel, disp or acc1, acc2, ...)")
+    dp = resolve_driving_point(meas, driving_point)
+    force = meas.channels.get("force")
+    rest = int(meas.pretrigger_samples or 0)
+    if rest == 0:  # no pre-trigger count: the samples before t = 0 (a CSV's time starts negative)
+        rest = int(np.sum(np.asarray(meas.t) < 0))
+    rate = float(meas.rate_hz)
+    f_low = min(lowest_mode_hz(y[None, rest:], rate, qty) for qty, y in resp.values())
+    cut = max(HIGHPASS_HZ, 0.25 * f_low)  # one drift high-pass for every channel
+    parts = []
+    for name, (qty, y) in resp.items():
+        try:
+            parts.append(kinematics(meas.t, y[None, :], qty, force=force, rest=rest, highpass_hz=cut))
+        except ValueError as exc:
+            raise InputFileError(f"{meas.source}: channel {name!r}: {exc}") from None
+    k0 = parts[list(resp).index(dp)]
+    impact = k0.impact
+    f = None
+    if force is not None and impact[1] > impact[0]:
+        f = np.zeros(force.size)
+        f[impact[0]:impact[1]] = force[impact[0]:impact[1]] - np.median(force[:max(rest, 1)])
+    start = max(p.window[0] for p in parts)
+    stop = max(p.window[1] for p in parts)
+    return ChannelRecord(
+        t=np.asarray(meas.t, float), x=np.vstack([p.x for p in parts]), v=np.vstack([p.v for p in parts]),
+        a=np.vstack([p.a for p in parts]), force=f, impact=impact, window=(start, stop),
+        noise=np.concatenate([p.noise for p in parts]), label=str(meas.source),
+        highpass_hz=cut)
+
+
+def condition_all(measurements: Sequence[Measurement], driving_point: str | None = None
+                  ) -> tuple[list[ChannelRecord], tuple[str, ...], str]:
+    """Condition several records with the same channels; returns records, channels, driving point.
+
+    Raises
+    ------
+    InputFileError
+        Records with different channels or sample rates.
+    """
+    names = channel_names(measurements[0])
+    rate = float(measurements[0].rate_hz)
+    for m in measurements[1:]:
+        if channel_names(m) != names:
+            raise InputFileError(f"{m.source}: channels {', '.join(channel_names(m))} differ from "
+                                 f"{measurements[0].source}'s ({', '.join(names)})")
+        if abs(float(m.rate_hz) - rate) > 1e-6 * rate:
+            raise InputFileError(f"{m.source}: sample rate {m.rate_hz:g} Hz differs from {rate:g} Hz")
+    dp = resolve_driving_point(measurements[0], driving_point)
+    return [condition_multichannel(m, dp) for m in measurements], names, dp
