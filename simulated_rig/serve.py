@@ -35,6 +35,7 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 import tty
@@ -457,7 +458,8 @@ class RigProcess:
         env["PYTHONPATH"] = os.pathsep.join([here] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
         self.system = system
         self.port: str | None = None
-        self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        self._stderr = tempfile.TemporaryFile()  # a file, not a pipe: a chatty rig can never block on it
+        self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._stderr,
                                       env=env, start_new_session=True)
 
     @property
@@ -480,8 +482,14 @@ class RigProcess:
         try:
             self.port = str(json.loads(line.decode())["port"])
         except (ValueError, KeyError, TypeError):
+            if ready:  # it said something that is not the port: it is exiting; let it finish
+                try:
+                    self._proc.wait(timeout=10.0)
+                except subprocess.TimeoutExpired:
+                    pass
+            self._stderr.seek(0)
+            err = self._stderr.read().decode(errors="replace").strip()
             self.close()
-            err = (self._proc.stderr.read() if self._proc.stderr else b"").decode(errors="replace").strip()
             why = err.splitlines()[-1] if err else f"no answer within {timeout_s:g} s"
             raise RigError(f"the simulated rig {self.system!r} did not start: {why}") from None
         return self.port
@@ -497,7 +505,7 @@ class RigProcess:
             except (OSError, subprocess.TimeoutExpired):
                 proc.kill()
                 proc.wait()
-        for f in (proc.stdin, proc.stdout, proc.stderr):
+        for f in (proc.stdin, proc.stdout, self._stderr):
             if f is not None and not f.closed:
                 f.close()
 

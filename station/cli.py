@@ -145,6 +145,10 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
 
 def _missing_package(exc: ModuleNotFoundError) -> int:
     """One line for an installation that lacks a package the command needs; exit code 2."""
+    extra = missing_extra(exc)
+    if extra is not None:  # an optional library: name the extra that installs it
+        print(f"station: error: {extra}", file=sys.stderr)
+        return EXIT_USER_ERROR
     name = exc.name or str(exc)
     print(f"station: error: this command needs the Python package '{name}', which is not installed "
           f"(reinstall with `pip install -e .` or add the extra that names it)", file=sys.stderr)
@@ -177,10 +181,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ModuleNotFoundError as exc:
         return _missing_package(exc)
     except Exception as exc:
-        extra = missing_extra(exc)
-        if extra is not None:
-            print(f"station: error: {extra}", file=sys.stderr)
-            return EXIT_USER_ERROR
         if is_user_error(exc):
             print(f"station: error: {exc}", file=sys.stderr)
             return EXIT_USER_ERROR

@@ -136,7 +136,7 @@ def demo_config(device: str, mass_kg: float, levels_n: tuple[float, ...], record
     from station.config import parse_config
 
     return parse_config({
-        "device": {"url": device},
+        "device": {"url": device, "block_size": 4096},  # few, large frames: less work per sample
         "trigger": {"channel": "force", "level_n": 0.25 * min(levels_n), "pretrigger_s": DEMO_PRETRIGGER_S,
                     "record_s": record_s, "holdoff_s": holdoff_s, "on_double_hit": "reject",
                     "on_overload": "reject"},

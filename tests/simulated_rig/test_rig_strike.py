@@ -61,3 +61,12 @@ def test_the_tour_runs_from_an_empty_directory(tmp_path: Path) -> None:
     for made in ("demo-out/model.json", "session.h5", "extended.json", "report/index.html", "session.uff",
                  "imported.h5", "served.h5"):
         assert (tmp_path / made).exists(), made
+
+
+def test_a_rig_process_that_cannot_start_says_why_in_one_line() -> None:
+    from simulated_rig.serve import RigProcess
+
+    rig = RigProcess("no-such-system")
+    with pytest.raises(RigError, match=r"the simulated rig 'no-such-system' did not start: rig: error: .*unknown system"):
+        rig.wait_ready(timeout_s=120)
+    rig.close()  # idempotent
