@@ -14,7 +14,8 @@ Columns: ``file, capture`` (empty for a CSV record), ``task, status`` (``ok`` / 
 ``driven_by``, ``cause`` and ``gain`` (diagnose), ``warnings`` (``; ``-separated), then one
 column per coefficient, ``b[TERM]`` (damping) and ``k[TERM]`` (stiffness) in SI units
 (N s/m for ``b[v]``, N/m for ``k[x]``, N/m^3 for ``k[x^3]``...), each followed by
-``b[TERM]_ci95`` (half-width of the 95 % interval) when the pipeline gives one, and last
+``b[TERM]_ci95`` (half-width of the 95 % interval) when the pipeline gives one (in Parquet
+each coefficient field carries its unit as field metadata ``unit``), and last
 ``model_json``, ``seconds`` (time on the worker) and ``worker`` (``host:pid``).
 
 Why a journal beside the tables: a row is durable the moment its line is flushed, without
@@ -165,9 +166,10 @@ class Journal:
             self._fh = None
 
     # ------------------------------------------------------------------------------ tables
-    def _index(self) -> tuple[list[int], list[str]]:
-        """Byte offsets of the last row of each capture (sorted by key) and the columns."""
+    def _index(self) -> tuple[list[int], list[str], dict[str, str]]:
+        """Byte offsets of the last row of each capture (sorted by key), the columns, their units."""
         last: dict[tuple[str, int], int] = {}
+        units: dict[str, str] = {}
         coef: set[str] = set()
         ci: set[str] = set()
         if self.journal_path.exists():
@@ -183,13 +185,16 @@ class Journal:
                     last[row_key(row)] = pos
                     coef.update(row.get("coefficients") or {})
                     ci.update(row.get("ci95") or {})
+                    for name, unit in (row.get("units") or {}).items():
+                        units.setdefault(name, unit)
+                        units.setdefault(f"{name}_ci95", unit)
         cols = list(LEAD)
         for name in sorted(coef, key=lambda n: (n[0], n)):
             cols.append(name)
             if name in ci:
                 cols.append(f"{name}_ci95")
         cols += TAIL
-        return [last[k] for k in sorted(last)], cols
+        return [last[k] for k in sorted(last)], cols, units
 
     def _flat(self, offsets: list[int], cols: list[str]) -> Iterator[list[dict[str, Any]]]:
         """Rows as flat dicts, in batches."""
@@ -216,10 +221,12 @@ class Journal:
         import pyarrow as pa
         import pyarrow.parquet as pq
 
-        offsets, cols = self._index()
+        offsets, cols, units = self._index()
         types = {c: (pa.string() if c in _STR else pa.int64() if c == "capture" else
                      pa.bool_() if c == "diverged" else pa.float64()) for c in cols}
-        schema = pa.schema([(c, types[c]) for c in cols])
+        units.update({"mass_kg": "kg", "seconds": "s"})
+        schema = pa.schema([pa.field(c, types[c], metadata={"unit": units[c]} if c in units else None)
+                            for c in cols])
         csv_path, pq_path = self.out / CSV_NAME, self.out / PARQUET_NAME
         csv_tmp, pq_tmp = csv_path.with_suffix(".csv.tmp"), pq_path.with_suffix(".parquet.tmp")
         with open(csv_tmp, "w", newline="", encoding="utf-8") as fh, pq.ParquetWriter(pq_tmp, schema) as pw:
