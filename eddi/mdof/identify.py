@@ -329,38 +329,36 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
                            max_freq_hz, prune)
     if highpass_hz is None or all(r.force is None for r in records):
         return first
-    g = static_flexibility(first.model)
-    if g is None:
-        return first
-    fixed = [restore_quasi_static(r, g) for r in records]
+    fixed = [restore_quasi_static(r, first.model) for r in records]
     return _identify_once(fixed, channels, driving_point, d, first.coordinates, coupling, tail_fraction,
                           max_freq_hz, prune)
 
 
-def static_flexibility(model: MdofModel, freq_hz: float = 0.5) -> np.ndarray | None:
-    """Quasi-static displacement of every channel per newton at the driving point [m/N], or None.
-
-    The real part of the linear receptance ``(K - w^2 M + i w C)^-1 u`` at a low frequency
-    ``freq_hz`` (below the drift high-pass): the static flexibility when ``K`` is regular, and
-    still finite for a mass held by a dashpot and an essentially nonlinear spring only (the
-    energy sink follows its host at low frequency).
-    """
+def receptance(model: MdofModel):
+    """``freqs_hz -> Phi (K - w^2 M + i w C)^-1 u``, shape (n_channels, n_freqs), of the linear terms."""
     m, c, k = model.linear_matrices()
-    w = 2 * math.pi * freq_hz
-    try:
-        h = np.linalg.solve(k - w**2 * m + 1j * w * c, np.asarray(model.input, float))
-    except np.linalg.LinAlgError:
-        return None
-    g = model.phi @ h.real
-    return g if np.all(np.isfinite(g)) else None
+    u = np.asarray(model.input, float)
+    phi = model.phi
+
+    def h(freqs_hz: np.ndarray) -> np.ndarray:
+        out = np.empty((phi.shape[0], len(freqs_hz)), complex)
+        for j, f in enumerate(freqs_hz):
+            w = 2 * math.pi * f
+            try:
+                out[:, j] = phi @ np.linalg.solve(k - w**2 * m + 1j * w * c, u)
+            except np.linalg.LinAlgError:
+                out[:, j] = 0.0
+        return np.nan_to_num(out)
+
+    return h
 
 
-def restore_quasi_static(r: ChannelRecord, flexibility: np.ndarray) -> ChannelRecord:
-    """The record with the quasi-static response added back to ``x`` and ``v``."""
+def restore_quasi_static(r: ChannelRecord, model: MdofModel) -> ChannelRecord:
+    """The record with the slow response the drift high-pass removed added back (``model``'s linear part)."""
     if r.force is None:
         return r
     rate = 1.0 / float(r.t[1] - r.t[0])
-    xl, vl = quasi_static(r.force, rate, flexibility, r.highpass_hz)
+    xl, vl = quasi_static(r.force, rate, receptance(model), r.highpass_hz)
     return replace(r, x=r.x + xl, v=r.v + vl)
 
 
