@@ -60,6 +60,23 @@ def _finite_or_none(v: Any) -> Any:
     return v if not isinstance(v, float) or math.isfinite(v) else None
 
 
+def check_out_folder(out: str | os.PathLike[str]) -> Path:
+    """The output folder, if it is new, empty or a campaign's own (one line otherwise).
+
+    Raises
+    ------
+    InputFileError
+        ``out`` exists and is not a folder, or is a folder of other files.
+    """
+    p = Path(out)
+    if p.exists() and not p.is_dir():
+        raise InputFileError(f"--out {p}: exists and is not a folder")
+    if p.is_dir() and not (p / OPTIONS).exists() and any(p.iterdir()):
+        raise InputFileError(f"--out {p}: a folder of other files, not a campaign's; "
+                             f"choose a new folder (it is created)")
+    return p
+
+
 class Journal:
     """The output folder of a campaign: journal, options, models and tables.
 
@@ -75,15 +92,14 @@ class Journal:
     ConfigError
         ``out`` holds a campaign with other options.
     InputFileError
-        ``out`` exists and is not a folder.
+        ``out`` exists and is not a folder, or is a folder of other files (a campaign writes
+        only into a new folder or its own).
     """
 
     def __init__(self, out: str | os.PathLike[str], options: dict[str, Any]) -> None:
-        self.out = Path(out)
-        if self.out.exists() and not self.out.is_dir():
-            raise InputFileError(f"--out {self.out}: exists and is not a folder")
-        (self.out / MODELS).mkdir(parents=True, exist_ok=True)
+        self.out = check_out_folder(out)
         opt_path = self.out / OPTIONS
+        (self.out / MODELS).mkdir(parents=True, exist_ok=True)
         if opt_path.exists():
             old = json.loads(opt_path.read_text(encoding="utf-8"))
             if old != json.loads(json.dumps(options)):

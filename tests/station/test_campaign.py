@@ -171,10 +171,32 @@ def test_resume_refuses_other_options(tmp_path):
                                       stiffness="x,x^2,x^3").as_dict())
 
 
-def test_cli_bad_source_is_one_line(tmp_path, capsys):
-    assert main(["campaign", str(tmp_path / "nothing-*.h5"), "--out", str(tmp_path / "o")]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "matches no .csv, .h5, .hdf5 file" in err
+def test_cli_bad_input_is_one_line(captures, tmp_path, capsys):
+    cases = [
+        (["campaign", str(tmp_path / "nothing-*.h5"), "--out", str(tmp_path / "o")], "matches no .csv, .h5, .hdf5 file"),
+        (["campaign", str(captures), "--out", str(captures)], "a folder of other files, not a campaign's"),
+        (["campaign", str(captures), "--out", str(captures / "good.csv")], "refusing to replace it with a folder"),
+        (["campaign", str(captures), "--out", str(tmp_path / "v"), "--task", "validate"], "needs --model MODEL.json"),
+        (["campaign", str(captures), "--out", str(tmp_path / "w"), "--workers", "0"], "--workers must be >= 1"),
+    ]
+    for argv, msg in cases:
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and msg in err, (argv, err)
+    assert sorted(p.name for p in captures.iterdir() if not p.name.startswith(".")) == [
+        "bad.csv", "good.csv", "session.h5"]  # nothing written (the session writer's lock file aside)
+
+
+def test_output_folder_below_a_source_is_not_read(captures, tmp_path):
+    out = captures / "results"
+    out.mkdir()
+    try:
+        (out / "results.csv").write_text("file,capture\n")
+        assert len(expand_sources([str(captures)], exclude=out)) == 6
+        assert len(expand_sources([str(captures)])) == 7
+    finally:
+        (out / "results.csv").unlink()
+        out.rmdir()
 
 
 def test_cli_json_resume_on_an_existing_scheduler(captures, client, tmp_path, capsys):
