@@ -33,7 +33,7 @@ from collections import defaultdict
 import numpy as np
 
 from eddi.conditioning import condition
-from eddi.diagnose import DEFAULT_MARGIN, Record, diagnose
+from eddi.diagnosis import DEFAULT_MARGIN, Record, diagnose
 from eddi.model import EquationOfMotion
 from eddi.simulate import simulate
 from simulated_rig.bench import impact_test
@@ -93,6 +93,113 @@ def run(system: str, name: str | None, magnitude: float, seed: int, snr_db: floa
         "true_passes": bool(true_c and true_c.wins_every_part and true_c.consistent),
         "top": d.candidates[0].name, "seconds": time.perf_counter() - t0,
     }
+
+
+def null_case(seed: int) -> dict:
+    """One null of the calibration set, drawn from ``seed`` (nothing hidden).
+
+    Mass 0.05-0.5 kg, natural frequency 8-30 Hz, a soft (negative ``x^3``, up to -4 % frequency
+    shift) or hard (up to +15 %) spring, sample rate 2-40 kHz (record shortened at high
+    rates), accelerometer SNR 30-60 dB, 3 captures or 6 (two "acquire runs": seeds differ per
+    run, forces 20-30 N scaled to the mass).
+    """
+    rng = np.random.default_rng(10_000 + seed)
+    mass = float(np.exp(rng.uniform(np.log(0.05), np.log(0.5))))
+    f1 = float(rng.uniform(8.0, 30.0))
+    k1 = mass * (2 * math.pi * f1) ** 2
+    zeta = float(rng.uniform(0.002, 0.01))
+    soft = bool(rng.random() < 0.35)
+    rate = float(rng.choice([2000.0, 5000.0, 10000.0, 20000.0, 40000.0]))
+    snr = float(rng.uniform(30.0, 60.0))
+    runs = 2 if rng.random() < 0.35 else 1
+    record_s = min(3.0, 40_000 / rate)
+    # peak displacement under the middle blow ~ F * pulse / (m w); set k3 for the wanted shift
+    force_scale = mass / 0.1
+    forces = tuple(force_scale * f for f in (20.0, 25.0, 30.0))
+    a_typ = forces[1] * 1e-3 / (mass * 2 * math.pi * f1) * 1.2
+    shift = -float(rng.uniform(0.0, 0.04)) if soft else float(rng.uniform(0.0, 0.15))
+    k3 = shift * 2 * k1 * 4 / (3 * a_typ ** 2)
+    eom = EquationOfMotion.create(mass=mass, damping={"v": 2 * zeta * math.sqrt(k1 * mass)},
+                                  stiffness={"x": k1, "x^3": k3})
+    recs = []
+    for run_i in range(runs):
+        for i, f in enumerate(forces):
+            r = impact_test(eom, f, rate_hz=rate, pretrigger_s=0.2, record_s=record_s, snr_db=snr,
+                            seed=100_000 * run_i + 1000 * seed + 10 * i + 3)
+            c = condition(r.t, acc=r.acc_m_s2, force=r.force_n, pretrigger_samples=r.pretrigger_samples)
+            recs.append(Record.from_conditioned(c, label=f"run {run_i + 1} impact {i + 1}",
+                                                pretrigger_samples=r.pretrigger_samples))
+    t0 = time.perf_counter()
+    d = diagnose(recs, mass, damping=DAMPING, stiffness=STIFFNESS)
+    return {"kind": "null", "seed": seed, "mass_kg": mass, "f1_hz": f1, "spring": "soft" if soft else "hard",
+            "shift": shift, "rate_hz": rate, "snr_db": snr, "captures": len(recs), "cause": d.cause,
+            "baseline_nrmse": d.baseline.nrmse, "floor": d.noise_floor.nrmse,
+            "ratio": d.baseline.nrmse / d.noise_floor.nrmse, "partial": d.partial,
+            "candidates": _cands(d), "seconds": time.perf_counter() - t0}
+
+
+def _cands(d) -> list:
+    """Every tried candidate: name, held-out nrmse, gain, wins every part, consistent."""
+    return [[c.name, c.nrmse, c.gain, c.wins_every_part, c.consistent]
+            for c in d.candidates if not c.skipped and c.model is not None]
+
+
+def ladder_case(name: str, magnitude: float, seed: int, snr_db: float) -> dict:
+    """One rung of a strength ladder on the ``mild`` system: a physical mechanism sized by
+    ``hide_effect`` (``magnitude``: force fraction at the typical amplitude), or
+    ``sensor_highpass`` (``magnitude``: the corner [Hz] of the accelerometer's IEPE high-pass)."""
+    import dataclasses
+
+    from simulated_rig.bench import default_sensors
+
+    eom, forces, rate, record_s = systems()["mild"]
+    truth, sensors = eom, default_sensors(snr_db, 24, None)
+    if name == "sensor_highpass":
+        sensors = (sensors[0], dataclasses.replace(sensors[1], iepe_highpass_hz=magnitude))
+    else:
+        amp, vel = typical_amplitude(eom, forces[1], rate)
+        truth = hide_effect(eom, name, magnitude, seed, amplitude_m=amp, velocity_m_s=vel)
+    recs = []
+    for i, f in enumerate(forces):
+        r = impact_test(truth, f, rate_hz=rate, pretrigger_s=0.2, record_s=record_s, sensors=sensors,
+                        seed=1000 * seed + 10 * i + 7)
+        c = condition(r.t, acc=r.acc_m_s2, force=r.force_n, pretrigger_samples=r.pretrigger_samples)
+        recs.append(Record.from_conditioned(c, label=f"impact {i + 1}", pretrigger_samples=r.pretrigger_samples))
+    stiff = "x,x^3" if name == "asymmetric_stiffness" else STIFFNESS
+    t0 = time.perf_counter()
+    d = diagnose(recs, eom.mass, damping=DAMPING, stiffness=stiff)
+    return {"kind": "ladder", "mechanism": name, "magnitude": magnitude, "seed": seed, "snr_db": snr_db,
+            "cause": d.cause, "partial": d.partial, "baseline_nrmse": d.baseline.nrmse,
+            "extended_nrmse": d.extended.nrmse, "floor": d.noise_floor.nrmse,
+            "candidates": _cands(d), "seconds": time.perf_counter() - t0}
+
+
+def calibration_summary(path: str) -> None:
+    """False alarms on the nulls; found / unexplained / none / wrong per mechanism and rung."""
+    rows = [json.loads(s) for s in open(path) if s.strip()]
+    nulls = [r for r in rows if r.get("kind") == "null"]
+    if nulls:
+        alarms = [r for r in nulls if r["cause"] != "none"]
+        multi = sum(r["captures"] >= 6 for r in nulls)
+        ratios = sorted(r["ratio"] for r in nulls)
+        print(f"nulls: {len(nulls)} ({multi} with 6 captures from two runs); verdict other than none: "
+              f"{len(alarms)} (named {sum(r['cause'] != 'unexplained' for r in alarms)}, unexplained "
+              f"{sum(r['cause'] == 'unexplained' for r in alarms)}); baseline/floor ratio median "
+              f"{ratios[len(ratios) // 2]:.2f}, max {ratios[-1]:.2f}")
+        for r in alarms:
+            print(f"  alarm: seed {r['seed']} cause {r['cause']} ratio {r['ratio']:.2f} "
+                  f"({r['spring']}, {r['rate_hz']:.0f} Hz, {r['snr_db']:.0f} dB, {r['captures']} captures)")
+    groups = defaultdict(list)
+    for r in rows:
+        if r.get("kind") == "ladder":
+            groups[(r["mechanism"], r["snr_db"], r["magnitude"])].append(r)
+    for (name, snr, mag), g in sorted(groups.items()):
+        n = len(g)
+        found = sum(r["cause"] == name for r in g)
+        unexpl = sum(r["cause"] == "unexplained" for r in g)
+        none = sum(r["cause"] == "none" for r in g)
+        print(f"{name:<22} {snr:>4.0f} dB  strength {mag:<6g} found {found}/{n}  unexplained {unexpl}/{n}  "
+              f"none {none}/{n}  wrong {n - found - unexpl - none}/{n}")
 
 
 def emit(row: dict, out: str | None) -> None:
@@ -203,8 +310,25 @@ def main() -> None:
     ap.add_argument("--ratios", default="0,0.05,0.1,0.2,0.5,1,2")
     ap.add_argument("--noise", type=float, default=0.005,
                     help="free decays: white noise RMS as a fraction of the peak velocity")
+    ap.add_argument("--calibrate-nulls", type=int, metavar="N", default=0,
+                    help="N nulls of the calibration set (masses, soft/hard springs, 2-40 kHz, 30-60 dB, "
+                         "3 or 6 captures): the verdict must be none")
+    ap.add_argument("--ladder", metavar="NAMES", help="strength ladders of these mechanisms "
+                    "(sensor_highpass: corners in Hz) at --magnitudes, --snrs, --seeds")
+    ap.add_argument("--calibration-summary", metavar="FILE", help="summarise --calibrate-nulls/--ladder lines")
     ap.add_argument("--out", metavar="FILE")
     args = ap.parse_args()
+    if args.calibration_summary:
+        calibration_summary(args.calibration_summary)
+        return
+    for k in range(args.seed0, args.seed0 + args.calibrate_nulls):
+        emit(null_case(k), args.out)
+    if args.ladder:
+        for name in args.ladder.split(","):
+            for snr in [float(x) for x in args.snrs.split(",")]:
+                for mag in [float(m) for m in args.magnitudes.split(",")]:
+                    for seed in range(args.seed0, args.seed0 + args.seeds):
+                        emit(ladder_case(name, mag, seed, snr), args.out)
     if args.summary:
         summary(args.summary, args.margin)
         return

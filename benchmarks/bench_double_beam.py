@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from scipy import signal
 
-from eddi.diagnose import backbone
+from eddi.diagnosis import backbone
 from eddi.multimode import (
     ModalSumModel, Prediction, identify_modes, impact_index, predict_record, separate_modes,
     simulate_modal,
@@ -214,7 +214,7 @@ def generic_diagnosis(folder: Path, names: list[str], recs: Records) -> dict[str
     single-DOF baseline ``v, abs(v)*v`` / ``x, abs(x)*x`` on the drift-free displacement of
     this module's wide band (20-600 Hz) instead of the station's conditioning.
     """
-    from eddi.diagnose import Record, diagnose
+    from eddi.diagnosis import Record, diagnose
     from station.commands.diagnose import load_records as station_records
 
     t0 = time.perf_counter()

@@ -48,8 +48,9 @@ from scipy.interpolate import BSpline
 from eddi.calculus import integrate, spline_cumulative_integral
 from eddi.errors import SignalError
 
-#: Minimum number of acceleration zero crossings in the free response.
-MIN_CROSSINGS = 6
+#: Minimum number of acceleration zero crossings in the free response (3: a short ring-down,
+#: e.g. dry friction that sticks after a cycle, is data; fewer hold nothing to anchor the drift).
+MIN_CROSSINGS = 3
 #: Knot spacing of the drift spline, in (longest) periods of the response.
 KNOT_PERIODS = 2.0
 #: Half width of the sample groups around each acceleration zero crossing, in periods.

@@ -236,6 +236,7 @@ def impact_test(
     double_hit: bool = False,
     effects: Iterable[Effect | Mapping[str, Any]] = (),
     seed: int = 0,
+    base_motion: Mapping[str, float] | None = None,
 ) -> ImpactRecord:
     """Hit a system once and record force and acceleration.
 
@@ -270,6 +271,10 @@ def impact_test(
         Hidden effects added to the system's physics.
     seed : int
         Seed of the noise.
+    base_motion : mapping, optional
+        A hidden measurement effect: the base the structure sits on moves as a rigid body on
+        its own suspension (``mass_kg``, ``frequency_hz``, ``damping_ratio``), driven by the same
+        blow; the accelerometer measures the structure's acceleration plus the base's.
 
     Returns
     -------
@@ -302,17 +307,35 @@ def impact_test(
     t = (np.arange(n) - n_pre) / rate_hz
     force = hammer_force(t, peak_force_n, hammer, double_hit)
     res = simulate_truth(eom, force, rate_hz)
+    a_meas = res.a
+    if base_motion:
+        a_meas = res.a + base_acceleration(force, rate_hz, **base_motion)
     return _finish(eom, t, force, res.x, res.v, res.a, n_pre, rate_hz, sensors, hammer,
-                   double_hit, seed, peak_force_n)
+                   double_hit, seed, peak_force_n, a_meas=a_meas)
+
+
+def base_acceleration(force: np.ndarray, rate_hz: float, *, mass_kg: float, frequency_hz: float,
+                      damping_ratio: float = 0.05) -> np.ndarray:
+    """Acceleration [m/s^2] of a rigid base of mass ``mass_kg`` on a linear suspension
+    (``frequency_hz``, ``damping_ratio``) driven by ``force`` [N] (shape (n,))."""
+    if not (mass_kg > 0 and frequency_hz > 0 and damping_ratio >= 0):
+        raise ScenarioError(f"base_motion: mass_kg and frequency_hz must be > 0, damping_ratio >= 0; got "
+                            f"{mass_kg}, {frequency_hz}, {damping_ratio}")
+    w = 2 * math.pi * frequency_hz
+    base = EquationOfMotion.create(mass=mass_kg, damping={"v": 2 * damping_ratio * w * mass_kg},
+                                   stiffness={"x": mass_kg * w * w})
+    return simulate_truth(base, force, rate_hz).a
 
 
 def _finish(eom: EquationOfMotion, t: np.ndarray, force: np.ndarray, x: np.ndarray, v: np.ndarray,
             a: np.ndarray, n_pre: int, rate_hz: float, sensors: tuple[SensorSpec, ...],
-            hammer: HammerSpec, double_hit: bool, seed: int, peak_force_n: float) -> ImpactRecord:
-    """Measure the simulated truth through the sensors (all arrays shape (n,))."""
+            hammer: HammerSpec, double_hit: bool, seed: int, peak_force_n: float,
+            a_meas: np.ndarray | None = None) -> ImpactRecord:
+    """Measure the simulated truth through the sensors (all arrays shape (n,); ``a_meas``: the
+    acceleration the accelerometer sees when it differs from the structure's, e.g. base motion)."""
     clean = np.column_stack([
         ac_couple(force, sensors[0].iepe_highpass_hz, rate_hz),
-        ac_couple(a, sensors[1].iepe_highpass_hz, rate_hz),
+        ac_couple(a if a_meas is None else a_meas, sensors[1].iepe_highpass_hz, rate_hz),
     ])
     resolved = tuple(s.resolved(clean[:, j], n_pre) for j, s in enumerate(sensors))
     normals = np.random.default_rng(seed).standard_normal((t.shape[0], 2))

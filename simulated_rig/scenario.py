@@ -29,6 +29,14 @@ hidden effects, the time base and the impacts. Example (all keys but ``system`` 
     name = "quadratic_damping"
     magnitude = 0.05
 
+    [base_motion]                      # the base moves on its suspension (the sensor sees it)
+    mass_kg = 20.0
+    frequency_hz = 1.5
+    damping_ratio = 0.05
+
+Measurement-chain effects are scenario data too: ``[sensors.acc] iepe_highpass_hz`` (an
+AC-coupled accelerometer), ``range_si`` (clipping when exceeded), ``double_hit = true``.
+
 Bad values are refused by :func:`load_scenario` with a one-line :class:`ScenarioError` that
 names the file, the field and the limit (``scenario x.toml: rate_hz: Input should be less
 than or equal to 1000000 (got 2000000.0)``).
@@ -121,6 +129,15 @@ class SensorsConfig(_Strict):
         return {**_ACC_DEFAULTS, **v} if isinstance(v, dict) else v
 
 
+class BaseMotionConfig(_Strict):
+    """``[base_motion]``: the base moves as a rigid body on its suspension (a measurement effect:
+    the accelerometer sees it), see :func:`simulated_rig.bench.base_acceleration`."""
+
+    mass_kg: float = Field(gt=0.0, le=1e4)
+    frequency_hz: float = Field(gt=0.0, le=1e3)
+    damping_ratio: float = Field(0.05, ge=0.0, le=2.0)
+
+
 class EffectConfig(_Strict):
     """``[[effects]]``: an effect of :data:`eddi.model.EFFECTS` with explicit parameters."""
 
@@ -165,6 +182,7 @@ class Scenario(_Strict):
     sensors: SensorsConfig = SensorsConfig()
     effects: tuple[EffectConfig, ...] = ()
     hidden: tuple[HiddenConfig, ...] = ()
+    base_motion: BaseMotionConfig | None = None
 
     @field_validator("system")
     @classmethod
@@ -275,6 +293,7 @@ class Scenario(_Strict):
             hammer=self.hammer_spec(),
             double_hit=self.double_hit,
             seed=self.seed + index if seed is None else seed,
+            base_motion=self.base_motion.model_dump() if self.base_motion is not None else None,
         )
 
     def to_json(self) -> str:
@@ -351,6 +370,7 @@ def load_scenario(path: str | Path) -> Scenario:
 
 
 __all__ = [
+    "BaseMotionConfig",
     "EffectConfig",
     "HammerConfig",
     "HiddenConfig",

@@ -120,6 +120,8 @@ class SpecimenConfig(_Strict):
 
     mass_kg: float | None = Field(default=None, gt=0, allow_inf_nan=False, description="oscillating mass [kg]")
     name: str = ""
+    driving_point: str | None = Field(default=None, description="multi-DOF: the response channel at the "
+                                      "hammer (acc1, acc_tip ...); default the first response channel")
 
 
 class IdentifyConfig(_Strict):

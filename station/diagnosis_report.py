@@ -32,7 +32,7 @@ from matplotlib.axes import Axes  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
-from eddi.diagnose import Diagnosis, HeldOut, Record, backbone, energy_per_cycle, residual_force, spectrum  # noqa: E402
+from eddi.diagnosis import Diagnosis, HeldOut, Record, backbone, energy_per_cycle, residual_force, spectrum  # noqa: E402
 from eddi.multimode import ModalSumModel, separate_modes  # noqa: E402
 from eddi.terms import parse_term  # noqa: E402
 from station.figures import envelope, save  # noqa: E402
@@ -49,7 +49,7 @@ def _curves(diag: Diagnosis) -> list[tuple[str, list[tuple[np.ndarray, np.ndarra
     """(label, [(t, x) per held-out part]) for measured, baseline, extended."""
     out = []
     for name, attr in (("measured", "x_measured"), ("baseline", "x_baseline"), ("extended", "x_extended")):
-        if name == "extended" and diag.cause == "none":
+        if name == "extended" and diag.cause in ("none", "unexplained"):
             continue
         out.append((name, [(h.t, getattr(h, attr)) for h in diag.held_out]))
     return out
@@ -57,7 +57,7 @@ def _curves(diag: Diagnosis) -> list[tuple[str, list[tuple[np.ndarray, np.ndarra
 
 def _modal(diag: Diagnosis) -> ModalSumModel | None:
     m = diag.extended.model
-    return m if (diag.cause != "none" and isinstance(m, ModalSumModel)) else None
+    return m if (diag.cause not in ("none", "unexplained") and isinstance(m, ModalSumModel)) else None
 
 
 def _main_frequency(h: HeldOut) -> float:
@@ -82,7 +82,7 @@ def timeseries_figure(diag: Diagnosis) -> Figure:
             series.append(("baseline", h.x_baseline, f"baseline ({diag.baseline.fold_nrmse[i]:.3g})", 0.7))
         else:
             series.append(("baseline", np.nan_to_num(h.x_baseline), "baseline (diverged)", 0.7))
-        if diag.cause != "none" and np.all(np.isfinite(h.x_extended)):
+        if diag.cause not in ("none", "unexplained") and np.all(np.isfinite(h.x_extended)):
             series.append(("extended", h.x_extended,
                            f"+ {diag.cause} ({diag.extended.fold_nrmse[i]:.3g})", 0.7))
         style = {"measured": (0.6, 1.0, 3), "baseline": (0.8, 0.8, 1), "extended": (2.0, 0.55, 2)}
@@ -96,7 +96,7 @@ def timeseries_figure(diag: Diagnosis) -> Figure:
             q.set_ylim(-lim, lim)
         a.set_title(f"held out: {h.part.label}", fontsize=9)
         z.set_title("first 10 cycles", fontsize=9)
-        a.set_ylabel("x")
+        a.set_ylabel("x [m]")
         a.legend(fontsize=7, loc="upper right")
     ax[-1, 0].set_xlabel("time in part [s]")
     ax[-1, 1].set_xlabel("time in part [s]")
@@ -193,7 +193,7 @@ def energy_figure(diag: Diagnosis, cache: dict | None = None) -> Figure:
             meas = name == "measured"  # drawn over the simulations, so all stay visible
             a.loglog(amp[keep], de[keep], ".", ms=1.5 if meas else 3, color=_COLORS[name],
                      alpha=0.5 if meas else 0.6, zorder=3 if meas else 2, label=name)
-    a.set_xlabel("amplitude")
+    a.set_xlabel("amplitude [m]")
     a.set_ylabel("energy lost per cycle [J]")
     a.set_title(("whole signal; " if n_modes else "")
                 + "slope 1: dry friction, 2: viscous, 3: quadratic drag", fontsize=9)
@@ -259,6 +259,7 @@ def backbone_figure(diag: Diagnosis, cache: dict | None = None) -> Figure:
         return modal_backbone_figure(diag, model, cache)
     mass = diag.baseline.model.mass
     fig, ax = _new(1, 2, (10.0, 3.8))
+    seen: list[np.ndarray] = []
     for name, parts in _curves(diag):
         for k, (t, x) in enumerate(parts):
             ok = np.isfinite(x)
@@ -266,14 +267,23 @@ def backbone_figure(diag: Diagnosis, cache: dict | None = None) -> Figure:
                 continue
             v = np.gradient(x[ok], t[ok])
             amp, f, z = backbone(t[ok], x[ok], v, mass)
+            # the axis is set by the data: cycles below 2 % of the peak amplitude (noise floor,
+            # stray near-zero points) would stretch the log axis over decades of nothing
+            keep = np.isfinite(amp) & np.isfinite(f) & (amp > 0.02 * float(np.nanmax(amp))) if amp.size else amp > 0
+            amp, f, z = amp[keep], f[keep], z[keep]
             lab = name if k == 0 else None
             ax[0, 0].semilogx(amp, f, ".", ms=3, color=_COLORS[name], label=lab)
             ax[0, 1].loglog(amp[z > 0], z[z > 0], ".", ms=3, color=_COLORS[name], label=lab)
-    ax[0, 0].set_xlabel("amplitude")
+            seen.append(f)
+    if seen and np.concatenate(seen).size:
+        lo, hi = np.percentile(np.concatenate(seen), [2, 98])
+        pad = 0.3 * (hi - lo) + 1e-9 * abs(hi)
+        ax[0, 0].set_ylim(lo - pad, hi + pad)
+    ax[0, 0].set_xlabel("amplitude [m]")
     ax[0, 0].set_ylabel("frequency [Hz]")
     ax[0, 0].set_title("backbone", fontsize=9)
-    ax[0, 1].set_xlabel("amplitude")
-    ax[0, 1].set_ylabel("damping ratio")
+    ax[0, 1].set_xlabel("amplitude [m]")
+    ax[0, 1].set_ylabel("damping ratio [-]")
     ax[0, 1].set_title("damping versus amplitude", fontsize=9)
     ax[0, 0].legend(fontsize=8)
     return fig
@@ -284,7 +294,7 @@ def residual_figure(diag: Diagnosis, records: Sequence[Record], max_points: int 
     """Force the model misses over (x, v): baseline, and after the extension."""
     models = [("baseline", diag.baseline.model)]
     modal = _modal(diag)
-    if (diag.cause != "none" and modal is None
+    if (diag.cause not in ("none", "unexplained") and modal is None
             and diag.extended.model.effect("second_mode") is None):  # type: ignore[union-attr]
         models.append((f"+ {diag.cause}", diag.extended.model))
     n_modes = len(modal.modes) if modal is not None else 0
@@ -304,8 +314,8 @@ def residual_figure(diag: Diagnosis, records: Sequence[Record], max_points: int 
         res = residual_force(eom, xs, vs, a_, fs)
         sc = ax[0, k].scatter(xs[::step], vs[::step], c=res[::step], s=1, cmap="coolwarm",
                               vmin=-lim, vmax=lim, rasterized=True)
-        ax[0, k].set_xlabel("x")
-        ax[0, k].set_ylabel("v")
+        ax[0, k].set_xlabel("x [m]")
+        ax[0, k].set_ylabel("v [m/s]")
         ax[0, k].ticklabel_format(axis="both", style="sci", scilimits=(-2, 3))
         ax[0, k].set_title(f"residual force, {name}", fontsize=9)
     fig.colorbar(sc, ax=ax[0, len(models) - 1], label="F - m a - model [N]")
@@ -360,7 +370,7 @@ def spectra_figure(diag: Diagnosis) -> Figure:
         rate = 1.0 / float(h.t[1] - h.t[0])
         fmax = rate / 2
         for name, x in (("measured", h.x_measured), ("baseline", h.x_baseline), ("extended", h.x_extended)):
-            if name == "extended" and diag.cause == "none":
+            if name == "extended" and diag.cause in ("none", "unexplained"):
                 continue
             if not np.all(np.isfinite(x)):
                 continue
@@ -379,7 +389,7 @@ def spectra_figure(diag: Diagnosis) -> Figure:
         q.set_ylabel("|X| [m]")
         q.set_xlabel("frequency [Hz]")
         if i == 0:  # proxies: a diverged simulation is not drawn, its label still belongs here
-            names = ["measured", "baseline"] + ([] if diag.cause == "none" else ["extended"])
+            names = ["measured", "baseline"] + ([] if diag.cause in ("none", "unexplained") else ["extended"])
             q.legend([Line2D([], [], color=_COLORS[nm], lw=1) for nm in names],
                      [{"measured": "measured", "baseline": "baseline",
                        "extended": f"+ {diag.cause}"}[nm] for nm in names], fontsize=7, loc="lower left")
@@ -393,13 +403,67 @@ def _peak(f: np.ndarray, amp: np.ndarray) -> float:
     return float(f[k]) if f.size else 1.0
 
 
+_CAPTIONS = {
+    "timeseries.png": "Held-out parts: measured displacement [m] against the baseline's (and the extended "
+                      "model's) simulation fitted without that part, versus time [s].",
+    "energy_per_cycle.png": "Energy lost per cycle [J] versus amplitude [m], log-log: slope 1 reads as dry "
+                            "friction, 2 as viscous damping, 3 as quadratic drag.",
+    "backbone.png": "Frequency [Hz] and damping ratio [-] versus amplitude [m], cycle by cycle.",
+    "residual_force.png": "Force the baseline misses [N] over the phase plane (displacement [m], "
+                          "velocity [m/s]).",
+    "spectra.png": "Amplitude spectra [m] of the held-out parts versus frequency [Hz].",
+}
+
+
+def _html(diag: Diagnosis, records: Sequence[Record], figures: Sequence[Path]) -> str:
+    """The page: verdict, noise floor, candidates, symptoms, figures (every number with its unit)."""
+    import html
+
+    esc = html.escape
+    fl = diag.noise_floor
+    rows = []
+    for c in diag.candidates:
+        if c.skipped:
+            rows.append(f"<tr><td>{esc(c.name)}</td><td colspan='4'>skipped: {esc(c.skipped)}</td></tr>")
+            continue
+        params = ", ".join(f"{esc(k)} = {v:.4g}" for k, v in c.params.items())
+        rows.append(f"<tr><td>{esc(c.name)}</td><td>{c.nrmse:.4g}</td><td>{100 * c.gain:+.0f} %</td>"
+                    f"<td>{'yes' if c.wins_every_part else 'no'}</td><td>{params}</td></tr>")
+    parts = [
+        "<!DOCTYPE html><html><head><meta charset='utf-8'><title>Diagnosis</title>",
+        "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse}"
+        "td,th{border:1px solid #ccc;padding:3px 6px}img{max-width:100%}</style></head><body>",
+        f"<h1>Diagnosis: cause <code>{esc(diag.cause)}</code></h1>",
+        f"<p>{esc(diag.verdict)}</p>",
+        f"<p>What the baseline got wrong: {esc(diag.symptom)}.</p>",
+        f"<p>Records: {esc(', '.join(r.label or '?' for r in records))}; held-out judging: "
+        f"{esc(diag.scheme)} ({len(diag.parts)} parts).</p>",
+        "<h2>Held-out error (displacement nrmse, dimensionless)</h2><table>"
+        "<tr><th>model</th><th>held-out nrmse [-]</th><th>gain</th><th>better on every part</th>"
+        "<th>parameters (SI)</th></tr>",
+        f"<tr><td>noise floor</td><td>{fl.nrmse:.4g}</td><td></td><td></td><td>{esc(fl.method)}</td></tr>"
+        if fl is not None else "",
+        f"<tr><td>baseline</td><td>{diag.baseline.nrmse:.4g}</td><td></td><td></td>"
+        f"<td><code>{esc(diag.baseline.model.equation_text())}</code></td></tr>",
+        *rows, "</table>",
+        "<h2>Symptoms</h2><ul>", *[f"<li><b>{esc(s.kind)}</b>: {esc(s.text)}</li>" for s in diag.symptoms],
+        "</ul>", "<h2>Figures</h2>",
+    ]
+    for f in figures:
+        cap = _CAPTIONS.get(f.name, f.name)
+        parts.append(f"<figure><img src='{esc(f.name)}' alt='{esc(cap)}'><figcaption>{esc(cap)}"
+                     "</figcaption></figure>")
+    parts.append("</body></html>\n")
+    return "\n".join(parts)
+
+
 def write_report(diag: Diagnosis, records: Sequence[Record], out_dir: str | Path) -> list[Path]:
-    """Write every figure of the diagnosis as PNG into ``out_dir`` (created).
+    """Write ``index.html`` and every figure of the diagnosis (PNG) into ``out_dir`` (created).
 
     Returns
     -------
     list of Path
-        The files written.
+        The files written (figures first, ``index.html`` last).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -411,4 +475,7 @@ def write_report(diag: Diagnosis, records: Sequence[Record], out_dir: str | Path
         "residual_force.png": residual_figure(diag, records, cache=cache),
         "spectra.png": spectra_figure(diag),
     }
-    return [save(fig, out / name) for name, fig in figures.items()]
+    files = [save(fig, out / name) for name, fig in figures.items()]
+    index = out / "index.html"
+    index.write_text(_html(diag, records, files), encoding="utf-8")
+    return files + [index]

@@ -21,9 +21,9 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from eddi.diagnose import DEFAULT_MARGIN, FITS, Diagnosis, Record, diagnose
+from eddi.diagnosis import DEFAULT_MARGIN, FITS, Diagnosis, Record, diagnose
 from eddi.errors import ModelError
-from eddi.mechanisms import MECHANISM_NAMES
+from eddi.diagnosis import ALL_NAMES
 from eddi.model import EquationOfMotion
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
 from station.argtypes import damping_terms, finite_positive, fraction, stiffness_terms
@@ -47,7 +47,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--model", metavar="BASE.json", help="baseline equation of motion (JSON); its "
                    "coefficients are kept and only the mechanisms are fitted")
     p.add_argument("--mechanisms", metavar="NAMES", help="comma-separated subset of: "
-                   + ", ".join(MECHANISM_NAMES))
+                   + ", ".join(ALL_NAMES))
     p.add_argument("--margin", type=fraction, default=DEFAULT_MARGIN, metavar="FRACTION",
                    help="relative cut of the held-out error the winner must exceed (default: %(default)s)")
     p.add_argument("--method", dest="fit", default="eddi", choices=FITS,
@@ -57,7 +57,8 @@ def register(subparsers: Any) -> None:
                    help="write the extended model (an equation of motion, or a modal-sum model when "
                         "the cause is a second mode seen in the measured signal; both load with "
                         "eddi.multimode.load_any_model)")
-    p.add_argument("--report", metavar="DIR", help="write figures (PNG) into DIR")
+    p.add_argument("--report", metavar="DIR", help="write an HTML page (index.html) and its figures "
+                   "(PNG, units on every axis) into DIR")
     from station.commands.identify import add_refine_option
 
     add_refine_option(p)
@@ -113,7 +114,8 @@ def load_measurements(specs: list[str]) -> tuple[list[Record], float | None, lis
         c = condition_measurement(m)
         if note:
             c = replace(c, notes=c.notes + (note,))
-        records.append(Record.from_conditioned(c, label=Path(spec).name))
+        records.append(Record.from_conditioned(c, label=Path(spec).name,
+                                               pretrigger_samples=getattr(m, "pretrigger_samples", None)))
         if mass is None and getattr(m, "mass", None):
             mass = float(m.mass)
     return records, mass, meas, note
@@ -211,7 +213,14 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
                      f"{params or '(no physical fit)'}"
                      + (f" [gain vs the {c.reference}, nrmse {c.reference_nrmse:.4g}]"
                         if c.reference != "baseline" else ""))
+    fl = diag.noise_floor
+    if fl is not None:
+        lines.insert(1, f"Noise floor of the held-out nrmse (from the records' noise and conditioning): "
+                        f"{fl.nrmse:.3g} (per part " + ", ".join(f"{f:.3g}" for f in fl.fold_nrmse) + ")")
     lines += ["", diag.verdict, f"What the baseline got wrong: {diag.symptom}."]
+    if diag.symptoms:
+        lines.append("Symptoms (held-out parts, median; measurement chain):")
+        lines += [f"  - {s.kind}: {s.text}" for s in diag.symptoms]
     lines += [f"Note: {n}." for n in diag.notes]
     if obj.get("resampled"):
         lines.append(f"Note: {obj['resampled']}.")
@@ -223,7 +232,7 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
                      f"{pb['identified']['equation']}"
                      + (f"; held-out nrmse {v:.4g}" if v is not None else
                         f"; nrmse on itself {pb['identified']['validation']['nrmse']:.4g}"))
-    if diag.cause != "none":
+    if diag.cause not in ("none", "unexplained"):
         lines.append(f"Extended: {diag.extended.model.equation_text()}")
     if "saved_model" in obj:
         lines.append(f"Extended model written to {obj['saved_model']}")

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from eddi.conditioning import condition
-from eddi.diagnose import Record, diagnose
+from eddi.diagnosis import Record, diagnose
 from eddi.model import EquationOfMotion
 from eddi.multimode import ModalSumModel, load_any_model
 from eddi.simulate import simulate

@@ -1,0 +1,76 @@
+"""Mechanisms that add a plain term to the equation of motion (look-alikes of the effects).
+
+* ``smooth_stiffening``: a stiffness ``k_s |x| x`` (a frequency shift linear in amplitude with
+  no knee), the look-alike of ``clearance`` (a knee at the gap);
+* ``cubic_damping``: a damping ``c_3 v^3`` (loss growing like amplitude to the fourth power),
+  the look-alike of quadratic drag (amplitude cubed).
+
+Both are compared with their look-alikes on held-out records (the runner-up is in the
+candidate table). A term the baseline library already holds is skipped.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from eddi.diagnosis.catalogue.base import Mechanism, MechanismFit, _has
+from eddi.identify_many import term_basis
+
+
+class SmoothStiffening(Mechanism):
+    name = "smooth_stiffening"
+    strength = "k_abs_n_per_m2"
+    physics = "a smooth stiffness k_s |x| x (no knee), e.g. a contact that closes progressively"
+    native = "stiffness"
+
+    def skip_reason(self, damping, stiffness, effects):
+        if _has(stiffness, "abs(x)*x"):
+            return "abs(x)*x is already a stiffness term"
+        return super().skip_reason(damping, stiffness, effects)
+
+    def bases(self, shape, stiffness):
+        return (term_basis("abs(x)*x"),)
+
+    def columns(self, sig, shape, stiffness):
+        return (np.abs(sig.x) * sig.x)[:, None]
+
+    def to_fit(self, coefs, shape, mass, stiffness):
+        c = float(coefs[0])
+        if not np.isfinite(c) or c == 0.0:
+            return None
+        return MechanismFit(None, stiffness={"abs(x)*x": c}, term_params={"k_abs_n_per_m2": c})
+
+    def symptom(self, fit):
+        k = fit.params["k_abs_n_per_m2"]
+        kind = "stiffens" if k > 0 else "softens"
+        return ("gets the frequency wrong in proportion to the amplitude, with no knee: the spring "
+                f"{kind} smoothly (k_s |x| x, k_s about {k:.3g} N/m^2): smooth stiffening")
+
+
+class CubicDamping(Mechanism):
+    name = "cubic_damping"
+    strength = "c3_n_s3_per_m3"
+    physics = "a damping force c_3 v^3 (loss growing like amplitude to the fourth power)"
+    native = "damping"
+
+    def skip_reason(self, damping, stiffness, effects):
+        if _has(damping, "v^3"):
+            return "v^3 is already a damping term"
+        return super().skip_reason(damping, stiffness, effects)
+
+    def bases(self, shape, stiffness):
+        return (term_basis("v^3"),)
+
+    def columns(self, sig, shape, stiffness):
+        return (sig.v ** 3)[:, None]
+
+    def to_fit(self, coefs, shape, mass, stiffness):
+        c = float(coefs[0])
+        if not c > 0:
+            return None
+        return MechanismFit(None, damping={"v^3": c}, term_params={"c3_n_s3_per_m3": c})
+
+    def symptom(self, fit):
+        c = fit.params["c3_n_s3_per_m3"]
+        return ("loses energy per cycle growing like the fourth power of amplitude: cubic damping "
+                f"(c_3 about {c:.3g} N s^3/m^3)")

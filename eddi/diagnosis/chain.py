@@ -1,0 +1,244 @@
+"""Measurement-chain causes: found and corrected like physical ones, or reported as symptoms.
+
+* ``sensor_highpass`` (a candidate): an AC-coupled (IEPE) accelerometer or conditioner, first
+  order, ``H(s) = s / (s + w_c)``. It leads the acceleration's phase by ``atan(f_c / f)``,
+  which the energy balance reads as (negative) damping of order ``f_c / f`` (ten times the
+  damping ratio of a light structure at ``f_c / f = 0.04``). The corner is estimated from the
+  records without metadata: for each corner of a grid (0 and 0.1-5 Hz) every record is
+  conditioned again with the coupling inverted (``a + w_c * integral a``), the baseline is
+  refitted on the training records and the corner that best reproduces the *training*
+  records in simulation is kept for that fold; the held-out record (conditioned with that
+  corner) is then judged like any other candidate.
+* Detected and reported (:func:`inspect`): clipping/overload (a channel flat at its extreme),
+  double hits (a second force pulse), base motion (a slow resonance in the acceleration well
+  below the structure's), and a mass that disagrees with the hammer impulse (impulse of the
+  measured force against the momentum the measured acceleration gives).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+from eddi.diagnosis.extend import Setup
+from eddi.diagnosis.name import Fitter, spread_of
+from eddi.diagnosis.records import Part, Record
+from eddi.diagnosis.results import Candidate, Symptom
+from eddi.diagnosis.settings import NRMSE_CAP
+from eddi.diagnosis.show import nrmse, simulate_part, simulate_part_xv, spectrum
+from eddi.errors import EddiError
+
+#: A slow peak must stand this many times over the spectrum between it and the resonance.
+BASE_CONTRAST = 5.0
+#: Corners tried [Hz] (0: the records as conditioned).
+CORNERS_HZ = (0.0, 0.1, 0.18, 0.33, 0.6, 1.1, 2.0, 3.6)
+
+
+def _recondition(rec: Record, corner_hz: float) -> Record | None:
+    from eddi.conditioning import condition
+
+    if corner_hz == 0.0:
+        return rec
+    try:
+        c = condition(rec.t, acc=rec.a, force=rec.force, pretrigger_samples=rec.pretrigger_samples,
+                      ac_coupling_s=1.0 / (2 * math.pi * corner_hz))
+    except EddiError:
+        return None
+    return Record.from_conditioned(c, rec.label).replace(
+        free_start=rec.free_start, free_stop=rec.free_stop, response="acc", noise_rms=rec.noise_rms,
+        pretrigger_samples=rec.pretrigger_samples)
+
+
+def _training_error(fit_eom, recs: Sequence[Record], masks: Sequence[np.ndarray]) -> float:
+    """Mean simulation nrmse of a model over the training records' free responses."""
+    errs = []
+    for r, m in zip(recs, masks):
+        if not np.any(m):
+            continue
+        idx = np.flatnonzero(m)
+        p = Part(0, int(idx[0]), int(idx[-1]) + 1, r.force is not None and r.free_start > 0, r.label)
+        if p.from_rest:
+            p = Part(0, 0, p.stop, True, r.label)
+        errs.append(nrmse(simulate_part(fit_eom, r, p), r.x[p.start:p.stop]))
+    return float(np.mean(errs)) if errs else NRMSE_CAP
+
+
+def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
+                    fold_masks: Sequence[Sequence[np.ndarray]], base_fold: Sequence[float],
+                    consistency: float) -> tuple[Candidate, list[np.ndarray]]:
+    """The ``sensor_highpass`` candidate (module notes) and its held-out simulations."""
+    n = len(parts)
+    if not all(r.response == "acc" for r in records):
+        return (Candidate("sensor_highpass", float("nan"), (), float("nan"), False, False, {}, {}, None,
+                          "", "needs acceleration records (the coupling is inverted on the acceleration)"),
+                [])
+    variants: dict[float, list[Record] | None] = {}
+    fitters: dict[float, Fitter] = {}
+    for fc in CORNERS_HZ:
+        recs = [_recondition(r, fc) for r in records]
+        variants[fc] = None if any(r is None for r in recs) else recs  # type: ignore[assignment]
+        if variants[fc] is not None:
+            fitters[fc] = Fitter([r.signal() for r in variants[fc]], setup)  # type: ignore[union-attr]
+
+    def best_corner(masks: Sequence[np.ndarray]) -> tuple[float, object]:
+        best = (math.inf, 0.0, None)
+        for fc, f in fitters.items():
+            try:
+                fit = f(masks)(None, None)
+            except EddiError:
+                continue
+            if fit is None:
+                continue
+            err = _training_error(fit.eom, variants[fc], masks)  # type: ignore[arg-type]
+            if err < best[0]:
+                best = (err, fc, fit)
+        return best[1], best[2]
+
+    folds, sims, corners = [], [], []
+    for part, masks in zip(parts, fold_masks):
+        fc, fit = best_corner(masks)
+        corners.append(fc)
+        if fit is None:
+            folds.append(NRMSE_CAP)
+            sims.append(np.full(part.stop - part.start, np.nan))
+            continue
+        rec = variants[fc][part.record]  # type: ignore[index]
+        xs, _ = simulate_part_xv(fit.eom, rec, part)
+        folds.append(nrmse(xs, rec.x[part.start:part.stop]))
+        sims.append(xs)
+    all_m = [(np.arange(r.t.size) >= r.free_start) & (np.arange(r.t.size) < r.free_stop) for r in records]
+    fc_all, fit_all = best_corner(all_m)
+    mean = float(np.mean(folds))
+    ref = float(np.mean(base_fold))
+    params = {"corner_hz": float(fc_all)}
+    spread = spread_of([{"corner_hz": c} for c in corners], ["corner_hz"])
+    consistent = fc_all > 0 and bool(spread["corner_hz"] < consistency * fc_all) if n > 1 else fc_all > 0
+    model = fit_all.eom if (fit_all is not None and fc_all > 0) else None
+    symptom = (f"is fitted to an acceleration that a first-order high-pass near {fc_all:.3g} Hz has "
+               "distorted (an AC-coupled IEPE sensor or conditioner): the phase lead reads as wrong "
+               "damping; inverting the coupling in conditioning fixes it") if fc_all > 0 else ""
+    return (Candidate("sensor_highpass", mean, tuple(folds), 1.0 - mean / ref if ref > 0 else 0.0,
+                      all(c < b for c, b in zip(folds, base_fold)), consistent, params, spread, model,
+                      symptom, "", ref, "baseline"), sims)
+
+
+# ----------------------------------------------------------------------------- detected only
+def _clipping(r: Record) -> Symptom | None:
+    from eddi.conditioning import clipped_run
+
+    for name, y in (("acceleration", r.a if r.response == "acc" else None), ("force", r.force)):
+        if y is None:
+            continue
+        at = clipped_run(y)
+        if at is not None:
+            ext = float(y[at])
+            flat = int(np.sum(y == ext))
+            return Symptom("clipping", f"{r.label}: the {name} channel sits flat at {ext:.4g} for {flat} "
+                           f"samples from t = {r.t[at] - r.t[0]:.4g} s: overload (clipped)",
+                           {"record": float(0), "start_s": float(r.t[at] - r.t[0]), "samples": float(flat),
+                            "level": ext})
+    return None
+
+
+def _pulses(f: np.ndarray, rate: float) -> list[tuple[int, int, float]]:
+    """Force pulses above 5 % of the peak, separated by at least 0.5 ms: (start, stop, peak)."""
+    peak = float(np.max(np.abs(f))) if f.size else 0.0
+    if peak <= 0:
+        return []
+    above = np.abs(f) > 0.05 * peak
+    d = np.diff(np.concatenate(([0], above.astype(np.int8), [0])))
+    starts, stops = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+    gap = max(1, int(5e-4 * rate))
+    merged: list[list[int]] = []
+    for a, b in zip(starts, stops):
+        if merged and a - merged[-1][1] < gap:
+            merged[-1][1] = b
+        else:
+            merged.append([a, b])
+    return [(a, b, float(np.max(np.abs(f[a:b])))) for a, b in merged]
+
+
+def _double_hit(r: Record) -> Symptom | None:
+    if r.force is None:
+        return None
+    pulses = _pulses(r.force, r.rate_hz)
+    if len(pulses) < 2:
+        return None
+    (a0, p0), (a1, p1) = pulses[0][::2], pulses[1][::2]
+    delay = (a1 - a0) / r.rate_hz
+    return Symptom("double_hit", f"{r.label}: a second hammer blow {1e3 * delay:.3g} ms after the first, "
+                   f"{100 * p1 / p0:.0f} % of its peak (double hit): the free response starts after it",
+                   {"delay_s": delay, "ratio": p1 / p0, "pulses": float(len(pulses))})
+
+
+def _impulse_mass(r: Record, mass: float) -> tuple[float, float] | None:
+    """(impulse [N s], momentum change [kg m/s]) over the first hammer pulse."""
+    if r.force is None:
+        return None
+    pulses = _pulses(r.force, r.rate_hz)
+    if not pulses:
+        return None
+    a, b, _p = pulses[0]
+    pad = max(1, int(2e-4 * r.rate_hz))
+    a, b = max(0, a - pad), min(r.t.size - 1, b + pad)
+    dt = 1.0 / r.rate_hz
+    j = float(np.sum(r.force[a:b]) * dt)
+    dv = float(r.v[b] - r.v[a])
+    return (j, mass * dv) if abs(dv) > 0 else None
+
+
+def _base_motion(r: Record, f1: float) -> Symptom | None:
+    """A slow resonance (0.03-0.4 f1) in the acceleration over the free response, standing
+    :data:`BASE_CONTRAST` times over the spectrum between twice its frequency and 0.6 f1, worth
+    at least 2 % of the ring-down's peak in displacement."""
+    if r.response != "acc" or not f1 > 0:
+        return None
+    s, e = r.free_start, r.free_stop
+    seg = r.a[s:e] - np.mean(r.a[s:e])
+    if seg.size < 64:
+        return None
+    f, amp = spectrum(seg, r.rate_hz)
+    # at least 3 cycles of the slow motion in the window (lower bins are window leakage)
+    band = (f >= max(0.03 * f1, 3.0 * r.rate_hz / seg.size)) & (f <= 0.4 * f1)
+    if not np.any(band):
+        return None
+    k = int(np.flatnonzero(band)[np.argmax(amp[band])])
+    # the spectrum between the slow peak and the structure's resonance (both leak into it)
+    around = amp[(f >= 2.0 * f[k]) & (f <= 0.6 * f1)]
+    fb = float(f[k])
+    disp = float(amp[k] / (2 * math.pi * fb) ** 2) if fb > 0 else 0.0
+    xpk = float(np.max(np.abs(r.x[s:e]))) or 1e-300
+    if around.size == 0 or amp[k] < BASE_CONTRAST * float(np.median(around)) or disp < 0.02 * xpk:
+        return None
+    return Symptom("base_motion", f"{r.label}: a slow motion near {fb:.3g} Hz ({disp * 1e3:.3g} mm, "
+                   f"{100 * disp / xpk:.0f} % of the ring-down's amplitude) rides under the response: "
+                   "the base or the whole test article moves (rigid-body motion)",
+                   {"frequency_hz": fb, "amplitude_m": disp, "share_pct": 100 * disp / xpk})
+
+
+def inspect(records: Sequence[Record], mass: float, f1: float) -> list[Symptom]:
+    """Measurement-chain findings (module notes), one symptom per finding."""
+    out: list[Symptom] = []
+    for i, r in enumerate(records):
+        for check in (_clipping, _double_hit):
+            s = check(r)
+            if s is not None:
+                out.append(Symptom(s.kind, s.text, {**s.values, "record": float(i)}))
+        s = _base_motion(r, f1)
+        if s is not None:
+            out.append(Symptom(s.kind, s.text, {**s.values, "record": float(i)}))
+    pairs = [p for p in (_impulse_mass(r, mass) for r in records) if p is not None]
+    if pairs:
+        ratios = np.array([j / mom for j, mom in pairs if mom != 0])
+        if ratios.size:
+            med = float(np.median(ratios))
+            m_imp = mass * med
+            if abs(med - 1.0) > 0.15 and (ratios.size < 2 or float(np.std(ratios)) < 0.2 * abs(med)):
+                out.append(Symptom(
+                    "impulse_mass", f"the hammer impulse gives a mass of {m_imp:.4g} kg where {mass:.4g} kg "
+                    f"is used ({100 * (med - 1):+.0f} %): the mass, the force sensitivity or the "
+                    "accelerometer sensitivity is off", {"impulse_mass_kg": m_imp, "mass_kg": mass,
+                                                        "mismatch_pct": 100 * (med - 1)}))
+    return out

@@ -1,0 +1,350 @@
+"""Extend: fit the baseline, or the baseline plus one mechanism, on training samples.
+
+``fit="eddi"`` (default): EDDI over all the training parts at once
+(:func:`eddi.identify_many.identify_many`'s pieces: phase-one rows are the energy lost over
+every half cycle of every training segment, phase-two rows the potential ``E - T``); a
+damping mechanism joins phase one, a stiffness mechanism phase two, shape parameters are
+found on the training rows. ``fit="equation-error"``: linear least squares of ``F - m a`` on
+the terms and the mechanism's regressors. A mechanism that is not a single-coordinate term
+(the hidden second mode) is always refitted by equation error.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+from scipy import optimize
+
+from eddi.diagnosis.catalogue import Context, Mechanism, MechanismFit, Signal, extend
+from eddi.energy import zero_crossings
+from eddi.errors import IdentificationError, ModelError, SignalError
+from eddi.identify_many import (
+    Basis, PotentialRows, Segment, SegmentEnergy, model_bases, phase_one_many, phase_two_many,
+    potential_rows, term_basis,
+)
+from eddi.model import EquationOfMotion
+from eddi.terms import evaluate, parse_terms
+
+
+@dataclass(frozen=True)
+class Setup:
+    mass: float
+    damping: tuple[str, ...]
+    stiffness: tuple[str, ...]
+    base: EquationOfMotion | None  # fixed baseline (its coefficients are kept)
+    coordinate: str
+    fit: str = "eddi"
+
+
+@dataclass(frozen=True)
+class Fit:
+    eom: EquationOfMotion
+    mech: MechanismFit | None
+    residual: tuple[np.ndarray, ...]  # per record, NaN outside training samples
+
+
+def _rows(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup) -> tuple[np.ndarray, np.ndarray]:
+    """Base regressors and target over the training samples."""
+    cols, ys = [], []
+    terms = parse_terms(list(setup.damping) + list(setup.stiffness)) if setup.base is None else ()
+    for s, m in zip(sigs, masks):
+        x, v = s.x[m], s.v[m]
+        y = s.force[m] - setup.mass * s.a[m]
+        if setup.base is not None:
+            y = y - setup.base.restoring_force(x, v)
+        ys.append(y)
+        cols.append(evaluate(terms, x, v) if terms else np.zeros((x.size, 0)))
+    return np.vstack(cols), np.concatenate(ys)
+
+
+class _Projector:
+    """Least squares of ``y`` on ``[a0, e]`` for many extra blocks ``e``, sharing one QR of ``a0``."""
+
+    def __init__(self, a0: np.ndarray, y: np.ndarray) -> None:
+        self.y = y
+        self.scale = _col_scale(a0)
+        if a0.shape[1]:
+            self.q, self.r = np.linalg.qr(a0 / self.scale)
+            self.r0 = y - self.q @ (self.q.T @ y)
+        else:
+            self.q = np.zeros((y.size, 0))
+            self.r = np.zeros((0, 0))
+            self.r0 = y
+
+    def base(self, y: np.ndarray | None = None) -> np.ndarray:
+        yy = self.y if y is None else y
+        if self.q.shape[1] == 0:
+            return np.zeros(0)
+        return np.linalg.solve(self.r, self.q.T @ yy) / self.scale
+
+    def fit(self, e: np.ndarray) -> tuple[np.ndarray, float]:
+        """Coefficients of ``e`` and the residual sum of squares (base block projected out)."""
+        se = _col_scale(e)
+        es = e / se
+        ep = es - self.q @ (self.q.T @ es)
+        c, *_ = np.linalg.lstsq(ep, self.r0, rcond=None)
+        res = self.r0 - ep @ c
+        return c / se, float(res @ res)
+
+    def base_given(self, e: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """Coefficients of the base block once those of ``e`` are fixed to ``c``."""
+        return self.base(self.y - e @ c)
+
+
+def _col_scale(a: np.ndarray) -> np.ndarray:
+    scale = np.sqrt(np.mean(a * a, axis=0)) if a.shape[0] else np.ones(a.shape[1])
+    scale[~(scale > 0)] = 1.0
+    return scale
+
+
+def fit_ee(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,
+         mech: Mechanism | None, base_fit: Fit | None = None) -> Fit | None:
+    """Fit the baseline (``mech`` None) or the baseline plus one mechanism on training samples.
+
+    Returns None when no physical fit of the mechanism exists.
+    """
+    a0, y = _rows(sigs, masks, setup)
+    best: tuple[float, np.ndarray, dict[str, float], MechanismFit] | None = None
+    proj = _Projector(a0, y)
+    if mech is None:
+        coef = proj.base()
+        mfit = None
+    else:
+        ctx = _context(sigs, masks, setup, base_fit)
+        for shape in mech.shape_grid(ctx):
+            extra = _extra(mech, shape, sigs, masks, setup)
+            c, ssr = proj.fit(extra)
+            mf = mech.to_fit(c, shape, setup.mass, setup.stiffness)
+            if mf is None:
+                continue
+            if best is None or ssr < best[0]:
+                best = (ssr, c, shape, mf)
+        if best is None:
+            return None
+        if mech.refine:
+            best = _refine(mech, best, sigs, masks, setup, proj)
+        coef = proj.base_given(_extra(mech, best[2], sigs, masks, setup), best[1])
+        mfit = best[3]
+    if setup.base is None:
+        nd = len(setup.damping)
+        try:
+            eom = EquationOfMotion.create(
+                mass=setup.mass,
+                damping={t: float(c) for t, c in zip(setup.damping, coef[:nd])},
+                stiffness={t: float(c) for t, c in zip(setup.stiffness, coef[nd:])},
+                coordinate=setup.coordinate,
+                notes="fitted by eddi.diagnose (least squares on the equation of motion)")
+        except ModelError:
+            return None
+    else:
+        eom = setup.base
+    if mfit is not None:
+        eom = extend(eom, mfit)
+    # residual of this fit on every record (NaN outside training samples)
+    residual = []
+    for s, m in zip(sigs, masks):
+        r = np.full(s.x.size, np.nan)
+        if mfit is None:
+            r[m] = s.force[m] - setup.mass * s.a[m] - eom.restoring_force(s.x[m], s.v[m])
+        residual.append(r)
+    return Fit(eom=eom, mech=mfit, residual=tuple(residual))
+
+
+def _extra(mech: Mechanism, shape: dict[str, float], sigs: Sequence[Signal],
+           masks: Sequence[np.ndarray], setup: Setup) -> np.ndarray:
+    return np.vstack([mech.columns(s, shape, setup.stiffness)[m] for s, m in zip(sigs, masks)])
+
+
+def _refine(mech: Mechanism, best: tuple, sigs: Sequence[Signal], masks: Sequence[np.ndarray],
+            setup: Setup, proj: "_Projector") -> tuple:
+    """Polish the best grid shape with Nelder-Mead on the log of the refined parameters."""
+    keys = mech.refine
+    shape0 = dict(best[2])
+    p0 = np.log([shape0[k] for k in keys])
+    found = [best]
+
+    def cost(p: np.ndarray) -> float:
+        shape = {**shape0, **{k: float(np.exp(v)) for k, v in zip(keys, p)}}
+        c, ssr = proj.fit(_extra(mech, shape, sigs, masks, setup))
+        mf = mech.to_fit(c, shape, setup.mass, setup.stiffness)
+        if mf is None:
+            return float(best[0]) * 10.0
+        if ssr < found[-1][0]:
+            found.append((ssr, c, shape, mf))
+        return ssr / float(best[0])
+
+    optimize.minimize(cost, p0, method="Nelder-Mead",
+                      options={"maxfev": 20 * len(keys), "xatol": 1e-3, "fatol": 1e-6,
+                               "initial_simplex": np.vstack([p0] + [p0 + 0.05 * np.eye(len(keys))[i]
+                                                                    for i in range(len(keys))])})
+    return found[-1]
+
+
+def _context(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,
+             base_fit: Fit | None) -> Context:
+    used = [(s, m) for s, m in zip(sigs, masks) if np.any(m)]
+    xp = max(float(np.max(np.abs(s.x[m]))) for s, m in used)
+    vp = max(float(np.max(np.abs(s.v[m]))) for s, m in used)
+    eom = base_fit.eom if base_fit is not None else setup.base
+    k1 = eom.linear_stiffness() if eom is not None else 0.0
+    f1 = math.sqrt(max(k1, 0.0) / setup.mass) / (2 * math.pi)
+    if f1 <= 0:
+        f1 = _crossing_frequency(*used[0])
+    residual = base_fit.residual if base_fit is not None else tuple(np.full(s.x.size, np.nan) for s in sigs)
+    return Context(signals=tuple(sigs), masks=tuple(masks), residual=residual, mass=setup.mass,
+                   x_peak=xp, v_peak=vp, base_frequency_hz=f1)
+
+
+def _crossing_frequency(sig: Signal, mask: np.ndarray) -> float:
+    idx = np.flatnonzero(mask)
+    g = zero_crossings(sig.t[idx], sig.x[idx], sig.v[idx])
+    if g.size < 3:
+        return 1.0
+    return float(1.0 / (2 * np.median(np.diff(g))))
+
+
+def runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """Contiguous ``[start, stop)`` runs of True in a mask."""
+    d = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
+
+
+class EddiFold:
+    """The training segments of one fold, with the baseline's phase one and phase-two rows.
+
+    ``cache`` maps ``(record, start, stop)`` to a prepared :class:`SegmentEnergy`, shared
+    over folds so each segment's crossings and energy antiderivatives are computed once.
+    """
+
+    def __init__(self, sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,
+                 cache: dict[tuple[int, int, int], SegmentEnergy | None]) -> None:
+        energies: list[SegmentEnergy] = []
+        for i, (s, m) in enumerate(zip(sigs, masks)):
+            for a, b in runs(m):
+                key = (i, a, b)
+                if key not in cache:
+                    try:
+                        cache[key] = SegmentEnergy(Segment(s.t[a:b], s.x[a:b], s.v[a:b], s.a[a:b], key),
+                                                   setup.mass)
+                    except IdentificationError:
+                        cache[key] = None
+                e = cache[key]
+                if e is not None:
+                    energies.append(e)
+        if not energies:
+            raise SignalError("no training segment has 3 zero crossings")
+        self.energies = energies
+        self.setup = setup
+        self.d = [term_basis(t) for t in setup.damping] if setup.base is None else []
+        self.k = [term_basis(t) for t in setup.stiffness] if setup.base is None else []
+        self.fd: Basis | None = None
+        self.fs: Basis | None = None
+        if setup.base is not None:
+            lo = min(float(np.min(e.seg.x)) for e in energies)
+            hi = max(float(np.max(e.seg.x)) for e in energies)
+            self.fd, self.fs = model_bases(setup.base, (lo, hi))
+        self.b0, _ = phase_one_many(energies, self.d, self.fd)
+        self.rows0 = potential_rows(energies, self.d, self.b0, fixed_damping=self.fd,
+                                    fixed_stiffness=self.fs)
+
+    def stiffness_fit(self, rows: PotentialRows, extra: Sequence[Basis]) -> tuple[np.ndarray, float]:
+        """Stiffness coefficients (baseline terms then ``extra``) and the weighted SSR."""
+        coef, res = phase_two_many(rows, list(self.k) + list(extra))
+        return coef, res * res * rows.x.size
+
+    def model(self, b: np.ndarray, k: np.ndarray) -> EquationOfMotion:
+        if self.setup.base is not None:
+            return self.setup.base
+        st = self.setup
+        return EquationOfMotion.create(
+            mass=st.mass, damping={t: float(c) for t, c in zip(st.damping, b)},
+            stiffness={t: float(c) for t, c in zip(st.stiffness, k)}, coordinate=st.coordinate,
+            notes="fitted by eddi.diagnose (EDDI over the training captures)")
+
+
+def fit_eddi(fold: EddiFold, sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,
+              mech: Mechanism | None, base_fit: Fit | None = None) -> Fit | None:
+    """EDDI fit of the baseline (``mech`` None) or the baseline plus one mechanism.
+
+    A ``"damping"`` mechanism (friction, drag, the second mode's force, whose power is the
+    energy exchanged with the hidden mode) joins the phase-one columns and changes the
+    mechanical energy phase two sees; a ``"stiffness"`` one (clearance, even powers) joins
+    the phase-two columns. Shape parameters are chosen on the training rows: by the
+    phase-one misfit for damping, by the phase-two misfit for stiffness (grid, then
+    Nelder-Mead on their logarithms).
+    """
+    nd = len(fold.d)
+    if mech is None:
+        k, _ = fold.stiffness_fit(fold.rows0, [])
+        try:
+            eom = fold.model(fold.b0, k)
+        except ModelError:
+            return None
+        residual = []
+        for s, m in zip(sigs, masks):
+            r = np.full(s.x.size, np.nan)
+            r[m] = s.force[m] - setup.mass * s.a[m] - eom.restoring_force(s.x[m], s.v[m])
+            residual.append(r)
+        return Fit(eom=eom, mech=None, residual=tuple(residual))
+    assert base_fit is not None
+    if not mech.native:  # second mode: the equation-error refit of baseline terms + mechanism
+        ee = Setup(mass=setup.mass, damping=setup.damping, stiffness=setup.stiffness,
+                    base=setup.base, coordinate=setup.coordinate, fit="equation-error")
+        ee_base = fit_ee(sigs, masks, ee, None)  # its residual spectrum shows the hidden mode
+        return fit_ee(sigs, masks, ee, mech, base_fit=ee_base) if ee_base is not None else None
+    ctx = _context(sigs, masks, setup, base_fit)
+    nk = len(fold.k)
+    dt = sigs[0].dt
+
+    def trial(shape: dict[str, float]) -> tuple | None:
+        """(misfit, mechanism coefficients, shape, fit, base damping, base stiffness) or None."""
+        extra = mech.bases({**shape, "sample_interval_s": dt}, setup.stiffness)
+        if mech.native == "damping":
+            b, r1 = phase_one_many(fold.energies, list(fold.d) + list(extra), fold.fd)
+            mf = mech.to_fit(b[nd:], shape, setup.mass, setup.stiffness)
+            return None if mf is None else (r1 * r1, b[nd:], shape, mf, b[:nd], None)
+        c, ssr = fold.stiffness_fit(fold.rows0, extra)
+        mf = mech.to_fit(c[nk:], shape, setup.mass, setup.stiffness)
+        return None if mf is None else (ssr, c[nk:], shape, mf, fold.b0, c[:nk])
+
+    best = None
+    for shape in mech.shape_grid(ctx):
+        got = trial(shape)
+        if got is not None and (best is None or got[0] < best[0]):
+            best = got
+    if best is None:
+        return None
+    if mech.refine:
+        keys = mech.refine
+        shape0 = dict(best[2])
+        p0 = np.log([shape0[k] for k in keys])
+        found = [best]
+
+        def cost(p: np.ndarray) -> float:
+            got = trial({**shape0, **{k: float(np.exp(v)) for k, v in zip(keys, p)}})
+            if got is None:
+                return 10.0
+            if got[0] < found[-1][0]:
+                found.append(got)
+            return got[0] / float(best[0]) if best[0] > 0 else got[0]
+        optimize.minimize(cost, p0, method="Nelder-Mead",
+                          options={"maxfev": 20 * len(keys), "xatol": 1e-3, "fatol": 1e-6,
+                                   "initial_simplex": np.vstack([p0] + [p0 + 0.05 * np.eye(len(keys))[i]
+                                                                        for i in range(len(keys))])})
+        best = found[-1]
+    if mech.native == "damping":
+        extra = mech.bases({**best[2], "sample_interval_s": dt}, setup.stiffness)
+        rows = potential_rows(fold.energies, list(fold.d) + list(extra),
+                              np.concatenate([best[4], best[1]]), fixed_damping=fold.fd,
+                              fixed_stiffness=fold.fs)
+        k, _ = fold.stiffness_fit(rows, [])
+    else:
+        k = best[5]
+    try:
+        eom = fold.model(best[4], k)
+    except ModelError:
+        return None
+    return Fit(eom=extend(eom, best[3]), mech=best[3], residual=base_fit.residual)

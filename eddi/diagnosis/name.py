@@ -1,0 +1,250 @@
+"""Name: every mechanism refitted on the training parts and judged on the held-out ones.
+
+:func:`judge_folds` runs the folds (baseline and every candidate, fitted without the held-out
+part and simulated over it); :func:`build_candidates` turns the fold results into ranked
+:class:`~eddi.diagnosis.results.Candidate` rows (gain over its reference, win on every part,
+strength agreeing over folds); :func:`decide` gives the verdict against the noise floor.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+
+from eddi.diagnosis.catalogue import Mechanism
+from eddi.diagnosis.extend import EddiFold, Fit, Setup, fit_ee, fit_eddi
+from eddi.diagnosis.observed import Observed
+from eddi.diagnosis.records import Part, Record
+from eddi.diagnosis.results import Candidate, NoiseFloor
+from eddi.diagnosis.settings import NRMSE_CAP, REFERENCE_MARGIN
+from eddi.diagnosis.show import nmte, nrmse, simulate_part, simulate_part_xv
+from eddi.errors import ModelError, SignalError
+
+FitFn = Callable[[Mechanism | None, Fit | None], Fit | None]
+
+
+class Fitter:
+    """Fitting functions for given training masks, sharing the segments' energy cache.
+
+    ``Fitter(sigs, setup)(masks)`` returns ``fit(mech, base_fit)``: the baseline (``mech``
+    None) or the baseline plus ``mech`` fitted on the samples ``masks``.
+    """
+
+    def __init__(self, sigs: Sequence, setup: Setup) -> None:
+        self.sigs = list(sigs)
+        self.setup = setup
+        self.cache: dict = {}
+
+    def __call__(self, masks: Sequence[np.ndarray]) -> FitFn:
+        sigs, setup = self.sigs, self.setup
+        if setup.fit == "equation-error":
+            return lambda mech, base_fit=None: fit_ee(sigs, masks, setup, mech, base_fit=base_fit)
+        fold = EddiFold(sigs, masks, setup, self.cache)
+        return lambda mech, base_fit=None: fit_eddi(fold, sigs, masks, setup, mech, base_fit=base_fit)
+
+
+def all_masks(records: Sequence[Record]) -> list[np.ndarray]:
+    """The free response of every record (the training samples of the final fit)."""
+    out = []
+    for r in records:
+        m = np.zeros(r.t.size, bool)
+        m[r.free_start:r.free_stop] = True
+        out.append(m)
+    return out
+
+
+@dataclass
+class FoldResults:
+    """What the folds measured (one entry per held-out part in every list)."""
+
+    base_fold: list[float] = field(default_factory=list)
+    base_nmte: list[float] = field(default_factory=list)
+    base_sims: list[np.ndarray] = field(default_factory=list)
+    base_vsims: list[np.ndarray] = field(default_factory=list)
+    base_coefs: list[dict[str, float]] = field(default_factory=list)
+    ee_ref: list[float] = field(default_factory=list)
+    cand_fold: dict[str, list[float]] = field(default_factory=dict)
+    cand_params: dict[str, list[dict[str, float]]] = field(default_factory=dict)
+    cand_sims: dict[str, list[np.ndarray]] = field(default_factory=dict)
+
+
+def judge_folds(records: Sequence[Record], setup: Setup, cat: Sequence[Mechanism],
+                skipped: dict[str, str | None], parts: Sequence[Part],
+                fold_masks: Sequence[Sequence[np.ndarray]], fitter: Fitter) -> FoldResults:
+    """Per fold: the baseline and every mechanism fitted on the training parts, simulated on
+    the held-out one."""
+    res = FoldResults(cand_fold={m.name: [] for m in cat}, cand_params={m.name: [] for m in cat},
+                      cand_sims={m.name: [] for m in cat})
+    tried = [m for m in cat if not skipped[m.name]]
+    need_ee = setup.fit == "eddi" and any(not m.native for m in tried)
+    for part, masks in zip(parts, fold_masks):
+        rec = records[part.record]
+        xm = rec.x[part.start:part.stop]
+        fit_fold = fitter(masks)
+        bfit = fit_fold(None, None)
+        if bfit is None:
+            raise ModelError("the baseline could not be fitted on the training parts")
+        xb, vb = simulate_part_xv(bfit.eom, rec, part)
+        res.base_fold.append(nrmse(xb, xm))
+        res.base_nmte.append(nmte(vb, rec.v[part.start:part.stop]))
+        res.base_sims.append(xb)
+        res.base_vsims.append(vb)
+        if need_ee:
+            # a mechanism refitted by equation error is judged against the baseline fitted
+            # the same way, so it cannot win by its fitter rather than by its physics
+            ee = Setup(mass=setup.mass, damping=setup.damping, stiffness=setup.stiffness,
+                       base=setup.base, coordinate=setup.coordinate, fit="equation-error")
+            ee_fit = fit_ee(fitter.sigs, masks, ee, None)
+            res.ee_ref.append(nrmse(simulate_part(ee_fit.eom, rec, part), xm) if ee_fit else NRMSE_CAP)
+        res.base_coefs.append({**{f"b[{k}]": v for k, v in bfit.eom.damping.items()},
+                               **{f"k[{k}]": v for k, v in bfit.eom.stiffness.items()}})
+        for mech in tried:
+            fit = fit_fold(mech, bfit)
+            if fit is None or fit.mech is None:
+                res.cand_fold[mech.name].append(NRMSE_CAP)
+                res.cand_sims[mech.name].append(np.full_like(xm, np.nan))
+                continue
+            xe = simulate_part(fit.eom, rec, part)
+            res.cand_fold[mech.name].append(nrmse(xe, xm))
+            res.cand_sims[mech.name].append(xe)
+            res.cand_params[mech.name].append(fit.mech.params)
+    return res
+
+
+def spread_of(plist: Sequence[dict[str, float]], keys: Sequence[str]) -> dict[str, float]:
+    """Standard deviation of each parameter over the folds (NaN with fewer than two)."""
+    return {k: float(np.std([p[k] for p in plist if k in p], ddof=1))
+            if sum(k in p for p in plist) > 1 else float("nan") for k in keys}
+
+
+def build_candidates(cat: Sequence[Mechanism], skipped: dict[str, str | None], res: FoldResults,
+                     fit_all: FitFn, bfit_all: Fit, n_parts: int, consistency: float,
+                     k_terms: tuple[str, ...], observed: Observed | None
+                     ) -> tuple[list[Candidate], dict[str, Fit], list[str]]:
+    """One :class:`Candidate` per mechanism (the kept form of the second mode), and notes."""
+    candidates: list[Candidate] = []
+    finals: dict[str, Fit] = {}
+    notes: list[str] = []
+    obs_cand = observed_candidate(observed, n_parts, consistency)
+    for mech in cat:
+        if skipped[mech.name]:
+            candidates.append(Candidate(mech.name, float("nan"), (), float("nan"), False, False, {},
+                                        {}, None, "", skipped[mech.name]))
+            continue
+        folds = res.cand_fold[mech.name]
+        ref_fold = res.ee_ref if (res.ee_ref and not mech.native) else res.base_fold
+        ref_nrmse = float(np.mean(ref_fold))
+        mean = float(np.mean(folds))
+        fit = fit_all(mech, bfit_all)
+        params: dict[str, float] = {}
+        symptom, model = "", None
+        if fit is not None and fit.mech is not None:
+            finals[mech.name] = fit
+            params = fit.mech.params
+            symptom = mech.symptom(fit.mech)
+            model = fit.eom
+        plist = res.cand_params[mech.name]
+        spread = spread_of(plist, list(params))
+        key = mech.strength_key(k_terms)
+        consistent = (len(plist) == n_parts and key in params
+                      and bool(spread.get(key, math.inf) < consistency * abs(params[key])))
+        cand = Candidate(mech.name, mean, tuple(folds), 1.0 - mean / ref_nrmse if ref_nrmse > 0 else 0.0,
+                         all(c < b for c, b in zip(folds, ref_fold)), consistent, params, spread,
+                         model, symptom, "", ref_nrmse,
+                         "baseline" if ref_fold is res.base_fold else "equation-error baseline",
+                         "hidden" if mech.name == "second_mode" else "")
+        if obs_cand is not None and mech.name == "second_mode":
+            kept, other = (obs_cand, cand) if obs_cand.nrmse < cand.nrmse else (cand, obs_cand)
+            notes.append(f"second mode: the {kept.form} form is kept (held-out nrmse {kept.nrmse:.3g}, "
+                         f"gain {100 * kept.gain:.0f} % over the {kept.reference}); the {other.form} "
+                         f"form had {other.nrmse:.3g} (gain {100 * other.gain:.0f} % over the "
+                         f"{other.reference})")
+            cand = kept
+        candidates.append(cand)
+    if observed is not None and observed.skipped:
+        notes.insert(0, f"second mode, observed form (a modal sum) not tried: {observed.skipped}")
+    return candidates, finals, notes
+
+
+def observed_candidate(o: Observed | None, n_parts: int, consistency: float) -> Candidate | None:
+    """The observed second mode as a candidate (None when not tried)."""
+    if o is None or o.skipped or o.model is None:
+        return None
+    ref = float(np.mean(o.ref_fold_nrmse))
+    key = "mode_2_damping_ratio"
+    spread = spread_of(o.fold_params, list(o.params))
+    mean = float(np.mean(o.fold_nrmse))
+    return Candidate(
+        "second_mode", mean, o.fold_nrmse, 1.0 - mean / ref if ref > 0 else 0.0,
+        all(c < b for c, b in zip(o.fold_nrmse, o.ref_fold_nrmse)),
+        (len(o.fold_params) == n_parts and bool(spread.get(key, math.inf) < consistency * abs(o.params[key]))),
+        dict(o.params), spread, o.model, o.symptom, "", ref, "main-mode modal baseline",
+        "observed", float(np.mean(o.fold_nmte)), float(np.mean(o.ref_fold_nmte)))
+
+
+def rank(candidates: Sequence[Candidate]) -> list[Candidate]:
+    """Best first by gain over its reference; skipped ones last."""
+    return sorted(candidates, key=lambda c: (bool(c.skipped), -c.gain if math.isfinite(c.gain) else math.inf))
+
+
+@dataclass(frozen=True)
+class Decision:
+    """The verdict: ``cause``, the winner (if named) and the best partial explanation."""
+
+    cause: str
+    winner: Candidate | None
+    partial: Candidate | None
+    within_floor: bool
+    reason: str
+
+
+def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: NoiseFloor,
+           margin: float, none_factor: float, named_factor: float,
+           reference_margin: float = REFERENCE_MARGIN) -> Decision:
+    """``none`` when the baseline's mean held-out nrmse is within ``none_factor`` of the
+    floor's (the mean: one noise realisation per part makes a per-part floor noisy); a mechanism when it beats its reference on every part by more than ``margin``
+    (halves the error at 0.5), its strength agrees over folds, and its held-out nrmse is
+    within ``named_factor`` of the floor; otherwise ``unexplained`` with the best partial
+    explanation. A candidate judged against another reference than the baseline (refitted by
+    equation error, a modal sum) must also beat that reference by ``reference_margin``, so it
+    cannot win by its fitter. A baseline lost on any part (nrmse at the cap) is never
+    ``none``."""
+    base = float(np.mean(base_fold))
+    within = base <= none_factor * floor.nrmse and max(base_fold) < NRMSE_CAP
+    tried = [c for c in candidates if not c.skipped and c.model is not None]
+    helpful = [c for c in tried if c.wins_every_part and c.gain > 0]
+    partial = helpful[0] if helpful else None
+    if within:
+        return Decision("none", None, None, True, "within the noise floor")
+    why = []
+    for c in tried:
+        fails = []
+        cut = 1.0 - c.nrmse / base if base > 0 else 0.0
+        if not cut >= margin:
+            fails.append(f"cuts the error by {100 * cut:.0f} % (needs {100 * margin:.0f} %)")
+        if c.reference != "baseline" and not c.gain >= reference_margin:
+            fails.append(f"beats its {c.reference} by {100 * c.gain:.0f} % (needs {100 * reference_margin:.0f} %)")
+        if not c.wins_every_part:
+            fails.append("does not win on every held-out part")
+        if not c.consistent:
+            fails.append("its strength changes from fold to fold")
+        if not c.nrmse <= named_factor * floor.nrmse:
+            fails.append(f"leaves nrmse {c.nrmse:.3g}, over {named_factor:g}x the floor {floor.nrmse:.3g}")
+        if not fails:
+            return Decision(c.name, c, None, False, "")
+        why.append(f"{c.name}: " + ", ".join(fails))
+    return Decision("unexplained", None, partial, False, "; ".join(why[:2]))
+
+
+def check_trainable(records: Sequence[Record]) -> None:
+    """At least one record must hold a segment EDDI can train on (3 zero crossings)."""
+    from eddi.energy import zero_crossings
+
+    for r in records:
+        s, e = r.free_start, r.free_stop
+        if e - s > 3 and zero_crossings(r.t[s:e], r.x[s:e], r.v[s:e]).size >= 3:
+            return
+    raise SignalError("no record holds 3 zero crossings in its free response: nothing to fit")

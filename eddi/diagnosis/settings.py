@@ -1,0 +1,37 @@
+"""Constants of the discrepancy loop (each with the measurement that set it)."""
+
+from __future__ import annotations
+
+from eddi.multimode import MODAL_STIFFNESS
+
+#: Ways of fitting the baseline and the extensions (see the module notes).
+FITS = ("eddi", "equation-error")
+#: Default relative margin: a named mechanism must cut the mean held-out nrmse by at least
+#: this (0.5: it halves the error).
+DEFAULT_MARGIN = 0.5
+#: A candidate judged against its own reference (refitted by equation error, a modal sum)
+#: must also beat that reference by this much (the former margin: 0 false alarms in 72 nulls
+#: with a largest passing gain of 0.10, ``docs/diagnosis.md``).
+REFERENCE_MARGIN = 0.2
+#: The winner's strength parameter must agree over the folds: spread < this times its value.
+DEFAULT_CONSISTENCY = 0.5
+#: Held-out nrmse above this counts as "lost" (a diverged or meaningless simulation).
+NRMSE_CAP = 2.0
+#: Per-mode stiffness library of the observed second mode: linear, ``abs(x)*x`` (a frequency
+#: shift linear in amplitude, as a frictional joint shows) and ``x^3`` (quadratic in amplitude,
+#: as a hardening spring shows). Without ``x^3``, 6 of 8 velocity-only free decays with a
+#: hardening main mode (7 % frequency rise) and a second mode at 1:2 were missed
+#: (``benchmarks/bench_diagnose.py --free-decays``); with it they are found, and the double
+#: beam's held-out nrmse moves from 0.0738 to 0.0710.
+MODAL_DIAGNOSE_STIFFNESS: tuple[str, ...] = MODAL_STIFFNESS + ("x^3",)
+#: Zero crossings each amplitude band must hold when a single record is split.
+MIN_BAND_CROSSINGS = 6
+
+#: ``cause: "none"`` needs the baseline's mean held-out nrmse within this factor of the noise
+#: floor's mean over the held-out parts (the floor: :func:`eddi.diagnosis.measure.noise_floor`).
+NONE_FACTOR = 5.0
+#: A named mechanism must leave the extended model within this factor of the noise floor
+#: (mean over the held-out parts); otherwise it is the best partial explanation.
+NAMED_FACTOR = 10.0
+#: Floors below this are raised to it (a noise-free record still has integration error).
+MIN_FLOOR = 0.01

@@ -1,0 +1,160 @@
+"""Show: what a model's held-out simulation gets wrong, in the views a test engineer reads.
+
+The figure of merit (:func:`nrmse`, :func:`nmte`), the held-out simulation of a part
+(:func:`simulate_part_xv`), and the views: energy lost per cycle versus amplitude, the
+backbone (frequency and damping ratio versus amplitude), the residual force, the spectrum.
+:mod:`eddi.diagnosis.symptoms` turns them into numbers and words.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from eddi.diagnosis.records import Part, Record
+from eddi.diagnosis.settings import NRMSE_CAP
+from eddi.energy import zero_crossings
+from eddi.model import EquationOfMotion
+from eddi.multimode import trajectory_errors
+from eddi.simulate import simulate
+
+
+def simulate_part(eom: EquationOfMotion, rec: Record, part: Part) -> np.ndarray:
+    return simulate_part_xv(eom, rec, part)[0]
+
+
+def simulate_part_xv(eom: EquationOfMotion, rec: Record, part: Part) -> tuple[np.ndarray, np.ndarray]:
+    """Simulated coordinate and rate over the part, shape (k,) each."""
+    s, e = part.start, part.stop
+    t = rec.t[s:e] - rec.t[s]
+    xm = rec.x[s:e]
+    xs = float(np.max(np.abs(xm))) or None
+    vs = float(np.max(np.abs(rec.v[s:e]))) or None
+    if part.from_rest and rec.force is not None:
+        sim = simulate(eom, t, force=rec.force[s:e], x0=float(rec.x[s]), v0=float(rec.v[s]),
+                       x_scale=xs, v_scale=vs)
+    else:
+        f = rec.force[s:e] if rec.force is not None else None
+        sim = simulate(eom, t, force=f, x0=float(rec.x[s]), v0=float(rec.v[s]),
+                       x_scale=xs, v_scale=vs)
+    return sim.x, sim.v
+
+
+def nmte(v_sim: np.ndarray, v_meas: np.ndarray) -> float:
+    """Velocity NMTE ``mean |v_sim - v| / max |v|`` (:func:`eddi.multimode.trajectory_errors`),
+    capped at :data:`NRMSE_CAP` (a diverged simulation counts as the cap)."""
+    if v_sim.shape != v_meas.shape or not np.all(np.isfinite(v_sim)):
+        return NRMSE_CAP
+    return float(min(NRMSE_CAP, trajectory_errors(v_sim, v_meas).nmte))
+
+
+def nrmse(x_sim: np.ndarray, x_meas: np.ndarray) -> float:
+    """``||x_sim - x_meas||_2 / ||x_meas||_2``, capped at :data:`NRMSE_CAP` (inf/NaN -> cap).
+
+    The same figure of merit as :func:`eddi.validate.validate`.
+    """
+    den = float(np.linalg.norm(x_meas)) or 1.0
+    if not np.all(np.isfinite(x_sim)):
+        return NRMSE_CAP
+    return float(min(NRMSE_CAP, np.linalg.norm(x_sim - x_meas) / den))
+
+
+def energy_per_cycle(t: np.ndarray, x: np.ndarray, v: np.ndarray, mass: float) -> tuple[np.ndarray, np.ndarray]:
+    """Energy lost per cycle versus amplitude, from the kinetic energy at zero crossings.
+
+    At a zero crossing the potential energy is zero, so ``E = m v^2 / 2`` there; the energy
+    lost over one cycle is the drop between crossings ``i`` and ``i + 2``.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,), [s]
+    x, v : ndarray, shape (n,)
+    mass : float, [kg]
+
+    Returns
+    -------
+    amplitude : ndarray, shape (k,), [m]
+        Largest ``|x|`` over each cycle.
+    energy_lost : ndarray, shape (k,), [J]
+    """
+    t = np.asarray(t, float)
+    x = np.asarray(x, float)
+    v = np.asarray(v, float)
+    ok = np.isfinite(x) & np.isfinite(v)
+    if not np.all(ok):
+        n = int(np.argmin(ok))
+        t, x, v = t[:n], x[:n], v[:n]
+    if t.size < 4:
+        return np.zeros(0), np.zeros(0)
+    g = zero_crossings(t, x, v)
+    if g.size < 3:
+        return np.zeros(0), np.zeros(0)
+    vg = np.interp(g, t, v)
+    e = 0.5 * mass * vg**2
+    idx = np.searchsorted(t, g)
+    amp = np.array([np.max(np.abs(x[idx[i]:max(idx[i + 2], idx[i] + 1)])) for i in range(g.size - 2)])
+    return amp, e[:-2] - e[2:]
+
+
+def backbone(t: np.ndarray, x: np.ndarray, v: np.ndarray, mass: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Instantaneous frequency and damping ratio versus amplitude, cycle by cycle.
+
+    Returns
+    -------
+    amplitude : ndarray, shape (k,), [m]
+    frequency_hz : ndarray, shape (k,), [Hz]
+        ``1 / (gamma_i+2 - gamma_i)``.
+    damping_ratio : ndarray, shape (k,)
+        ``dE / (4 pi E)`` with ``E`` the energy at the start of the cycle.
+    """
+    t = np.asarray(t, float)
+    x = np.asarray(x, float)
+    v = np.asarray(v, float)
+    ok = np.isfinite(x) & np.isfinite(v)
+    if not np.all(ok):
+        n = int(np.argmin(ok))
+        t, x, v = t[:n], x[:n], v[:n]
+    if t.size < 4:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    g = zero_crossings(t, x, v)
+    if g.size < 3:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    vg = np.interp(g, t, v)
+    e = 0.5 * mass * vg**2
+    amp, de = energy_per_cycle(t, x, v, mass)
+    freq = 1.0 / (g[2:] - g[:-2])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        zeta = np.where(e[:-2] > 0, de / (4 * np.pi * e[:-2]), np.nan)
+    return amp, freq, zeta
+
+
+def residual_force(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray, a: np.ndarray,
+                   force: np.ndarray | None = None) -> np.ndarray:
+    """Force the model misses: ``F - m a - (internal force of the model)``.
+
+    Parameters
+    ----------
+    eom : EquationOfMotion
+    x, v, a : ndarray, shape (n,)
+    force : ndarray, shape (n,), [N], optional
+
+    Returns
+    -------
+    ndarray, shape (n,), [N]
+    """
+    f = np.zeros_like(np.asarray(x, float)) if force is None else np.asarray(force, float)
+    return f - eom.mass * np.asarray(a, float) - eom.restoring_force(x, v)
+
+
+def spectrum(x: np.ndarray, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """Amplitude spectrum (Hann window).
+
+    Returns
+    -------
+    freqs_hz : ndarray, shape (n // 2 + 1,)
+    amplitude : ndarray, shape (n // 2 + 1,)
+        Same unit as ``x``.
+    """
+    x = np.nan_to_num(np.asarray(x, float))
+    w = np.hanning(x.size)
+    amp = np.abs(np.fft.rfft(x * w)) * 2.0 / max(np.sum(w), 1e-300)
+    return np.fft.rfftfreq(x.size, 1.0 / rate_hz), amp

@@ -1,0 +1,156 @@
+"""Symptoms: what the baseline's held-out simulations get wrong, in numbers and plain words.
+
+Measured over the held-out parts (measured coordinate against the baseline's simulation fitted
+without that part), median over parts:
+
+* ``frequency_bias``: the model's cycle frequency against the measured one, in %, at large and
+  small amplitude (upper and lower third of the measured amplitudes);
+* ``energy_mismatch``: the model's energy lost per cycle against the measured one, in %, at
+  large and small amplitude;
+* ``residual_peak``: where the residual ``x - x_sim`` has its power (Hz, and as a multiple of
+  the main frequency);
+* ``low_frequency_drift``: residual power below 0.3 times the main frequency, in % of the
+  measured power;
+* ``growth``: the simulation's amplitude over the last quarter of the part against the
+  measured one (ratio; a diverged simulation counts as growth).
+
+Each symptom is ``notable`` when it is beyond its threshold (``THRESHOLDS``); the text lists the
+notable ones.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from eddi.diagnosis.records import Part, Record
+from eddi.diagnosis.results import Symptom
+from eddi.diagnosis.show import backbone, energy_per_cycle, spectrum
+
+#: A symptom is worth a sentence beyond these values.
+THRESHOLDS = {"frequency_bias_pct": 0.5, "energy_mismatch_pct": 15.0, "low_frequency_drift_pct": 5.0,
+              "growth_ratio": 1.5}
+
+
+def _thirds(amp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = np.nanpercentile(amp, [33.0, 67.0]) if amp.size else (0.0, 0.0)
+    return amp >= hi, amp <= lo
+
+
+def _interp_loglog(xq: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    ok = (x > 0) & (y > 0) & np.isfinite(x) & np.isfinite(y)
+    if ok.sum() < 2:
+        return np.full(xq.shape, np.nan)
+    o = np.argsort(x[ok])
+    lx, ly = np.log(x[ok][o]), np.log(y[ok][o])
+    out = np.exp(np.interp(np.log(np.maximum(xq, 1e-300)), lx, ly, left=np.nan, right=np.nan))
+    return out
+
+
+def _part_numbers(t: np.ndarray, xm: np.ndarray, vm: np.ndarray, xs: np.ndarray, vs: np.ndarray | None,
+                  mass: float, rate: float) -> dict[str, float]:
+    out: dict[str, float] = {}
+    finite = np.all(np.isfinite(xs))
+    q = max(4, xm.size // 4)
+    am = float(np.max(np.abs(xm[-q:]))) or 1e-300
+    out["growth_ratio"] = float(np.max(np.abs(xs[-q:])) / am) if finite else float("inf")
+    if not finite or vs is None:
+        return out
+    a_m, f_m, _ = backbone(t, xm, vm, mass)
+    a_s, f_s, _ = backbone(t, xs, vs, mass)
+    if a_m.size >= 6 and a_s.size >= 3:
+        hi, lo = _thirds(a_m)
+        fs_at = np.interp(a_m, a_s[np.argsort(a_s)], f_s[np.argsort(a_s)], left=np.nan, right=np.nan)
+        for key, sel in (("high", hi), ("low", lo)):
+            r = fs_at[sel] / f_m[sel]
+            r = r[np.isfinite(r)]
+            out[f"frequency_bias_{key}_pct"] = float(100 * (np.median(r) - 1)) if r.size else float("nan")
+        e_m_amp, de_m = energy_per_cycle(t, xm, vm, mass)
+        e_s_amp, de_s = energy_per_cycle(t, xs, vs, mass)
+        if e_m_amp.size >= 6 and e_s_amp.size >= 3:
+            hi, lo = _thirds(e_m_amp)
+            ds_at = _interp_loglog(e_m_amp, e_s_amp, de_s)
+            for key, sel in (("high", hi), ("low", lo)):
+                ok = sel & np.isfinite(ds_at) & (de_m > 0)
+                out[f"energy_mismatch_{key}_pct"] = (float(100 * (np.median(ds_at[ok] / de_m[ok]) - 1))
+                                                     if ok.sum() >= 2 else float("nan"))
+    res = xm - xs
+    f, amp = spectrum(res - np.mean(res), rate)
+    _f, am_spec = spectrum(xm - np.mean(xm), rate)
+    f1 = float(f[np.argmax(am_spec[1:]) + 1]) if f.size > 2 else float("nan")
+    k = int(np.argmax(amp[1:]) + 1) if f.size > 2 else 0
+    out["main_frequency_hz"] = f1
+    out["residual_peak_hz"] = float(f[k])
+    out["residual_peak_ratio"] = float(f[k] / f1) if f1 > 0 else float("nan")
+    slow = (f > 0) & (f < 0.3 * f1)
+    p_meas = float(np.sum(am_spec ** 2)) or 1e-300
+    out["low_frequency_drift_pct"] = float(100 * np.sum(amp[slow] ** 2) / p_meas)
+    return out
+
+
+def baseline_symptoms(records: Sequence[Record], parts: Sequence[Part], sims: Sequence[np.ndarray],
+                      vsims: Sequence[np.ndarray | None], mass: float) -> list[Symptom]:
+    """The symptoms listed in the module notes, median over the held-out parts."""
+    rows = []
+    for p, xs, vs in zip(parts, sims, vsims):
+        r = records[p.record]
+        sl = slice(p.start, p.stop)
+        rows.append(_part_numbers(r.t[sl], r.x[sl], r.v[sl], xs, vs, mass, r.rate_hz))
+
+    def med(key: str) -> float:
+        vals = [row[key] for row in rows if key in row and np.isfinite(row[key])]
+        if not vals and any(key in row and row[key] == float("inf") for row in rows):
+            return float("inf")
+        return float(np.median(vals)) if vals else float("nan")
+
+    out: list[Symptom] = []
+    fh, fl = med("frequency_bias_high_pct"), med("frequency_bias_low_pct")
+    if np.isfinite(fh) or np.isfinite(fl):
+        words = (f"the model's frequency is off by {fh:+.2f} % at large amplitude and {fl:+.2f} % at "
+                 "small amplitude")
+        if np.isfinite(fh) and np.isfinite(fl) and abs(fh - fl) > THRESHOLDS["frequency_bias_pct"]:
+            words += ": the stiffness changes with amplitude differently from the model"
+        out.append(Symptom("frequency_bias", words, {"high_amplitude_pct": fh, "low_amplitude_pct": fl}))
+    eh, el = med("energy_mismatch_high_pct"), med("energy_mismatch_low_pct")
+    if np.isfinite(eh) or np.isfinite(el):
+        def side(v: float) -> str:
+            return "too much" if v > 0 else "too little"
+        words = (f"the model loses {abs(eh):.0f} % {side(eh)} energy per cycle at large amplitude and "
+                 f"{abs(el):.0f} % {side(el)} at small amplitude")
+        out.append(Symptom("energy_mismatch", words, {"high_amplitude_pct": eh, "low_amplitude_pct": el}))
+    fr, ratio, f1 = med("residual_peak_hz"), med("residual_peak_ratio"), med("main_frequency_hz")
+    if np.isfinite(fr):
+        where = ("at the main frequency (a frequency or decay-rate error)" if abs(ratio - 1) < 0.05
+                 else f"at {ratio:.2f} times the main frequency ({f1:.4g} Hz)")
+        out.append(Symptom("residual_peak", f"the error has most of its power near {fr:.4g} Hz, {where}",
+                           {"frequency_hz": fr, "ratio_to_main": ratio, "main_frequency_hz": f1}))
+    d = med("low_frequency_drift_pct")
+    if np.isfinite(d):
+        out.append(Symptom("low_frequency_drift",
+                           f"{d:.1f} % of the measured power is a slow error below 0.3 times the main "
+                           "frequency (drift, a slow sensor or base motion)", {"power_pct": d}))
+    g = med("growth_ratio")
+    if np.isfinite(g) or g == float("inf"):
+        words = ("the simulation diverges" if g == float("inf") else
+                 f"at the end of the record the simulation's amplitude is {g:.2f} times the measured one")
+        if np.isfinite(g) and g > THRESHOLDS["growth_ratio"]:
+            words += " (it decays too slowly or grows)"
+        out.append(Symptom("growth", words, {"ratio": g}))
+    return out
+
+
+def notable(s: Symptom) -> bool:
+    """True when the symptom is beyond its threshold (worth saying)."""
+    v = s.values
+    if s.kind == "frequency_bias":
+        return any(abs(v.get(k, 0.0)) > THRESHOLDS["frequency_bias_pct"] for k in v if np.isfinite(v[k]))
+    if s.kind == "energy_mismatch":
+        return any(abs(v.get(k, 0.0)) > THRESHOLDS["energy_mismatch_pct"] for k in v if np.isfinite(v[k]))
+    if s.kind == "low_frequency_drift":
+        return v.get("power_pct", 0.0) > THRESHOLDS["low_frequency_drift_pct"]
+    if s.kind == "growth":
+        return not np.isfinite(v.get("ratio", 1.0)) or v["ratio"] > THRESHOLDS["growth_ratio"]
+    if s.kind == "residual_peak":
+        return abs(v.get("ratio_to_main", 1.0) - 1.0) >= 0.05
+    return True  # measurement-chain findings are always worth saying

@@ -1,0 +1,52 @@
+"""Measurement-chain findings: double hits, clipping, base motion and a wrong mass are reported
+with numbers (checked on rig records; no fitting, so these run in seconds), and silent on a
+clean capture."""
+
+from __future__ import annotations
+
+import pytest
+
+from eddi.diagnosis.chain import inspect
+from tests.eddi.diagnose_cases import SYSTEM, rig_records
+
+
+def kinds(symptoms) -> list[str]:
+    return [s.kind for s in symptoms]
+
+
+def test_clean_captures_raise_nothing() -> None:
+    recs = rig_records(31, forces=(20.0, 30.0), record_s=1.5)
+    assert inspect(recs, SYSTEM.mass, 12.3) == []
+
+
+def test_double_hit_is_reported_with_its_delay() -> None:
+    recs = rig_records(32, forces=(25.0,), record_s=1.5, double_hit=True)
+    found = [s for s in inspect(recs, SYSTEM.mass, 12.3) if s.kind == "double_hit"]
+    assert len(found) == 1
+    # the rig's hammer: second pulse 4 ms after the first, 30 % of its peak
+    assert found[0].values["delay_s"] == pytest.approx(4e-3, abs=3e-4)
+    assert found[0].values["ratio"] == pytest.approx(0.3, abs=0.05)
+
+
+def test_clipping_is_reported_on_the_overloaded_channel() -> None:
+    recs = rig_records(33, forces=(30.0,), record_s=1.5, acc_range=8.0)
+    found = [s for s in inspect(recs, SYSTEM.mass, 12.3) if s.kind == "clipping"]
+    assert len(found) == 1 and "acceleration" in found[0].text
+    assert found[0].values["samples"] >= 5
+
+
+def test_base_motion_is_reported_at_its_frequency() -> None:
+    recs = rig_records(34, forces=(25.0,), record_s=3.0,
+                       base_motion={"mass_kg": 2.0, "frequency_hz": 1.5, "damping_ratio": 0.05})
+    found = [s for s in inspect(recs, SYSTEM.mass, 12.3) if s.kind == "base_motion"]
+    assert len(found) == 1
+    assert found[0].values["frequency_hz"] == pytest.approx(1.5, abs=0.4)
+
+
+def test_mass_that_disagrees_with_the_hammer_impulse() -> None:
+    recs = rig_records(35, forces=(20.0, 30.0), record_s=1.0)
+    assert "impulse_mass" not in kinds(inspect(recs, SYSTEM.mass, 12.3))
+    found = [s for s in inspect(recs, 1.5 * SYSTEM.mass, 12.3) if s.kind == "impulse_mass"]
+    assert len(found) == 1
+    assert found[0].values["impulse_mass_kg"] == pytest.approx(SYSTEM.mass, rel=0.08)
+    assert found[0].values["mismatch_pct"] == pytest.approx(-33.3, abs=6.0)
