@@ -33,7 +33,7 @@ from eddi.errors import EddiError
 #: A slow peak must stand this many times over the spectrum between it and the resonance.
 BASE_CONTRAST = 5.0
 #: Corners tried [Hz] (0: the records as conditioned).
-CORNERS_HZ = (0.0, 0.1, 0.18, 0.33, 0.6, 1.1, 2.0, 3.6)
+CORNERS_HZ = (0.0, 0.1, 0.14, 0.2, 0.28, 0.41, 0.58, 0.83, 1.2, 1.7, 2.5, 3.5, 5.0)
 
 
 def _recondition(rec: Record, corner_hz: float) -> Record | None:

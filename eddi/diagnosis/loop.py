@@ -25,7 +25,8 @@ from eddi.diagnosis.chain import inspect, sensor_highpass
 from eddi.diagnosis.extend import Setup
 from eddi.diagnosis.measure import noise_floor
 from eddi.diagnosis.name import (
-    Decision, Fitter, all_masks, build_candidates, check_trainable, decide, judge_folds, rank, spread_of,
+    Decision, Fitter, all_masks, build_candidates, check_trainable, decide, judge_baseline, judge_candidates,
+    rank, spread_of, within_floor,
 )
 from eddi.diagnosis.observed import Observed, observed_second_mode
 from eddi.diagnosis.records import Record, split
@@ -123,16 +124,26 @@ def diagnose(
     scheme, parts, fold_masks = split(records, n_bands)
     fitter = Fitter([r.signal() for r in records], setup)
 
-    # show + name: per fold, the baseline and every mechanism judged on the held-out part
-    res = judge_folds(records, setup, cat, skipped, parts, fold_masks, fitter)
+    # show: per fold, the baseline judged on the held-out part; measure: the noise floor
+    res, fold_fits = judge_baseline(records, setup, parts, fold_masks, fitter)
     fit_all = fitter(all_masks(records))
     bfit_all = fit_all(None, None)
     if bfit_all is None:
         raise ModelError("the baseline could not be fitted on all the data")
     baseline = Score(model=bfit_all.eom, nrmse=float(np.mean(res.base_fold)),
                      fold_nrmse=tuple(res.base_fold), nmte=float(np.mean(res.base_nmte)))
+    floor = noise_floor(records, setup, parts, fold_masks, res.base_sims)
+    quiet = within_floor(res.base_fold, floor, none_factor)
+    if quiet:
+        # nothing to explain: no candidate can change the verdict, none is fitted
+        why = f"not tried: the baseline is within {none_factor:g}x the noise floor"
+        skipped = {name: why for name in skipped}
+        if "sensor_highpass" in chosen:
+            skipped["sensor_highpass"] = why
+    # name: per fold, every mechanism added, refitted on the training parts, judged held out
+    judge_candidates(res, fold_fits, records, setup, cat, skipped, parts, fold_masks, fitter)
     observed: Observed | None = None
-    if any(m.name == "second_mode" for m in cat) and all(r.force is None for r in records):
+    if not quiet and any(m.name == "second_mode" for m in cat) and all(r.force is None for r in records):
         observed = observed_second_mode(records, parts, fold_masks, res.base_sims,
                                         _frequency(bfit_all.eom), tuple(modal_damping),
                                         tuple(modal_stiffness))
@@ -140,12 +151,14 @@ def diagnose(
                                                   consistency, setup.stiffness, observed)
     chain_sims: list[np.ndarray] = []
     if "sensor_highpass" in chosen:
-        hp, chain_sims = sensor_highpass(records, setup, parts, fold_masks, res.base_fold, consistency)
-        candidates.append(hp)
+        if quiet:
+            candidates.append(Candidate("sensor_highpass", float("nan"), (), float("nan"), False, False,
+                                        {}, {}, None, "", skipped["sensor_highpass"]))
+        else:
+            hp, chain_sims = sensor_highpass(records, setup, parts, fold_masks, res.base_fold, consistency)
+            candidates.append(hp)
     candidates = rank(candidates)
 
-    # measure: the floor, the symptoms, the verdict
-    floor = noise_floor(records, setup, parts, fold_masks, res.base_sims)
     symptoms = baseline_symptoms(records, parts, res.base_sims, res.base_vsims, setup.mass)
     symptoms += inspect(records, setup.mass, _frequency(bfit_all.eom))
     dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor)

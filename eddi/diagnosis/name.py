@@ -21,7 +21,7 @@ from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.results import Candidate, NoiseFloor
 from eddi.diagnosis.settings import NRMSE_CAP, REFERENCE_MARGIN
 from eddi.diagnosis.show import nmte, nrmse, simulate_part, simulate_part_xv
-from eddi.errors import ModelError, SignalError
+from eddi.errors import IdentificationError, ModelError, SignalError
 
 FitFn = Callable[[Mechanism | None, Fit | None], Fit | None]
 
@@ -71,27 +71,51 @@ class FoldResults:
     cand_sims: dict[str, list[np.ndarray]] = field(default_factory=dict)
 
 
-def judge_folds(records: Sequence[Record], setup: Setup, cat: Sequence[Mechanism],
-                skipped: dict[str, str | None], parts: Sequence[Part],
-                fold_masks: Sequence[Sequence[np.ndarray]], fitter: Fitter) -> FoldResults:
-    """Per fold: the baseline and every mechanism fitted on the training parts, simulated on
-    the held-out one."""
-    res = FoldResults(cand_fold={m.name: [] for m in cat}, cand_params={m.name: [] for m in cat},
-                      cand_sims={m.name: [] for m in cat})
-    tried = [m for m in cat if not skipped[m.name]]
-    need_ee = setup.fit == "eddi" and any(not m.native for m in tried)
+def judge_baseline(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
+                   fold_masks: Sequence[Sequence[np.ndarray]], fitter: Fitter
+                   ) -> tuple[FoldResults, list[tuple[FitFn, Fit]]]:
+    """Per fold: the baseline fitted on the training parts, simulated on the held-out one.
+
+    Returns the results and, per fold, the fitting function and the baseline fit (reused by
+    :func:`judge_candidates`)."""
+    res = FoldResults()
+    fits = []
     for part, masks in zip(parts, fold_masks):
         rec = records[part.record]
-        xm = rec.x[part.start:part.stop]
-        fit_fold = fitter(masks)
-        bfit = fit_fold(None, None)
+        try:
+            fit_fold = fitter(masks)
+            bfit = fit_fold(None, None)
+        except IdentificationError as exc:
+            raise SignalError(f"held out {part.label}, the other records hold too little to fit the baseline "
+                              f"({exc}): give fewer terms (e.g. --damping v --stiffness x,x^3) or longer "
+                              "records") from None
         if bfit is None:
             raise ModelError("the baseline could not be fitted on the training parts")
         xb, vb = simulate_part_xv(bfit.eom, rec, part)
-        res.base_fold.append(nrmse(xb, xm))
+        res.base_fold.append(nrmse(xb, rec.x[part.start:part.stop]))
         res.base_nmte.append(nmte(vb, rec.v[part.start:part.stop]))
         res.base_sims.append(xb)
         res.base_vsims.append(vb)
+        res.base_coefs.append({**{f"b[{k}]": v for k, v in bfit.eom.damping.items()},
+                               **{f"k[{k}]": v for k, v in bfit.eom.stiffness.items()}})
+        fits.append((fit_fold, bfit))
+    return res, fits
+
+
+def judge_candidates(res: FoldResults, fits: Sequence[tuple[FitFn, Fit]], records: Sequence[Record],
+                     setup: Setup, cat: Sequence[Mechanism], skipped: dict[str, str | None],
+                     parts: Sequence[Part], fold_masks: Sequence[Sequence[np.ndarray]],
+                     fitter: Fitter) -> None:
+    """Per fold: every mechanism added to the fold's baseline, fitted on the training parts
+    and simulated on the held-out one (filled into ``res``)."""
+    res.cand_fold = {m.name: [] for m in cat}
+    res.cand_params = {m.name: [] for m in cat}
+    res.cand_sims = {m.name: [] for m in cat}
+    tried = [m for m in cat if not skipped[m.name]]
+    need_ee = setup.fit == "eddi" and any(not m.native for m in tried)
+    for part, masks, (fit_fold, bfit) in zip(parts, fold_masks, fits):
+        rec = records[part.record]
+        xm = rec.x[part.start:part.stop]
         if need_ee:
             # a mechanism refitted by equation error is judged against the baseline fitted
             # the same way, so it cannot win by its fitter rather than by its physics
@@ -99,8 +123,6 @@ def judge_folds(records: Sequence[Record], setup: Setup, cat: Sequence[Mechanism
                        base=setup.base, coordinate=setup.coordinate, fit="equation-error")
             ee_fit = fit_ee(fitter.sigs, masks, ee, None)
             res.ee_ref.append(nrmse(simulate_part(ee_fit.eom, rec, part), xm) if ee_fit else NRMSE_CAP)
-        res.base_coefs.append({**{f"b[{k}]": v for k, v in bfit.eom.damping.items()},
-                               **{f"k[{k}]": v for k, v in bfit.eom.stiffness.items()}})
         for mech in tried:
             fit = fit_fold(mech, bfit)
             if fit is None or fit.mech is None:
@@ -111,7 +133,11 @@ def judge_folds(records: Sequence[Record], setup: Setup, cat: Sequence[Mechanism
             res.cand_fold[mech.name].append(nrmse(xe, xm))
             res.cand_sims[mech.name].append(xe)
             res.cand_params[mech.name].append(fit.mech.params)
-    return res
+
+
+def within_floor(base_fold: Sequence[float], floor: NoiseFloor, none_factor: float) -> bool:
+    """The baseline's mean held-out nrmse within ``none_factor`` of the floor, no part lost."""
+    return float(np.mean(base_fold)) <= none_factor * floor.nrmse and max(base_fold) < NRMSE_CAP
 
 
 def spread_of(plist: Sequence[dict[str, float]], keys: Sequence[str]) -> dict[str, float]:
@@ -213,7 +239,7 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
     cannot win by its fitter. A baseline lost on any part (nrmse at the cap) is never
     ``none``."""
     base = float(np.mean(base_fold))
-    within = base <= none_factor * floor.nrmse and max(base_fold) < NRMSE_CAP
+    within = within_floor(base_fold, floor, none_factor)
     tried = [c for c in candidates if not c.skipped and c.model is not None]
     helpful = [c for c in tried if c.wins_every_part and c.gain > 0]
     partial = helpful[0] if helpful else None

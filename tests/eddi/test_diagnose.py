@@ -137,8 +137,15 @@ def test_single_capture_is_judged_on_amplitude_bands() -> None:
     starts = [p.start for p in d.parts]
     assert starts == sorted(starts)
     assert all(a.stop <= b.start for a, b in zip(d.parts, d.parts[1:]))
-    assert d.cause == "coulomb_friction", d.verdict
-    assert d.gain >= 0.5
+    # the top band is judged above the training amplitudes (an extrapolation the noise floor
+    # does not cover): friction halves the error but stays far above the floor, so it is the
+    # best partial explanation, not a confident name
+    assert d.cause == "unexplained", d.verdict
+    assert d.partial == "coulomb_friction"
+    best = next(c for c in d.candidates if c.name == "coulomb_friction")
+    assert best.nrmse <= 0.5 * d.baseline.nrmse and best.wins_every_part
+    assert best.nrmse > NAMED_FACTOR * d.noise_floor.nrmse
+    assert "follows" not in d.verdict + d.symptom
 
 
 def test_given_base_model_keeps_its_coefficients() -> None:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import pytest
 
 from eddi.diagnosis import NAMED_FACTOR, NONE_FACTOR, diagnose
+from eddi.errors import SignalError
 from eddi.model import EquationOfMotion
 from tests.eddi.diagnose_cases import DAMPING, STIFFNESS, SYSTEM, bouc_wen_records, rig_records
 
@@ -39,9 +40,9 @@ def test_ac_coupled_accelerometer_is_named_and_its_corner_estimated() -> None:
     assert d.cause == "sensor_highpass", d.verdict
     assert d.extended.nrmse <= 0.5 * d.baseline.nrmse
     assert d.extended.nrmse <= NAMED_FACTOR * d.noise_floor.nrmse
-    # estimated from the records alone (no metadata): grid 0.1-3.6 Hz in steps of about 1.8x
+    # estimated from the records alone (no metadata): grid 0.1-5 Hz in steps of 1.43x
     hp = next(c for c in d.candidates if c.name == "sensor_highpass")
-    assert 0.3 <= hp.params["corner_hz"] <= 1.1
+    assert 0.35 <= hp.params["corner_hz"] <= 0.85
 
 
 def test_six_captures_from_two_acquire_runs_give_none() -> None:
@@ -83,12 +84,26 @@ def test_two_high_passes_are_not_a_physical_mechanism() -> None:
 
 @pytest.mark.parametrize("seed", [7])
 def test_short_sticking_friction_ring_down_is_used(seed: int) -> None:
-    """A friction ring-down that sticks after a few cycles is data, not an error."""
+    """A friction ring-down that sticks after a few cycles is data, not an error: it is
+    conditioned (3 crossings suffice), judged as a held-out part, and a library it cannot
+    support is refused in one line that says what to do."""
     from eddi.model import Effect
 
     recs = rig_records(seed, forces=(4.0, 5.0, 6.0), record_s=1.5,
                        effects=[Effect(name="coulomb_friction", params={"force_n": 0.03})])
-    d = diagnose(recs, SYSTEM.mass, damping=DAMPING, stiffness=STIFFNESS,
+    from eddi.energy import zero_crossings
+
+    crossings = [zero_crossings(r.t[r.free_start:r.free_stop], r.x[r.free_start:r.free_stop],
+                                r.v[r.free_start:r.free_stop]).size for r in recs]
+    assert min(crossings) < 6  # refused before ("record has 5 zero crossings")
+    # a short record holds few half cycles: a small library is what it can support
+    d = diagnose(recs, SYSTEM.mass, damping="v", stiffness="x,x^3",
                  mechanisms=["coulomb_friction", "quadratic_damping"])
     contract(d)
-    assert d.cause in ("coulomb_friction", "unexplained"), d.verdict
+    assert d.scheme == "leave-one-record-out" and len(d.parts) == 3
+    # used for what they hold: judged, never a wrong physical name (on this seed the floor of
+    # such short records, 0.19, is too high to tell the friction: docs/diagnosis.md limits)
+    assert d.cause in ("coulomb_friction", "unexplained", "none"), d.verdict
+    assert d.noise_floor.nrmse > 0.05  # short, re-conditioned records: a high floor, stated
+    with pytest.raises(SignalError, match="give fewer terms"):
+        diagnose(recs, SYSTEM.mass, damping=DAMPING, stiffness=STIFFNESS, mechanisms=["coulomb_friction"])
