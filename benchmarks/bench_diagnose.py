@@ -34,6 +34,7 @@ import numpy as np
 
 from eddi.conditioning import condition
 from eddi.diagnosis import DEFAULT_MARGIN, Record, diagnose
+from eddi.errors import EddiError
 from eddi.model import EquationOfMotion
 from eddi.simulate import simulate
 from simulated_rig.bench import impact_test
@@ -191,7 +192,7 @@ def calibration_summary(path: str) -> None:
                   f"({r['spring']}, {r['rate_hz']:.0f} Hz, {r['snr_db']:.0f} dB, {r['captures']} captures)")
     groups = defaultdict(list)
     for r in rows:
-        if r.get("kind") == "ladder":
+        if r.get("kind") == "ladder" and "error" not in r:
             groups[(r["mechanism"], r["snr_db"], r["magnitude"])].append(r)
     for (name, snr, mag), g in sorted(groups.items()):
         n = len(g)
@@ -328,7 +329,11 @@ def main() -> None:
             for snr in [float(x) for x in args.snrs.split(",")]:
                 for mag in [float(m) for m in args.magnitudes.split(",")]:
                     for seed in range(args.seed0, args.seed0 + args.seeds):
-                        emit(ladder_case(name, mag, seed, snr), args.out)
+                        try:
+                            emit(ladder_case(name, mag, seed, snr), args.out)
+                        except (EddiError, ValueError) as exc:  # a case the chain refuses: say so
+                            emit({"kind": "ladder", "mechanism": name, "magnitude": mag, "seed": seed,
+                                  "snr_db": snr, "error": str(exc)}, args.out)
     if args.summary:
         summary(args.summary, args.margin)
         return

@@ -5,7 +5,7 @@ Example (``examples/bench.toml``)::
     notes = "Duffing oscillator, wires pre-tensioned"
 
     [device]
-    url = "sim://duffing"
+    url = "sim://duffing-smooth"
     rate_hz = 19200            # paper: 19200 Hz
 
     [[channels]]
@@ -70,7 +70,7 @@ class DeviceConfig(_Strict):
     @classmethod
     def _scheme(cls, v: str) -> str:
         if "://" not in v:
-            raise ValueError(f"expected a URL such as sim://duffing or serial:///dev/ttyACM0, got {v!r}")
+            raise ValueError(f"expected a URL such as sim://duffing-smooth or serial:///dev/ttyACM0, got {v!r}")
         return v
 
 

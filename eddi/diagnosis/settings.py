@@ -33,5 +33,8 @@ NONE_FACTOR = 5.0
 #: A named mechanism must leave the extended model within this factor of the noise floor
 #: (mean over the held-out parts); otherwise it is the best partial explanation.
 NAMED_FACTOR = 10.0
-#: Floors below this are raised to it (a noise-free record still has integration error).
-MIN_FLOOR = 0.01
+#: Floors below this are raised to it: the acceleration-only chain has a systematic error the
+#: noise draw does not show (conditioning and fit bias); on 193 nulls with floors pinned at
+#: 0.01 the baseline reached 0.066 (2 kHz, 50 dB), so 0.02 (set after those nulls; a fresh
+#: set, seeds 600-699, was run after the change: docs/diagnosis.md).
+MIN_FLOOR = 0.02

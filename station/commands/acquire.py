@@ -1,6 +1,6 @@
 """``station acquire``: record N triggered impacts into an HDF5 session file.
 
-    station acquire --device sim://duffing --impacts 5 --out session.h5 [--config bench.toml] [--json]
+    station acquire --device sim://duffing-smooth --impacts 5 --out session.h5 [--config bench.toml] [--json]
 
 Shows a live status on stderr (armed / triggered / levels / progress), saves each capture as
 soon as it completes, exits cleanly on Ctrl-C keeping what was saved. With a ``sim://``

@@ -237,5 +237,6 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
     if "saved_model" in obj:
         lines.append(f"Extended model written to {obj['saved_model']}")
     if "report" in obj:
-        lines.append(f"Report: {len(obj['report'])} figures in {Path(obj['report'][0]).parent if obj['report'] else ''}")
+        pngs = [f for f in obj["report"] if f.endswith(".png")]
+        lines.append(f"Report: {Path(obj['report'][-1])} and {len(pngs)} figures beside it")
     return "\n".join(lines)
