@@ -7,7 +7,8 @@ and the impact force at the driving point). Steps:
 2. **Coordinates.** ``modal`` when the tail shows as many modes as there are channels with
    well-separated shapes (``cond(Psi) <= max_shape_condition``) or fewer modes that span the
    measured motion (projection residual below ``span_tolerance``): ``q = pinv(Psi) y``.
-   Otherwise ``physical`` (one coordinate per channel): the motion has a part no linear mode
+   Otherwise (also when the tail needs more oscillating poles than there are channels)
+   ``physical`` (one coordinate per channel): the motion has a part no linear mode
    describes (a nonlinear energy sink has no linear stiffness, hence no linear mode). With
    ``coordinates="auto"`` the modal choice is also fitted in physical coordinates and
    dropped when the physical equations close (force balance) twice as well.
@@ -193,7 +194,8 @@ def choose_coordinates(records: Sequence[ChannelRecord], modes: LinearModes, *, 
     if coordinates == "physical":
         return "physical", np.eye(n_ch), span
     cond = float(np.linalg.cond(psi))
-    if coordinates == "modal" or (cond <= max_shape_condition and span <= span_tolerance):
+    too_many = modes.shapes.shape[1] > n_ch  # more oscillating poles than the channels can separate
+    if coordinates == "modal" or (cond <= max_shape_condition and span <= span_tolerance and not too_many):
         return "modal", psi, span
     return "physical", np.eye(n_ch), span
 
@@ -338,8 +340,9 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
     if highpass_hz is None or all(r.force is None for r in records):
         return first
     fixed = [restore_quasi_static(r, first.model) for r in records]
-    return _identify_once(fixed, channels, driving_point, d, first.coordinates, coupling, tail_fraction,
-                          max_freq_hz, prune)
+    second = _identify_once(fixed, channels, driving_point, d, first.coordinates, coupling, tail_fraction,
+                            max_freq_hz, prune)
+    return replace(second, notes=tuple(dict.fromkeys(first.notes + second.notes)))
 
 
 def receptance(model: MdofModel):
@@ -377,6 +380,9 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
     kind, tmat, span = choose_coordinates(records, modes, coordinates=coordinates)
     fits = _fit_all(records, tmat, coupling, prune)
     notes_pre: list[str] = []
+    if coordinates == "auto" and kind == "physical":
+        notes_pre.append(f"the tail's {modes.shapes.shape[1]} linear mode(s) for {tmat.shape[0]} channels are not a "
+                         f"modal basis of the motion (span residual {100 * span:.1f} %): physical coordinates kept")
     if coordinates == "auto" and kind == "modal":
         # the tail's modes may not be the structure's (a nonlinear attachment has none):
         # keep the modal coordinates only when their equations close as well as the physical
