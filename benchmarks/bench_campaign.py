@@ -104,9 +104,13 @@ def floor_loop(refs: list, n: int, opts: tasks.TaskOptions) -> tuple[float, floa
     return time.perf_counter() - t0, time.process_time() - c0, len(part)
 
 
-def run_on(workers: int, refs: list, out: Path, chunk: int, opts: tasks.TaskOptions) -> dict:
+def run_on(workers: int, refs: list, out: Path, chunk: int, opts: tasks.TaskOptions, idle_s: float = 5.0) -> dict:
     """One campaign on a fresh LocalCluster; figures of merit and the machine's load."""
     with dask_client(None, workers) as client:
+        client.run(tasks.warm_up)
+        i0, c0 = time.perf_counter(), _own_cpu_s()
+        time.sleep(idle_s)  # the cluster idle: its background CPU (heartbeats, event loops)
+        idle_cores = (_own_cpu_s() - c0) / (time.perf_counter() - i0)
         load0 = os.getloadavg()[0]
         busy0, own0 = _busy_cpu_s(), _own_cpu_s()
         res = run_campaign(client, refs, opts, Journal(out, opts.as_dict()), chunk=chunk, quiet=True)
@@ -122,7 +126,10 @@ def run_on(workers: int, refs: list, out: Path, chunk: int, opts: tasks.TaskOpti
             "task_median_s": statistics.median(task_s), "task_sum_s": sum(task_s),
             "load": (load0, load1), "others_cores": others / res.wall_s if res.wall_s else 0.0,
             "own_cores": (own1 - own0) / res.wall_s if res.wall_s else 0.0,
-            "cpu_per_capture_s": (own1 - own0) / res.processed if res.processed else float("nan")}
+            "cpu_per_capture_s": (own1 - own0) / res.processed if res.processed else float("nan"),
+            "idle_cores": idle_cores,
+            "net_cpu_per_capture_s": ((own1 - own0) - idle_cores * res.wall_s) / res.processed
+            if res.processed else float("nan")}
 
 
 def main() -> None:
@@ -165,7 +172,8 @@ def main() -> None:
                   f"peak memory per worker {', '.join(f'{m:.0f}' for m in r['mem'])} MiB; "
                   f"load avg {r['load'][0]:.2f} -> {r['load'][1]:.2f}, this run used {r['own_cores']:.2f} cores, "
                   f"other processes {r['others_cores']:.2f} cores; CPU per capture {1000 * r['cpu_per_capture_s']:.0f} ms "
-                  f"(client + scheduler + nannies + workers)")
+                  f"(client + scheduler + nannies + workers; {1000 * r['net_cpu_per_capture_s']:.0f} ms without the "
+                  f"idle cluster's {r['idle_cores']:.3f} cores of background)")
         base = next((r for r in results if r["workers"] == 1), None)
         if base is not None:
             for r in results:
@@ -177,13 +185,16 @@ def main() -> None:
                     print(f"  on {r['workers']} cores of its own it would be {cpu_sp:.2f}x (workers x the ratio of CPU "
                           f"per capture, {1000 * base['cpu_per_capture_s']:.0f} ms on 1 worker vs "
                           f"{1000 * r['cpu_per_capture_s']:.0f} ms on {r['workers']}): an estimate, not a measurement")
+                    print(f"  floor CPU per capture {1000 * fl_cpu / fl_n:.0f} ms vs campaign net "
+                          f"{1000 * r['net_cpu_per_capture_s']:.0f} ms: Dask's cost per capture "
+                          f"{1000 * (r['net_cpu_per_capture_s'] - fl_cpu / fl_n):.0f} ms")
             widest = max(results, key=lambda r: r["workers"])
             eff = min(1.0, widest["rate"] / (widest["workers"] * base["rate"]))
             per_worker = base["rate"]
             print(f"projection for 1,000,000 captures (per-worker rate {per_worker:.2f}/s measured on 1 worker, "
                   f"parallel efficiency {eff:.2f} measured on {widest['workers']}; the Dask scheduler handles a few thousand "
                   f"tasks/s, so beyond ~{int(2000 * args.chunk / max(per_worker, 1e-9))} workers use --chunk):")
-            cpu_rate = 1.0 / widest["cpu_per_capture_s"]  # captures per core-second, all overheads in
+            cpu_rate = 1.0 / widest["net_cpu_per_capture_s"]  # captures per core-second, net of idle background
             print(f"  {'workers':>7}  {'from wall rates here':>20}  {'from CPU per capture (own cores)':>32}")
             for n in (2, 16, 64, 256, 1024):
                 rate = min(n * per_worker * eff, 2000.0 * args.chunk)

@@ -1,6 +1,6 @@
 """Report generation time for 45 s captures (target: under 5 s; paper Sec. 3.3.1 records 45 s).
 
-Run: ``python benchmarks/bench_report.py [REPEATS]``. Records two impacts (600 N and 1110 N,
+Run: python benchmarks/bench_report.py [REPEATS]. Records two impacts (600 N and 1110 N,
 paper Fig. 12 levels) of 1 s pre-trigger + 44 s from ``sim://duffing-smooth`` through the pty
 and the serial driver, then times, separately: reading + identification + validation
 (:func:`station.session.run_session`) and the report itself (:func:`station.report.write_report`:
@@ -10,22 +10,22 @@ line per stage and repeat, then the best report time.
 
 from __future__ import annotations
 
-import sys
+import argparse
 import tempfile
 import time
 from pathlib import Path
-
-from station.capture import ImpactPlan, acquire, configure_device, device_metadata
-from station.config import parse_config
-from station.devices import open_device
-from station.session import read_all, run_session
-from station.report import write_report
-from station.storage import CaptureWriter
 
 DEVICE = "sim://duffing-smooth"
 
 
 def main(repeats: int = 3) -> None:
+    from station.capture import ImpactPlan, acquire, configure_device, device_metadata
+    from station.config import parse_config
+    from station.devices import open_device
+    from station.report import write_report
+    from station.session import read_all, run_session
+    from station.storage import CaptureWriter
+
     cfg = parse_config({"device": {"url": DEVICE},
                         "trigger": {"level_n": 50.0, "pretrigger_s": 1.0, "record_s": 44.0, "holdoff_s": 5.0},
                         "specimen": {"mass_kg": 0.815}})  # paper Sec. 3.3.1: 0.815 kg
@@ -52,4 +52,7 @@ def main(repeats: int = 3) -> None:
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 3)
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter,
+                                 epilog=__doc__.split("\n\n", 1)[1])
+    ap.add_argument("repeats", nargs="?", type=int, default=3, help="report repeats (default: %(default)s)")
+    main(ap.parse_args().repeats)

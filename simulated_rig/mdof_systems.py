@@ -279,3 +279,65 @@ def _amplitude_guess(eom: MdofModel, peak_n: float, hammer: HammerSpec) -> float
     f = eom.natural_frequencies_hz()
     w = 2 * math.pi * max(float(f[f > 0].min()) if np.any(f > 0) else 1.0, 1.0)
     return impulse / (min(eom.mass) * w)
+
+
+def system_and_model(spec: str) -> tuple[MdofSystem, MdofModel]:
+    """A built-in name, a system file, or a model JSON (``"kind": "mdof"``, e.g. an identified one).
+
+    A model runs with the default test settings (rate, record, hammer) of :class:`MdofSystem`.
+
+    Raises
+    ------
+    ScenarioError
+    """
+    path = Path(spec)
+    if path.suffix.lower() == ".json" and path.is_file():
+        from eddi.errors import ModelError
+        from eddi.mdof.model import is_mdof_json
+
+        text = path.read_text()
+        if is_mdof_json(text):
+            try:
+                model = MdofModel.from_json(text)
+            except ModelError as exc:
+                raise ScenarioError(f"{path}: {exc}") from None
+            system = MdofSystem(name=path.stem, description=model.notes, masses_kg=model.mass, elements=(),
+                                driving_point=model.channels.index(model.driving_point) + 1)
+            return system, model
+    system = load_mdof_system(spec)
+    return system, system.model()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m simulated_rig.mdof_systems SYSTEM|FILE --out DIR``: write impact records as CSV."""
+    import argparse
+    import sys
+
+    ap = argparse.ArgumentParser(
+        prog="python -m simulated_rig.mdof_systems",
+        description="Hit a multi-DOF system of the simulated rig (a built-in name, a system TOML/JSON, or an "
+                    "mdof model JSON such as one `station diagnose --save-model` wrote) and write each "
+                    "record as CSV t,force,acc1..accN.")
+    ap.add_argument("system", help=f"one of {', '.join(mdof_systems())}, or a file")
+    ap.add_argument("--out", required=True, help="existing directory for the CSV files")
+    ap.add_argument("--peaks", help="peak forces [N], comma-separated (default: the system's)")
+    ap.add_argument("--snr-db", type=float, default=45.0, help="SNR of every accelerometer [dB] (default 45)")
+    ap.add_argument("--seed", type=int, default=0, help="noise seed of the first record (then +1 each)")
+    args = ap.parse_args(argv)
+    try:
+        system, model = system_and_model(args.system)
+        peaks = [float(p) for p in args.peaks.split(",")] if args.peaks else list(system.impacts_n)
+        out = Path(args.out)
+        if not out.is_dir():
+            raise ScenarioError(f"--out {out}: expected an existing directory")
+        for k, peak in enumerate(peaks):
+            rec = mdof_impact_test(system, peak, snr_db=args.snr_db, seed=args.seed + k, model=model)
+            print(rec.write_csv(out / f"{system.name}-{k}.csv"))
+    except (ScenarioError, ValueError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -35,6 +35,7 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 import tty
@@ -94,19 +95,19 @@ class PtyServer:
                 raise
         self.control = control
         self._control_sock: socket.socket | None = None
-        if control is not None:
-            if os.path.exists(control) and _is_socket(control):
-                os.unlink(control)  # a socket left by an earlier server (never another kind of file)
-            self._control_sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-            self._control_sock.bind(control)
-            self._control_sock.listen(4)
-            self._control_sock.setblocking(False)
         self._out = bytearray()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._t0: float | None = None
         self._produced = 0
         self.error: BaseException | None = None
+        if control is not None:
+            try:
+                self._control_sock = _listen(control)
+            except BaseException:
+                self.control = None  # not ours: close() must not remove it
+                self.close()
+                raise
 
     # ------------------------------------------------------------------ lifetime
     def start(self) -> "PtyServer":
@@ -238,6 +239,41 @@ class PtyServer:
         except (RigError, ValueError) as exc:
             return {"error": str(exc)}
         return {"at_sample": self.device.next_sample + self.device.pending_samples, "peak_force_n": peak}
+
+
+def _listen(control: str) -> socket.socket:
+    """A listening UNIX socket at ``control``, replacing only a dead socket left there.
+
+    Raises
+    ------
+    RigError
+        When a live rig serves there, or the path holds another kind of file.
+    """
+    if _is_socket(control):
+        if _answers(control):
+            raise RigError(f"--control {control}: another rig serves there; stop it or choose another path")
+        os.unlink(control)  # a socket left by an earlier server
+    elif os.path.lexists(control):
+        raise RigError(f"--control {control}: exists and is not a socket; refusing to replace it")
+    sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    try:
+        sock.bind(control)
+        sock.listen(4)
+        sock.setblocking(False)
+    except OSError as exc:
+        sock.close()
+        raise RigError(f"--control {control}: cannot listen there ({exc.strerror or exc})") from None
+    return sock
+
+
+def _answers(path: str) -> bool:
+    """True when a server accepts connections on the UNIX socket ``path``."""
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as sock:
+        try:
+            sock.connect(path)
+            return True
+        except OSError:
+            return False
 
 
 def _is_socket(path: str) -> bool:
@@ -422,7 +458,8 @@ class RigProcess:
         env["PYTHONPATH"] = os.pathsep.join([here] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
         self.system = system
         self.port: str | None = None
-        self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        self._stderr = tempfile.TemporaryFile()  # a file, not a pipe: a chatty rig can never block on it
+        self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._stderr,
                                       env=env, start_new_session=True)
 
     @property
@@ -445,8 +482,14 @@ class RigProcess:
         try:
             self.port = str(json.loads(line.decode())["port"])
         except (ValueError, KeyError, TypeError):
+            if ready:  # it said something that is not the port: it is exiting; let it finish
+                try:
+                    self._proc.wait(timeout=10.0)
+                except subprocess.TimeoutExpired:
+                    pass
+            self._stderr.seek(0)
+            err = self._stderr.read().decode(errors="replace").strip()
             self.close()
-            err = (self._proc.stderr.read() if self._proc.stderr else b"").decode(errors="replace").strip()
             why = err.splitlines()[-1] if err else f"no answer within {timeout_s:g} s"
             raise RigError(f"the simulated rig {self.system!r} did not start: {why}") from None
         return self.port
@@ -462,7 +505,7 @@ class RigProcess:
             except (OSError, subprocess.TimeoutExpired):
                 proc.kill()
                 proc.wait()
-        for f in (proc.stdin, proc.stdout, proc.stderr):
+        for f in (proc.stdin, proc.stdout, self._stderr):
             if f is not None and not f.closed:
                 f.close()
 

@@ -245,6 +245,7 @@ def acquire(
     settings = config.trigger_settings(channels, rate)
     scale = np.array([c.scale for c in channels])
     offset = np.array([c.offset for c in channels])
+    _check_session(writer, rate, config.specimen.mass_kg, [c.name for c in channels])
     trig = Trigger(settings, channels, rate)
     policy = (config.trigger.on_double_hit, config.trigger.on_overload)
     units = {c.name: c.unit for c in channels}
@@ -378,6 +379,19 @@ def _blow_of(blows: list[tuple[int, float, bool]], trigger_sample: int) -> tuple
     """(peak, double hit) of the last scheduled blow at or before a trigger sample."""
     before = [b for b in blows if b[0] <= trigger_sample]
     return (before[-1][1], before[-1][2]) if before else None
+
+
+def _check_session(writer: CaptureWriter, rate_hz: float, mass_kg: float | None, channels: list[str]) -> None:
+    """Refuse to append a run whose rate, mass or channels disagree with the file's session."""
+    from station.session_writer import disagreement, last_capture_attrs
+
+    last = last_capture_attrs(writer.path)
+    if last is None:
+        return
+    problem = disagreement(last, rate_hz, mass_kg, channels)
+    if problem is not None:
+        raise StationError(f"{writer.path}: this run's {problem} (capture {last.get('index', '?')}); "
+                           "write this run to another file")
 
 
 def device_metadata(daq: Any, url: str | None = None) -> dict[str, Any]:

@@ -57,8 +57,26 @@ def is_user_error(exc: BaseException) -> bool:
             return True
     return False
 
+#: Optional libraries -> the extra that installs them (``pip install "eddi-station[EXTRA]"``).
+OPTIONAL_MODULES: dict[str, str] = {"matplotlib": "report", "dask": "campaign", "distributed": "campaign",
+                                    "pyarrow": "campaign", "libusb_package": "usb"}
+
+
+def missing_extra(exc: BaseException) -> str | None:
+    """The one-line error for a missing optional library, or None when ``exc`` is not that."""
+    if not isinstance(exc, ModuleNotFoundError) or exc.name is None:
+        return None
+    extra = OPTIONAL_MODULES.get(exc.name.split(".")[0])
+    if extra is None:
+        return None
+    return f"this needs {exc.name.split('.')[0]}, which is not installed: pip install \"eddi-station[{extra}]\""
+
+
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
+
+#: Commands that draw their own live status (the others get :class:`station.progress.Working`).
+OWN_PROGRESS = frozenset({"acquire", "demo", "rig", "campaign"})
 
 
 _ROLE = re.compile(r":[a-z]+:`~?([^`]+)`")
@@ -125,6 +143,18 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _missing_package(exc: ModuleNotFoundError) -> int:
+    """One line for an installation that lacks a package the command needs; exit code 2."""
+    extra = missing_extra(exc)
+    if extra is not None:  # an optional library: name the extra that installs it
+        print(f"station: error: {extra}", file=sys.stderr)
+        return EXIT_USER_ERROR
+    name = exc.name or str(exc)
+    print(f"station: error: this command needs the Python package '{name}', which is not installed "
+          f"(reinstall with `pip install -e .` or add the extra that names it)", file=sys.stderr)
+    return EXIT_USER_ERROR
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI and return the exit code."""
     if argv is None:
@@ -137,11 +167,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:  # Ctrl-C while the command's modules load
         print("station: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except ModuleNotFoundError as exc:
+        return _missing_package(exc)
     try:
-        return int(args.func(args) or 0)
+        from station.progress import Working
+
+        quiet = bool(getattr(args, "json", False)) or args.command in OWN_PROGRESS
+        with Working(f"station {args.command}", enabled=not quiet):
+            return int(args.func(args) or 0)
     except KeyboardInterrupt:
         print("station: interrupted (what was saved is kept)", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except ModuleNotFoundError as exc:
+        return _missing_package(exc)
     except Exception as exc:
         if is_user_error(exc):
             print(f"station: error: {exc}", file=sys.stderr)

@@ -5,7 +5,7 @@ Example (``examples/bench.toml``)::
     notes = "Duffing oscillator, wires pre-tensioned"
 
     [device]
-    url = "sim://duffing"
+    url = "sim://duffing-smooth"
     rate_hz = 19200            # paper: 19200 Hz
 
     [[channels]]
@@ -70,7 +70,7 @@ class DeviceConfig(_Strict):
     @classmethod
     def _scheme(cls, v: str) -> str:
         if "://" not in v:
-            raise ValueError(f"expected a URL such as sim://duffing or serial:///dev/ttyACM0, got {v!r}")
+            raise ValueError(f"expected a URL such as sim://duffing-smooth or serial:///dev/ttyACM0, got {v!r}")
         return v
 
 
@@ -120,6 +120,8 @@ class SpecimenConfig(_Strict):
 
     mass_kg: float | None = Field(default=None, gt=0, allow_inf_nan=False, description="oscillating mass [kg]")
     name: str = ""
+    driving_point: str | None = Field(default=None, description="multi-DOF: the response channel at the "
+                                      "hammer (acc1, acc_tip ...); default the first response channel")
 
 
 class IdentifyConfig(_Strict):

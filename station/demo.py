@@ -49,8 +49,8 @@ class DemoResult:
     device : str
     session_file, model_file : Path
         ``OUT/session.h5`` and ``OUT/model.json``.
-    report : Report
-        ``OUT/report/index.html`` and its figures.
+    report : Report or None
+        ``OUT/report/index.html`` and its figures (None without matplotlib, the ``report`` extra).
     acquisition : AcquireResult
     link_dropped_samples, crc_errors : int
         Link statistics of the driver.
@@ -67,7 +67,7 @@ class DemoResult:
     device: str
     session_file: Path
     model_file: Path
-    report: Report
+    report: Report | None
     acquisition: AcquireResult
     link_dropped_samples: int
     crc_errors: int
@@ -93,16 +93,28 @@ def rig_truth(session_file: str | Path, capture: int = 0) -> EquationOfMotion | 
         return None
 
 
+#: What the demo says when matplotlib (the ``report`` extra) is not installed.
+NO_REPORT = 'report skipped: matplotlib is not installed (pip install "eddi-station[report]")'
+
+
+def report_available() -> bool:
+    """True when the report's plotting library (the ``report`` extra) is installed."""
+    import importlib.util
+
+    return importlib.util.find_spec("matplotlib") is not None
+
+
 def warm_up_engine() -> None:
     """Import the engine and the report and compile the simulator (before, not inside, any
     timed step: the demo runs it while the rig process powers on)."""
     import numpy as np
 
     import station.session  # noqa: F401  (conditioning, EDDI, validation)
-    import station.report  # noqa: F401  (matplotlib)
     from eddi.model import EquationOfMotion
     from eddi.simulate import simulate
 
+    if report_available():
+        import station.report  # noqa: F401  (matplotlib)
     eom = EquationOfMotion(mass=1.0, damping={"v": 0.1}, stiffness={"x": 100.0, "x^3": 1.0})
     simulate(eom, rate_hz=1000.0, n_samples=8, force=np.zeros(8))
     simulate(eom, rate_hz=1000.0, n_samples=8, x0=0.1, v0=0.0, substeps=2)
@@ -124,7 +136,7 @@ def demo_config(device: str, mass_kg: float, levels_n: tuple[float, ...], record
     from station.config import parse_config
 
     return parse_config({
-        "device": {"url": device},
+        "device": {"url": device, "block_size": 4096},  # few, large frames: less work per sample
         "trigger": {"channel": "force", "level_n": 0.25 * min(levels_n), "pretrigger_s": DEMO_PRETRIGGER_S,
                     "record_s": record_s, "holdoff_s": holdoff_s, "on_double_hit": "reject",
                     "on_overload": "reject"},
@@ -214,7 +226,6 @@ def run_demo(
     if acq.error is not None:
         raise StationError(f"acquisition stopped: {acq.error} ({acq.captures} capture(s) kept in {session_file})")
     from station.session import run_session, read_all
-    from station.report import write_report
 
     t1 = time.perf_counter()
     session = run_session(read_all([str(session_file)]), damping=("v", "x^2*v", "v^3"),  # paper Eq. 21
@@ -228,7 +239,11 @@ def run_demo(
     elapsed["identify_validate"] = time.perf_counter() - t1
     truth = rig_truth(session_file)
     t2 = time.perf_counter()
-    report = write_report(session, out / "report", truth=truth, title=f"EDDI Station demo: {device}")
+    report = None
+    if report_available():
+        from station.report import write_report
+
+        report = write_report(session, out / "report", truth=truth, title=f"EDDI Station demo: {device}")
     elapsed["report"] = time.perf_counter() - t2
     elapsed["total"] = time.perf_counter() - t0
     return DemoResult(device, session_file, model_file, report, acq, int(getattr(stats, "dropped_samples", 0)),
@@ -262,8 +277,8 @@ def demo_object(res: DemoResult) -> dict[str, Any]:
         "paths": {
             "session": str(res.session_file),
             "model": str(res.model_file),
-            "report": str(res.report.index),
-            "figures": [str(p) for p in res.report.figures],
+            "report": str(res.report.index) if res.report is not None else None,
+            "figures": [str(p) for p in res.report.figures] if res.report is not None else [],
         },
         "elapsed_s": dict(res.elapsed_s),
     }
@@ -307,6 +322,9 @@ def demo_text(obj: dict[str, Any]) -> str:
         lines.append(f"  (plain EDDI, before the refinement: k1 {plain['stiffness'].get('x', float('nan')):.5g}, "
                      f"mean held-out nrmse {plain['validation']['nrmse']:.3g})")
     lines.append(f"model: {obj['paths']['model']}")
-    lines.append(f"report: {obj['paths']['report']} ({len(obj['paths']['figures'])} figures)")
+    if obj["paths"]["report"] is None:
+        lines.append(NO_REPORT)
+    else:
+        lines.append(f"report: {obj['paths']['report']} ({len(obj['paths']['figures'])} figures)")
     lines.append(f"done in {obj['elapsed_s']['total']:.1f} s")
     return "\n".join(lines)

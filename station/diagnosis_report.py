@@ -259,6 +259,7 @@ def backbone_figure(diag: Diagnosis, cache: dict | None = None) -> Figure:
         return modal_backbone_figure(diag, model, cache)
     mass = diag.baseline.model.mass
     fig, ax = _new(1, 2, (10.0, 3.8))
+    seen: list[np.ndarray] = []
     for name, parts in _curves(diag):
         for k, (t, x) in enumerate(parts):
             ok = np.isfinite(x)
@@ -266,9 +267,18 @@ def backbone_figure(diag: Diagnosis, cache: dict | None = None) -> Figure:
                 continue
             v = np.gradient(x[ok], t[ok])
             amp, f, z = backbone(t[ok], x[ok], v, mass)
+            # the axis is set by the data: cycles below 2 % of the peak amplitude (noise floor,
+            # stray near-zero points) would stretch the log axis over decades of nothing
+            keep = np.isfinite(amp) & np.isfinite(f) & (amp > 0.02 * float(np.nanmax(amp))) if amp.size else amp > 0
+            amp, f, z = amp[keep], f[keep], z[keep]
             lab = name if k == 0 else None
             ax[0, 0].semilogx(amp, f, ".", ms=3, color=_COLORS[name], label=lab)
             ax[0, 1].loglog(amp[z > 0], z[z > 0], ".", ms=3, color=_COLORS[name], label=lab)
+            seen.append(f)
+    if seen and np.concatenate(seen).size:
+        lo, hi = np.percentile(np.concatenate(seen), [2, 98])
+        pad = 0.3 * (hi - lo) + 1e-9 * abs(hi)
+        ax[0, 0].set_ylim(lo - pad, hi + pad)
     ax[0, 0].set_xlabel("amplitude [m]")
     ax[0, 0].set_ylabel("frequency [Hz]")
     ax[0, 0].set_title("backbone", fontsize=9)

@@ -24,6 +24,8 @@ PLOT_POINTS = 4000
 
 _MEASURED = "#1f4e79"
 _MODEL = "#c0392b"
+#: The one time origin of every panel: the trigger (the report shifts its times so).
+TIME_LABEL = "time after the trigger [s]"
 
 
 def envelope(t: np.ndarray, y: np.ndarray, max_points: int = PLOT_POINTS) -> tuple[np.ndarray, np.ndarray]:
@@ -102,7 +104,7 @@ def force_figure(t: np.ndarray, force: np.ndarray, title: str = "Excitation") ->
     force = np.asarray(force, float)
     fig, ax = _new(1, 2, size=(9.0, 3.0), width_ratios=[2, 1])
     ax[0, 0].plot(*envelope(t, force), color=_MEASURED, lw=0.8)
-    ax[0, 0].set_xlabel("time [s]")
+    ax[0, 0].set_xlabel(TIME_LABEL)
     ax[0, 0].set_ylabel("force [N]")
     ax[0, 0].set_title(title)
     k = int(np.nanargmax(np.abs(force))) if force.size else 0
@@ -113,7 +115,8 @@ def force_figure(t: np.ndarray, force: np.ndarray, title: str = "Excitation") ->
     width = max(hi - lo, 5)
     sl = slice(max(lo - 2 * width, 0), min(hi + 3 * width, t.size))
     ax[0, 1].plot(t[sl] * 1e3, force[sl], color=_MEASURED, lw=1.0, marker=".", ms=2)
-    ax[0, 1].set_xlabel("time [ms]")
+    ax[0, 1].set_xlabel("time after the trigger [ms]")
+    ax[0, 1].set_ylabel("force [N]")
     ax[0, 1].set_title(f"impact, peak {force[k]:.4g} N" if force.size else "impact")
     return fig
 
@@ -144,48 +147,71 @@ def response_figure(
     spectrum_amplitude : ndarray, shape (m,)
         Fourier amplitude of ``x``.
     """
-    fig, ax = _new(2, 2, size=(9.0, 5.0), width_ratios=[3, 1], sharex="col")
+    fig, ax = _new(2, 2, size=(9.0, 5.6), width_ratios=[3, 1])
+    ax[1, 0].sharex(ax[0, 0])
     ax[0, 0].plot(*envelope(t, x), color=_MEASURED, lw=0.8)
     ax[0, 0].set_ylabel(x_label)
     ax[0, 0].set_title(title)
-    _cwt_panel(ax[1, 0], cwt_t, cwt_freqs_hz, cwt_amplitude)
-    ax[1, 0].set_xlabel("time [s]")
-    ax[0, 1].axis("off")
-    _spectrum_panel(ax[1, 1], cwt_freqs_hz, [(spectrum_f_hz, spectrum_amplitude, "measured", _MEASURED)])
+    mesh = _cwt_panel(ax[1, 0], cwt_t, cwt_freqs_hz, cwt_amplitude)
+    ax[1, 0].set_xlabel(TIME_LABEL)
+    fig.colorbar(mesh, ax=ax[1, 0], location="bottom", fraction=0.07, pad=0.02, aspect=50,
+                 label=f"CWT amplitude [{_unit(x_label)}]")
+    _zoom_panel(ax[0, 1], t, x, None, start=True)
+    _spectrum_panel(ax[1, 1], cwt_freqs_hz, [(spectrum_f_hz, spectrum_amplitude, "measured", _MEASURED)],
+                    unit=_unit(x_label))
     return fig
 
 
-def _cwt_panel(ax: object, t: np.ndarray, freqs: np.ndarray, amp: np.ndarray, vmax: float | None = None) -> None:
+def _unit(label: str) -> str:
+    """``"displacement [m]"`` -> ``"m"``."""
+    return label[label.find("[") + 1: label.rfind("]")] if "[" in label else ""
+
+
+def _cwt_panel(ax: object, t: np.ndarray, freqs: np.ndarray, amp: np.ndarray, vmax: float | None = None):
+    """The CWT map (no blank margin: limits are the data's); returns the mesh for a colour bar."""
     amp = np.asarray(amp, float)
-    ax.pcolormesh(np.asarray(t, float), np.asarray(freqs, float), amp, shading="auto", cmap="viridis",
+    ax.set_ylabel("frequency [Hz]")
+    if np.size(t):
+        ax.set_xlim(float(np.min(t)), float(np.max(t)))
+    return ax.pcolormesh(np.asarray(t, float), np.asarray(freqs, float), amp, shading="auto", cmap="viridis",
                   vmin=0.0, vmax=vmax if vmax is not None else float(np.nanmax(amp)) if amp.size else 1.0,
                   rasterized=True)
-    ax.set_ylabel("frequency [Hz]")
 
 
-def _zoom_panel(ax: object, t: np.ndarray, xm: np.ndarray, xs: np.ndarray, fraction: float = 0.1) -> None:
-    """The last ``fraction`` of the record, measured and simulated, unreduced (phase drift shows)."""
+def _zoom_panel(ax: object, t: np.ndarray, xm: np.ndarray, xs: np.ndarray | None, fraction: float = 0.1,
+                start: bool = False) -> None:
+    """The last (or first) ``fraction`` of the record, measured and simulated, unreduced."""
     t = np.asarray(t, float)
     n = t.size
-    sl = slice(max(0, n - max(int(fraction * n), 2)), n)
+    k = max(int(fraction * n), 2)
+    sl = slice(0, min(n, k)) if start else slice(max(0, n - k), n)
     step = max(1, (sl.stop - sl.start) // 3000)
-    ax.plot(t[sl][::step], np.asarray(xm, float)[sl][::step], color=_MEASURED, lw=0.9)
-    ax.plot(t[sl][::step], np.asarray(xs, float)[sl][::step], color=_MODEL, lw=0.9, ls="--")
-    ax.set_title("end of the record", fontsize=9)
+    ax.plot(t[sl][::step], np.asarray(xm, float)[sl][::step], color=_MEASURED, lw=1.6, alpha=0.6, label="measured")
+    if xs is not None:
+        ax.plot(t[sl][::step], np.asarray(xs, float)[sl][::step], color=_MODEL, lw=0.9, ls="--", label="simulated")
+    ax.set_title("start of the record" if start else "end of the record", fontsize=9)
+    ax.set_xlabel("[s]", fontsize=7)
     ax.tick_params(labelsize=7)
     ax.tick_params(axis="x", labelbottom=True)
 
 
-def _spectrum_panel(ax: object, freqs_cwt: np.ndarray, curves: list[tuple[np.ndarray, np.ndarray, str, str]]) -> None:
+def _spectrum_panel(ax: object, freqs_cwt: np.ndarray, curves: list[tuple[np.ndarray, np.ndarray, str, str]],
+                    unit: str = "m") -> None:
+    """Fourier amplitude against frequency; the first curve (measured) wide and light, the
+    others thin and dashed on top, so the measurement stays visible under the simulation."""
     f_lo = float(np.min(freqs_cwt)) if np.size(freqs_cwt) else 0.0
     f_hi = float(np.max(freqs_cwt)) if np.size(freqs_cwt) else 1.0
-    for f, a, label, color in curves:
+    for i, (f, a, label, color) in enumerate(curves):
         f = np.asarray(f, float)
         a = np.asarray(a, float)
         keep = (f >= f_lo) & (f <= f_hi)
-        ax.plot(a[keep], f[keep], color=color, lw=0.9, label=label)
+        if i == 0:
+            ax.plot(a[keep], f[keep], color=color, lw=3.0, alpha=0.45, label=label, zorder=2)
+        else:
+            ax.plot(a[keep], f[keep], color=color, lw=1.0, ls="--", label=label, zorder=3)
     ax.set_ylim(f_lo, f_hi)
-    ax.set_xlabel("Fourier amplitude")
+    ax.set_xlabel(f"Fourier amplitude [{unit}]")
+    ax.set_ylabel("frequency [Hz]")
     ax.set_title("spectrum")
     if len(curves) > 1:
         ax.legend(fontsize=7, loc="upper right")
@@ -207,7 +233,7 @@ def kinetic_energy_figure(t: np.ndarray, kinetic_j: np.ndarray, crossing_t: np.n
     a = ax[0, 0]
     a.plot(*envelope(t, kinetic_j), color=_MEASURED, lw=0.7, label="T(t)")
     a.plot(crossing_t, crossing_kinetic_j, "o", color=_MODEL, ms=2.5, label="T(γᵢ), x = 0")
-    a.set_xlabel("time [s]")
+    a.set_xlabel(TIME_LABEL)
     a.set_ylabel("energy [J]")
     a.set_title("Kinetic energy")
     a.legend(fontsize=8)
@@ -229,9 +255,11 @@ def dissipated_energy_figure(crossing_t: np.ndarray, measured_j: np.ndarray, t_m
     """
     fig, ax = _new()
     a = ax[0, 0]
-    a.plot(crossing_t, measured_j, "o", color=_MEASURED, ms=2.5, label="measured  T(γ₀) − T(γᵢ)")
-    a.plot(*envelope(t_model, modelled_j), color=_MODEL, lw=1.0, label="model  ∫ v B(x, v) dt")
-    a.set_xlabel("time [s]")
+    # the measured points open and wide, the model thin on top: both stay visible
+    a.plot(crossing_t, measured_j, "o", color=_MEASURED, mfc="none", ms=5, mew=0.9,
+           label="measured  T(γ₀) − T(γᵢ)", zorder=2)
+    a.plot(*envelope(t_model, modelled_j), color=_MODEL, lw=0.8, label="model  ∫ v B(x, v) dt", zorder=3)
+    a.set_xlabel(TIME_LABEL)
     a.set_ylabel("energy [J]")
     a.set_title("Dissipated energy")
     a.legend(fontsize=8)
@@ -250,8 +278,8 @@ def mechanical_energy_figure(t: np.ndarray, kinetic_j: np.ndarray, mechanical_j:
     fig, ax = _new()
     a = ax[0, 0]
     a.plot(*envelope(t, kinetic_j), color=_MEASURED, lw=0.6, label="T(t)")
-    a.plot(*envelope(t, mechanical_j), color=_MODEL, lw=1.2, label="E(t) estimated")
-    a.set_xlabel("time [s]")
+    a.plot(*envelope(t, mechanical_j), color=_MODEL, lw=1.0, ls="--", label="E(t) estimated")
+    a.set_xlabel(TIME_LABEL)
     a.set_ylabel("energy [J]")
     a.set_title("Mechanical energy")
     a.legend(fontsize=8)
@@ -292,7 +320,7 @@ def restoring_force_figure(
         t = np.asarray(t, float)
         order = np.argsort(t)
         a_t.plot(*envelope(t[order], fm[order]), color=_MEASURED, lw=0.6, label="from energies")
-        a_t.set_xlabel("time [s]")
+        a_t.set_xlabel(TIME_LABEL)
         a_t.set_ylabel(quantity)
         a_t.set_title(title)
         a_t.legend(fontsize=8)
@@ -300,10 +328,11 @@ def restoring_force_figure(
         fig, ax = _new(size=(5.0, 3.8))
         a = ax[0, 0]
     step = max(1, x.size // 20000)
-    a.plot(x[::step], fm[::step], ".", color=_MEASURED, ms=1.0, alpha=0.4, label="from energies")
     order = np.argsort(np.asarray(x_model, float))
-    a.plot(np.asarray(x_model, float)[order], np.asarray(force_model_n, float)[order], color=_MODEL, lw=1.5,
-           label="identified model")
+    # the data wide and light, the model thin and dashed on top: both stay visible
+    a.plot(x[::step], fm[::step], ".", color=_MEASURED, ms=5.0, alpha=0.25, mew=0, label="from energies", zorder=2)
+    a.plot(np.asarray(x_model, float)[order], np.asarray(force_model_n, float)[order], color=_MODEL, lw=1.0,
+           ls="--", label="identified model", zorder=3)
     a.set_xlabel("displacement [m]")
     a.set_ylabel(quantity)
     a.set_title(title)
@@ -342,20 +371,23 @@ def validation_figure(
     for r in (1, 2):  # time axes shared; the zoom (time) and spectrum (amplitude) are not
         ax[r, 0].sharex(ax[0, 0])
     a = ax[0, 0]
-    a.plot(*envelope(t, x_measured), color=_MEASURED, lw=0.8, label="measured")
+    a.plot(*envelope(t, x_measured), color=_MEASURED, lw=1.6, alpha=0.6, label="measured")
     a.plot(*envelope(t, x_simulated), color=_MODEL, lw=0.8, ls="--", label="simulated")
     a.set_ylabel("displacement [m]")
     a.set_title(title)
     a.legend(fontsize=8, loc="upper right")
     vmax = (float(max(np.nanmax(cwt_measured), np.nanmax(np.nan_to_num(cwt_simulated))))
             if np.size(cwt_measured) else None)
-    _cwt_panel(ax[1, 0], cwt_t, cwt_freqs_hz, cwt_measured, vmax)
+    mesh = _cwt_panel(ax[1, 0], cwt_t, cwt_freqs_hz, cwt_measured, vmax)
     ax[1, 0].set_title("CWT, measured", fontsize=9)
     _cwt_panel(ax[2, 0], cwt_t, cwt_freqs_hz, np.nan_to_num(cwt_simulated), vmax)
     ax[2, 0].set_title("CWT, simulated", fontsize=9)
-    ax[2, 0].set_xlabel("time [s]")
+    ax[2, 0].set_xlabel(TIME_LABEL)
     _zoom_panel(ax[0, 1], t, x_measured, x_simulated)
+    # the colour bar of both maps (same scale) where a blank cell would be
     ax[1, 1].axis("off")
+    fig.colorbar(mesh, cax=ax[1, 1].inset_axes((0.05, 0.05, 0.12, 0.9)), label="CWT amplitude [m]")
+    ax[0, 1].legend(fontsize=6, loc="lower right")
     _spectrum_panel(ax[2, 1], cwt_freqs_hz, [
         (spectrum_f_hz, spectrum_measured, "measured", _MEASURED),
         (spectrum_f_hz, spectrum_simulated, "simulated", _MODEL),

@@ -32,12 +32,30 @@ def channel_names(meas: Measurement) -> tuple[str, ...]:
 def resolve_driving_point(meas: Measurement, driving_point: str | None) -> str:
     """The driving-point channel: ``driving_point`` if given (checked), else the first response."""
     names = channel_names(meas)
+    if driving_point is None:  # the bench config's [specimen] driving_point, when the capture kept it
+        driving_point = _configured_driving_point(meas)
     if driving_point is None:
         return names[0]
     if driving_point not in names:
         raise InputFileError(f"{meas.source}: --driving-point {driving_point!r} is not a response channel "
                              f"(channels: {', '.join(names)})")
     return driving_point
+
+
+def _configured_driving_point(meas: Measurement) -> str | None:
+    """``specimen.driving_point`` of a bench config stored with the capture, if any."""
+    import json
+
+    cfg = meas.metadata.get("bench_config")
+    if isinstance(cfg, str):
+        try:
+            cfg = json.loads(cfg)
+        except ValueError:
+            return None
+    if isinstance(cfg, dict):
+        dp = (cfg.get("specimen") or {}).get("driving_point")
+        return str(dp) if dp else None
+    return None
 
 
 def condition_multichannel(meas: Measurement, driving_point: str | None = None) -> ChannelRecord:

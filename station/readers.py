@@ -185,8 +185,7 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
             i = int(bad[0])
             what = "not a finite number" if not np.isfinite(col[i]) else f"{col[i]:g}, beyond +-{limit:g} {CSV_COLUMNS[name]}"
             raise InputFileError(f"{path}: column {name!r} is {what} at line {i + 2} (data row {i + 1})")
-    t = cols.pop("t")
-    rate = time_grid_rate(t, str(path))
+    rate, t = time_grid(cols.pop("t"), str(path))
     if "force" in cols:
         check_force_impact(cols["force"], f"{path}: column 'force'")
     for name in RESPONSE_CHANNELS:
@@ -207,7 +206,17 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
 
 
 def time_grid_rate(t: np.ndarray, where: str) -> float:
-    """Sample rate [Hz] of a time column, allowing the jitter of times printed with few digits.
+    """Sample rate [Hz] of a time column (see :func:`time_grid`)."""
+    return time_grid(t, where)[0]
+
+
+def time_grid(t: np.ndarray, where: str) -> tuple[float, np.ndarray]:
+    """Sample rate [Hz] and uniform time vector of a time column, allowing the jitter of times
+    printed with few digits.
+
+    Returns ``t`` itself when it is within 1 % of a step of its grid; when the rounding
+    allowance was needed, the least-squares grid ``t_mean + step * (i - (n - 1) / 2)`` that the
+    rounded times stand for (so later stages see uniform sampling, as the device produced it).
 
     A time column is uniform when every ``t[i]`` is within a tolerance of the grid
     ``t[0] + i * step``, ``step = (t[-1] - t[0]) / (n - 1)``. The tolerance is 1 % of a step, or,
@@ -232,11 +241,14 @@ def time_grid_rate(t: np.ndarray, where: str) -> float:
         i = int(np.nonzero(~(dt > 0))[0][0])
         raise InputFileError(f"{where}: time must increase; line {i + 3} has t = {t[i + 1]:.9g} after {t[i]:.9g}")
     step = (t[-1] - t[0]) / (n - 1)
+    top = float(max(abs(t[0]), abs(t[-1])))  # t increases: the largest magnitude is at an end
+    if 4 * np.spacing(top) > 1e-6 * step:
+        raise InputFileError(f"{where}: time stamps near {top:.3g} s cannot resolve steps of {step:.3g} s in "
+                             "double precision; expected times counted from the start of the record")
     dev = _grid_deviation(t, t[0], step, 0.0)
     if float(np.max(dev)) <= 0.01 * step:
-        return 1.0 / step
+        return 1.0 / step, t
     digits = _printed_digits(t)
-    top = float(max(abs(t[0]), abs(t[-1])))  # t increases: the largest magnitude is at an end
     unit = 10.0 ** (math.floor(math.log10(top)) - digits + 1) if top > 0 else 0.0
     rounding = unit + 4 * np.finfo(float).eps * top  # t[i] and t[0] (the grid's origin) each off by unit / 2
     if rounding > 0.25 * step:
@@ -257,7 +269,11 @@ def time_grid_rate(t: np.ndarray, where: str) -> float:
             f"grid of step {step:.6g} s (expected within {tol:.3g} s: 1 % of a step or "
             f"the rounding of {digits}-digit times)"
         )
-    return 1.0 / step
+    grid = np.arange(n, dtype=float)
+    grid -= (n - 1) / 2.0
+    grid *= step
+    grid += mean
+    return 1.0 / step, grid
 
 
 def check_force_impact(force: np.ndarray, where: str) -> None:

@@ -129,6 +129,20 @@ def _spectrum(t: np.ndarray, xm: np.ndarray, xs: np.ndarray) -> dict[str, np.nda
     return spectra(t, xm, xs)
 
 
+def trigger_time(meas, cond=None) -> float:
+    """Time of the trigger [s] on the record's clock: the one origin of every panel.
+
+    The first sample after the pre-trigger when the record says how long it is; otherwise
+    the start of the motion found by conditioning (``cond.impact_start``); otherwise ``t[0]``.
+    """
+    pre = getattr(meas, "pretrigger_samples", None)
+    if pre is not None and 0 <= pre < meas.t.size:
+        return float(meas.t[pre])
+    if cond is not None:
+        return float(cond.t[cond.impact_start])
+    return float(meas.t[0])
+
+
 def stiffness_curve(eom: EquationOfMotion, x: np.ndarray) -> np.ndarray:
     """``sum k_n K_n(x)`` [N] (stiffness terms only), shape of ``x``."""
     terms = eom.stiffness_terms()
@@ -154,23 +168,25 @@ def _fit_figures(session: SessionResult, out: Path, band: tuple[float, float]) -
     p2 = res.model.phase_two
     items: list[tuple[str, Path]] = []
     src = meas.source
+    t0 = trigger_time(meas, cond)
     f = meas.channels.get("force")
     if f is not None:
         items.append(("Excitation: measured force",
-                      figures.save(figures.force_figure(meas.t, f, title=f"Force, {src}"), out / "force.png")))
+                      figures.save(figures.force_figure(meas.t - t0, f, title=f"Force, {src}"), out / "force.png")))
     s, e = cond.impact_start, cond.free_stop
-    t, x = cond.t[s:e], cond.x[s:e]
+    t, x = cond.t[s:e] - t0, cond.x[s:e]
     ct, cf, ca = cwt_view(t, x, band)
     sp = _spectrum(t, x, x)
     items.append(("Displacement with its CWT and Fourier spectrum", figures.save(
         figures.response_figure(t, x, ct, cf, ca, sp["freq_hz"], sp["measured"], title=f"Displacement, {src}"),
         out / "displacement.png")))
     items.append(("Kinetic energy, with T at the zero crossings of x", figures.save(
-        figures.kinetic_energy_figure(p1.t, p1.kinetic, p1.gamma, p1.kinetic_at_gamma), out / "kinetic.png")))
+        figures.kinetic_energy_figure(p1.t - t0, p1.kinetic, p1.gamma - t0, p1.kinetic_at_gamma), out / "kinetic.png")))
     items.append(("Dissipated energy: measured T(γ₀) − T(γᵢ) against the identified damping model", figures.save(
-        figures.dissipated_energy_figure(p1.gamma[1:], p1.r_vector, p1.t, p1.dissipated), out / "dissipated.png")))
+        figures.dissipated_energy_figure(p1.gamma[1:] - t0, p1.r_vector, p1.t - t0, p1.dissipated),
+        out / "dissipated.png")))
     items.append(("Mechanical energy estimated from the damping model", figures.save(
-        figures.mechanical_energy_figure(p1.t, p1.kinetic, p1.mechanical), out / "mechanical.png")))
+        figures.mechanical_energy_figure(p1.t - t0, p1.kinetic, p1.mechanical), out / "mechanical.png")))
     xg = np.linspace(float(np.min(p2.x)), float(np.max(p2.x)), 400) if p2.x.size else np.zeros(2)
     if p2.conservative_force is not None:
         fig = figures.restoring_force_figure(p2.x, -p2.conservative_force, xg, stiffness_curve(eom, xg))
@@ -184,8 +200,8 @@ def _fit_figures(session: SessionResult, out: Path, band: tuple[float, float]) -
     return items
 
 
-def _validation_figure(check: RecordCheck, band: tuple[float, float], path: Path) -> Path:
-    t, xm, xs = check.t, check.measured, np.where(np.isfinite(check.simulated), check.simulated, 0.0)
+def _validation_figure(check: RecordCheck, band: tuple[float, float], path: Path, t0: float = 0.0) -> Path:
+    t, xm, xs = check.t - t0, check.measured, np.where(np.isfinite(check.simulated), check.simulated, 0.0)
     ct, cf, cm = cwt_view(t, xm, band)
     _, _, cs = cwt_view(t, xs, band)
     sp = _spectrum(t, xm, xs)
@@ -206,13 +222,20 @@ def _fmt(v: float | None, spec: str = ".4g") -> str:
     return format(v, spec)
 
 
-def _coefficient_rows(eom: EquationOfMotion, truth: EquationOfMotion | None) -> str:
-    rows = [f"<tr><td>mass</td><td>m</td><td>{eom.mass:.6g}</td>"
+def _coefficient_rows(eom: EquationOfMotion, truth: EquationOfMotion | None,
+                      ci95: dict[str, dict[str, float]] | None = None,
+                      units: dict[str, dict[str, str]] | None = None) -> str:
+    ci95 = ci95 or {}
+    units = units or {}
+    rows = [f"<tr><td>mass</td><td>m</td><td>{eom.mass:.6g}</td><td></td><td>kg</td>"
             + (f"<td>{truth.mass:.6g}</td><td></td>" if truth is not None else "") + "</tr>"]
     for kind, mine, true in (("damping", eom.damping, truth.damping if truth else None),
                              ("stiffness", eom.stiffness, truth.stiffness if truth else None)):
         for term, c in mine.items():
-            cells = f"<td>{kind}</td><td>{html.escape(term)}</td><td>{c:+.6g}</td>"
+            ci = ci95.get(kind, {}).get(term)
+            unit = units.get(kind, {}).get(term, "")
+            cells = (f"<td>{kind}</td><td>{html.escape(term)}</td><td>{c:+.6g}</td>"
+                     f"<td>{'± ' + format(ci, '.2g') if ci is not None else '–'}</td><td>{html.escape(unit)}</td>")
             if truth is not None:
                 tv = true.get(term) if true is not None else None
                 err = f"{100 * (c - tv) / abs(tv):+.1f} %" if tv else "–"
@@ -221,10 +244,32 @@ def _coefficient_rows(eom: EquationOfMotion, truth: EquationOfMotion | None) -> 
     return "\n".join(rows)
 
 
+def _choices_html(res) -> str:
+    """The pipeline's choices and warnings, for the top of the page."""
+    ch = res.choices
+    if ch is None:
+        return ""
+    items = [f"phase two: <b>{html.escape(ch.route)}</b> route"
+             + (" (free-response nrmse " + ", ".join(f"{k} {v:.3g}" for k, v in ch.route_scores.items()) + ")"
+                if ch.route_scores else ""),
+             f"output-error refinement: <b>{html.escape(ch.refinement)}</b> — {html.escape(ch.refinement_reason)}",
+             "terms kept: " + html.escape(", ".join(ch.damping_terms + ch.stiffness_terms))]
+    for term, why in ch.dropped.items():
+        items.append(f"dropped <b>{html.escape(term)}</b>: {html.escape(why)}")
+    out = "<div class='choices'><b>Pipeline choices</b><ul>" + "".join(f"<li>{i}</li>" for i in items) + "</ul>"
+    if ch.warnings:
+        out += ("<div class='warn'><b>Warnings</b><ul>"
+                + "".join(f"<li>{html.escape(w)}</li>" for w in ch.warnings) + "</ul></div>")
+    else:
+        out += "<p>No warnings: the model is stable and decays as the records do.</p>"
+    return out + "</div>"
+
+
 _CSS = ("body{font-family:sans-serif;max-width:1000px;margin:2em auto;color:#222}"
         "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}"
         "td:first-child,th:first-child{text-align:left}img{max-width:100%;margin:0.5em 0 1.5em 0}"
-        "figcaption{font-size:90%;color:#555}")
+        "figcaption{font-size:90%;color:#555}.choices{background:#f4f6f8;border:1px solid #ccd;padding:0.5em 1em}"
+        ".warn{background:#fff3cd;border:1px solid #e0b000;padding:0.3em 1em;margin:0.5em 0}")
 
 
 def write_report(session: SessionResult, out_dir: str | Path, *, truth: EquationOfMotion | None = None,
@@ -259,8 +304,9 @@ def write_report(session: SessionResult, out_dir: str | Path, *, truth: Equation
     band = analysis_band(cond.t[cond.free_start:cond.free_stop], cond.x[cond.free_start:cond.free_stop])
     try:
         items = _fit_figures(session, out, band)
-        held = [(c, _validation_figure(c, band, out / f"validation_{i + 1}.png"))
-                for i, c in enumerate(session.held_out)]
+        others = [m for i, m in enumerate(session.measurements) if i != session.fit_index]
+        held = [(c, _validation_figure(c, band, out / f"validation_{i + 1}.png", trigger_time(m)))
+                for i, (c, m) in enumerate(zip(session.held_out, others))]
     except OSError as exc:
         raise StorageError(f"{out}: cannot write a figure ({exc.strerror or exc})") from None
     eom = res.model.eom
@@ -271,10 +317,12 @@ def write_report(session: SessionResult, out_dir: str | Path, *, truth: Equation
              f"<p>Identified on <b>{html.escape(fit_src)}</b> ({res.model.route} route of phase two, "
              f"{res.model.phase_one.gamma.size} zero crossings); validated on "
              f"{len(session.held_out)} record(s) not used for the fit.</p>",
-             f"<p><code>{html.escape(eom.equation_text())}</code></p>",
-             "<h2>Coefficients</h2><table><tr><th>part</th><th>term</th><th>identified</th>"
-             + ("<th>rig (true)</th><th>error</th>" if truth is not None else "") + "</tr>",
-             _coefficient_rows(eom, truth), "</table>",
+             _choices_html(res),
+             f"<p><code>{html.escape(eom.equation_text())}</code> (SI units; time origin of every figure: "
+             f"the trigger)</p>",
+             "<h2>Coefficients</h2><table><tr><th>part</th><th>term</th><th>identified</th><th>95 % CI</th>"
+             "<th>unit</th>" + ("<th>rig (true)</th><th>error</th>" if truth is not None else "") + "</tr>",
+             _coefficient_rows(eom, truth, res.ci95, res.units), "</table>",
              "<h2>Validation</h2><table><tr><th>record</th><th>peak force [N]</th><th>simulated</th>"
              "<th>nrmse</th><th>nmte</th></tr>",
              f"<tr><td>{html.escape(fit_src)} (fit)</td><td>{_fmt(_peak(session))}</td>"

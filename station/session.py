@@ -140,7 +140,10 @@ def expand_specs(specs: Sequence[str]) -> list[str]:
         if capture is None and path.suffix.lower() in (".h5", ".hdf5"):
             if not path.is_file():
                 raise InputFileError(f"{path}: no such file")
-            out += [f"{path}:{i}" for i in range(check_file(path))]
+            count = check_file(path)
+            if count == 0:
+                raise InputFileError(f"capture file {path}: holds no capture")
+            out += [f"{path}:{i}" for i in range(count)]
         else:
             out.append(spec)
     return out
@@ -212,11 +215,23 @@ def session_mass(measurements: Sequence[Measurement], mass: float | None) -> flo
 
 
 def condition_measurement(meas: Measurement, pipeline: Pipeline | None = None) -> ConditionedSignal:
-    """Condition a record as every command does (:meth:`eddi.fit_record.Pipeline.condition`)."""
+    """Condition a record as every command does (:meth:`eddi.fit_record.Pipeline.condition`).
+
+    Raises
+    ------
+    EddiError
+        The engine's error, its message prefixed with the record (``file:capture``), so a
+        command over many records says which one failed.
+    """
+    from eddi.errors import EddiError
+
     ch = meas.channels
-    return (pipeline or Pipeline()).condition(meas.t, acc=ch.get("acc"), vel=ch.get("vel"), disp=ch.get("disp"), force=ch.get("force"),
-                     pretrigger_samples=meas.pretrigger_samples,
-                     ac_coupling_s=meas.metadata.get("ac_coupling_s"))
+    try:
+        return (pipeline or Pipeline()).condition(
+            meas.t, acc=ch.get("acc"), vel=ch.get("vel"), disp=ch.get("disp"), force=ch.get("force"),
+            pretrigger_samples=meas.pretrigger_samples, ac_coupling_s=meas.metadata.get("ac_coupling_s"))
+    except EddiError as exc:
+        raise type(exc)(f"{meas.source}: {exc}") from None
 
 
 def peak_force(meas: Measurement) -> float | None:

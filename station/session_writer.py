@@ -394,6 +394,36 @@ def import_measurement(writer: CaptureWriter, measurement: Any, notes: str = "",
     )
 
 
+def disagreement(last: Mapping[str, Any], rate_hz: float, mass_kg: float | None, channels: list[str]) -> str | None:
+    """How a new record disagrees with the last capture's attributes (rate, mass, channels), or None.
+
+    Rates and masses agree within a relative 1e-9; an unknown mass agrees with any.
+    """
+    old_rate = float(last["rate_hz"])
+    if abs(float(rate_hz) - old_rate) > 1e-9 * old_rate:
+        return f"rate {float(rate_hz):g} Hz disagrees with the session's {old_rate:g} Hz"
+    old_mass = float(last.get("mass_kg", float("nan")))
+    if mass_kg is not None and np.isfinite(old_mass) and abs(float(mass_kg) - old_mass) > 1e-9 * old_mass:
+        return f"mass {float(mass_kg):g} kg disagrees with the session's {old_mass:g} kg"
+    old = json.loads(last["channel_order"])
+    if sorted(channels) != sorted(old):
+        return f"channels {','.join(channels)} disagree with the session's ({','.join(old)})"
+    return None
+
+
+def last_capture_attrs(path: Path) -> dict[str, Any] | None:
+    """Attributes of the last capture of an existing session file (None: no file or no capture)."""
+    from station.storage import _decode, _open
+
+    if not Path(path).exists():
+        return None
+    with _open(path) as f:
+        caps = f["captures"]
+        if len(caps) == 0:
+            return None
+        return {k: _decode(v) for k, v in caps[sorted(caps.keys())[-1]].attrs.items()}
+
+
 def same_session_check(path: Path, new_session: bool = False, verify: bool = True) -> Check:
     """A :data:`Check` refusing a record that disagrees with the file's last capture.
 
@@ -413,20 +443,10 @@ def same_session_check(path: Path, new_session: bool = False, verify: bool = Tru
             return {"session_index": session + 1}
         if not verify:
             return {"session_index": session}
-        where = f"the session in {path} (capture {len(caps) - 1})"
-        rate, old_rate = float(new["rate_hz"]), float(last["rate_hz"])
-        if abs(rate - old_rate) > 1e-9 * old_rate:
-            raise InputFileError(f"{new.get('source', 'record')}: rate {rate:g} Hz disagrees with {where} at "
-                                 f"{old_rate:g} Hz; use --new-session to store it as a new session")
-        mass, old_mass = new.get("mass_kg"), float(last.get("mass_kg", float("nan")))
-        if mass is not None and np.isfinite(old_mass) and abs(float(mass) - old_mass) > 1e-9 * old_mass:
-            raise InputFileError(f"{new.get('source', 'record')}: mass {float(mass):g} kg disagrees with {where} at "
-                                 f"{old_mass:g} kg; use --new-session to store it as a new session")
-        chans = list(new["channels"])
-        old = json.loads(last["channel_order"])
-        if sorted(chans) != sorted(old):
-            raise InputFileError(f"{new.get('source', 'record')}: channels {','.join(chans)} disagree with {where} "
-                                 f"({','.join(old)}); use --new-session to store it as a new session")
+        problem = disagreement(last, float(new["rate_hz"]), new.get("mass_kg"), list(new["channels"]))
+        if problem is not None:
+            raise InputFileError(f"{new.get('source', 'record')}: {problem} in {path} (capture {len(caps) - 1}); "
+                                 "use --new-session to store it as a new session")
         return {"session_index": session}
 
     return check

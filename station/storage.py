@@ -211,22 +211,26 @@ def _open(path: str | os.PathLike[str]) -> Iterator[h5py.File]:
         raise InputFileError(f"capture file {p}: no such file")
     if not p.is_file():
         raise InputFileError(f"capture file {p}: expected a file, got a directory or device")
-    if journal.journal_path(p).exists():
+    for _ in range(3):
+        with FileLock(p, exclusive=False):
+            # checked under the shared lock: a writer that died mid-commit left its journal
+            if not journal.journal_path(p).exists():
+                try:
+                    f = h5py.File(p, "r")
+                except OSError as exc:
+                    first = str(exc).splitlines()[0] if str(exc) else "unreadable"
+                    raise CaptureFormatError(f"capture file {p}: expected an HDF5 file, cannot open it ({first})") from None
+                with f:
+                    _check_root(f, p)
+                    yield f
+                return
         try:
             with FileLock(p, exclusive=True):
                 journal.recover(p)
         except PermissionError:
             raise CaptureFormatError(f"capture file {p}: a save was interrupted; open it once with write "
                                      "permission to finish it") from None
-    with FileLock(p, exclusive=False):
-        try:
-            f = h5py.File(p, "r")
-        except OSError as exc:
-            first = str(exc).splitlines()[0] if str(exc) else "unreadable"
-            raise CaptureFormatError(f"capture file {p}: expected an HDF5 file, cannot open it ({first})") from None
-        with f:
-            _check_root(f, p)
-            yield f
+    raise CaptureFormatError(f"capture file {p}: a save is being finished by another process; try again")
 
 
 def check_file(path: str | os.PathLike[str]) -> int:

@@ -7,8 +7,11 @@ and the impact force at the driving point). Steps:
 2. **Coordinates.** ``modal`` when the tail shows as many modes as there are channels with
    well-separated shapes (``cond(Psi) <= max_shape_condition``) or fewer modes that span the
    measured motion (projection residual below ``span_tolerance``): ``q = pinv(Psi) y``.
-   Otherwise ``physical`` (one coordinate per channel): the motion has a part no linear mode
-   describes (a nonlinear energy sink has no linear stiffness, hence no linear mode).
+   Otherwise (also when the tail needs more oscillating poles than there are channels)
+   ``physical`` (one coordinate per channel): the motion has a part no linear mode
+   describes (a nonlinear energy sink has no linear stiffness, hence no linear mode). With
+   ``coordinates="auto"`` the modal choice is also fitted in physical coordinates and
+   dropped when the physical equations close (force balance) twice as well.
 3. **Per coordinate, EDDI with coupling terms** (per unit mass). Library of equation ``i``:
    damping ``v_1..v_n``; own stiffness ``x_i, x_i^3``; coupling stiffness ``x_j`` and every cubic
    monomial but ``x_i^3``. *Phase one* (paper Eq. 7) at the zero crossings ``gamma_k`` of
@@ -18,6 +21,9 @@ and the impact force at the driving point). Steps:
    the others through the coupling terms (its own stiffness returns what it stores). Rows are
    half cycles, each divided by ``T_i`` at its start; all records stacked. *Phase two*:
    ``K_i(q) = -q_i'' - B_i`` sample by sample, fitted with the own and coupling stiffness terms.
+   When a coordinate exchanges more energy than it dissipates (physical coordinates joined by
+   a stiff spring), phase one cannot resolve the small damping, and damping and stiffness are
+   fitted together on the force balance.
 4. **Sparsity.** A term whose force (RMS over the data) is below ``prune`` times the RMS of
    ``q_i''`` is dropped and the equation refitted (sequential thresholding).
 5. **Input and masses.** Over the impact, ``q_i'' + B_i + K_i = g_i F`` gives the force per
@@ -27,6 +33,9 @@ and the impact force at the driving point). Steps:
    mass is ``1 / g_d``; every other mass follows from reciprocity of the coupling springs (a
    potential term ``theta x_i^a x_j^b`` appears as ``a theta / m_i`` in equation ``i`` and
    ``b theta / m_j`` in equation ``j``).
+6. **Slow response.** The drift high-pass of the conditioning removed the slow response to
+   the impact; the first model's linear receptance restores it
+   (:func:`restore_quasi_static`) and the identification runs a second time.
 
 No I/O: arrays in, frozen results out.
 """
@@ -185,7 +194,8 @@ def choose_coordinates(records: Sequence[ChannelRecord], modes: LinearModes, *, 
     if coordinates == "physical":
         return "physical", np.eye(n_ch), span
     cond = float(np.linalg.cond(psi))
-    if coordinates == "modal" or (cond <= max_shape_condition and span <= span_tolerance):
+    too_many = modes.shapes.shape[1] > n_ch  # more oscillating poles than the channels can separate
+    if coordinates == "modal" or (cond <= max_shape_condition and span <= span_tolerance and not too_many):
         return "modal", psi, span
     return "physical", np.eye(n_ch), span
 
@@ -329,29 +339,37 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
                            max_freq_hz, prune)
     if highpass_hz is None or all(r.force is None for r in records):
         return first
-    g = static_flexibility(first.model)
-    if g is None:
-        return first
-    fixed = [restore_quasi_static(r, g) for r in records]
-    return _identify_once(fixed, channels, driving_point, d, first.coordinates, coupling, tail_fraction,
-                          max_freq_hz, prune)
+    fixed = [restore_quasi_static(r, first.model) for r in records]
+    second = _identify_once(fixed, channels, driving_point, d, first.coordinates, coupling, tail_fraction,
+                            max_freq_hz, prune)
+    return replace(second, notes=tuple(dict.fromkeys(first.notes + second.notes)))
 
 
-def static_flexibility(model: MdofModel) -> np.ndarray | None:
-    """Static displacement of every channel per newton at the driving point [m/N], or None."""
-    _m, _c, k = model.linear_matrices()
-    try:
-        return model.phi @ np.linalg.solve(k, np.asarray(model.input, float))
-    except np.linalg.LinAlgError:
-        return None
+def receptance(model: MdofModel):
+    """``freqs_hz -> Phi (K - w^2 M + i w C)^-1 u``, shape (n_channels, n_freqs), of the linear terms."""
+    m, c, k = model.linear_matrices()
+    u = np.asarray(model.input, float)
+    phi = model.phi
+
+    def h(freqs_hz: np.ndarray) -> np.ndarray:
+        out = np.empty((phi.shape[0], len(freqs_hz)), complex)
+        for j, f in enumerate(freqs_hz):
+            w = 2 * math.pi * f
+            try:
+                out[:, j] = phi @ np.linalg.solve(k - w**2 * m + 1j * w * c, u)
+            except np.linalg.LinAlgError:
+                out[:, j] = 0.0
+        return np.nan_to_num(out)
+
+    return h
 
 
-def restore_quasi_static(r: ChannelRecord, flexibility: np.ndarray) -> ChannelRecord:
-    """The record with the quasi-static response added back to ``x`` and ``v``."""
+def restore_quasi_static(r: ChannelRecord, model: MdofModel) -> ChannelRecord:
+    """The record with the slow response the drift high-pass removed added back (``model``'s linear part)."""
     if r.force is None:
         return r
     rate = 1.0 / float(r.t[1] - r.t[0])
-    xl, vl = quasi_static(r.force, rate, flexibility, r.highpass_hz)
+    xl, vl = quasi_static(r.force, rate, receptance(model), r.highpass_hz)
     return replace(r, x=r.x + xl, v=r.v + vl)
 
 
@@ -362,6 +380,9 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
     kind, tmat, span = choose_coordinates(records, modes, coordinates=coordinates)
     fits = _fit_all(records, tmat, coupling, prune)
     notes_pre: list[str] = []
+    if coordinates == "auto" and kind == "physical":
+        notes_pre.append(f"the tail's {modes.shapes.shape[1]} linear mode(s) for {tmat.shape[0]} channels are not a "
+                         f"modal basis of the motion (span residual {100 * span:.1f} %): physical coordinates kept")
     if coordinates == "auto" and kind == "modal":
         # the tail's modes may not be the structure's (a nonlinear attachment has none):
         # keep the modal coordinates only when their equations close as well as the physical

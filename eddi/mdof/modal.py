@@ -40,8 +40,8 @@ class LinearModes:
         Damped natural frequencies [Hz], ascending.
     damping_ratios : ndarray, shape (r,)
     shapes : ndarray, shape (n_channels, r)
-        Real mode shapes, largest entry +1 (or -1 only if the largest is negative at the
-        driving point... see :func:`era`).
+        Real mode shapes scaled to a largest magnitude of 1, signed so that the driving-point
+        entry is positive.
     complexity : ndarray, shape (r,)
         Norm of the imaginary part of each rotated complex shape relative to its real part
         (0 for a classically damped mode).
@@ -126,21 +126,7 @@ def era(
         segs.append(s)
     n_ch = segs[0].shape[0]
     p = block_rows or max(max_order, 40 // n_ch + 2)
-    cols0, cols1 = [], []
-    for s in segs:
-        n = s.shape[1]
-        m = n - p - 1
-        if m < p:
-            continue
-        idx = np.arange(p)[:, None] + np.arange(m)[None, :]
-        h = s[:, idx]  # (n_ch, p, m)
-        cols0.append(h.transpose(1, 0, 2).reshape(p * n_ch, m))
-        h1 = s[:, idx + 1]
-        cols1.append(h1.transpose(1, 0, 2).reshape(p * n_ch, m))
-    if not cols0:
-        raise IdentificationError(f"free decays too short for ERA: need more than {2 * p + 1} samples after decimation")
-    h0 = np.hstack(cols0)
-    h1 = np.hstack(cols1)
+    h0, h1 = _hankel(segs, p)
     u, sv, vt = np.linalg.svd(h0, full_matrices=False)
     svn = sv / sv[0]
     noise = float(np.median(svn[len(svn) // 2:])) if len(svn) > 4 else 0.0
@@ -167,17 +153,38 @@ def era(
     if not keep:
         raise IdentificationError("ERA found no oscillating mode in the free decays")
     keep.sort()
+    freqs, zetas, shapes, cplx = _real_modes(keep, shapes_c, driving_point)
+    return LinearModes(freqs, zetas, shapes, cplx, svn, order, n_real)
+
+
+def _hankel(segs: list[np.ndarray], p: int) -> tuple[np.ndarray, np.ndarray]:
+    """Block Hankel matrices ``H0`` and ``H1`` (shifted one sample) of every segment, side by side."""
+    cols0, cols1 = [], []
+    for s in segs:
+        m = s.shape[1] - p - 1
+        if m < p:
+            continue
+        idx = np.arange(p)[:, None] + np.arange(m)[None, :]
+        cols0.append(s[:, idx].transpose(1, 0, 2).reshape(p * s.shape[0], m))
+        cols1.append(s[:, idx + 1].transpose(1, 0, 2).reshape(p * s.shape[0], m))
+    if not cols0:
+        raise IdentificationError(f"free decays too short for ERA: need more than {2 * p + 1} samples after decimation")
+    return np.hstack(cols0), np.hstack(cols1)
+
+
+def _real_modes(keep: list[tuple[float, float, int]], shapes_c: np.ndarray, driving_point: int
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Frequencies, damping ratios, real shapes (largest entry 1, positive at the driving point), complexity."""
     freqs, zetas, shapes, cplx = [], [], [], []
     for fd, zeta, k in keep:
         psi = shapes_c[:, k]
         big = int(np.argmax(np.abs(psi)))
         psi = psi * np.exp(-1j * np.angle(psi[big]))
-        re, im = psi.real, psi.imag
-        re = re / np.max(np.abs(re))
+        re = psi.real / np.max(np.abs(psi.real))
         if re[driving_point] < 0:
             re = -re
         freqs.append(fd)
         zetas.append(zeta)
         shapes.append(re)
-        cplx.append(float(np.linalg.norm(im) / max(np.linalg.norm(psi.real), 1e-300)))
-    return LinearModes(np.array(freqs), np.array(zetas), np.array(shapes).T, np.array(cplx), svn, order, n_real)
+        cplx.append(float(np.linalg.norm(psi.imag) / max(np.linalg.norm(psi.real), 1e-300)))
+    return np.array(freqs), np.array(zetas), np.array(shapes).T, np.array(cplx)

@@ -139,34 +139,52 @@ def kinematics(t: np.ndarray, y: np.ndarray, quantity: str, *, force: np.ndarray
     return Kinematics(x, v, a, impact, (free0, stop), noise * scale, float(highpass_hz))
 
 
-def highpass(y: np.ndarray, rate_hz: float, highpass_hz: float) -> np.ndarray:
-    """The zero-phase drift high-pass of :func:`kinematics`, along the last axis."""
+def highpass(y: np.ndarray, rate_hz: float, highpass_hz: float, times: int = 1) -> np.ndarray:
+    """The zero-phase drift high-pass of :func:`kinematics`, along the last axis, ``times`` times."""
     sos = signal.butter(4, highpass_hz, btype="highpass", fs=rate_hz, output="sos")
-    return signal.sosfiltfilt(sos, y, axis=-1)
+    for _ in range(times):
+        y = signal.sosfiltfilt(sos, y, axis=-1)
+    return y
 
 
-def quasi_static(force: np.ndarray, rate_hz: float, flexibility: np.ndarray,
-                 highpass_hz: float = HIGHPASS_HZ) -> tuple[np.ndarray, np.ndarray]:
-    """What the drift high-pass removed from ``x`` and ``v``: the quasi-static response.
+def quasi_static(force: np.ndarray, rate_hz: float, receptance, highpass_hz: float = HIGHPASS_HZ
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """What the drift high-pass removed from ``x`` and ``v``: the slow response to the impact.
 
     The high-pass also removes the part of the true displacement that follows the
-    low-frequency content of the impact force, ``x_low = G F_low`` (``G`` the static
-    flexibility of each channel at the driving point, ``F_low`` the force minus its
-    high-passed self): about ``2 f_c / f_1`` of the first mode's amplitude (3 % at 2 Hz and
-    23 Hz). Adding it back makes ``x`` the displacement from rest again.
+    low-frequency content of the impact force: about ``2 f_c / f_1`` of the first mode's
+    amplitude (3 % at 2 Hz and 23 Hz). It is put back from the linear model:
+    ``x_low = IFFT[(1 - |HP|^4) H(f) F(f)]`` and ``v_low = IFFT[(1 - |HP|^2) i w H(f) F(f)]``
+    (``v`` went through the zero-phase high-pass once, ``x`` twice, as :func:`kinematics`
+    integrates the filtered velocity; ``|HP|^2 = 1 / (1 + (f_c / f)^8)`` for the 4th-order
+    Butterworth run forward and backward; ``H`` the receptance of every channel at the
+    driving point). Exact for a linear structure; the slow part of nonlinear forces is not
+    restored.
 
     Parameters
     ----------
     force : ndarray, shape (n,), [N]
     rate_hz : float
-    flexibility : ndarray, shape (n_channels,), [m/N]
+    receptance : callable
+        ``receptance(freqs_hz) -> ndarray (n_channels, n_freqs)`` complex [m/N].
     highpass_hz : float
 
     Returns
     -------
     x_low, v_low : ndarray, shape (n_channels, n)
     """
-    sos = signal.butter(4, highpass_hz, btype="highpass", fs=rate_hz, output="sos")
-    f_low = np.asarray(force, float) - signal.sosfiltfilt(sos, force)
-    g = np.asarray(flexibility, float)[:, None]
-    return g * f_low[None, :], g * np.gradient(f_low, 1.0 / rate_hz)[None, :]
+    f = np.asarray(force, float)
+    n = f.size
+    m = 1 << int(np.ceil(np.log2(2 * n)))
+    freqs = np.fft.rfftfreq(m, 1.0 / rate_hz)
+    spec = np.fft.rfft(f, m)
+    ratio = highpass_hz / np.maximum(freqs, 1e-12 * highpass_hz)
+    hp2 = np.where(ratio < 1e30, 1.0 / (1.0 + np.minimum(ratio, 1e30) ** 8), 0.0)
+    band = (1.0 - hp2) > 1e-9
+    hb = np.asarray(receptance(freqs[band]), complex)
+    h = np.zeros((hb.shape[0], freqs.size), complex)
+    h[:, band] = hb
+    w = 2j * np.pi * freqs
+    x_low = np.fft.irfft(h * ((1.0 - hp2**2) * spec)[None, :], m, axis=1)[:, :n]
+    v_low = np.fft.irfft(h * ((1.0 - hp2) * w * spec)[None, :], m, axis=1)[:, :n]
+    return x_low, v_low

@@ -86,7 +86,7 @@ def predict_channels(model: MdofModel, record: ChannelRecord
         return np.full((phi.shape[0], w1 - w0), np.nan), np.full((model.n_coords, w1 - w0), np.nan), how, True
     q = np.zeros((model.n_coords, n))
     q[:, s:] = sim.x
-    q = highpass(q, rate, record.highpass_hz)[:, w0:w1]
+    q = highpass(q, rate, record.highpass_hz, times=2)[:, w0:w1]  # as the measured x (integrated filtered v)
     return phi @ q, q, how, False
 
 

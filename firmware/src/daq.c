@@ -146,6 +146,14 @@ static double rate_hz(unsigned osr_index)
 
 static void send_reply(const proto_msg *cmd, uint8_t status, const json_w *w)
 {
+    static const char too_long[] = "{\"error\":\"reply does not fit the firmware's buffer\"}";
+    json_w fallback;
+    if (w->overflow) {   /* never send truncated JSON */
+        fallback.buf = (char *)(uintptr_t)too_long;
+        fallback.len = sizeof too_long - 1u;
+        w = &fallback;
+        status = PS_BAD_VALUE;
+    }
     uint8_t *p = raw_reply;
     proto_header(p, PT_REPLY, d.seq++);
     proto_put_u32(p + 6, cmd->seq);

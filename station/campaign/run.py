@@ -36,6 +36,11 @@ from station.campaign.table import Journal
 from station.errors import ConfigError
 
 
+#: Tasks kept submitted per worker thread: enough that no worker waits for the client, few
+#: enough that a million-capture campaign holds a bounded number of futures.
+IN_FLIGHT_PER_THREAD = 4
+
+
 @dataclass(frozen=True)
 class CampaignResult:
     """What a campaign did.
@@ -212,7 +217,8 @@ def run_campaign(
     t0 = time.perf_counter()
     bar = _progress(len(todo), quiet)
     try:
-        submit(max(4, 4 * threads))
+        submit(max(4, IN_FLIGHT_PER_THREAD * threads))
+        checked = time.perf_counter()
         for fut in ac:
             part = in_flight.pop(fut)
             try:
@@ -220,7 +226,9 @@ def run_campaign(
             except Exception as exc:  # noqa: BLE001 - a lost worker costs rows, not the campaign
                 rows = _lost_rows(part, opts, exc)
             fut.release()
-            submit(1)
+            if time.perf_counter() - checked > 5.0:  # workers may join (adaptive clusters) or leave
+                threads, checked = sum(client.nthreads().values()), time.perf_counter()
+            submit(max(1, max(4, IN_FLIGHT_PER_THREAD * threads) - len(in_flight)))
             for row in rows:
                 journal.append(row)
                 processed += 1

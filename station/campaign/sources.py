@@ -52,16 +52,20 @@ def _has_magic(s: str) -> bool:
 
 
 def _files(source: str) -> list[Path]:
-    """The data files a source names, sorted; a glob or folder matching nothing is an error."""
+    """The data files a source names, sorted; a glob or folder matching nothing is an error.
+
+    Hidden files (``.name``: a session writer's lock or temporary files) are never sources.
+    """
     if _has_magic(source):
         hits = sorted(Path(p) for p in glob.glob(source, recursive=True))
-        files = [p for p in hits if p.is_file() and p.suffix.lower() in SUFFIXES]
+        files = [p for p in hits if p.is_file() and p.suffix.lower() in SUFFIXES and not p.name.startswith(".")]
         if not files:
             raise InputFileError(f"{source}: the pattern matches no {', '.join(SUFFIXES)} file")
         return files
     p = Path(source)
     if p.is_dir():
-        files = sorted(q for q in p.rglob("*") if q.is_file() and q.suffix.lower() in SUFFIXES)
+        files = sorted(q for q in p.rglob("*")
+                       if q.is_file() and q.suffix.lower() in SUFFIXES and not q.name.startswith("."))
         if not files:
             raise InputFileError(f"{p}: the folder holds no {', '.join(SUFFIXES)} file")
         return files
@@ -99,7 +103,7 @@ def _split(source: str) -> tuple[str, int | None]:
     return source, None
 
 
-def expand_sources(sources: Iterable[str]) -> list[CaptureRef]:
+def expand_sources(sources: Iterable[str], exclude: str | os.PathLike[str] | None = None) -> list[CaptureRef]:
     """Every capture the sources name, in order, each once.
 
     Parameters
@@ -107,6 +111,9 @@ def expand_sources(sources: Iterable[str]) -> list[CaptureRef]:
     sources : iterable of str
         ``FILE.csv``, ``FILE.h5`` (all its captures), ``FILE.h5:N``, a folder (every CSV and
         HDF5 file below it) or a glob (``'runs/**/*.h5'``, quoted so that the shell leaves it).
+    exclude : str or Path, optional
+        A folder whose files are never sources (the campaign's own output folder, so that
+        its ``results.csv`` is not read as a capture when it lies below a source folder).
 
     Returns
     -------
@@ -120,9 +127,12 @@ def expand_sources(sources: Iterable[str]) -> list[CaptureRef]:
     """
     out: list[CaptureRef] = []
     seen: set[tuple[str, int]] = set()
+    skip = os.path.abspath(exclude) + os.sep if exclude is not None else None
     for source in sources:
         base, capture = _split(source)
         for path in _files(base):
+            if skip is not None and os.path.abspath(path).startswith(skip):
+                continue
             for ref in _refs_of_file(path, capture):
                 if ref.key not in seen:
                     seen.add(ref.key)

@@ -14,7 +14,8 @@ Columns: ``file, capture`` (empty for a CSV record), ``task, status`` (``ok`` / 
 ``driven_by``, ``cause`` and ``gain`` (diagnose), ``warnings`` (``; ``-separated), then one
 column per coefficient, ``b[TERM]`` (damping) and ``k[TERM]`` (stiffness) in SI units
 (N s/m for ``b[v]``, N/m for ``k[x]``, N/m^3 for ``k[x^3]``...), each followed by
-``b[TERM]_ci95`` (half-width of the 95 % interval) when the pipeline gives one, and last
+``b[TERM]_ci95`` (half-width of the 95 % interval) when the pipeline gives one (in Parquet
+each coefficient field carries its unit as field metadata ``unit``), and last
 ``model_json``, ``seconds`` (time on the worker) and ``worker`` (``host:pid``).
 
 Why a journal beside the tables: a row is durable the moment its line is flushed, without
@@ -60,6 +61,23 @@ def _finite_or_none(v: Any) -> Any:
     return v if not isinstance(v, float) or math.isfinite(v) else None
 
 
+def check_out_folder(out: str | os.PathLike[str]) -> Path:
+    """The output folder, if it is new, empty or a campaign's own (one line otherwise).
+
+    Raises
+    ------
+    InputFileError
+        ``out`` exists and is not a folder, or is a folder of other files.
+    """
+    p = Path(out)
+    if p.exists() and not p.is_dir():
+        raise InputFileError(f"--out {p}: exists and is not a folder")
+    if p.is_dir() and not (p / OPTIONS).exists() and any(p.iterdir()):
+        raise InputFileError(f"--out {p}: a folder of other files, not a campaign's; "
+                             f"choose a new folder (it is created)")
+    return p
+
+
 class Journal:
     """The output folder of a campaign: journal, options, models and tables.
 
@@ -75,15 +93,14 @@ class Journal:
     ConfigError
         ``out`` holds a campaign with other options.
     InputFileError
-        ``out`` exists and is not a folder.
+        ``out`` exists and is not a folder, or is a folder of other files (a campaign writes
+        only into a new folder or its own).
     """
 
     def __init__(self, out: str | os.PathLike[str], options: dict[str, Any]) -> None:
-        self.out = Path(out)
-        if self.out.exists() and not self.out.is_dir():
-            raise InputFileError(f"--out {self.out}: exists and is not a folder")
-        (self.out / MODELS).mkdir(parents=True, exist_ok=True)
+        self.out = check_out_folder(out)
         opt_path = self.out / OPTIONS
+        (self.out / MODELS).mkdir(parents=True, exist_ok=True)
         if opt_path.exists():
             old = json.loads(opt_path.read_text(encoding="utf-8"))
             if old != json.loads(json.dumps(options)):
@@ -149,9 +166,10 @@ class Journal:
             self._fh = None
 
     # ------------------------------------------------------------------------------ tables
-    def _index(self) -> tuple[list[int], list[str]]:
-        """Byte offsets of the last row of each capture (sorted by key) and the columns."""
+    def _index(self) -> tuple[list[int], list[str], dict[str, str]]:
+        """Byte offsets of the last row of each capture (sorted by key), the columns, their units."""
         last: dict[tuple[str, int], int] = {}
+        units: dict[str, str] = {}
         coef: set[str] = set()
         ci: set[str] = set()
         if self.journal_path.exists():
@@ -167,13 +185,16 @@ class Journal:
                     last[row_key(row)] = pos
                     coef.update(row.get("coefficients") or {})
                     ci.update(row.get("ci95") or {})
+                    for name, unit in (row.get("units") or {}).items():
+                        units.setdefault(name, unit)
+                        units.setdefault(f"{name}_ci95", unit)
         cols = list(LEAD)
         for name in sorted(coef, key=lambda n: (n[0], n)):
             cols.append(name)
             if name in ci:
                 cols.append(f"{name}_ci95")
         cols += TAIL
-        return [last[k] for k in sorted(last)], cols
+        return [last[k] for k in sorted(last)], cols, units
 
     def _flat(self, offsets: list[int], cols: list[str]) -> Iterator[list[dict[str, Any]]]:
         """Rows as flat dicts, in batches."""
@@ -200,10 +221,12 @@ class Journal:
         import pyarrow as pa
         import pyarrow.parquet as pq
 
-        offsets, cols = self._index()
+        offsets, cols, units = self._index()
         types = {c: (pa.string() if c in _STR else pa.int64() if c == "capture" else
                      pa.bool_() if c == "diverged" else pa.float64()) for c in cols}
-        schema = pa.schema([(c, types[c]) for c in cols])
+        units.update({"mass_kg": "kg", "seconds": "s"})
+        schema = pa.schema([pa.field(c, types[c], metadata={"unit": units[c]} if c in units else None)
+                            for c in cols])
         csv_path, pq_path = self.out / CSV_NAME, self.out / PARQUET_NAME
         csv_tmp, pq_tmp = csv_path.with_suffix(".csv.tmp"), pq_path.with_suffix(".parquet.tmp")
         with open(csv_tmp, "w", newline="", encoding="utf-8") as fh, pq.ParquetWriter(pq_tmp, schema) as pw:

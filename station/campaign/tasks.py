@@ -12,6 +12,7 @@ A row is a plain dict (cheap to pickle back to the client)::
     cause, gain, warnings, seconds, worker,
     coefficients = {"b[v]": ..., "k[x^3]": ...}      # [SI] of each term
     ci95 = {"b[v]": half-width, ...}                 # when the pipeline gives them
+    units = {"b[v]": "N s/m", ...}                   # SI unit of each coefficient
     model = JSON text of the model (identify, diagnose), written to a file by the client
 """
 
@@ -106,24 +107,42 @@ def _coefficients(eom: Any) -> dict[str, float]:
 
 
 def _ci95(coefs: Mapping[str, float], *holders: Any) -> dict[str, float]:
-    """Half-widths of the 95 % intervals, when the pipeline gives them (issue 9), else {}.
+    """Half-widths of the 95 % intervals the pipeline gives, keyed like :func:`_coefficients`.
 
-    Accepts a ``ci95`` mapping on any of ``holders``, keyed like :func:`_coefficients`
-    (``"b[v]"``) or by bare term (``"v"``, ``"x^3"``: matched to the coefficient of that term),
-    with a half-width or a ``(low, high)`` pair as value.
+    Reads a ``ci95`` mapping on the first of ``holders`` that has one, in any of the forms
+    ``{"damping": {"v": hw}, "stiffness": {"x": hw}}`` (the pipeline's), ``{"b[v]": hw}`` or
+    ``{"v": hw}``, a value being a half-width or a ``(low, high)`` pair. {} when none.
     """
+    def half(val: Any) -> float:
+        return (float(val[1]) - float(val[0])) / 2.0 if isinstance(val, (tuple, list)) else float(val)
+
     for h in holders:
         ci = getattr(h, "ci95", None)
         if not isinstance(ci, Mapping) or not ci:
             continue
         out: dict[str, float] = {}
+        for group, prefix in (("damping", "b"), ("stiffness", "k")):
+            if isinstance(ci.get(group), Mapping):
+                out.update({f"{prefix}[{t}]": half(v) for t, v in ci[group].items() if f"{prefix}[{t}]" in coefs})
         for name, val in ci.items():
-            hw = (float(val[1]) - float(val[0])) / 2.0 if isinstance(val, (tuple, list)) else float(val)
+            if isinstance(val, Mapping):
+                continue
             key = next((k for k in (name, f"b[{name}]", f"k[{name}]") if k in coefs), None)
             if key is not None:
-                out[key] = hw
+                out[key] = half(val)
         return out
     return {}
+
+
+def _units(units: Any) -> dict[str, str]:
+    """``{"damping": {"v": "N s/m"}, "stiffness": {...}}`` -> ``{"b[v]": "N s/m", ...}``."""
+    if not isinstance(units, Mapping):
+        return {}
+    out: dict[str, str] = {}
+    for group, prefix in (("damping", "b"), ("stiffness", "k")):
+        if isinstance(units.get(group), Mapping):
+            out.update({f"{prefix}[{t}]": str(u) for t, u in units[group].items()})
+    return out
 
 
 def _pipeline_warnings(*holders: Any) -> list[str]:
@@ -146,6 +165,7 @@ def _identify(meas: Any, opts: TaskOptions) -> dict[str, Any]:
     return {"mass_kg": mass, "route": res.model.route, "nrmse": float(val.nrmse), "nmte": val.nmte,
             "diverged": bool(val.diverged), "driven_by": "force" if res.driven_by_force else "initial state",
             "coefficients": _coefficients(eom), "ci95": _ci95(_coefficients(eom), res, res.model),
+            "units": _units(getattr(res, "units", None)),
             "warnings": warnings,
             "model": eom.to_json()}
 

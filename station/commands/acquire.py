@@ -1,6 +1,6 @@
 """``station acquire``: record N triggered impacts into an HDF5 session file.
 
-    station acquire --device sim://duffing --impacts 5 --out session.h5 [--config bench.toml] [--json]
+    station acquire --device sim://duffing-smooth --impacts 5 --out session.h5 [--config bench.toml] [--json]
 
 Shows a live status on stderr (armed / triggered / levels / progress), saves each capture as
 soon as it completes, exits cleanly on Ctrl-C keeping what was saved. With a ``sim://``
@@ -13,15 +13,17 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from station.capture import AcquireResult, Status, acquire, configure_device, default_impacts, device_metadata
 from station.argtypes import finite_positive, positive_seconds
 from station.cli import EXIT_INTERRUPTED, EXIT_USER_ERROR
-from station.config import BenchConfig, load_config, parse_config
 from station.errors import ConfigError
 from station.output import emit
-from station.storage import CaptureWriter
+
+if TYPE_CHECKING:  # imported by the handler: `station acquire --help` stays light
+    from station.capture import AcquireResult, Status
+    from station.config import BenchConfig
+    from station.storage import CaptureWriter
 
 
 def register(subparsers: Any) -> None:
@@ -77,6 +79,8 @@ class LiveStatus:
 
 
 def _config(args: argparse.Namespace) -> BenchConfig:
+    from station.config import load_config, parse_config
+
     cfg = load_config(args.config) if args.config else parse_config({})
     data = cfg.model_dump()
     if args.device:
@@ -102,6 +106,8 @@ def handle(args: argparse.Namespace) -> int:
     from station.output_safety import check_output
 
     check_output(args.out, "hdf5", [args.config] if args.config else [], option="--out", append=True)
+    from station.storage import CaptureWriter
+
     # one writer per session file: held for the whole run (a second acquire or import waits, then exits 2)
     writer = CaptureWriter(args.out, session={"bench_config": cfg.model_dump_json()}).hold()
     live = LiveStatus(enabled=not args.json)
@@ -115,6 +121,7 @@ def handle(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace, cfg: BenchConfig, url: str, simulated: bool, writer: CaptureWriter,
          live: LiveStatus) -> tuple[AcquireResult, Any]:
+    from station.capture import acquire, configure_device, default_impacts, device_metadata
     from station.devices import open_device
 
     with open_device(url) as daq:

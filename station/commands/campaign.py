@@ -95,15 +95,15 @@ def handle(args: argparse.Namespace) -> int:
     """Run ``station campaign``; return the exit code."""
     from station.campaign.run import dask_client, run_campaign
     from station.campaign.sources import expand_sources
-    from station.campaign.table import Journal
-
+    from station.campaign.table import Journal, check_out_folder
     from station.output_safety import check_output
 
     check_output(args.out, "dir", [*args.sources, *([args.model] if args.model else [])], option="--out")
+    check_out_folder(args.out)
     opts = _options(args)
-    refs = expand_sources(list(args.sources))
+    refs = expand_sources(list(args.sources), exclude=args.out)
     if not refs:
-        raise InputFileError("no capture found in the sources")
+        raise InputFileError("no capture found in the sources (outside --out)")
     journal = Journal(args.out, opts.as_dict())
     errors: list[str] = []
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from station.devices import list_devices
 from station.output import emit
 
 
@@ -16,6 +15,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def handler(args: argparse.Namespace) -> int:
+    from station.devices import list_devices
+
     entries = list_devices(probe=args.probe)
     mark = {True: "yes", False: "no", None: "?"}
     lines = [f"{'URL':40s} {'KIND':6s} {'EDDI':4s} DESCRIPTION"]

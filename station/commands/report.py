@@ -47,10 +47,9 @@ def handle(args: argparse.Namespace) -> int:
     from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
     from station.commands.replay import session_object, session_text, terms_or_default
     from station.demo import rig_truth
-    from station.session import read_all, run_session
-    from station.report import write_report
-
     from station.output_safety import check_output
+    from station.report import write_report
+    from station.session import read_all, run_session
 
     check_output(args.out, "dir", args.records, option="--out")
     t0 = time.perf_counter()

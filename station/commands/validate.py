@@ -11,6 +11,10 @@ compared with the measurement (see :func:`station.session.validate_measurement`)
 
 Prints ``nrmse`` and ``nmte`` per record and their means. ``FILE.h5`` without ``:CAPTURE``
 means every capture in it.
+
+A multi-DOF model (``"kind": "mdof"``, from ``station diagnose`` on captures with several
+response channels) predicts every channel: per-channel ``nrmse`` of the displacement and their
+mean as ``nrmse`` (see ``docs/multi-dof.md``).
 """
 
 from __future__ import annotations

@@ -80,3 +80,32 @@ def test_hdf5_capture_with_several_accelerometers_round_trips(tmp_path):
     assert channel_names(meas) == ("acc1", "acc2")
     np.testing.assert_array_equal(meas.channels["acc2"], rec.acc_m_s2[1])
     np.testing.assert_array_equal(meas.channels["force"], rec.force_n)
+
+
+def test_validate_refuses_captures_without_the_models_channels(tmp_path, capsys):
+    from station.cli import main
+
+    model = load_mdof_system("two-mass-cubic").model()
+    (tmp_path / "m.json").write_text(model.to_json())
+    t = np.arange(400) / 2048.0
+    force = np.zeros_like(t)
+    force[20:24] = [10.0, 20.0, 20.0, 10.0]
+    rows = np.column_stack([t, force, np.sin(2 * np.pi * 23 * t)])
+    np.savetxt(tmp_path / "one.csv", rows, delimiter=",", header="t,force,acc", comments="")
+    assert main(["validate", str(tmp_path / "m.json"), str(tmp_path / "one.csv")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "acc1" in err[0] and "Traceback" not in err[0]
+
+
+def test_rig_runs_an_mdof_model_json(tmp_path, capsys):
+    from simulated_rig.mdof_systems import main
+    from station.readers import read_measurement
+
+    model = load_mdof_system("two-mass-cubic").model()
+    (tmp_path / "m.json").write_text(model.to_json())
+    assert main([str(tmp_path / "m.json"), "--out", str(tmp_path), "--peaks", "30"]) == 0
+    path = capsys.readouterr().out.strip()
+    meas = read_measurement(path)
+    rec = mdof_impact_test("two-mass-cubic", 30.0, seed=0)
+    np.testing.assert_allclose(meas.channels["acc2"], rec.acc_m_s2[1], rtol=1e-8, atol=1e-9)
+    assert main(["no-such-system", "--out", str(tmp_path)]) == 2

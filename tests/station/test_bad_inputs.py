@@ -89,6 +89,9 @@ def build_files(d: Path) -> dict[str, Path]:
     csv("time_jitter_5pct", rows=rows)
     csv("time_coarse_digits", rows=good, fmt="%.3g")
     csv("too_few_rows", rows=good[:10])
+    rows = good.copy()
+    rows[:, 0] += 1e8
+    csv("time_offset_1e8", rows=rows)
     text("binary_garbage", bytes(range(256)) * 4)
     rows = good.copy()
     rows[300:320, 2] = rows[:, 2].max() + 1
@@ -214,7 +217,7 @@ CASES: list[tuple[str, list[str]]] = [
         "empty", "header_only", "blank_header", "unknown_column", "duplicate_column", "no_time", "no_response",
         "ragged", "text_in_number", "nan_acc", "inf_force", "huge_acc", "acc_1e60", "neg_huge_force", "huge_time",
         "time_1e60", "nan_time", "all_huge_acc", "time_decreasing", "time_repeated", "missing_sample",
-        "time_jitter_5pct", "time_coarse_digits", "too_few_rows", "binary_garbage", "clipped_acc", "acc_all_zero",
+        "time_jitter_5pct", "time_coarse_digits", "time_offset_1e8", "too_few_rows", "binary_garbage", "clipped_acc", "acc_all_zero",
         "acc_constant", "semicolons", "nul_bytes", "wrong_suffix", "no_suffix", "folder", "missing"]],
     ("csv-capture-on-csv", ["identify", G + ":3", "--mass", "1"]),
     ("csv-force-no-impact", ["identify", _f("force_no_impact"), "--mass", "1"]),

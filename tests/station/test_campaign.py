@@ -97,7 +97,10 @@ def test_campaign_table_row_by_row_and_resume(captures, client, tmp_path):
     assert (res.total, res.processed, res.failed, res.skipped, res.rows, res.workers) == (6, 6, 1, 0, 6, 2)
     assert len(res.peak_memory_mb) == 2 and all(50 < m < 4000 for m in res.peak_memory_mb.values())
 
-    table = pq.read_table(res.parquet).to_pylist()
+    arrow = pq.read_table(res.parquet)
+    assert arrow.schema.field("k[x^3]").metadata == {b"unit": b"N/m^3"}
+    assert arrow.schema.field("b[v]_ci95").metadata == {b"unit": b"N s/m"}
+    table = arrow.to_pylist()
     assert [(r["file"], r["capture"]) for r in table] == [(r.file, r.capture) for r in refs]
     with open(res.csv, newline="") as fh:
         csv_rows = list(csv.DictReader(fh))
@@ -114,6 +117,7 @@ def test_campaign_table_row_by_row_and_resume(captures, client, tmp_path):
         for name, true in TRUE.items():
             assert row[name] == pytest.approx(true, rel=TOL[name]), (row["file"], row["capture"], name)
             assert float(crow[name]) == row[name]
+            assert 0 < row[f"{name}_ci95"] < abs(true) and float(crow[f"{name}_ci95"]) == row[f"{name}_ci95"]
         assert 0 <= row["nrmse"] < 0.1 and row["diverged"] is False and row["driven_by"] == "force"
         if row["capture"] == 2:  # the worker ran exactly the pipeline `station identify` runs
             from station.commands.identify import run_identify
@@ -171,10 +175,37 @@ def test_resume_refuses_other_options(tmp_path):
                                       stiffness="x,x^2,x^3").as_dict())
 
 
-def test_cli_bad_source_is_one_line(tmp_path, capsys):
-    assert main(["campaign", str(tmp_path / "nothing-*.h5"), "--out", str(tmp_path / "o")]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "matches no .csv, .h5, .hdf5 file" in err
+def test_cli_bad_input_is_one_line(captures, tmp_path, capsys):
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "notes.txt").write_text("mine")
+    cases = [
+        (["campaign", str(tmp_path / "nothing-*.h5"), "--out", str(tmp_path / "o")], "matches no .csv, .h5, .hdf5 file"),
+        (["campaign", str(captures), "--out", str(captures)], "refusing to overwrite an input"),
+        (["campaign", str(captures), "--out", str(other)], "a folder of other files, not a campaign's"),
+        (["campaign", str(captures), "--out", str(captures / "good.csv")], "refusing to replace it with a folder"),
+        (["campaign", str(captures), "--out", str(tmp_path / "v"), "--task", "validate"], "needs --model MODEL.json"),
+        (["campaign", str(captures), "--out", str(tmp_path / "w"), "--workers", "0"], "--workers must be >= 1"),
+    ]
+    for argv, msg in cases:
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and msg in err, (argv, err)
+    assert sorted(p.name for p in captures.iterdir() if not p.name.startswith(".")) == [
+        "bad.csv", "good.csv", "session.h5"]  # nothing written (the session writer's lock file aside)
+    assert [p.name for p in other.iterdir()] == ["notes.txt"]
+
+
+def test_output_folder_below_a_source_is_not_read(captures, tmp_path):
+    out = captures / "results"
+    out.mkdir()
+    try:
+        (out / "results.csv").write_text("file,capture\n")
+        assert len(expand_sources([str(captures)], exclude=out)) == 6
+        assert len(expand_sources([str(captures)])) == 7
+    finally:
+        (out / "results.csv").unlink()
+        out.rmdir()
 
 
 def test_cli_json_resume_on_an_existing_scheduler(captures, client, tmp_path, capsys):

@@ -17,7 +17,10 @@ EXAMPLE = Path(__file__).resolve().parents[2] / "station" / "examples" / "duffin
 
 
 def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    code = main(argv)
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # an option refused by its argument type (station.argtypes)
+        code = int(exc.code or 0)
     out, err = capsys.readouterr()
     return code, out, err
 

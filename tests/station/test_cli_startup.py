@@ -66,3 +66,22 @@ def test_unknown_command_is_one_line_exit_2(capsys: pytest.CaptureFixture[str]) 
     assert main(["idnetify", "x.csv"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "invalid choice: 'idnetify'" in err
+
+
+def test_without_matplotlib_report_is_one_line_and_the_demo_text_says_skipped(tmp_path: Path) -> None:
+    """matplotlib is the ``report`` extra: a command that needs it says so in one line."""
+    csv = REPO / "station" / "examples" / "duffing-impact.csv"
+    code = ("import sys; sys.modules['matplotlib'] = None\n"
+            "from station.cli import main\n"
+            f"sys.exit(main(['report', {str(csv)!r}, '--mass', '0.815', '--out', {str(tmp_path / 'r')!r}]))\n")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                         env={**os.environ, "PYTHONPATH": str(REPO)})
+    assert res.returncode == 2, res.stderr[-2000:]
+    assert res.stderr.count("\n") == 1 and 'pip install "eddi-station[report]"' in res.stderr
+    from station.demo import NO_REPORT, demo_text
+
+    obj = {"device": "sim://x", "captures": 3, "levels_n": [1.0], "paths": {"session": "s.h5", "model": "m.json",
+           "report": None, "figures": []}, "dropped_samples": 0, "link_dropped_samples": 0, "crc_errors": 0,
+           "fit_capture": "s.h5:1", "method": "EDDI", "identified": {"equation": "eq", "damping": {}, "stiffness": {}},
+           "validation": {"held_out": [], "nrmse": None}, "elapsed_s": {"total": 1.0}}
+    assert demo_text(obj).splitlines()[-2] == NO_REPORT

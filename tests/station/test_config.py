@@ -17,11 +17,14 @@ ACC = ChannelInfo("acc", "acceleration", "m/s^2", scale=1e-4, range_si=500.0, ad
 
 def test_example_loads_and_converts_to_samples() -> None:
     cfg = load_config(REPO / "examples" / "bench.toml")
-    assert cfg.device is not None and cfg.device.url == "sim://duffing" and cfg.device.rate_hz == 19200
+    assert cfg.device is not None and cfg.device.url == "sim://duffing-smooth" and cfg.device.rate_hz == 19200
+    from station.devices import parse_sim_url
+
+    assert parse_sim_url(cfg.device.url).system == "duffing-smooth"  # a system the rig has (issue 11)
     assert cfg.specimen.mass_kg == 0.815  # paper: 0.815 kg
     s = cfg.trigger_settings((FORCE, ACC), 19200.0)
-    # pre-trigger 1 s (paper), record 4 s, hold-off 0.2 s at 19200 Hz
-    assert (s.channel, s.level, s.pretrigger_samples, s.posttrigger_samples, s.holdoff_samples) == (0, 5.0, 19200, 76800, 3840)
+    # pre-trigger 1 s (paper), record 15 s (the rig rings ~10 s at these forces), hold-off 3 s at 19200 Hz
+    assert (s.channel, s.level, s.pretrigger_samples, s.posttrigger_samples, s.holdoff_samples) == (0, 5.0, 19200, 288000, 57600)
 
 
 def test_defaults_and_level_from_range() -> None:

@@ -31,3 +31,11 @@ def test_hidden_cubic_coupling_is_named_and_linear_null_is_not(tmp_path, capsys)
     assert main(["diagnose", *files, "--json", "--no-refine"]) == 0
     obj = json.loads(capsys.readouterr().out)
     assert obj["cause"] == "none"
+
+
+def test_energy_sink_is_named_a_missing_mode(tmp_path, capsys):
+    # the sink has no linear stiffness: no linear mode describes its motion
+    files = _captures(load_mdof_system("nes"), tmp_path, "nes")
+    assert main(["diagnose", *files, "--json", "--no-refine"]) == 0
+    obj = json.loads(capsys.readouterr().out)
+    assert obj["cause"] == "missing_mode" and obj["coordinates"] == "physical"

@@ -24,8 +24,10 @@ def test_late_times_printed_with_few_digits_are_accepted(tmp_path: Path, fmt: st
     """The end of a 320 s record at 19.2 kHz: %.9g rounds by up to 5e-7 s (~1 % of a step, the
     issue's case), %.8g by up to 5e-6 s (10 % of a step, still a quarter below half a step)."""
     t = 319.0 + np.arange(int(RATE)) / RATE
-    m = read_csv(_write(tmp_path / "late.csv", t, fmt))
-    dev = np.abs(m.t - (m.t[0] + np.arange(m.t.size) / m.rate_hz))
+    path = _write(tmp_path / "late.csv", t, fmt)
+    m = read_csv(path)
+    raw = np.loadtxt(path, delimiter=",", skiprows=1)[:, 0]
+    dev = np.abs(raw - (raw[0] + np.arange(raw.size) / RATE))
     assert (dev.max() > 0.02 / RATE) == beyond_1pct  # %.8g: the 1 %-of-a-step rule alone refuses it
     assert m.rate_hz == pytest.approx(RATE, rel=1e-7)
 
@@ -70,3 +72,23 @@ def test_tiny_and_long_numbers_are_parsed_exactly(tmp_path: Path) -> None:
     ref = np.loadtxt(path, delimiter=",", skiprows=1)
     np.testing.assert_array_equal(fast, ref)
     np.testing.assert_array_equal(read_csv(path).channels["acc"], ref[:, 1])
+
+
+def test_rounded_times_reach_identification_as_a_uniform_grid(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The reader hands the least-squares grid on: identify runs on a 9-digit late record."""
+    from station.cli import main
+
+    t = 319.0 + np.arange(int(3 * RATE)) / RATE
+    tt = t - t[0]
+    acc = np.exp(-1.5 * tt) * np.sin(2 * np.pi * 12 * tt)
+    force = 40 * np.exp(-(((tt - 0.01) / 0.001) ** 2))
+    path = tmp_path / "late.csv"
+    np.savetxt(path, np.column_stack([t, force, acc]), delimiter=",", header="t,force,acc", comments="",
+               fmt=["%.9g", "%.9g", "%.9g"])
+    m = read_csv(path)
+    steps = np.diff(m.t)
+    assert np.ptp(steps) < 1e-8 * steps.mean() and abs(m.t[0] - 319.0) < 1e-6
+    assert main(["identify", str(path), "--mass", "1", "--damping", "v", "--stiffness", "x", "--json"]) == 0, \
+        capsys.readouterr().err
+    with pytest.raises(InputFileError, match="cannot resolve steps"):  # 1e8 s + 0.1 ms steps: float64 too coarse
+        time_grid_rate(1e8 + np.arange(100) * 1e-4, "far")

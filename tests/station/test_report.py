@@ -46,7 +46,8 @@ def test_report_of_the_demo_session(capsys: pytest.CaptureFixture[str], tmp_path
         assert f"src='{name}.png'" in page
     # coefficient table: identified and the rig's true value (paper Eq. 22: k1 = 390)
     k1 = obj["identified"]["stiffness"]["x"]
-    assert f"<td>{k1:+.6g}</td><td>+390</td><td>{100 * (k1 - 390) / 390:+.1f} %</td>" in page
+    assert f"<td>{k1:+.6g}</td><td>± " in page  # with its 95 % interval and unit
+    assert f"<td>N/m</td><td>+390</td><td>{100 * (k1 - 390) / 390:+.1f} %</td>" in page
     # validation table: every held-out nrmse printed as computed
     for h in obj["validation"]["held_out"]:
         assert f"<td>{html.escape(h['source'])}</td>" in page

@@ -198,3 +198,17 @@ def test_two_concurrent_station_acquire_keep_all_captures_or_refuse(tmp_path: Pa
     assert [c.index for c in list_captures(out)] == list(range(saved))
     for i in range(saved):
         assert read_capture(out, i).n_samples == round(0.5 * 19200)  # every capture complete, checksums pass
+
+
+def test_acquire_refuses_a_run_that_disagrees_with_the_session(tmp_path: Path,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    """A 2 kHz imported session: the 19.2 kHz simulated rig may not be appended to it."""
+    out = tmp_path / "s.h5"
+    assert main(["import", str(write_csv(tmp_path / "a.csv", 2000, 2000.0, 1)), "--out", str(out)]) == 0
+    before = out.read_bytes()
+    capsys.readouterr()
+    rc = main(["acquire", "--device", "sim://duffing-smooth", "--impacts", "1", "--out", str(out), "--json"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1, err
+    assert "rate 19200 Hz disagrees with the session's 2000 Hz" in err[0] and "another file" in err[0]
+    assert out.read_bytes() == before
