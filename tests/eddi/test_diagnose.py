@@ -197,7 +197,10 @@ def test_bad_input_is_refused_in_one_line() -> None:
 
 
 def test_equation_error_fit_is_still_available() -> None:
+    # 2.5x the usual friction: at 1x the equation-error baseline is already within 5x the noise
+    # floor (nrmse 0.089, floor 0.02) and the verdict is rightly none
     eff = hidden("coulomb_friction", 5)
+    eff = Effect(name=eff.name, params={"force_n": 2.5 * eff.params["force_n"]})
     d = diagnose(records([eff], 5), SYSTEM.mass, damping=DAMPING, stiffness=STIFFNESS,
                  fit="equation-error", mechanisms=["coulomb_friction", "quadratic_damping"])
     assert d.cause == "coulomb_friction", d.verdict
