@@ -29,7 +29,8 @@ hidden effects, the time base and the impacts. Example (all keys but ``system`` 
     name = "quadratic_damping"
     magnitude = 0.05
 
-    [base_motion]                      # the base moves on its suspension (the sensor sees it)
+    [base_motion]                      # the base moves on its suspension (the sensor sees it;
+                                       # Scenario.impact only, not the streaming sim:// source)
     mass_kg = 20.0
     frequency_hz = 1.5
     damping_ratio = 0.05

@@ -195,7 +195,9 @@ def _diagnose(meas: Any, opts: TaskOptions) -> dict[str, Any]:
 
     mass = _mass(opts, meas)
     cond = station_pipeline.condition_measurement(meas)
-    diag = diagnose([Record.from_conditioned(cond, label=meas.source)], mass, damping=opts.damping,
+    diag = diagnose([Record.from_conditioned(cond, label=meas.source,
+                                             pretrigger_samples=getattr(meas, "pretrigger_samples", None))],
+                    mass, damping=opts.damping,
                     stiffness=opts.stiffness)
     eom = diag.extended.model
     return {"mass_kg": mass, "nrmse": float(diag.extended.nrmse), "nmte": diag.extended.nmte,
