@@ -14,9 +14,17 @@ from __future__ import annotations
 import argparse
 import errno
 import importlib
+import os
 import re
 import sys
 from typing import Any, Sequence
+
+# One BLAS thread per station process, unless the user says otherwise: the engine's matrices
+# are small and tall, and a second OpenBLAS thread burnt ~43 % more CPU for the same wall time
+# (issue 13's profile), which on a busy two-core laptop slows every other process. Set before
+# numpy is imported by any command module.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
 
 #: Sub-command name -> (module that provides it with ``register(subparsers)``, one-line help).
