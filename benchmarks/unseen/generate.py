@@ -64,7 +64,7 @@ def default_amp(fn):
 
 def pulse_tau(fn, rate):
     period = 1.0 / fn
-    return float(min(max(0.08 * period, 6.0 / rate, 3e-4), 0.3 * period, 3e-3))
+    return float(min(max(0.08 * period, 6.0 / rate, 3e-4), 0.3 * period, 8e-3))
 
 
 def record_duration(osc, zeta, n_tau=4.0, min_cycles=30, max_samples=60000, rate=1e4):
@@ -212,7 +212,7 @@ BASES = {
     "B2": ("B2", 3.0, 25.0, 10000, 35, 0.008, -0.10),
     "B3": ("B3", 0.08, 60.0, 20000, 55, 0.012, 0.25),
     "B4": ("B4", 12.0, 4.0, 2000, 30, 0.015, 0.10),
-    "B5": ("B5", 1.2, 40.0, 40000, 60, 0.010, 0.20),
+    "B5": ("B5", 1.2, 80.0, 40000, 60, 0.010, 0.20),
     "B6": ("B6", 0.15, 120.0, 6000, 40, 0.010, -0.08),
 }
 
@@ -305,11 +305,12 @@ def make_set(root: Path, rng, set_id: str, base: str, extras, n_capt: int, note:
             info = {"highpass_corner_hz": hp}
         elif extras == "drift":
             drift = True
+            info = {"k1_offset_per_capture": 0.02, "k1_rate_per_s": 0.004}
     elif extras is not None:
         ex = extras(osc, amp)
         osc = with_extras(osc, **ex)
         info = {k: v for k, v in ex.items()}
-    dur = record_duration(osc, zeta, rate=rate, max_samples=40000)
+    dur = record_duration(osc, zeta, n_tau=3.5, rate=rate, max_samples=30000)
     if hp:  # a low-frequency sensor artefact needs the low-frequency tail
         dur = max(dur, 6.0)
     tau = pulse_tau(osc.fn, rate)
@@ -382,7 +383,7 @@ def main(argv=None) -> int:
         cases += make_diagnose(args.out, rng, args.quick, args.captures)
     manifest = {"generator": "benchmarks/unseen/generate.py", "seed": args.seed, "quick": args.quick,
                 "captures_per_set": args.captures, "catalogue": list(CATALOGUE),
-                "noise_definition": "sigma = max|signal| / sqrt(2) * 10^(-snr_db/20), white, per channel; force 60 dB; 24-bit; acc offset 0.1 % of peak",
+                "noise_definition": "acc: sigma = max|free-response acc| / sqrt(2) * 10^(-snr_db/20), white; force: 60 dB of the peak force; 24-bit ADC; acc offset 0.1 % of peak",
                 "cases": cases}
     (args.out / "manifest.json").write_text(json.dumps(manifest, indent=1, default=float))
     print(f"{len(cases)} cases in {args.out} ({time.time() - t0:.1f} s)")

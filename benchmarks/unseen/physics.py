@@ -240,7 +240,9 @@ def impact_record(osc: Oscillator, *, rate_nominal: float, ppm: float, duration:
     if hp_corner:
         acc = highpass(acc, rate, hp_corner)
     peak = np.max(np.abs(acc))
-    acc = acc + rng.normal(0, peak / math.sqrt(2) * 10 ** (-snr_db / 20), n)
+    free_peak = np.max(np.abs(acc[t > t0 + tau])) if np.any(t > t0 + tau) else peak
+    # SNR against the free response's peak, not the hammer's acceleration spike
+    acc = acc + rng.normal(0, free_peak / math.sqrt(2) * 10 ** (-snr_db / 20), n)
     acc = acc + rng.uniform(-1, 1) * 1e-3 * peak  # sensor/ADC offset
     acc = quantise(acc, 4 * peak)
     force = None

@@ -40,7 +40,6 @@ import shlex
 import statistics
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -411,7 +410,8 @@ def main(argv=None) -> int:
     cwd = args.cwd or os.getcwd()
     flags = {s: flags_of(station, s) for s in ("identify", "diagnose", "validate")}
     timeouts = {"identify": args.timeout_identify, "diagnose": args.timeout_diagnose}
-    work = tempfile.mkdtemp(prefix="unseen-score-")
+    work = str(args.data / "_score-work")  # models written here stay for the repro commands
+    os.makedirs(work, exist_ok=True)
     load = open("/proc/loadavg").read().split()[:3] if Path("/proc/loadavg").exists() else "?"
     git0 = _git(args.repo)
     t0 = time.time()
