@@ -8,8 +8,8 @@ identify   ``station identify train.csv --mass M --damping <true terms> --stiffn
            --json`` (coefficient errors), the same with the default libraries (spurious terms),
            and ``station validate model.json heldout.csv --json`` for both models (held-out
            nrmse on a record at another impact level whose clock differs by 50-150 ppm).
-           A model is *poor* when its held-out nrmse exceeds 0.1, its simulation diverged, or
-           k1 is off by more than 5 %; it should then carry a warning (``warnings`` non-empty
+           A model is *poor* when its held-out (or in-sample) nrmse exceeds 0.1, its simulation
+           diverged, or k1 is off by more than 5 %; it should then carry a warning (``warnings`` non-empty
            or ``validation.diverged: true``).
 diagnose   ``station diagnose capture-*.csv --mass M --json`` (plus the case's extra flags);
            the cause is compared with the expected one. Classes: ``pass``; ``abstained``
@@ -146,6 +146,9 @@ def judge_identify(case, data, station, flags, timeouts, workdir, skip_default_v
             if term in est and est[term] is not None:
                 errs[term] = 100.0 * (est[term] - tv) / tv
         out["coef_err_pct"] = errs
+        ci = {**((d.get("ci95") or {}).get("damping") or {}), **((d.get("ci95") or {}).get("stiffness") or {})}
+        out["ci95_covers"] = {t: bool(abs(est[t] - tv) <= ci[t]) for t, tv in true.items()
+                              if t in est and est[t] is not None and ci.get(t) is not None}
         # error as a force at the typical amplitude, relative to the spring force k1 A
         ref = truth["stiffness"]["x"] * amp
         fe = {}
@@ -158,7 +161,8 @@ def judge_identify(case, data, station, flags, timeouts, workdir, skip_default_v
         out["spurious_pct_of_k1A"] = {t: v for t, v in fe.items() if t not in true}
         val = d.get("validation") or {}
         out["insample_nrmse"] = val.get("nrmse")
-        warns = d.get("warnings") or (d.get("validation") or {}).get("warnings") or []
+        warns = (d.get("warnings") or (d.get("validation") or {}).get("warnings")
+                 or (d.get("pipeline") or {}).get("warnings") or [])
         out["warnings"] = warns
         out["diverged"] = bool(val.get("diverged"))
         out["refined"] = _refined(d)
@@ -177,7 +181,9 @@ def judge_identify(case, data, station, flags, timeouts, workdir, skip_default_v
                 out["heldout_status"] = status_of(rv)
         k1e = abs(errs.get("x", float("nan")))
         hn = out.get("heldout_nrmse")
+        ins = out["insample_nrmse"]
         poor = (hn is None or not math.isfinite(hn) or hn > POOR_MODEL_NRMSE or out["diverged"]
+                or (ins is not None and ins > POOR_MODEL_NRMSE)
                 or out.get("heldout_diverged") or not (k1e <= POOR_K1))
         out["poor"] = bool(poor)
         out["warned"] = bool(warns) or out["diverged"]
@@ -299,7 +305,7 @@ def scorecard(results, meta):
     dgs = [r for r in results if r["kind"] == "diagnose"]
     if ids:
         L += ["## Identification (coefficient errors in %, median / worst of |error|)", "",
-              "| case | group | k1 | k3 | c (v) | x^2*v | v^3 | held-out nrmse (true lib / default) | in-sample | spurious max (% k1A) | warned / poor |",
+              "| case | group | k1 | k3 | c (v) | x^2*v | v^3 | held-out nrmse (true lib / default) | in-sample (true / default) | spurious max (% k1A) | warned / poor (true ; default) |",
               "|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in ids:
             t = r.get("true-structure", {})
@@ -312,7 +318,7 @@ def scorecard(results, meta):
                 _fmt(e.get("v"), "{:+.1f}"), _fmt(e.get("x^2*v"), "{:+.0f}"), _fmt(e.get("v^3"), "{:+.0f}"),
                 _fmt(t.get("heldout_nrmse")) if t.get("status") == "ok" else t.get("status"),
                 _fmt(dft.get("heldout_nrmse")) if dft.get("status") == "ok" else dft.get("status"),
-                _fmt(t.get("insample_nrmse")), _fmt(spm),
+                f'{_fmt(t.get("insample_nrmse"))} / {_fmt(dft.get("insample_nrmse"))}', _fmt(spm),
                 f"{_yn(t.get('warned'))}/{_yn(t.get('poor'))} ; {_yn(dft.get('warned'))}/{_yn(dft.get('poor'))}"))
         L.append("")
         groups = sorted({r["group"] for r in ids})
@@ -323,11 +329,18 @@ def scorecard(results, meta):
             L.append(f"| {g} | {col('x')} | {col('x^3')} | {col('v')} | "
                      f"{_med_worst([r.get('true-structure', {}).get('heldout_nrmse') for r in rs])} | "
                      f"{_med_worst([r.get('default', {}).get('heldout_nrmse') for r in rs])} |")
+        cov = [v for r in ids if r["group"] != "stress"
+               for v in (r.get("true-structure", {}).get("ci95_covers") or {}).values()]
+        covs = [v for r in ids if r["group"] == "stress"
+                for v in (r.get("true-structure", {}).get("ci95_covers") or {}).values()]
+        L += ["", f"ci95 coverage of the true coefficients (true-structure library): {sum(cov)} / {len(cov)} "
+              f"on the regular cases, {sum(covs)} / {len(covs)} on the stress cases"
+              + (" (no ci95 in the JSON)" if not cov and not covs else "") + "."]
         poor = [(r["id"], lab) for r in ids for lab in ("true-structure", "default") if r.get(lab, {}).get("poor")]
         silent = [(i, lab) for i, lab in poor if not next(r for r in ids if r["id"] == i)[lab].get("warned")]
         warned_good = [(r["id"], lab) for r in ids for lab in ("true-structure", "default")
                        if r.get(lab, {}).get("warned") and not r.get(lab, {}).get("poor")]
-        L += ["", f"Warnings: {len(poor)} poor models (held-out nrmse > {POOR_MODEL_NRMSE}, diverged, or |k1| > {POOR_K1} %), "
+        L += ["", f"Warnings: {len(poor)} poor models (held-out or in-sample nrmse > {POOR_MODEL_NRMSE}, diverged, or |k1| > {POOR_K1} %), "
               f"{len(silent)} of them without any warning: {', '.join(f'{i} ({l})' for i, l in silent) or 'none'}; "
               f"{len(warned_good)} warnings on good models.", ""]
     if dgs:
