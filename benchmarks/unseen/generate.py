@@ -26,6 +26,7 @@ import argparse
 import zlib
 import json
 import math
+import re
 import sys
 import time
 from pathlib import Path
@@ -40,6 +41,11 @@ CATALOGUE = ("coulomb_friction", "quadratic_damping", "clearance", "asymmetric_s
 
 
 SEED = [20261123]
+CASE_FILTER = [None]
+
+
+def wanted(case_id: str) -> bool:
+    return CASE_FILTER[0] is None or re.search(CASE_FILTER[0], case_id) is not None
 
 
 def case_rng(case_id: str):
@@ -124,7 +130,7 @@ IDENT = [
 def make_identify(root: Path, rng, quick: bool):
     cases = []
     for name, m, fn, rate, snr, zeta, eps, d2, d3, with_force, is_quick in IDENT:
-        if quick and not is_quick:
+        if (quick and not is_quick) or not wanted(f"identify/{name}"):
             continue
         rng = case_rng(f"identify/{name}")
         amp = default_amp(fn)
@@ -159,7 +165,7 @@ def make_identify(root: Path, rng, quick: bool):
         ("few-crossings-heavy-damping", {}, 1.0, 30.0, 10000, 45, 0.08, 0.1, True),
     ]
     for name, ex, m, fn, rate, snr, zeta, eps, is_quick in stress:
-        if quick and not is_quick:
+        if (quick and not is_quick) or not wanted(f"identify/{name}"):
             continue
         rng = case_rng(f"identify/{name}")
         amp = default_amp(fn)
@@ -289,6 +295,8 @@ def effect_sets(quick: bool):
 
 def make_set(root: Path, rng, set_id: str, base: str, extras, n_capt: int, note: str,
              expected, diag_args, is_quick: bool, kind: str, ppm_spread: float = 0.0):
+    if not wanted(set_id):
+        return None
     rng = case_rng(set_id)
     osc, amp, rate, snr, zeta = base_osc(base)
     hp = None
@@ -371,16 +379,19 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="the small set (about 9 identify + 14 diagnose cases)")
     ap.add_argument("--captures", type=int, default=6, help="captures per diagnosis set (>= 6 for nulls)")
     ap.add_argument("--only", choices=("identify", "diagnose"), help="generate one kind only")
+    ap.add_argument("--cases", default=None, help="regex on case ids: generate only those (same data as in the whole set)")
     args = ap.parse_args(argv)
     SEED[0] = args.seed
     rng = None  # every case draws from case_rng(its id)
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.time()
+    CASE_FILTER[0] = args.cases
     cases = []
     if args.only in (None, "identify"):
         cases += make_identify(args.out, rng, args.quick)
     if args.only in (None, "diagnose"):
         cases += make_diagnose(args.out, rng, args.quick, args.captures)
+    cases = [c for c in cases if c is not None]
     manifest = {"generator": "benchmarks/unseen/generate.py", "seed": args.seed, "quick": args.quick,
                 "captures_per_set": args.captures, "catalogue": list(CATALOGUE),
                 "noise_definition": "acc: sigma = max|free-response acc| / sqrt(2) * 10^(-snr_db/20), white; force: 60 dB of the peak force; 24-bit ADC; acc offset 0.1 % of peak",
