@@ -235,8 +235,8 @@ def judge_diagnose(case, data, station, flags, timeouts, workdir):
         return res
     cause = d.get("cause")
     res["cause"] = cause
-    base = (d.get("baseline") or {}).get("nrmse")
-    ext = (d.get("extended") or {}).get("nrmse")
+    base = _num((d.get("baseline") or {}).get("nrmse"))
+    ext = _num((d.get("extended") or {}).get("nrmse"))
     res["baseline_nrmse"] = base
     res["extended_nrmse"] = ext
     res["noise_floor"] = d.get("noise_floor")
@@ -267,6 +267,21 @@ def judge_diagnose(case, data, station, flags, timeouts, workdir):
     return res
 
 
+def _num(v):
+    """A float from a number or a one-number dict (mean of a list), else None."""
+    if isinstance(v, bool) or v is None:
+        return None
+    if isinstance(v, (int, float)):
+        return float(v)
+    if isinstance(v, list) and v and all(isinstance(x, (int, float)) for x in v):
+        return float(statistics.mean(v))
+    if isinstance(v, dict):
+        for k in ("nrmse", "mean", "value"):
+            if k in v:
+                return _num(v[k])
+    return None
+
+
 def _dig(d, key):
     for part in key.split("."):
         if not isinstance(d, dict) or part not in d:
@@ -280,11 +295,23 @@ def _dig(d, key):
 # --------------------------------------------------------------------------------------------
 
 def _fmt(v, f="{:.3g}"):
+    """Format a number; anything else (a dict, a string: contracts change) compactly."""
     if v is None:
         return "-"
+    if isinstance(v, dict):
+        nums = {k: x for k, x in v.items() if isinstance(x, (int, float)) and not isinstance(x, bool)}
+        key = next((k for k in ("nrmse", "value", "floor", "mean") if k in nums), None)
+        if key is not None:
+            return _fmt(float(nums[key]), f)
+        return json.dumps(v, default=str)[:60]
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return str(v)[:60]
     if isinstance(v, float) and not math.isfinite(v):
         return str(v)
-    return f.format(v)
+    try:
+        return f.format(v)
+    except (TypeError, ValueError):
+        return str(v)
 
 
 def _med_worst(vals):
@@ -448,6 +475,9 @@ def main(argv=None) -> int:
                  "outcome": "scorer-error"}
         with lock:
             results.append(r)
+            if args.json_out:  # incremental: a later failure loses nothing
+                with open(str(args.json_out) + "l", "a") as fh:
+                    fh.write(json.dumps({k: v for k, v in r.items()}, default=str) + "\n")
             print(f"[{time.time() - t0:6.0f} s] {r['id']}: {r.get('outcome') or _id_summary(r)}", file=sys.stderr, flush=True)
         return r
 
@@ -460,16 +490,15 @@ def main(argv=None) -> int:
             "cwd": cwd, "git": git, "data": str(args.data), "seed": manifest.get("seed"), "quick": args.quick,
             "jobs": args.jobs, "wall_s": time.time() - t0, "load": " ".join(load),
             "flags": {k: set(v) for k, v in flags.items()}}
+    if args.json_out:
+        slim = [{**r, "commands": [{k: v for k, v in c.items() if k != "json"} for c in r["commands"]]}
+                for r in results]
+        args.json_out.write_text(json.dumps({"meta": {**meta, "flags": {k: sorted(v) for k, v in meta["flags"].items()}},
+                                             "results": slim}, indent=1, default=str))
     md = scorecard(results, meta)
     print(md)
     if args.md_out:
         args.md_out.write_text(md)
-    if args.json_out:
-        for r in results:
-            for c in r["commands"]:
-                c.pop("json", None)
-        meta["flags"] = {k: sorted(v) for k, v in meta["flags"].items()}
-        args.json_out.write_text(json.dumps({"meta": meta, "results": results}, indent=1, default=str))
     return 0
 
 
