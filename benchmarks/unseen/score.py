@@ -372,14 +372,15 @@ def scorecard(results, meta):
               f"{len(warned_good)} warnings on good models.", ""]
     if dgs:
         L += ["## Diagnosis", "",
-              "| set | expected | cause | outcome | baseline nrmse | extended | noise_floor | best candidates (gain) | wall s |",
-              "|---|---|---|---|---|---|---|---|---|"]
+              "| set | expected | cause | outcome | baseline nrmse | extended | noise_floor | best candidates (gain) | symptoms | wall s |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
         for r in dgs:
             wall = r["commands"][0]["wall_s"] if r["commands"] else None
-            L.append("| {} | {} | {} | **{}** | {} | {} | {} | {} | {} |".format(
+            L.append("| {} | {} | {} | **{}** | {} | {} | {} | {} | {} | {} |".format(
                 r["id"], "/".join(r["expected"]), r.get("cause", "-"), r["outcome"], _fmt(r.get("baseline_nrmse")),
                 _fmt(r.get("extended_nrmse")), _fmt(r.get("noise_floor")),
-                ", ".join(f"{n} {g:+.2f}" for n, g in r.get("candidates", [])) or r.get("message", "")[:120], _fmt(wall, "{:.0f}")))
+                ", ".join(f"{n} {g:+.2f}" for n, g in r.get("candidates", [])) or r.get("message", "")[:120],
+                _symptoms(r.get("symptoms")), _fmt(wall, "{:.0f}")))
         nulls = [r for r in dgs if r["expected"] == ["none"]]
         eff = [r for r in dgs if r["expected"] != ["none"]]
         fa = [r for r in nulls if r["outcome"].startswith("false-alarm")]
@@ -423,6 +424,19 @@ def scorecard(results, meta):
     if notes:
         L += ["", "Flag differences: " + "; ".join(notes)]
     return "\n".join(L) + "\n"
+
+
+def _symptoms(v):
+    """Names of the reported symptoms, short."""
+    if not v:
+        return "-"
+    if isinstance(v, dict):
+        return ", ".join(list(v)[:4])[:80]
+    if isinstance(v, list):
+        names = [x.get("name") or x.get("kind") or x.get("symptom") or json.dumps(x, default=str)[:30]
+                 if isinstance(x, dict) else str(x)[:40] for x in v]
+        return ", ".join(str(n) for n in names[:4])[:100]
+    return str(v)[:80]
 
 
 def _yn(v):
