@@ -400,6 +400,14 @@ def scorecard(results, meta):
         L.append(f"Catalogued: {sum(r['outcome'] == 'pass' for r in cat)} / {len(cat)}; out-of-catalogue "
                  f"(`unexplained` expected): {sum(r['outcome'] == 'pass' for r in ooc)} / {len(ooc)}; "
                  f"confident wrong names: {sum(r['outcome'] in ('wrong-name', 'false-alarm-named') for r in dgs)}.")
+        above = []
+        for r in dgs:
+            fl = _num(r.get("noise_floor"))
+            b = r.get("baseline_nrmse")
+            if r.get("cause") == "none" and fl and b is not None and b > 2 * fl:
+                above.append(f"{r['id']} (baseline {b:.3g} = {b / fl:.1f}x its noise_floor {fl:.3g})")
+        L.append("`none` while the baseline is above twice the station's own noise_floor (issue 10: "
+                 "`none` only within the floor): " + ("; ".join(above) or "none") + ".")
         miss = sorted({k for r in dgs for k in r.get("contract_missing", [])})
         L.append(f"JSON contract (issue 10) keys missing: {', '.join(miss) or 'none'}.")
         fol = [f"{r['id']}: {n}" for r in dgs for n in r["notes"] if "follows" in n]
@@ -457,8 +465,23 @@ def main(argv=None) -> int:
     ap.add_argument("--timeout-diagnose", type=float, default=600.0, help="[s] per diagnose command")
     ap.add_argument("--json-out", type=Path, default=None, help="write every result here")
     ap.add_argument("--md-out", type=Path, default=None, help="write the scorecard (Markdown) here")
+    ap.add_argument("--render", type=Path, default=None,
+                    help="only print the scorecard of the results in this .jsonl (a run that was cut short)")
     args = ap.parse_args(argv)
     manifest = json.loads((args.data / "manifest.json").read_text())
+    if args.render:
+        results = [json.loads(line) for line in args.render.read_text().splitlines() if line.strip()]
+        order = [c["id"] for c in manifest["cases"]]
+        results.sort(key=lambda r: order.index(r["id"]) if r["id"] in order else len(order))
+        meta = {"when": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()) + f" (partial: {len(results)} results of {args.render})",
+                "station_cmd": args.station_cmd, "cwd": args.cwd or os.getcwd(), "git": _git(args.repo),
+                "data": str(args.data), "seed": manifest.get("seed"), "quick": args.quick, "jobs": args.jobs,
+                "wall_s": float("nan"), "load": "?", "flags": {}}
+        md = scorecard(results, meta)
+        print(md)
+        if args.md_out:
+            args.md_out.write_text(md)
+        return 0
     cases = [c for c in manifest["cases"] if (c.get("quick") or not args.quick)
              and (args.only is None or re.search(args.only, c["id"]))]
     # --quick: the default library's model is judged in-sample and for spurious terms only
