@@ -270,7 +270,7 @@ def effect_sets(quick: bool):
     E.append(("bouc_wen", "B3", lambda o, A: dict(bouc_wen={"alpha": 0.6, "beta": 0.5 / (0.5 * A), "gamma": 0.5 / (0.5 * A), "n": 1}),
               ["unexplained"], [], True, "Bouc-Wen hysteresis, 40 % of k1 hysteretic, yield at 0.5 A (out of catalogue)"))
     E.append(("x_abs_x", "B5", lambda o, A: dict(xabsx={"kq": 0.3 * o.k1 / A}),
-              ["unexplained"], [], True, "smooth x|x| stiffening at 30 % of k1 A (out of catalogue)"))
+              ["unexplained", "smooth_stiffening"], [], True, "smooth x|x| stiffening at 30 % of k1 A (out of catalogue)"))
     E.append(("thermal_drift", "B2", "drift",
               ["unexplained"], [], True, "k1 drifts +2 % per capture and within each record (out of catalogue)"))
     E.append(("mode_1to3", "B1", "second_mode:3.0:0.2:0.3",
@@ -289,7 +289,7 @@ def effect_sets(quick: bool):
     E.append(("bouc_wen-b1", "B1", lambda o, A: dict(bouc_wen={"alpha": 0.7, "beta": 0.5 / (0.7 * A), "gamma": 0.5 / (0.7 * A), "n": 1}),
               ["unexplained"], [], False, "Bouc-Wen 30 % hysteretic"))
     E.append(("x_abs_x-b6", "B6", lambda o, A: dict(xabsx={"kq": -0.2 * o.k1 / A}),
-              ["unexplained"], [], False, "softening x|x| 20 %"))
+              ["unexplained", "smooth_stiffening"], [], False, "softening x|x| 20 %"))
     return [e for e in E if e[5] or not quick]
 
 
