@@ -257,6 +257,15 @@ def judge_diagnose(case, data, station, flags, timeouts, workdir):
     ranked = sorted((c for c in cands if isinstance(c, dict) and c.get("gain") is not None),
                     key=lambda c: -float(c["gain"]))
     res["candidates"] = [(c.get("name"), round(float(c["gain"]), 3)) for c in ranked[:3]]
+    res["outcome"] = _outcome(case, cause, base)
+    text = res["verdict_text"].lower()
+    if base is not None and base > POOR_FIT and "follows" in text:
+        res["notes"].append(f"text says 'follows' at baseline nrmse {base:.2f}")
+    return res
+
+
+def _outcome(case, cause, base):
+    """The class of a diagnosis verdict (see the module docstring)."""
     effect = case["id"].split("/", 1)[1].split("-b")[0]
     exp = [CATALOGUE_ALIASES.get(e, e) for e in case["expected"] + case.get("also_right", ALSO_RIGHT.get(effect, []))]
     c = CATALOGUE_ALIASES.get(cause, cause)
@@ -270,11 +279,7 @@ def judge_diagnose(case, data, station, flags, timeouts, workdir):
         outcome = "silent-poor-fit" if (base is None or base > POOR_FIT) else "silent-fit-ok"
     else:
         outcome = "wrong-name"
-    res["outcome"] = outcome
-    text = res["verdict_text"].lower()
-    if base is not None and base > POOR_FIT and "follows" in text:
-        res["notes"].append(f"text says 'follows' at baseline nrmse {base:.2f}")
-    return res
+    return outcome
 
 
 def _num(v):
@@ -490,6 +495,10 @@ def main(argv=None) -> int:
         results = [json.loads(line) for line in args.render.read_text().splitlines() if line.strip()]
         order = [c["id"] for c in manifest["cases"]]
         results.sort(key=lambda r: order.index(r["id"]) if r["id"] in order else len(order))
+        by_id = {c["id"]: c for c in manifest["cases"]}
+        for r in results:
+            if r["kind"] == "diagnose" and "cause" in r and r["id"] in by_id:
+                r["outcome"] = _outcome(by_id[r["id"]], r["cause"], r.get("baseline_nrmse"))
         meta = {"when": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()) + f" (partial: {len(results)} results of {args.render})",
                 "station_cmd": args.station_cmd, "cwd": args.cwd or os.getcwd(), "git": _git(args.repo),
                 "data": str(args.data), "seed": manifest.get("seed"), "quick": args.quick, "jobs": args.jobs,
