@@ -37,7 +37,7 @@ from eddi.calculus import samples_per_cycle_note
 from eddi.conditioning import ConditionedSignal, condition
 from eddi.identify import IdentifiedModel, identify
 from eddi.model import EquationOfMotion
-from eddi.stability import model_warnings
+from eddi.stability import model_warnings, poor_fit_warnings
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, coefficient_unit, parse_terms
 from eddi.validate import Validation, validate
 
@@ -258,8 +258,12 @@ class Pipeline:
                 reason = (f"displacement nrmse on the {judged_on} {n_eddi:.4g} (EDDI) -> {n_ref:.4g} (refined)")
             else:
                 refinement = "rejected"
-                reason = (f"refinement raised the displacement nrmse on the {judged_on}: {n_eddi:.4g} (EDDI) -> "
-                          f"{n_ref:.4g}; EDDI estimate kept")
+                if div_ref and not div_eddi:
+                    reason = (f"the refined model's simulation diverged on the {judged_on} (displacement nrmse "
+                              f"{n_ref:.4g}) although it fitted the acceleration better; EDDI estimate kept")
+                else:
+                    reason = (f"refinement raised the displacement nrmse on the {judged_on}: {n_eddi:.4g} (EDDI) -> "
+                              f"{n_ref:.4g}; EDDI estimate kept")
                 model = replace(model, eom=model.unrefined)
                 val, held = eddi_val, eddi_held
         nrmse_sensor = None
@@ -288,6 +292,7 @@ class Pipeline:
         warnings += model_warnings(eom, cond.x[w0:w1], cond.v[w0:w1])
         warnings += [f"fit record: {w}" for w in val.warnings]
         warnings += [f"held-out record {i}: {w}" for i, h in enumerate(held) for w in h.warnings]
+        warnings += poor_fit_warnings(val.nrmse, [h.nrmse for h in held])
         choices = PipelineChoices(
             route=model.route, route_scores=dict(model.route_scores), refinement=refinement,
             refinement_reason=reason, judged_on=judged_on, nrmse_eddi=n_eddi, nrmse_refined=n_ref,

@@ -31,6 +31,9 @@ DECAYS = 0.5
 STEADY = 0.9
 #: Grid points per axis of the model checks.
 GRID = 41
+#: A displacement nrmse above this is a poor reproduction whatever the noise: 10 % of the
+#: response unexplained is several times the error a 30 dB sensor alone leaves (~3 %).
+POOR_FIT_NRMSE = 0.1
 
 
 def envelope_ratio(y: np.ndarray) -> float:
@@ -72,6 +75,34 @@ def response_warnings(x_measured: np.ndarray, x_simulated: np.ndarray, blew_up: 
     elif rm < DECAYS and rs > STEADY:
         out.append(f"the simulated response does not decay (envelope x{rs:.3g}) where the measurement does "
                    f"(x{rm:.3g})")
+    return tuple(out)
+
+
+def poor_fit_warnings(fit_nrmse: float, held_out_nrmse: "list[float] | tuple[float, ...]" = ()) -> tuple[str, ...]:
+    """A sentence when the model reproduces its own record or the held-out ones poorly.
+
+    Parameters
+    ----------
+    fit_nrmse : float
+        Displacement nrmse of the simulation of the record the model was fitted on.
+    held_out_nrmse : sequence of float
+        The same on each held-out record.
+
+    Returns
+    -------
+    tuple of str
+        Empty when every finite nrmse is within :data:`POOR_FIT_NRMSE`; a non-finite nrmse
+        is left to the divergence warnings.
+    """
+    out = []
+    if np.isfinite(fit_nrmse) and fit_nrmse > POOR_FIT_NRMSE:
+        out.append(f"poor fit: the model reproduces the record it was fitted on with displacement nrmse "
+                   f"{fit_nrmse:.3g} (> {POOR_FIT_NRMSE:g}): a mechanism outside the term library or a "
+                   f"measurement problem; `station diagnose` on several captures names it or lists the symptoms")
+    bad = [n for n in held_out_nrmse if np.isfinite(n) and n > POOR_FIT_NRMSE]
+    if bad:
+        out.append(f"poor prediction: held-out displacement nrmse up to {max(bad):.3g} (> {POOR_FIT_NRMSE:g}) "
+                   f"on {len(bad)} of {len(held_out_nrmse)} held-out records")
     return tuple(out)
 
 

@@ -96,3 +96,29 @@ def test_pipeline_flags_a_model_that_does_not_decay_and_validate_says_diverged(t
     cond = condition(r.t, acc=r.acc, force=r.force)
     res = Pipeline(damping=("v",), stiffness=("x", "x^3"), refine=False).fit(cond, r.eom.mass)
     assert res.warnings == () and not res.validation.diverged
+
+
+def test_poor_fit_warnings_thresholds_from_the_contract() -> None:
+    from eddi.stability import POOR_FIT_NRMSE, poor_fit_warnings
+
+    assert poor_fit_warnings(0.5 * POOR_FIT_NRMSE, [0.9 * POOR_FIT_NRMSE]) == ()
+    assert poor_fit_warnings(float("inf")) == ()  # left to the divergence warnings
+    (fit,) = poor_fit_warnings(2 * POOR_FIT_NRMSE)
+    assert fit.startswith("poor fit") and "0.2" in fit
+    (held,) = poor_fit_warnings(0.01, [0.05, 3 * POOR_FIT_NRMSE, float("nan")])
+    assert "up to 0.3" in held and "1 of 3" in held
+
+
+@pytest.mark.parametrize("friction_n", [0.1, 0.2])
+def test_dry_friction_outside_the_library_is_flagged_and_its_null_is_silent(friction_n: float) -> None:
+    """Strong Coulomb friction identified with the default (smooth) library: a poor fit that
+    exits 0 must say so; the same oscillator without friction must not."""
+    from eddi.fit_record import Pipeline
+    from tests.eddi.impact_cases import SYSTEMS
+
+    base = dict(SYSTEMS["paper_do"], damping={"v": 0.3})
+    for damping, flagged in (({"v": 0.3, "sign(v)": friction_n}, True), ({"v": 0.3}, False)):
+        r = impact_record(dict(base, damping=damping), snr_db=45.0, seed=2)
+        res = Pipeline.create().fit(condition(r.t, acc=r.acc, force=r.force), base["mass"])
+        poor = [w for w in res.warnings if w.startswith("poor fit")]
+        assert bool(poor) == flagged, (damping, res.validation.nrmse, res.warnings)
