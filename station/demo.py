@@ -304,13 +304,20 @@ def demo_text(obj: dict[str, Any]) -> str:
              f"link {obj['link_dropped_samples']}, CRC errors {obj['crc_errors']})",
              f"identified on {obj['fit_capture']} ({obj['method']}): {ident['equation']}"]
     truth = obj.get("rig")
+    ci95 = ident.get("ci95") or {}
+    units = ident.get("units") or {}
     for kind in ("damping", "stiffness"):
         for term, c in ident[kind].items():
-            line = f"  {kind:<10} {term:<7} {c:+.5g}"
+            half = ci95.get(kind, {}).get(term)
+            unit = units.get(kind, {}).get(term, "")
+            pm = f" ± {half:.2g}" if half is not None else " (no interval)"
+            line = f"  {kind:<10} {term:<7} {c:+.5g}{pm} {unit}"
             if truth is not None and term in truth[kind]:
                 tv = truth[kind][term]
                 line += f"   rig {tv:+.5g}" + (f"  ({100 * (c - tv) / abs(tv):+.1f} %)" if tv else "")
             lines.append(line)
+    for w in ident.get("warnings") or ():
+        lines.append(f"  WARNING: {w}")
     v = obj["validation"]
     for c in v["held_out"]:
         lines.append(f"validated on {c['source']} ({c['peak_force_n']:.4g} N, from rest with its measured force): "
