@@ -178,12 +178,7 @@ class EquationOfMotion(BaseModel):
         ModelError
             If the text is not JSON or not a valid equation of motion.
         """
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise ModelError(f"model is not valid JSON: {exc.msg} at line {exc.lineno}") from None
-        if not isinstance(data, dict):
-            raise ModelError("model JSON must be an object")
+        data = json_object(text)
         if "equation_of_motion" in data and isinstance(data["equation_of_motion"], dict):
             data = data["equation_of_motion"]
         return cls.create(**data)
@@ -286,3 +281,18 @@ def _first_error(exc: ValidationError) -> str:
     where = ".".join(str(p) for p in err.get("loc", ()) if p != "__root__")
     msg = str(err.get("msg", "invalid model")).removeprefix("Value error, ")
     return f"invalid model: {where + ': ' if where else ''}{msg}"
+
+
+def json_object(text: str) -> dict[str, Any]:
+    """The JSON object a model file holds; one-line ModelError for anything else.
+
+    Shared by every model schema (:class:`EquationOfMotion`, the modal sum of
+    :mod:`eddi.multimode`, the multi-DOF model of :mod:`eddi.mdof.model`).
+    """
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ModelError(f"model is not valid JSON: {exc.msg} at line {exc.lineno}") from None
+    if not isinstance(data, dict):
+        raise ModelError(f"model JSON must be an object, got {type(data).__name__}")
+    return data

@@ -48,7 +48,7 @@ from scipy import interpolate, optimize, signal
 
 from eddi.calculus import differentiate, integrate
 from eddi.errors import IdentificationError, ModelError, SignalError
-from eddi.model import EquationOfMotion
+from eddi.model import EquationOfMotion, json_object
 from eddi.simulate import simulate
 from eddi.terms import parse_term
 
@@ -117,7 +117,7 @@ class ModalSumModel(BaseModel):
     @classmethod
     def from_json(cls, text: str) -> "ModalSumModel":
         """Load from JSON text, raising :class:`ModelError` (one line) when invalid."""
-        data = _json_object(text)
+        data = json_object(text)
         try:
             return cls(**data)
         except ValidationError as exc:
@@ -172,7 +172,7 @@ def load_any_model(text: str) -> EquationOfMotion | ModalSumModel:
     ModelError
         If the text is not JSON or not a valid model of either kind.
     """
-    data = _json_object(text)
+    data = json_object(text)
     if data.get("kind") == "modal_sum":
         return ModalSumModel.from_json(text)
     if data.get("kind") == "mdof":  # schema version 2: several coordinates (eddi.mdof.model)
@@ -181,15 +181,6 @@ def load_any_model(text: str) -> EquationOfMotion | ModalSumModel:
         return MdofModel.from_json(text)  # type: ignore[return-value]
     return EquationOfMotion.from_json(text)
 
-
-def _json_object(text: str) -> dict[str, Any]:
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ModelError(f"model is not valid JSON: {exc.msg} at line {exc.lineno}") from None
-    if not isinstance(data, dict):
-        raise ModelError(f"model JSON must be an object, got {type(data).__name__}")
-    return data
 
 
 # -- calculus and separation ------------------------------------------------------------------

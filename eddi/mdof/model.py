@@ -26,6 +26,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 from eddi.errors import ModelError, TermError
+from eddi.model import json_object
 from eddi.mdof.terms import MultiTerm, parse_multi_term
 
 MDOF_SCHEMA_VERSION = 2
@@ -114,7 +115,7 @@ class MdofModel(BaseModel):
     @classmethod
     def from_json(cls, text: str) -> "MdofModel":
         """Load from JSON text (:class:`ModelError` when invalid)."""
-        return cls.create(**_json_object(text))
+        return cls.create(**json_object(text))
 
     def to_json(self, indent: int | None = 2) -> str:
         """Serialise to JSON text."""
@@ -172,15 +173,6 @@ class MdofModel(BaseModel):
             lines.append(" ".join(parts) + f" = {rhs}")
         return "; ".join(lines)
 
-
-def _json_object(text: str) -> dict[str, Any]:
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ModelError(f"model is not valid JSON: {exc.msg} at line {exc.lineno}") from None
-    if not isinstance(data, dict):
-        raise ModelError(f"model JSON must be an object, got {type(data).__name__}")
-    return data
 
 
 def is_mdof_json(text: str) -> bool:
