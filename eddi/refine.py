@@ -60,7 +60,7 @@ import numpy as np
 
 from eddi.errors import IdentificationError, SignalError
 from eddi.model import EquationOfMotion
-from eddi.simulate import auto_substeps, simulate
+from eddi.simulate import local_angular_frequency, simulate
 from eddi.terms import evaluate
 
 #: Parameters after the coefficients: x0, v0 and the measured signal's offset.
@@ -112,30 +112,6 @@ class Refinement:
 BLOCK_H_OMEGA = 0.2
 #: Fewest block means compared (short records keep every sample).
 MIN_BLOCKS = 2000
-
-
-def local_angular_frequency(eom: EquationOfMotion, x_amp: float, v_amp: float) -> float:
-    """Largest local angular frequency [rad/s] of ``eom`` over ``|x| <= x_amp``, ``|v| <= v_amp``.
-
-    From the tangent stiffness ``|dK/dx|`` and tangent damping ``|dB/dv|`` evaluated on a grid
-    of the record's range (not the sum of ``|c|`` bounds of
-    :func:`eddi.simulate.max_angular_frequency`, which alternating-sign polynomials inflate
-    several times); models with effects use that bound.
-    """
-    from eddi.simulate import max_angular_frequency
-
-    if eom.effects or not (x_amp > 0 and v_amp > 0):
-        return max_angular_frequency(eom, x_amp, v_amp)
-    xs = np.linspace(-x_amp, x_amp, 257)
-    vs = np.linspace(-v_amp, v_amp, 257)
-    k_tan = 0.0
-    c_tan = 0.0
-    for xv in (0.0, x_amp, -x_amp):  # damping terms may depend on x
-        f_x = eom.restoring_force(xs, np.full_like(xs, xv * v_amp / x_amp))
-        f_v = eom.restoring_force(np.full_like(vs, xv), vs)
-        k_tan = max(k_tan, float(np.max(np.abs(np.gradient(f_x, xs)))))
-        c_tan = max(c_tan, float(np.max(np.abs(np.gradient(f_v, vs)))))
-    return max(math.sqrt(k_tan / eom.mass), c_tan / eom.mass)
 
 
 def block_size(eom: EquationOfMotion, dt: float, x_amp: float, v_amp: float, n: int) -> int:
@@ -219,8 +195,8 @@ class _OutputError:
                                       max(1e-3 * float(np.max(np.abs(y))), 1e-300)]))
         self.p0 = np.concatenate((c0, [x[half], v[half], 0.0])) / self.scale
         self.active = list(range(len(self.names)))
-        self.substeps = max(auto_substeps(eom, dt * self.block, x_amp, v_amp, max_substeps=1),
-                            math.ceil(dt * self.block * local_angular_frequency(eom, x_amp, v_amp) / 0.1))
+        # RK4 steps of omega h <= 0.1 on the blocks' grid (the simulator's own rule)
+        self.substeps = max(1, math.ceil(dt * self.block * local_angular_frequency(eom, x_amp, v_amp) / 0.1))
         self.count = 0
 
     @property
