@@ -29,18 +29,22 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
 from eddi.calculus import decimate_centred, decimation_factor, samples_per_cycle_note, signal_angular_frequency
 from eddi.conditioning import ConditionedSignal, condition
 from eddi.energy import noise_level
+from eddi.errors import IdentificationError, SignalError
 from eddi.identify import IdentifiedModel, identify
 from eddi.model import EquationOfMotion
 from eddi.stability import model_warnings, poor_fit_warnings
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, coefficient_unit, parse_terms
 from eddi.validate import Validation, validate
+
+if TYPE_CHECKING:
+    from eddi.refine import Refinement
 
 #: The measured-signal name of each conditioned response: what the refinement fits.
 REFINE_CHANNEL = {"acc": "a", "vel": "v", "disp": "x"}
@@ -129,7 +133,9 @@ class PipelineResult:
         Per held-out record: simulated from rest with its measured force.
     ci95 : dict
         ``{"damping": {term: half width}, "stiffness": {...}}``: 95 % confidence intervals of
-        ``model.eom``'s coefficients (output-error covariance, :mod:`eddi.refine`).
+        ``model.eom``'s coefficients (refined: the output-error covariance; EDDI's estimate:
+        its distance from the output-error fit plus that fit's interval; see
+        :meth:`Pipeline._intervals`).
     units : dict
         The same keys: SI unit of each coefficient (:func:`eddi.terms.coefficient_unit`).
     """
@@ -232,6 +238,30 @@ class Pipeline:
             model = replace(model, eom=eom, unrefined=model.eom, refinement=info)
         return model, q
 
+    @staticmethod
+    def _intervals(eom: EquationOfMotion, cond: ConditionedSignal, refinement: str,
+                   ref: "Refinement | None") -> dict[str, dict[str, float]]:
+        """95 % intervals of the returned model's coefficients.
+
+        The refined model: the output-error covariance (:attr:`eddi.refine.Refinement.ci95`).
+        EDDI's estimate (refinement rejected or off): its distance from the output-error fit
+        of the same terms plus that fit's interval (:func:`eddi.refine.bounded_intervals`;
+        with ``--no-refine`` the output-error fit is run for this alone, without selection).
+        """
+        from eddi.refine import bounded_intervals, confidence_intervals, refine_output_error
+
+        if refinement == "kept" and ref is not None and ref.ci95:
+            return ref.ci95
+        w0, w1 = cond.window
+        args = (cond.t[w0:w1], cond.x[w0:w1], cond.v[w0:w1], cond.a[w0:w1])
+        channel = REFINE_CHANNEL[cond.response]
+        if ref is None or not ref.unselected:
+            try:
+                _, ref = refine_output_error(eom, *args, channel=channel)
+            except (IdentificationError, SignalError):  # too short a window: the covariance at EDDI
+                return confidence_intervals(eom, *args, channel=channel)
+        return bounded_intervals(eom, ref.unselected, ref.unselected_ci95)
+
     def validate(self, eom: EquationOfMotion, cond: ConditionedSignal) -> tuple[Validation, bool]:
         """Step 3: simulate ``eom`` for a conditioned record, compare over its free response.
 
@@ -305,13 +335,7 @@ class Pipeline:
         eom = model.eom
         w0, w1 = cond.window
         ref = model.refinement
-        if refinement == "kept" and ref is not None and ref.ci95:
-            ci95 = ref.ci95
-        else:
-            from eddi.refine import confidence_intervals  # local: scipy.optimize
-
-            ci95 = confidence_intervals(eom, cond.t[w0:w1], cond.x[w0:w1], cond.v[w0:w1], cond.a[w0:w1],
-                                        channel=REFINE_CHANNEL[cond.response])
+        ci95 = self._intervals(eom, cond, refinement, ref)
         dropped = {t: "not in the model" for t in self.damping + self.stiffness
                    if t not in eom.damping and t not in eom.stiffness}
         if refinement == "kept" and ref is not None:
