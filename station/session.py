@@ -20,19 +20,22 @@ No numerics of its own, no printing: the commands and :mod:`station.report` pres
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
 from eddi.conditioning import ConditionedSignal
 from eddi.model import EquationOfMotion
-from eddi.multimode import ModalSumModel, predict_record
 from eddi.fit_record import Pipeline, PipelineResult, validate_conditioned
 from eddi.validate import Validation
 from station.errors import ConfigError, InputFileError
 from station.readers import Measurement, read_measurement, split_spec
+
+if TYPE_CHECKING:  # eddi.multimode imports scipy.signal (~0.3 s): only when a modal-sum model is used
+    from eddi.multimode import ModalSumModel
 
 
 @dataclass(frozen=True)
@@ -132,12 +135,12 @@ def expand_specs(specs: Sequence[str]) -> list[str]:
     InputFileError, CaptureFormatError
         Missing or foreign file.
     """
-    from station.storage import check_file
-
     out: list[str] = []
     for spec in specs:
         path, capture = split_spec(spec)
         if capture is None and path.suffix.lower() in (".h5", ".hdf5"):
+            from station.storage import check_file  # local: h5py only for HDF5 files
+
             if not path.is_file():
                 raise InputFileError(f"{path}: no such file")
             count = check_file(path)
@@ -252,6 +255,13 @@ def choose_fit_index(measurements: Sequence[Measurement]) -> int:
     return order[(len(order) - 1) // 2]
 
 
+def is_modal_sum(model: object) -> bool:
+    """True for a :class:`~eddi.multimode.ModalSumModel` (without importing that module: a model
+    of that class exists only once it is imported)."""
+    mm = sys.modules.get("eddi.multimode")
+    return mm is not None and isinstance(model, mm.ModalSumModel)
+
+
 def validate_measurement(model: EquationOfMotion | ModalSumModel, meas: Measurement) -> RecordCheck:
     """Simulate ``model`` for one record and score it (see :func:`validate_conditioned`).
 
@@ -265,7 +275,9 @@ def validate_measurement(model: EquationOfMotion | ModalSumModel, meas: Measurem
         When the record cannot be conditioned or predicted.
     """
     pf = peak_force(meas)
-    if isinstance(model, ModalSumModel):
+    if is_modal_sum(model):
+        from eddi.multimode import predict_record
+
         v = meas.channels.get("vel")
         if v is None:
             v = condition_measurement(meas).v
