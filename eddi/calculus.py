@@ -12,6 +12,8 @@ One module owns these so that conditioning (:mod:`eddi.conditioning`), the modal
 * :func:`spline_cumulative_integral`: the same through an interpolating cubic spline
   (``O((w h)^4)``, any grid);
 * :func:`differentiate`: 6th-order central difference (lower order at the ends);
+  :func:`spline_derivative`: the derivative of the quintic interpolating spline (any grid;
+  what the Lagrangian route of phase two uses when no acceleration was measured);
 * :func:`resample`: band-limited (FFT / polyphase-free) resampling of records whose clocks
   differ slightly onto one grid (:func:`common_rate`);
 * :func:`samples_per_cycle_note`: what accuracy to expect from a given sampling.
@@ -97,6 +99,27 @@ def differentiate(y: np.ndarray, dt: float) -> np.ndarray:
     if y.size >= 7:
         d[3:-3] = (-y[:-6] + 9.0 * y[1:-5] - 45.0 * y[2:-4] + 45.0 * y[4:-2] - 9.0 * y[5:-1] + y[6:]) / (60.0 * dt)
     return d
+
+
+def spline_derivative(t: np.ndarray, y: np.ndarray, degree: int = 5) -> np.ndarray:
+    """Time derivative of a sampled signal, from its interpolating spline (quintic by default).
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,), [s]
+        Increasing times (need not be uniform).
+    y : ndarray, shape (n,)
+    degree : int
+        Spline degree (odd; 5 is sixth-order accurate inside, see :mod:`eddi.energy`).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``dy/dt`` at ``t`` (units of ``y`` per s).
+    """
+    from scipy.interpolate import make_interp_spline
+
+    return make_interp_spline(t, y, k=degree).derivative()(t)
 
 
 def common_rate(rates_hz: list[float] | tuple[float, ...], tolerance: float = RATE_TOLERANCE) -> float | None:

@@ -42,7 +42,7 @@ import tty
 from typing import IO, Callable, Sequence
 
 from simulated_rig.device import EmulatedDaq
-from simulated_rig.errors import RigError
+from simulated_rig.errors import RigError, ScenarioError
 from simulated_rig.loop import StepLoop, close_fds
 
 
@@ -330,16 +330,27 @@ RIG_START_TIMEOUT_S = 300.0
 def build_firmware(system: str, seed: int | None = None, block_size: int = 256) -> EmulatedDaq:
     """The emulated DAQ of a named system (physics resolved, simulator compiled).
 
+    A multi-DOF system (:func:`simulated_rig.mdof_systems.mdof_systems`) streams the force and
+    one accelerometer per mass (:class:`simulated_rig.mdof_source.MdofRigSource`).
+
     Raises
     ------
     ScenarioError
         For an unknown system (the message lists the known ones).
     """
+    from simulated_rig.mdof_systems import mdof_systems
     from simulated_rig.source import RigSource
-    from simulated_rig.systems import system_info
+    from simulated_rig.systems import SYSTEMS, system_info
 
-    system_info(system)  # an unknown name: one line that lists the known ones
-    source = RigSource.from_system(system, seed=seed)
+    if system in mdof_systems():  # force + one accelerometer per mass
+        from simulated_rig.mdof_source import MdofRigSource
+
+        source: object = MdofRigSource.from_system(system, seed=seed)
+    else:
+        if system not in SYSTEMS:
+            raise ScenarioError(f"unknown system {system!r}; known: {', '.join(tuple(SYSTEMS) + mdof_systems())}")
+        system_info(system)
+        source = RigSource.from_system(system, seed=seed)
     warm_up(source)
     return EmulatedDaq(source, model=f"EDDI-SIM ({system})", serial=f"SIM-{system}", block_size=block_size)
 
