@@ -31,7 +31,7 @@ from eddi.diagnosis.name import (
 )
 from eddi.diagnosis.observed import Observed, observed_second_mode
 from eddi.diagnosis.records import Part, Record, split
-from eddi.diagnosis.results import Candidate, Diagnosis, HeldOut, NoiseFloor, Score, Symptom
+from eddi.diagnosis.results import Candidate, Diagnosis, HeldOut, NoiseFloor, PipelineBaseline, Score, Symptom
 from eddi.diagnosis.settings import (
     DEFAULT_CONSISTENCY, DEFAULT_MARGIN, FITS, MODAL_DIAGNOSE_STIFFNESS, NAMED_FACTOR, NONE_FACTOR,
 )
@@ -59,6 +59,7 @@ def diagnose(
     modal_stiffness: Sequence[str] = MODAL_DIAGNOSE_STIFFNESS,
     none_factor: float = NONE_FACTOR,
     named_factor: float = NAMED_FACTOR,
+    pipeline: PipelineBaseline | None = None,
 ) -> Diagnosis:
     """Find what the baseline model gets wrong, name the mechanism, extend and measure the gain.
 
@@ -86,6 +87,12 @@ def diagnose(
         held-out part.
     named_factor : float
         A named mechanism must leave its held-out nrmse within this factor of the floor.
+    pipeline : PipelineBaseline, optional
+        The pipeline's model and held-out error on these records (what ``station identify``
+        gives): it becomes the diagnosis's ``baseline``, and ``none`` also needs it within
+        ``none_factor`` of the floor on the records it did not fit. The candidates are still
+        judged against the same terms fitted per fold (``judged``, see
+        :data:`~eddi.diagnosis.results.JUDGED_WHAT`).
     consistency : float
         The winner's strength parameter (friction force, gap stiffness...) fitted on each
         fold must have a spread below ``consistency`` times its value: a mechanism that
@@ -131,7 +138,8 @@ def diagnose(
             skipped = {name: why for name in [*skipped, "sensor_highpass"]}
         candidates, observed, chain_sims, notes = _name(
             shown, cat, chosen, skipped, consistency, modal_damping, modal_stiffness)
-        return _conclude(shown, candidates, observed, chain_sims, notes, margin, none_factor, named_factor)
+        return _conclude(shown, candidates, observed, chain_sims, notes, margin, none_factor, named_factor,
+                         pipeline)
 
 
 @dataclass(frozen=True)
@@ -195,16 +203,37 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
     return rank(candidates), observed, chain_sims, notes
 
 
+def _pipeline_check(pipeline: PipelineBaseline | None, sh: _Shown, none_factor: float) -> str:
+    """Why the pipeline's model is not within the floor on the records it did not fit ('' if it is)."""
+    if pipeline is None or not pipeline.held_out:
+        return ""
+    floors = [f for p, f in zip(sh.parts, sh.floor.fold_nrmse) if p.record in pipeline.held_out]
+    floor = float(np.mean(floors)) if floors else sh.floor.nrmse
+    if pipeline.nrmse <= none_factor * floor:
+        return ""
+    return (f"the pipeline's model (as station identify gives it, fitted on {sh.records[pipeline.fit_record].label or 'one record'}) "
+            f"departs from the records it did not fit (held-out nrmse {pipeline.nrmse:.3g}, "
+            f"{pipeline.nrmse / floor:.1f}x the floor {floor:.3g}) although the same terms fitted on the "
+            "other records of each fold stay within it: the pipeline's fit, not a missing mechanism")
+
+
 def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None,
               chain_sims: list[np.ndarray], notes: list[str], margin: float, none_factor: float,
-              named_factor: float) -> Diagnosis:
+              named_factor: float, pipeline: PipelineBaseline | None) -> Diagnosis:
     """The verdict, the extended model and the held-out views."""
     records, res, baseline, floor = sh.records, sh.res, sh.baseline, sh.floor
     symptoms = baseline_symptoms(records, sh.parts, res.base_sims, res.base_vsims, sh.setup.mass)
     symptoms += inspect(records, sh.setup.mass, _frequency(sh.bfit_all.eom))
     dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor)
+    off = _pipeline_check(pipeline, sh, none_factor) if dec.cause == "none" else ""
+    if off:
+        dec = Decision("unexplained", None, None, False, off)
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
+    if pipeline is not None:
+        verdict += (f" The pipeline's model (as station identify gives it) has held-out nrmse "
+                    f"{pipeline.nrmse:.3g}; the candidates are judged against the same terms fitted per "
+                    f"fold (nrmse {baseline.nrmse:.3g}).")
     winner = dec.winner
     extended, ext_sims, modal = baseline, res.base_sims, None
     if winner is not None:
@@ -227,11 +256,19 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
                          v_modes=modal[i][3] if modal is not None else None)
                  for i, (p, xb, xe, vb) in enumerate(zip(sh.parts, res.base_sims, ext_sims, res.base_vsims)))
     b_spread = spread_of(res.base_coefs, list(res.base_coefs[0])) if sh.setup.base is None else {}
+    judged = None
+    if pipeline is not None:
+        judged = baseline
+        baseline = Score(model=pipeline.model, nrmse=float(pipeline.nrmse),
+                         fold_nrmse=tuple(float(v) for v in pipeline.held_out.values()))
+        if winner is None:
+            extended = baseline
     return Diagnosis(cause=dec.cause, baseline=baseline, extended=extended, gain=float(gain),
                      candidates=tuple(candidates), scheme=sh.scheme, parts=tuple(sh.parts),
                      margin=float(margin), verdict=verdict, symptom=symptom, held_out=held,
                      baseline_spread=b_spread, notes=tuple(notes), noise_floor=floor,
-                     symptoms=tuple(symptoms), partial=dec.partial.name if dec.partial else "")
+                     symptoms=tuple(symptoms), partial=dec.partial.name if dec.partial else "",
+                     judged=judged, pipeline=pipeline)
 
 
 def _frequency(eom: EquationOfMotion) -> float:
