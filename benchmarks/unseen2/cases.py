@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 
 RATES = (2000, 5000, 10000, 20000, 50000)
 

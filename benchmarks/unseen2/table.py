@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 
-BAD = {"POOR-SILENT", "UNSTABLE-SILENT", "WRONG", "FALSE-ALARM", "FALSE-ALARM-NAMED", "NONE-MISSED", "CRASH",
+BAD = {"NONE-ABOVE-FLOOR", "POOR-SILENT", "UNSTABLE-SILENT", "WRONG", "FALSE-ALARM", "FALSE-ALARM-NAMED", "NONE-MISSED", "CRASH",
        "TIMEOUT", "ACCEPTED", "BAD-EXIT"}
 
 
@@ -60,7 +60,7 @@ def _diagnose_rows(res):
 
 def worst_failures(results):
     """One line per failure that matters, the worst kinds first."""
-    order = ["WRONG", "FALSE-ALARM-NAMED", "POOR-SILENT", "UNSTABLE-SILENT", "NONE-MISSED", "FALSE-ALARM", "CRASH",
+    order = ["WRONG", "FALSE-ALARM-NAMED", "POOR-SILENT", "UNSTABLE-SILENT", "NONE-ABOVE-FLOOR", "NONE-MISSED", "FALSE-ALARM", "CRASH",
              "TIMEOUT", "ACCEPTED", "BAD-EXIT"]
     lines = []
     for kind in order:
