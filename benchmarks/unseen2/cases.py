@@ -49,11 +49,6 @@ def chain(rng, fs, duration, snr, bits=24, **extra):
     return c
 
 
-def _rate_for(f, rng, min_per_cycle=40):
-    ok = [r for r in RATES if r >= min_per_cycle * f]
-    return int(ok[int(rng.integers(0, min(2, len(ok))))]) if ok else RATES[-1]
-
-
 def _duration(f, zeta, cycles_max=80, t_max=6.0, t_min=1.5):
     """Long enough to decay to ~2 % (or ``cycles_max`` cycles), within [t_min, t_max] s."""
     t_decay = math.log(50) / (2 * math.pi * f * max(zeta, 1e-4))
