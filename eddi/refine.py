@@ -60,7 +60,7 @@ import numpy as np
 
 from eddi.errors import IdentificationError, SignalError
 from eddi.model import EquationOfMotion
-from eddi.simulate import auto_substeps, simulate
+from eddi.simulate import local_angular_frequency, simulate
 from eddi.terms import evaluate
 
 #: Parameters after the coefficients: x0, v0 and the measured signal's offset.
@@ -88,6 +88,9 @@ class Refinement:
         Samples in the whole window.
     block : int
         Samples per block mean compared (1: every sample; see :func:`block_size`).
+    unselected, unselected_ci95 : dict of str to dict of str to float
+        The output-error fit of every starting term before the selection: coefficients and
+        their 95 % half widths (what :func:`bounded_intervals` bounds another estimate with).
     ci95 : dict of str to dict of str to float
         ``{"damping": {term: half width}, "stiffness": {...}}`` of the 95 % confidence
         intervals of the returned coefficients (empty when not computed).
@@ -105,6 +108,8 @@ class Refinement:
     ci95: dict[str, dict[str, float]] = field(default_factory=dict)
     dropped: dict[str, str] = field(default_factory=dict)
     block: int = 1
+    unselected: dict[str, dict[str, float]] = field(default_factory=dict)
+    unselected_ci95: dict[str, dict[str, float]] = field(default_factory=dict)
 
 
 #: Largest ``omega_max * block * dt`` (rad) of a block: the block mean then differs from the
@@ -112,30 +117,6 @@ class Refinement:
 BLOCK_H_OMEGA = 0.2
 #: Fewest block means compared (short records keep every sample).
 MIN_BLOCKS = 2000
-
-
-def local_angular_frequency(eom: EquationOfMotion, x_amp: float, v_amp: float) -> float:
-    """Largest local angular frequency [rad/s] of ``eom`` over ``|x| <= x_amp``, ``|v| <= v_amp``.
-
-    From the tangent stiffness ``|dK/dx|`` and tangent damping ``|dB/dv|`` evaluated on a grid
-    of the record's range (not the sum of ``|c|`` bounds of
-    :func:`eddi.simulate.max_angular_frequency`, which alternating-sign polynomials inflate
-    several times); models with effects use that bound.
-    """
-    from eddi.simulate import max_angular_frequency
-
-    if eom.effects or not (x_amp > 0 and v_amp > 0):
-        return max_angular_frequency(eom, x_amp, v_amp)
-    xs = np.linspace(-x_amp, x_amp, 257)
-    vs = np.linspace(-v_amp, v_amp, 257)
-    k_tan = 0.0
-    c_tan = 0.0
-    for xv in (0.0, x_amp, -x_amp):  # damping terms may depend on x
-        f_x = eom.restoring_force(xs, np.full_like(xs, xv * v_amp / x_amp))
-        f_v = eom.restoring_force(np.full_like(vs, xv), vs)
-        k_tan = max(k_tan, float(np.max(np.abs(np.gradient(f_x, xs)))))
-        c_tan = max(c_tan, float(np.max(np.abs(np.gradient(f_v, vs)))))
-    return max(math.sqrt(k_tan / eom.mass), c_tan / eom.mass)
 
 
 def block_size(eom: EquationOfMotion, dt: float, x_amp: float, v_amp: float, n: int) -> int:
@@ -219,8 +200,8 @@ class _OutputError:
                                       max(1e-3 * float(np.max(np.abs(y))), 1e-300)]))
         self.p0 = np.concatenate((c0, [x[half], v[half], 0.0])) / self.scale
         self.active = list(range(len(self.names)))
-        self.substeps = max(auto_substeps(eom, dt * self.block, x_amp, v_amp, max_substeps=1),
-                            math.ceil(dt * self.block * local_angular_frequency(eom, x_amp, v_amp) / 0.1))
+        # RK4 steps of omega h <= 0.1 on the blocks' grid (the simulator's own rule)
+        self.substeps = max(1, math.ceil(dt * self.block * local_angular_frequency(eom, x_amp, v_amp) / 0.1))
         self.count = 0
 
     @property
@@ -449,6 +430,8 @@ def refine_output_error(
     # the Jacobian at the optimum: least_squares evaluated it there (the last stage is the whole window)
     jac = sol.jac if sol is not None and sol.jac.shape == (n, p.size) else None
     half, rss = prob.ci95(p, jac)
+    unselected = prob.model_of(p)
+    unselected_ci = prob.ci_dict(half)
     dropped: dict[str, str] = {}
     if select:
         p, half, dropped = _select(prob, p, half, rss, max_nfev)
@@ -459,7 +442,9 @@ def refine_output_error(
     x0, v0 = prob.state(p)
     return refined, Refinement(channel=channel, nrmse_before=before, nrmse_after=after, x0=x0, v0=v0,
                                evaluations=prob.count, samples=prob.n_samples, ci95=prob.ci_dict(half),
-                               dropped=dropped, block=prob.block)
+                               dropped=dropped, block=prob.block,
+                               unselected={"damping": dict(unselected.damping), "stiffness": dict(unselected.stiffness)},
+                               unselected_ci95=unselected_ci)
 
 
 def _select(prob: _OutputError, p: np.ndarray, half: np.ndarray, rss: float,
@@ -522,3 +507,36 @@ def confidence_intervals(eom: EquationOfMotion, t: np.ndarray, x: np.ndarray, v:
         p = prob.fit(p, max(64, int(round(frac * prob.n))), 20, free=free).x
     half, _ = prob.ci95(p)
     return prob.ci_dict(half)
+
+
+def bounded_intervals(eom: EquationOfMotion, reference: dict[str, dict[str, float]],
+                      reference_ci95: dict[str, dict[str, float]]) -> dict[str, dict[str, float]]:
+    """95 % half widths for an estimate that is not the output-error fit (EDDI's).
+
+    ``|c - c_ref| + h_ref`` per coefficient, where ``c_ref +- h_ref`` is the output-error fit
+    of the same terms (:attr:`Refinement.unselected`): whenever the reference interval
+    holds the true value, so does this one (triangle inequality), so it covers at least at
+    the reference's rate. The output-error covariance evaluated at EDDI's model instead
+    (:func:`confidence_intervals`) leaves out EDDI's own error and covered 0-40 % on
+    the records where the pipeline kept EDDI's estimate (``benchmarks/bench_ci_coverage.py``).
+
+    Parameters
+    ----------
+    eom : EquationOfMotion
+        The estimate.
+    reference, reference_ci95 : dict
+        ``{"damping": {term: value}, "stiffness": {...}}`` and the half widths.
+
+    Returns
+    -------
+    dict
+        ``{"damping": {term: half width}, "stiffness": {...}}``; a term the reference lacks
+        gets ``inf``.
+    """
+    out: dict[str, dict[str, float]] = {"damping": {}, "stiffness": {}}
+    for group in ("damping", "stiffness"):
+        for term, c in getattr(eom, group).items():
+            ref = reference.get(group, {}).get(term)
+            half = reference_ci95.get(group, {}).get(term)
+            out[group][term] = (abs(c - ref) + half) if ref is not None and half is not None else math.inf
+    return out

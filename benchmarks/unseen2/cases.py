@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 
 RATES = (2000, 5000, 10000, 20000, 50000)
 
@@ -48,11 +47,6 @@ def chain(rng, fs, duration, snr, bits=24, **extra):
          "drift": float(rng.uniform(-2e-3, 2e-3)), "range": float(rng.uniform(1.3, 3.0))}
     c.update(extra)
     return c
-
-
-def _rate_for(f, rng, min_per_cycle=40):
-    ok = [r for r in RATES if r >= min_per_cycle * f]
-    return int(ok[int(rng.integers(0, min(2, len(ok))))]) if ok else RATES[-1]
 
 
 def _duration(f, zeta, cycles_max=80, t_max=6.0, t_min=1.5):

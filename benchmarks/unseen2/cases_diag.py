@@ -120,7 +120,8 @@ def _case(rng, cid, name, s, n_caps, quick, tag=None):
     duration = float(min(max(math.log(30) / (2 * math.pi * f * zeta), 1.5), t_max))
     snr = float(rng.uniform(32, 55))
     bits = 24 if rng.uniform() < 0.7 else 16
-    levels = [0.6, 0.8, 1.0] if n_caps == 3 else [0.6, 0.8, 1.0, 0.7, 0.9, 0.95]
+    # blow levels in time order; not monotone, so a drift between captures is not an amplitude effect
+    levels = [0.8, 0.6, 1.0] if n_caps == 3 else [0.8, 0.6, 1.0, 0.7, 0.95, 0.85]
     caps = []
     session_ppm = [float(rng.uniform(-150, 150)), float(rng.uniform(-150, 150))]
     for j, lev in enumerate(levels):
@@ -135,6 +136,8 @@ def _case(rng, cid, name, s, n_caps, quick, tag=None):
             extra["clip_adc"] = s
         ch = chain(rng, fs, duration + pre, snr, bits, **extra)
         ch["ppm"] = session_ppm[j // 3] + float(rng.uniform(-2, 2))
+        if j >= 3:  # the second session's DAQ stamps the rate it measured for itself (within 5 ppm)
+            ch["stamp_ppm"] = session_ppm[1] + float(rng.uniform(-5, 5))
         cap_sys = sys
         if name == "stiffness_drift":
             cap_sys = copy.deepcopy(sys)
@@ -142,7 +145,7 @@ def _case(rng, cid, name, s, n_caps, quick, tag=None):
         double = {"delay": 0.15, "ratio": s} if name == "double_hit" else None
         hits = blow(sys, f, scales[1], t0, lev * float(rng.uniform(0.93, 1.07)), fs,
                     shape=("halfsine" if rng.uniform() < 0.5 else "haversine"), double=double)
-        caps.append({"file": f"{cid}-c{j}.csv", "hits": hits, "chain": ch, "system": cap_sys})
+        caps.append({"file": f"{cid}-c{j}.csv", "hits": hits, "chain": ch, "system": cap_sys, "session": j // 3})
     cat, expect, near, symptom = EFFECTS[name] if name else (None, {"none"}, set(), None)
     return {"id": cid, "kind": "diagnose", "hidden": name, "strength_tag": tag, "strength": s,
             "catalogued": cat, "expect": sorted(expect), "near": sorted(near), "symptom": symptom,

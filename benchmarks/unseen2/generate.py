@@ -11,7 +11,6 @@ station never reads the manifest: ``score.py`` does.
 from __future__ import annotations
 
 import argparse
-import copy
 import json
 import os
 import sys

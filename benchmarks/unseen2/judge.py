@@ -19,8 +19,10 @@ identify
 diagnose
     ``correct`` (the cause is one of ``expect``), ``near`` (a look-alike that is physically
     defensible), ``abstained`` (``unexplained`` where a catalogued cause was hidden),
-    ``none-weak`` (``none`` for a weak effect), ``NONE-MISSED`` (``none`` for a strong
-    effect), ``WRONG`` (a confident mechanism name that is not the hidden one),
+    ``NONE-ABOVE-FLOOR`` (``none`` while the baseline's held-out nrmse exceeds POOR_FIT =
+    0.15: the station calls a poor fit silence, so its stated floor is too high), else
+    ``none-weak`` (``none`` for a weak effect the baseline absorbed) or ``NONE-MISSED``
+    (``none`` for a strong one), ``WRONG`` (a confident mechanism name that is not the hidden one),
     ``FALSE-ALARM`` / ``FALSE-ALARM-NAMED`` on nulls, ``refused`` (exit 2, one line; correct
     where the case expects it), ``CRASH`` (traceback or another exit code), ``TIMEOUT``.
 """
@@ -32,6 +34,7 @@ import math
 TOL = 0.05
 TOL_FRICTION = 0.20
 POOR = 0.10
+POOR_FIT = 0.15
 
 
 def basis(term, x, v):
@@ -147,6 +150,9 @@ def diagnose_verdict(case, rc, out, stderr):
     if cause == "unexplained":
         return "abstained"
     if cause == "none":
+        base = (out.get("baseline") or {}).get("nrmse")
+        if base is not None and base > POOR_FIT:
+            return "NONE-ABOVE-FLOOR"
         return "NONE-MISSED" if case["strength_tag"] == "strong" else "none-weak"
     return "WRONG"
 

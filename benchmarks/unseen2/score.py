@@ -10,7 +10,8 @@ identify   ``station identify TRAIN.csv --mass M --damping TRUE --stiffness TRUE
            same with the default libraries (held-out nrmse, spurious terms); warnings where
            they must be (a growing model; a poor fit).
 diagnose   ``station diagnose CAPTURES... --mass M --json`` with the default libraries; the
-           first null is also imported into HDF5 (``station import``) and diagnosed from there.
+           first null is also imported into HDF5 (``station import``, one ``--new-session``
+           per DAQ session) and diagnosed from there (``FILE.h5``: every capture).
 robust     bad inputs: one line on stderr, exit 2, no traceback.
 
 Verdict classes: see ``judge.py``. Prints a scorecard (Markdown) and writes everything as JSON.
@@ -153,8 +154,12 @@ def score_h5(case, run):
     p = os.path.join(run.data, h5)
     if os.path.exists(p):
         os.remove(p)
-    files = [c["file"] for c in case["captures"]]
-    imp = run(["import", *files, "--out", h5, "--mass", repr(case["mass"]), "--json"], "import")
+    for session in sorted({c.get("session", 0) for c in case["captures"]}):
+        files = [c["file"] for c in case["captures"] if c.get("session", 0) == session]
+        new = ["--new-session"] if session else []
+        imp = run(["import", *files, "--out", h5, "--mass", repr(case["mass"]), *new, "--json"], "import")
+        if imp["rc"] != 0:
+            break
     if imp["rc"] != 0:
         return {"id": case["id"] + "@h5", "kind": "diagnose", "via": "h5", "hidden": None, "cmd": imp["cmd"],
                 "rc": imp["rc"], "verdict": "refused" if imp["rc"] == 2 else "CRASH", "stderr": imp["stderr"]}

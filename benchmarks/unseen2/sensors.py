@@ -4,7 +4,7 @@ A record is described by a JSON-able dict (``chain``) and turned into CSV column
 :func:`record`:
 
 * sample clock: the DAQ samples at ``fs (1 + ppm 1e-6)`` but stamps ``t = k / fs`` (its
-  nominal rate), starting at 0 with ``pre`` seconds of pre-trigger before the first blow;
+  nominal rate; or ``k / (fs (1 + stamp_ppm 1e-6))``: a second DAQ's calibrated rate), starting at 0 with ``pre`` seconds of pre-trigger before the first blow;
 * force: the hammer pulse averaged over each sample period (an integrate-and-dump ADC),
   times the force sensor's sensitivity error ``force_gain``, plus offset and white noise;
 * acceleration: what the sensing element sees (``physics.simulate``: mounting resonance and
@@ -28,11 +28,12 @@ import physics
 
 
 def sample_times(chain):
-    """True sample times [s] (physics clock) and stamped times [s] (the file's column)."""
+    """True sample times [s] (physics clock) and stamped times [s] (the file's column: the
+    nominal rate, or the rate the DAQ believes after its own calibration, ``stamp_ppm``)."""
     fs = chain["fs"]
     n = int(round(chain["duration"] * fs))
     k = np.arange(n, dtype=float)
-    return k / (fs * (1.0 + chain.get("ppm", 0.0) * 1e-6)), k / fs
+    return k / (fs * (1.0 + chain.get("ppm", 0.0) * 1e-6)), k / (fs * (1.0 + chain.get("stamp_ppm", 0.0) * 1e-6))
 
 
 def _adc(u, full_scale, bits):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 
-BAD = {"POOR-SILENT", "UNSTABLE-SILENT", "WRONG", "FALSE-ALARM", "FALSE-ALARM-NAMED", "NONE-MISSED", "CRASH",
+BAD = {"NONE-ABOVE-FLOOR", "POOR-SILENT", "UNSTABLE-SILENT", "WRONG", "FALSE-ALARM", "FALSE-ALARM-NAMED", "NONE-MISSED", "CRASH",
        "TIMEOUT", "ACCEPTED", "BAD-EXIT"}
 
 
@@ -60,7 +60,7 @@ def _diagnose_rows(res):
 
 def worst_failures(results):
     """One line per failure that matters, the worst kinds first."""
-    order = ["WRONG", "FALSE-ALARM-NAMED", "POOR-SILENT", "UNSTABLE-SILENT", "NONE-MISSED", "FALSE-ALARM", "CRASH",
+    order = ["WRONG", "FALSE-ALARM-NAMED", "POOR-SILENT", "UNSTABLE-SILENT", "NONE-ABOVE-FLOOR", "NONE-MISSED", "FALSE-ALARM", "CRASH",
              "TIMEOUT", "ACCEPTED", "BAD-EXIT"]
     lines = []
     for kind in order:
@@ -68,7 +68,7 @@ def worst_failures(results):
             for tag, v in (("", r.get("verdict")), ("default lib: ", r.get("default_verdict"))):
                 if v != kind:
                     continue
-                lines.append(f"- **{kind}** {tag}{r['id']}: " + _detail(r))
+                lines.append(f"- **{kind}** {tag}{r['id']}: " + (_detail_default(r) if tag else _detail(r)))
     for r in results:
         if r.get("symptom_needed") and r.get("symptom_found") is False:
             lines.append(f"- **SYMPTOM-MISSING** {r['id']}: `{r['symptom_needed']}` not reported "
@@ -89,6 +89,13 @@ def _detail(r):
     return (f"{errs}; held-out nrmse {_f(t.get('heldout_nrmse'))} (default lib "
             f"{_f((r.get('default_lib') or {}).get('heldout_nrmse'))}), warnings {t.get('warnings')}; "
             f"`{t.get('cmd')}`")
+
+
+def _detail_default(r):
+    d = r.get("default_lib") or {}
+    sp = ", ".join(f"{k} {_f(100 * v, '{:.2g}')} %" for k, v in (d.get("spurious") or {}).items())
+    return (f"held-out nrmse {_f(d.get('heldout_nrmse'))}, warnings {d.get('warnings')}, spurious terms "
+            f"(% of k1 A) {sp or '-'}; `{d.get('equation') or d.get('stderr', '')[-200:]}`; `{d.get('cmd')}`")
 
 
 def scorecard(results, meta):

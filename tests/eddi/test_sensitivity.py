@@ -75,3 +75,20 @@ def test_block_means_carry_a_quarter_of_the_noise_and_the_curvature_correction()
     corrected = c + (blk**2 - 1) / (24 * blk**2) * d2
     assert np.max(np.abs(m - c)[1:-1]) > 1e-3  # the uncorrected centre is off by (w h)^2 / 24
     assert np.max(np.abs(m - corrected)[1:-1]) < 5e-6
+
+
+def test_dense_simulation_matches_every_sample_and_falls_back_for_sharp_models() -> None:
+    from eddi.simulate import simulate_dense
+
+    eom = MODELS["duffing"]
+    t = np.arange(200000) / 20000.0  # 10 s at 20 kHz, ~4 Hz
+    force = np.where(t < 2e-3, 300.0 * np.sin(np.pi * t / 2e-3), 0.0)
+    ref = simulate(eom, t, force=force, x_scale=0.012, v_scale=0.5)
+    dense = simulate_dense(eom, t, force=force, x_scale=0.012, v_scale=0.5)
+    amp = np.max(np.abs(ref.x))
+    assert np.max(np.abs(dense.x - ref.x)) < 1e-5 * amp
+    assert np.max(np.abs(dense.v - ref.v)) < 1e-5 * np.max(np.abs(ref.v))
+    assert np.array_equal(dense.x[:40], ref.x[:40])  # the impact itself on every sample
+    dry = eom.model_copy(update={"damping": {"v": 0.2, "sign(v)": 0.01}})
+    assert np.array_equal(simulate_dense(dry, t, force=force, x_scale=0.012, v_scale=0.5).x,
+                          simulate(dry, t, force=force, x_scale=0.012, v_scale=0.5).x)
