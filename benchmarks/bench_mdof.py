@@ -129,7 +129,15 @@ def coupling_errors(truth: MdofModel, ident: MdofModel, records: list[ChannelRec
             got = ident.stiffness[i].get(t, 0.0) / ident.mass[i]
             err = abs(got - c) / abs(c)
             worst = max(worst, err)
-            lines.append(f"    eq {i + 1} {t:>10}: {got:.5g} vs true {c:.5g} per unit mass ({100 * err:.2f} %)")
+            ci = ident.stiffness_ci95[i].get(t) if ident.stiffness_ci95 else None
+            if t not in ident.stiffness[i]:
+                band = " (dropped: not determined by the data)"
+            elif ci is None:
+                band = ""
+            else:
+                h = ci / ident.mass[i]
+                band = f" +- {h:.3g} ({100 * h / abs(got):.1f} %, {'covers' if abs(got - c) <= h else 'MISSES'} the truth)"
+            lines.append(f"    eq {i + 1} {t:>10}: {got:.5g}{band} vs true {c:.5g} per unit mass ({100 * err:.2f} %)")
     lines.append(f"    worst coupling/cubic coefficient error {100 * worst:.2f} % (floor 3 % -> "
                  f"{'met' if worst <= 0.03 else 'NOT met'})")
     return lines
