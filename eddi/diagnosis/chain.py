@@ -76,15 +76,30 @@ def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Par
                 [])
     variants: dict[float, list[Record] | None] = {}
     fitters: dict[float, Fitter] = {}
-    for fc in CORNERS_HZ:
-        recs = [_recondition(r, fc) for r in records]
-        variants[fc] = None if any(r is None for r in recs) else recs  # type: ignore[assignment]
-        if variants[fc] is not None:
-            fitters[fc] = Fitter([r.signal() for r in variants[fc]], setup)  # type: ignore[union-attr]
 
-    def best_corner(masks: Sequence[np.ndarray]) -> tuple[float, object]:
+    def fitter(fc: float) -> Fitter | None:
+        """The records conditioned with the coupling at ``fc`` inverted (made once)."""
+        if fc not in variants:
+            recs = [_recondition(r, fc) for r in records]
+            variants[fc] = None if any(r is None for r in recs) else recs  # type: ignore[assignment]
+            if variants[fc] is not None:
+                fitters[fc] = Fitter([r.signal() for r in variants[fc]], setup)  # type: ignore[union-attr]
+        return fitters.get(fc)
+
+    def best_corner(masks: Sequence[np.ndarray], corners: Sequence[float], patience: int = 0
+                    ) -> tuple[float, object]:
+        """The corner whose refit best reproduces the training records; with ``patience``,
+        the scan (in increasing corners) stops after that many corners in a row worse than
+        the best so far (the training error has one minimum over the corner)."""
         best = (math.inf, 0.0, None)
-        for fc, f in fitters.items():
+        worse = 0
+        for fc in corners:
+            if patience and worse >= patience:
+                break
+            worse += 1
+            f = fitter(fc)
+            if f is None:
+                continue
             try:
                 fit = f(masks)(None, None)
             except EddiError:
@@ -93,12 +108,28 @@ def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Par
                 continue
             err = _training_error(fit.eom, variants[fc], masks)  # type: ignore[arg-type]
             if err < best[0]:
-                best = (err, fc, fit)
+                best, worse = (err, fc, fit), 0
         return best[1], best[2]
 
+    # a coarse scan of the grid on all the records first (stopped two corners past the
+    # minimum), then the grid next to it; a fold tries only the corners next to the all-data
+    # choice (and none): the whole grid in every fold was 8.4 s of a 14.5 s profiled run
+    all_m = [(np.arange(r.t.size) >= r.free_start) & (np.arange(r.t.size) < r.free_stop) for r in records]
+    coarse = (0.0,) + CORNERS_HZ[1::2] + CORNERS_HZ[-1:]
+    fc_all, fit_all = best_corner(all_m, coarse, patience=2)
+    k = CORNERS_HZ.index(fc_all)
+    if k > 0:  # the grid between the coarse points next to the choice
+        fc2, fit2 = best_corner(all_m, [fc_all, *CORNERS_HZ[max(1, k - 1):k + 2:2]])
+        if fc2 != fc_all:
+            fc_all, fit_all = fc2, fit2
+    if fc_all == 0.0:
+        return (Candidate("sensor_highpass", float("nan"), (), float("nan"), False, False, {}, {}, None, "",
+                          "no corner reproduces the records better than the records as conditioned"), [])
+    k = CORNERS_HZ.index(fc_all)
+    near = sorted({0.0, *CORNERS_HZ[max(1, k - 1):k + 2]})
     folds, sims, corners = [], [], []
     for part, masks in zip(parts, fold_masks):
-        fc, fit = best_corner(masks)
+        fc, fit = best_corner(masks, near)
         corners.append(fc)
         if fit is None:
             folds.append(NRMSE_CAP)
@@ -108,8 +139,6 @@ def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Par
         xs, _ = simulate_part_xv(fit.eom, rec, part)
         folds.append(nrmse(xs, rec.x[part.start:part.stop]))
         sims.append(xs)
-    all_m = [(np.arange(r.t.size) >= r.free_start) & (np.arange(r.t.size) < r.free_stop) for r in records]
-    fc_all, fit_all = best_corner(all_m)
     mean = float(np.mean(folds))
     ref = float(np.mean(base_fold))
     params = {"corner_hz": float(fc_all)}

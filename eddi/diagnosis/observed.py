@@ -59,15 +59,18 @@ def _mode_params(model: ModalSumModel) -> dict[str, float]:
     return out
 
 
-def _training_segments(records: Sequence[Record], masks: Sequence[np.ndarray]
+def _training_segments(records: Sequence[Record], masks: Sequence[np.ndarray], memo: dict
                        ) -> list[tuple[np.ndarray, np.ndarray]]:
-    """(t, v) of every contiguous training stretch long enough to separate modes."""
+    """(t, v) of every contiguous training stretch long enough to separate modes.
+
+    ``memo`` keeps one pair of views per stretch, so the folds hand :func:`identify_modes`
+    the same arrays and its cache separates each stretch once."""
     out = []
-    for r, m in zip(records, masks):
+    for i, (r, m) in enumerate(zip(records, masks)):
         n_min = int(MODE_MIN_SEGMENT_S * r.rate_hz)
         for a, b in runs(m):
             if b - a >= n_min:
-                out.append((r.t[a:b], r.v[a:b]))
+                out.append(memo.setdefault((i, a, b), (r.t[a:b], r.v[a:b])))
     return out
 
 
@@ -107,9 +110,11 @@ def observed_second_mode(records: Sequence[Record], parts: Sequence[Part],
     first: on single-mode nulls with the spectral gate bypassed the two-band model beat it by
     55-82 %, as the wider band identified the one mode worse, a false alarm in waiting.)
     """
-    free_all = []
-    for r in records:
-        free_all.append((r.t[r.free_start:r.free_stop], r.v[r.free_start:r.free_stop]))
+    memo: dict = {}
+    cache: dict = {}  # identify_modes' separations, shared by the folds (arrays kept in memo)
+    free_all = [memo.setdefault((i, r.free_start, r.free_stop), (r.t[r.free_start:r.free_stop],
+                                                                 r.v[r.free_start:r.free_stop]))
+                for i, r in enumerate(records)]
     try:
         bands_all = suggest_bands_many(free_all, 2, min_power_ratio=MODE_POWER_RATIO)
     except SignalError:
@@ -150,7 +155,7 @@ def observed_second_mode(records: Sequence[Record], parts: Sequence[Part],
     main_band = (bands_all[1 - second],)
     for p, masks in zip(parts, fold_masks):
         rec = records[p.record]
-        segs = _training_segments(records, masks)
+        segs = _training_segments(records, masks, memo)
         xm = rec.x[p.start:p.stop]
         vm = rec.v[p.start:p.stop]
         n = p.stop - p.start
@@ -167,7 +172,7 @@ def observed_second_mode(records: Sequence[Record], parts: Sequence[Part],
             try:
                 if b is None or not segs:
                     raise IdentificationError("no two resonances in the training records")
-                model, _fits = identify_modes(segs, b, damping=damping, stiffness=stiffness)
+                model, _fits = identify_modes(segs, b, damping=damping, stiffness=stiffness, cache=cache)
                 pred = predict_record(model, rec.t, rec.v, start=p.start)
                 xs = pred.simulation.x_modes[:, :n]
                 vs = pred.simulation.v_modes[:, :n]
@@ -193,7 +198,7 @@ def observed_second_mode(records: Sequence[Record], parts: Sequence[Part],
             ref_nrmse.append(nrmse(one[1].sum(axis=0), xm))
             ref_nmte.append(nmte(one[2].sum(axis=0), vm))
     try:
-        model, _fits = identify_modes(free_all, bands_all, damping=damping, stiffness=stiffness,
+        model, _fits = identify_modes(free_all, bands_all, damping=damping, stiffness=stiffness, cache=cache,
                                       notes="observed second mode, fitted by eddi.diagnose on every record")
     except (IdentificationError, SignalError, ModelError) as exc:
         return Observed(skipped=f"the modal sum could not be fitted on all the records: {exc}")
