@@ -117,12 +117,18 @@ def coupling_errors(truth: MdofModel, ident: MdofModel, records: list[ChannelRec
     cubic_terms = [t for t in ref if parse_multi_term(t, ident.n_coords).degree == 3]
     sizes = [{t: abs(ref[t][i]) * float(np.prod(amp ** parse_multi_term(t, ident.n_coords).exponents[0]))
               for t in cubic_terms} for i in range(ident.n_coords)]
-    # "carrying at least 10 % of the largest cubic force" over all equations: an equation with
-    # no true cubic term (a linear coordinate) is not scored on round-off
-    big = max((max(s.values()) for s in sizes if s), default=0.0)
+    linear_terms = [t for t in ref if parse_multi_term(t, ident.n_coords).degree == 1]
     for i in range(ident.n_coords):
         cubic = {t: ref[t][i] for t in cubic_terms}
         size = sizes[i]
+        # terms carrying at least 10 % of the equation's largest cubic force, in equations whose
+        # cubic force is at least 1 % of their linear one (a linear coordinate is not scored on
+        # the round-off of the truth's change of coordinates)
+        lin = sum(abs(ref[t][i]) * float(np.prod(amp ** parse_multi_term(t, ident.n_coords).exponents[0]))
+                  for t in linear_terms)
+        big = max(size.values()) if size else 0.0
+        if big < 0.01 * lin:
+            continue
         for t, c in cubic.items():
             if size[t] < 0.1 * big:
                 continue
