@@ -497,7 +497,22 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
         driving_point=driving_point,
         notes=f"identified by eddi.mdof from {len(records)} record(s); {kind} coordinates; "
               f"linear modes {', '.join(f'{f:.4g} Hz' for f in modes.frequencies_hz)}")
+    growth = _linear_growth_rate(model)
+    if growth > 0:
+        notes.append(f"warning: the identified linear part is unstable (a mode grows at {growth:.3g} 1/s): "
+                     "the damping is not determined by these records")
     return MdofIdentification(model, modes, kind, fits, span, tuple(notes), basis)
+
+
+def _linear_growth_rate(model: MdofModel) -> float:
+    """Largest real part of the eigenvalues of the model's linear part [1/s] (> 0: unstable)."""
+    m, c, k = model.linear_matrices()
+    n = model.n_coords
+    try:
+        a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(m, k), -np.linalg.solve(m, c)]])
+        return float(np.max(np.linalg.eigvals(a).real))
+    except np.linalg.LinAlgError:
+        return math.nan
 
 
 def _fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool | str, prune: float
