@@ -51,14 +51,11 @@ def diagnose(
     stiffness: str | Sequence[str] = DEFAULT_STIFFNESS,
     base: EquationOfMotion | None = None,
     mechanisms: Sequence[str] | None = None,
-    margin: float = DEFAULT_MARGIN,
-    consistency: float = DEFAULT_CONSISTENCY,
-    n_bands: int = 3,
-    fit: str = "eddi",
+    margin: float = DEFAULT_MARGIN, consistency: float = DEFAULT_CONSISTENCY,
+    n_bands: int = 3, fit: str = "eddi",
     modal_damping: Sequence[str] = MODAL_DAMPING,
     modal_stiffness: Sequence[str] = MODAL_DIAGNOSE_STIFFNESS,
-    none_factor: float = NONE_FACTOR,
-    named_factor: float = NAMED_FACTOR,
+    none_factor: float = NONE_FACTOR, named_factor: float = NAMED_FACTOR,
     pipeline: PipelineBaseline | None = None,
 ) -> Diagnosis:
     """Find what the baseline model gets wrong, name the mechanism, extend and measure the gain.
@@ -66,49 +63,35 @@ def diagnose(
     Parameters
     ----------
     records : sequence of Record
-        Measured responses (same sample rate). With two or more, each is held out in turn
-        (the others train); with one, its free response is split into ``n_bands`` amplitude
-        bands and each band is held out in turn.
+        Measured responses (same sample rate). With two or more, each is held out in turn;
+        with one, its free response is split into ``n_bands`` amplitude bands held out in turn.
     mass : float, optional
         Mass [kg] (or inertia). Required unless ``base`` is given.
     damping, stiffness : str or sequence of str
-        Baseline term libraries (comma-separated text or a sequence), fitted when ``base``
-        is None.
+        Baseline term libraries, fitted when ``base`` is None.
     base : EquationOfMotion, optional
         A given baseline; its coefficients are kept and only mechanisms are fitted.
     mechanisms : sequence of str, optional
-        Subset of :data:`eddi.diagnosis.catalogue.ALL_NAMES` to try (default: all, the
-        measurement-chain cause ``sensor_highpass`` included).
+        Subset of :data:`~eddi.diagnosis.catalogue.ALL_NAMES` (default: all).
     margin : float
-        Relative reduction of the mean held-out nrmse (over the candidate's reference) the
-        winner must reach, besides winning on every held-out part (0.5: it halves the error).
-    none_factor : float
-        ``cause: "none"`` needs the baseline within this factor of the noise floor on every
-        held-out part.
-    named_factor : float
-        A named mechanism must leave its held-out nrmse within this factor of the floor.
-    pipeline : PipelineBaseline, optional
-        The pipeline's model and held-out error on these records (what ``station identify``
-        gives): it becomes the diagnosis's ``baseline``, and ``none`` also needs it within
-        ``none_factor`` of the floor on the records it did not fit. The candidates are still
-        judged against the same terms fitted per fold (``judged``, see
-        :data:`~eddi.diagnosis.results.JUDGED_WHAT`).
+        Cut of the mean held-out nrmse the winner must reach (0.5: it halves the error),
+        besides winning on every held-out part.
     consistency : float
-        The winner's strength parameter (friction force, gap stiffness...) fitted on each
-        fold must have a spread below ``consistency`` times its value: a mechanism that
-        only fits noise changes from fold to fold.
+        The winner's strength fitted per fold must spread less than this times its value.
     n_bands : int
         Amplitude bands of a single record.
     fit : {"eddi", "equation-error"}
-        How the baseline and the extensions are fitted (see the module notes). EDDI's
-        energy balance is the default: on 72 null cases it gave no false alarm with a
-        largest passing gain of 0.10 (``docs/diagnosis.md``).
+        How the baseline and the extensions are fitted (``docs/diagnosis.md``).
     modal_damping, modal_stiffness : sequence of str
-        Term libraries of each mode of the observed second mode (free decays without force:
-        a modal sum, :mod:`eddi.multimode`). Default: viscous plus ``abs(v)*v`` damping and
-        ``x, abs(x)*x, x^3`` stiffness (:data:`MODAL_DIAGNOSE_STIFFNESS`); the baseline's
-        polynomial library (up to ``x^5``) is not used per mode, as fitted on one band it
-        diverges in simulation.
+        Per-mode libraries of the observed second mode (free decays, :mod:`eddi.multimode`).
+    none_factor, named_factor : float
+        ``none`` needs the baseline within ``none_factor`` of the noise floor; a named
+        mechanism must land within ``named_factor`` of it.
+    pipeline : PipelineBaseline, optional
+        The pipeline's model and held-out error on these records (``station identify``'s):
+        it becomes ``baseline``, and ``none`` also needs it within ``none_factor`` of the
+        floor. The candidates are judged against the same terms fitted per fold
+        (``judged``, :data:`~eddi.diagnosis.results.JUDGED_WHAT`).
 
     Returns
     -------
@@ -117,8 +100,7 @@ def diagnose(
     Raises
     ------
     SignalError
-        No records, inconsistent sample rates, too few zero crossings, a record too short to
-        split.
+        No records, different sample rates, too few zero crossings, too short to split.
     ModelError
         Bad mass.
     TermError

@@ -38,3 +38,7 @@ NAMED_FACTOR = 10.0
 #: 0.01 the baseline reached 0.066 (2 kHz, 50 dB), so 0.02 (set after those nulls; a fresh
 #: set, seeds 600-699, was run after the change: docs/diagnosis.md).
 MIN_FLOOR = 0.02
+#: Within the ``none`` factor a mechanism is still named when it cuts the held-out error by
+#: this much (and passes every other test); None: never (set from the calibration,
+#: ``benchmarks/bench_diagnose_calibration.py``, docs/diagnosis.md).
+STRONG_MARGIN: float | None = None
