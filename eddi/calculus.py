@@ -12,9 +12,13 @@ One module owns these so that conditioning (:mod:`eddi.conditioning`), the modal
 * :func:`spline_cumulative_integral`: the same through an interpolating cubic spline
   (``O((w h)^4)``, any grid);
 * :func:`differentiate`: 6th-order central difference (lower order at the ends);
+  :func:`spline_derivative`: the derivative of the quintic interpolating spline (any grid;
+  what the Lagrangian route of phase two uses when no acceleration was measured);
 * :func:`resample`: band-limited (FFT / polyphase-free) resampling of records whose clocks
   differ slightly onto one grid (:func:`common_rate`);
-* :func:`samples_per_cycle_note`: what accuracy to expect from a given sampling.
+* :func:`samples_per_cycle_note`: what accuracy to expect from a given sampling;
+* :func:`decimation_factor`, :func:`decimate_centred`: a record sampled far faster than it
+  moves (19.2 kHz for a 4 Hz oscillator) onto a coarser grid for the regression.
 """
 
 from __future__ import annotations
@@ -99,6 +103,27 @@ def differentiate(y: np.ndarray, dt: float) -> np.ndarray:
     return d
 
 
+def spline_derivative(t: np.ndarray, y: np.ndarray, degree: int = 5) -> np.ndarray:
+    """Time derivative of a sampled signal, from its interpolating spline (quintic by default).
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,), [s]
+        Increasing times (need not be uniform).
+    y : ndarray, shape (n,)
+    degree : int
+        Spline degree (odd; 5 is sixth-order accurate inside, see :mod:`eddi.energy`).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``dy/dt`` at ``t`` (units of ``y`` per s).
+    """
+    from scipy.interpolate import make_interp_spline
+
+    return make_interp_spline(t, y, k=degree).derivative()(t)
+
+
 def common_rate(rates_hz: list[float] | tuple[float, ...], tolerance: float = RATE_TOLERANCE) -> float | None:
     """The rate to resample records onto, or None when they already agree (1 ppm).
 
@@ -176,3 +201,69 @@ def samples_per_cycle_note(rate_hz: float, freq_hz: float) -> str | None:
     err = 100.0 * wh * wh / 12.0
     return (f"only {spc:.3g} samples per cycle at {freq_hz:.4g} Hz (fewer than {MIN_SAMPLES_PER_CYCLE:g}): expect "
             f"stiffness and damping errors of ~{err:.2g} % or more from sampling alone; record faster if you can")
+
+
+#: Largest ``omega * q * dt`` of the grid :func:`decimate_centred` makes (rad): ~63 samples per
+#: cycle of the fastest local oscillation, where EDDI's quintic quadrature and Hermite
+#: crossings are exact to ~1e-7.
+DECIMATE_H_OMEGA = 0.1
+#: Smallest factor worth decimating by.
+MIN_DECIMATION = 5
+
+
+def signal_angular_frequency(x: np.ndarray, v: np.ndarray, a: np.ndarray) -> float:
+    """A bound on the fastest local angular frequency of a response [rad/s], from the data.
+
+    ``1.5 max|a| / max|v|`` (a sinusoid gives 1.5 omega; the sharp acceleration peaks of a
+    hardening spring raise ``max|a|`` as its tangent frequency rises: on the 45 s duffing-smooth
+    record 117 rad/s against a tangent maximum of 110); 0 when ``v`` is all zero.
+    """
+    vmax = float(np.max(np.abs(v))) if v.size else 0.0
+    return 1.5 * float(np.max(np.abs(a))) / vmax if vmax > 0 else 0.0
+
+
+def decimation_factor(rate_hz: float, omega: float, h_omega: float = DECIMATE_H_OMEGA) -> int:
+    """Odd factor ``q`` with ``omega q / rate_hz <= h_omega``; 1 below :data:`MIN_DECIMATION`."""
+    if not (omega > 0 and math.isfinite(omega) and rate_hz > 0):
+        return 1
+    q = int(h_omega * rate_hz / omega)
+    q -= q % 2 == 0
+    return q if q >= MIN_DECIMATION else 1
+
+
+def decimate_centred(t: np.ndarray, x: np.ndarray, v: np.ndarray, a: np.ndarray | None,
+                     q: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
+    """Every ``q``-th sample of a smooth ``x, v``; the acceleration from its block means.
+
+    ``x`` and ``v`` (integrals: their noise lies at low frequency) are taken at the centre
+    sample of each block of ``q`` samples; the measured acceleration (white sensor noise) is
+    the block mean, less its curvature, ``m_k - (q^2 - 1) / (24 q^2) (m_{k+1} - 2 m_k +
+    m_{k-1})``: the centre value to ``O((omega q dt)^4)`` with ``1/q`` of the noise variance.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,), [s]
+    x, v : ndarray, shape (n,)
+    a : ndarray, shape (n,) or None
+    q : int
+        Odd factor (>= 1).
+
+    Returns
+    -------
+    t, x, v, a : ndarray, shape (n // q,)
+        On the blocks' centre samples (``a`` None when not given).
+    index : ndarray of int, shape (n // q,)
+        The centre samples' indices in the input arrays.
+    """
+    if q <= 1:
+        return t, x, v, a, np.arange(t.size)
+    nb = t.size // q
+    idx = (q - 1) // 2 + q * np.arange(nb)
+    ad = None
+    if a is not None:
+        m = np.asarray(a[: nb * q], dtype=float).reshape(nb, q).mean(axis=1)
+        d2 = np.empty_like(m)
+        d2[1:-1] = m[2:] - 2.0 * m[1:-1] + m[:-2]
+        d2[0], d2[-1] = d2[1], d2[-2]
+        ad = m - (q * q - 1) / (24.0 * q * q) * d2
+    return t[idx], x[idx], v[idx], ad, idx

@@ -258,22 +258,6 @@ def cumulative_energy(t: np.ndarray, power: np.ndarray) -> BSpline:
     return make_interp_spline(t, power, k=SPLINE_DEGREE, axis=0).antiderivative()
 
 
-def derivative(t: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Time derivative of a sampled signal, from its quintic interpolating spline.
-
-    Parameters
-    ----------
-    t : ndarray, shape (n,), [s]
-    y : ndarray, shape (n,)
-
-    Returns
-    -------
-    ndarray, shape (n,)
-        ``dy/dt`` at ``t``.
-    """
-    return make_interp_spline(t, y, k=SPLINE_DEGREE).derivative()(t)
-
-
 def check_series(t: np.ndarray, named: dict[str, np.ndarray | None], min_samples: int = 4) -> tuple[np.ndarray, dict[str, np.ndarray | None]]:
     """Check a time base and the signals sampled on it.
 

@@ -141,8 +141,8 @@ def identify(
         the model's free response from a fitted initial state is fitted to the measured
         ``a`` (or ``x`` without ``a``; or the signal named) over the window. Not part of the
         paper's method; the EDDI estimate is kept in ``unrefined``. Much more accurate on
-        noisy records (``docs/eddi-method.md``), and slower (60-130 simulations, of the
-        first 1/8, 1/2 and all of the window).
+        noisy records (``docs/eddi-method.md``), and slower (20-60 simulations with their
+        sensitivities, of the first 1/8, 1/2 and all of the window, on block means).
     select : bool
         With ``refine``: remove the terms the data do not support (BIC backward
         elimination, :func:`eddi.refine.refine_output_error`).

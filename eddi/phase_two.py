@@ -23,7 +23,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from eddi.energy import derivative, integrated_term, term_matrix
+
+from eddi.calculus import spline_derivative
+from eddi.energy import SPLINE_DEGREE, integrated_term, term_matrix
 from eddi.phase_one import PhaseOneResult, scaled_lstsq
 from eddi.terms import Term, parse_terms
 
@@ -221,7 +223,7 @@ def lagrangian_route(
     energy = mechanical_energy(p1, anchored)
     x = np.asarray(x, dtype=float)
     v = np.asarray(v, dtype=float)
-    acc = np.asarray(a, dtype=float) if a is not None else derivative(t, v)
+    acc = np.asarray(a, dtype=float) if a is not None else spline_derivative(t, v, SPLINE_DEGREE)
     # dL/dt = d(2T)/dt - dE/dt = 2 m v a - dE/dt, with dE/dt exact (energy_rate)
     dl_dt = 2.0 * mass * v * acc - energy_rate(p1, x, v, anchored)
     e = _floor(energy, p1, energy_floor)

@@ -19,16 +19,24 @@ import argparse
 import math
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from eddi.diagnosis import DEFAULT_MARGIN, FITS, Diagnosis, PipelineBaseline, Record, diagnose
 from eddi.errors import ModelError
-from eddi.diagnosis import ALL_NAMES
-from eddi.model import EquationOfMotion
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
 from station.argtypes import damping_terms, finite_positive, fraction, stiffness_terms
 from station.errors import InputFileError
 from station.output import emit
+
+if TYPE_CHECKING:  # the engine is imported when captures are diagnosed, not for --help
+    from eddi.diagnosis import Diagnosis, PipelineBaseline, Record
+
+#: ``eddi.diagnosis.FITS``, ``DEFAULT_MARGIN`` and ``ALL_NAMES``, written out so that ``--help``
+#: does not import the engine (scipy, numba, pydantic: ~1 s); tests/station/test_cli_startup.py
+#: checks that they equal the engine's.
+FITS = ("eddi", "equation-error")
+DEFAULT_MARGIN = 0.5
+ALL_NAMES = ("coulomb_friction", "quadratic_damping", "cubic_damping", "clearance", "smooth_stiffening",
+             "asymmetric_stiffness", "second_mode", "sensor_highpass")
 
 
 def register(subparsers: Any) -> None:
@@ -59,7 +67,7 @@ def register(subparsers: Any) -> None:
                         "eddi.multimode.load_any_model)")
     p.add_argument("--report", metavar="DIR", help="write an HTML page (index.html) and its figures "
                    "(PNG, units on every axis) into DIR")
-    from station.commands.identify import add_refine_option
+    from station.argtypes import add_refine_option
 
     add_refine_option(p)
     p.add_argument("--driving-point", metavar="CHANNEL",
@@ -95,6 +103,7 @@ def load_measurements(specs: list[str]) -> tuple[list[Record], float | None, lis
     resampled : str or None
         What was resampled onto one grid (clocks differing by up to 200 ppm), None if nothing.
     """
+    from eddi.diagnosis import Record
     from station.readers import read_measurement
     from station.session import condition_measurement, expand_specs
 
@@ -130,6 +139,7 @@ def pipeline_baseline(measurements: list[Any], mass: float, damping: str, stiffn
     the JSON object (as ``replay``) and the :class:`~eddi.diagnosis.PipelineBaseline` the
     diagnosis takes as its baseline.
     """
+    from eddi.diagnosis import PipelineBaseline
     from station.commands.replay import session_object
     from station.session import run_session
 
@@ -146,6 +156,8 @@ def pipeline_baseline(measurements: list[Any], mass: float, damping: str, stiffn
 
 
 def handle(args: argparse.Namespace) -> int:
+    from eddi.diagnosis import diagnose
+    from eddi.model import EquationOfMotion
     from station.output_safety import check_output
 
     inputs = [*args.captures, *([args.model] if args.model else [])]

@@ -14,6 +14,7 @@ import pytest
 
 from eddi.calculus import (
     common_rate, differentiate, integrate, resample, samples_per_cycle_note, spline_cumulative_integral,
+    decimate_centred, spline_derivative,
 )
 from eddi.conditioning import condition
 from eddi.fit_record import Pipeline
@@ -58,6 +59,18 @@ def test_integrals_at_20_and_41_samples_per_cycle(spc: float) -> None:
             assert err > 0.9 * (w * dt) ** 2 / 12  # the trapezoid's loss, 0.8 % at 20 per cycle
         else:
             assert err < 2e-4 * (20.0 / spc) ** 4  # (w h)^4 terms: 1e-4 at 20, 6e-6 at 41
+
+
+def test_spline_derivative_on_a_non_uniform_grid() -> None:
+    # 20 samples per period, jittered times: the quintic spline's derivative is sixth-order
+    # accurate inside (a central difference on these times would be off by ~1e-2)
+    rng = np.random.default_rng(3)
+    t = np.sort(np.arange(400) * 0.05 + rng.uniform(-0.01, 0.01, 400))
+    w = 2 * math.pi
+    d = spline_derivative(t, np.sin(w * t))
+    inner = slice(10, -10)
+    assert np.max(np.abs(d[inner] - w * np.cos(w * t[inner]))) / w < 2e-4
+    assert np.max(np.abs(spline_derivative(t, np.sin(w * t), degree=1)[inner] - w * np.cos(w * t[inner]))) / w > 1e-3
 
 
 def test_resample_36_and_200_ppm_onto_one_grid() -> None:
@@ -107,3 +120,29 @@ def test_pipeline_warns_below_20_samples_per_cycle() -> None:
     res = Pipeline(damping=("v",), stiffness=("x", "x^3"), refine=False).fit(cond, 1.0)
     coarse = [w for w in res.warnings if "samples per cycle" in w]
     assert len(coarse) == 1 and "fewer than 20" in coarse[0]
+
+
+def test_dense_record_eddi_on_a_decimated_grid_gives_the_same_coefficients() -> None:
+    # paper_do at 20 kHz (~5000 samples a cycle): EDDI runs on block centres (q >= 5) and must
+    # give what it gives on every sample, within a small part of its own error at 45 dB
+    from eddi.identify import identify
+    from tests.eddi.impact_cases import SYSTEMS
+
+    spec = SYSTEMS["paper_do"]
+    r = impact_record(spec, rate_hz=20000.0, duration_s=4.0, pretrigger_s=0.3, snr_db=45.0, seed=2)
+    cond = condition(r.t, acc=r.acc, force=r.force)
+    res = Pipeline(damping=("v",), stiffness=("x", "x^3"), refine=False).fit(cond, spec["mass"])
+    assert res.choices.decimation >= 5
+    every = identify(cond.t, cond.x, cond.v, spec["mass"], damping="v", stiffness="x,x^3", a=cond.a,
+                     window=cond.window)
+    for group in ("damping", "stiffness"):
+        for term, c in spec[group].items():
+            dec, full = getattr(res.model.eom, group)[term], getattr(every.eom, group)[term]
+            assert abs(dec - full) <= 0.1 * abs(full - c) + 1e-4 * abs(c), (term, dec, full, c)
+    # the block means of the acceleration: centre values with 1/q of the noise
+    q = res.choices.decimation
+    w0, w1 = cond.window
+    _, _, _, ad, idx = decimate_centred(cond.t[w0:w1], cond.x[w0:w1], cond.v[w0:w1], r.acc[w0:w1], q)
+    exact = r.a[w0:w1][idx]
+    ratio = np.std(ad - exact) / (np.std(r.acc[w0:w1] - r.a[w0:w1]) / math.sqrt(q))
+    assert 0.9 < ratio < 1.25  # the curvature correction adds ~10 % to the block mean's noise
