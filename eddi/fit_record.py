@@ -219,7 +219,7 @@ class Pipeline:
                   pretrigger_samples: int | None = None, ac_coupling_s: float | None = None) -> ConditionedSignal:
         """Step 1: :func:`eddi.conditioning.condition` (see there)."""
         return condition(t, acc=acc, vel=vel, disp=disp, force=force, pretrigger_samples=pretrigger_samples,
-                         ac_coupling_s=ac_coupling_s)
+                         ac_coupling_s=ac_coupling_s, free_drift_slope=True)
 
     def _identify(self, cond: ConditionedSignal, mass: float) -> tuple[IdentifiedModel, int]:
         """EDDI (on a decimated copy of a densely sampled window), then the refinement.

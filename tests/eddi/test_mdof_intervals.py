@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from eddi.mdof.identify import block_jackknife_ci95
+from eddi.mdof.intervals import block_jackknife_ci95
 from eddi.phase_one import scaled_lstsq
 
 
