@@ -6,7 +6,8 @@ Frames: 8 channels x 24 bit, 256 samples per frame (6 KiB), fed in chunks as a r
 them; also 2 channels x 24 bit and 8 channels x 16 bit, 64-sample frames. The floor is a
 memcpy of the same chunks in the same loop (bytes -> bytearray), measured in the same run, so
 the ratio holds on a busy machine where absolute MB/s do not. Target (issue 13): >= 500 MB/s
-on 64 KiB chunks of the first layout. Prints the best of --repeats runs of each.
+on 64 KiB chunks of the first layout. Prints the best of --repeats runs of each, by the wall
+clock and by this process's CPU time (the figure to quote on a shared machine).
 """
 
 from __future__ import annotations
@@ -64,7 +65,8 @@ def main() -> None:
             runs = [decode_mbps(data, samples, chunk) for _ in range(args.repeats)]
             dec, dec_cpu = max(r[0] for r in runs), max(r[1] for r in runs)
             floor = max(memcpy_mbps(data, chunk) for _ in range(args.repeats))
-            target = ("  (target 500 MB/s: " + ("met" if dec >= 500 else "NOT met") + ")"
+            target = (f"  (target 500 MB/s: {'met' if dec_cpu >= 500 else 'NOT met'} on CPU time, "
+                      f"{'met' if dec >= 500 else 'NOT met'} on the wall clock at this load)"
                       if (n_ch, width, chunk) == (8, 3, 65536) else "")
             print(f"decode {n_ch} ch x {8 * width} bit, {block:3d} samples/frame, {chunk:>8d} B chunks: "
                   f"{dec:7.1f} MB/s wall, {dec_cpu:7.1f} MB/s of CPU = {dec / floor:6.1%} of memcpy "

@@ -25,6 +25,7 @@ import cProfile
 import os
 import pstats
 import statistics
+import sys
 import time
 from pathlib import Path
 
@@ -117,15 +118,53 @@ def run_case(case: str, runs: int, profile: int) -> None:
     print(f"{case}: load average (1 min) {load0:.2f} before, {load1:.2f} after; {os.cpu_count()} CPUs")
 
 
+def run_cli(runs: int) -> None:
+    """``station diagnose`` as a whole process on the ``three`` captures written as CSV, with
+    and without the pipeline baseline's refinement; floor: ``python -c "import numpy"``."""
+    import subprocess
+    import tempfile
+
+    raw = _three_raw()
+    with tempfile.TemporaryDirectory() as tmp:
+        files = []
+        for i, r in enumerate(raw):
+            path = Path(tmp) / f"c{i}.csv"
+            np.savetxt(path, np.column_stack((r.t, r.force_n, r.acc_m_s2)), delimiter=",",
+                       header="t,force,acc", comments="", fmt="%.10g")
+            files.append(str(path))
+        env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+        cmds = {"import numpy (floor)": [sys.executable, "-c", "import numpy"],
+                "station diagnose --no-refine": [sys.executable, "-m", "station.cli", "diagnose", *files,
+                                                 "--mass", "0.1", "--no-refine", "--json"],
+                "station diagnose (default: refine)": [sys.executable, "-m", "station.cli", "diagnose", *files,
+                                                       "--mass", "0.1", "--json"]}
+        load0 = os.getloadavg()[0]
+        walls: dict[str, list[float]] = {}
+        for name, cmd in cmds.items():
+            for _ in range(runs):
+                t0 = time.perf_counter()
+                subprocess.run(cmd, env=env, check=True, stdout=subprocess.DEVNULL)
+                walls.setdefault(name, []).append(time.perf_counter() - t0)
+        floor = min(walls["import numpy (floor)"])
+        for name, w in walls.items():
+            print(f"cli: {name}: min {min(w):.2f} s median {statistics.median(w):.2f} s = "
+                  f"{min(w) / floor:.1f}x the floor")
+        print(f"cli: load average (1 min) {load0:.2f} before, {os.getloadavg()[0]:.2f} after")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
-    ap.add_argument("--case", choices=("three", "beam", "both"), default="both")
+    ap.add_argument("--case", choices=("three", "beam", "both", "cli"), default="both",
+                    help="cli: whole station diagnose processes on the three captures as CSV")
     ap.add_argument("--runs", type=int, default=3, help="timed runs per case (default: %(default)s)")
     ap.add_argument("--profile", type=int, default=0, metavar="N",
                     help="print the N top cProfile lines of one extra run (default: off)")
     args = ap.parse_args()
     np.seterr(all="ignore")
+    if args.case == "cli":
+        run_cli(max(1, args.runs))
+        return
     for case in (("three", "beam") if args.case == "both" else (args.case,)):
         run_case(case, max(1, args.runs), args.profile)
 

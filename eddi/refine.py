@@ -45,7 +45,9 @@ is ``1.96`` standard errors. Terms are then removed one at a time, the one with 
 each removal refitted and kept only when it lowers the Bayesian information criterion
 ``BIC = n ln(RSS / n) + p ln(N)`` (``n`` block means, ``N`` samples: the likelihood ratio of
 two nested fits is the same on block means as on the samples, and the penalty stays that of
-the samples, so blocking does not change which terms are kept); the linear stiffness ``x`` and the last damping term stay.
+the samples, so blocking does not change which terms are kept; when the least significant
+term has ``(c / se)^2 > 4 ln N`` its removal would raise the BIC by ~``3 ln N`` (Wald), and the
+elimination stops without refitting); the linear stiffness ``x`` and the last damping term stay.
 :attr:`Refinement.dropped` says, per term removed, the BIC change and the coefficient it had.
 :func:`confidence_intervals` gives the same covariance for a model that is not refitted
 (only its initial state is fitted).
@@ -115,6 +117,9 @@ class Refinement:
 #: Largest ``omega_max * block * dt`` (rad) of a block: the block mean then differs from the
 #: curvature-corrected centre value by ~``(omega h)^4 / 1920`` (1e-6 relative at 0.2).
 BLOCK_H_OMEGA = 0.2
+#: Backward elimination stops without a refit when the least significant term has
+#: ``(c / se)^2 > WALD_KEEP ln N``: its removal would raise the BIC by ~``(WALD_KEEP - 1) ln N``.
+WALD_KEEP = 4.0
 #: Fewest block means compared (short records keep every sample).
 MIN_BLOCKS = 2000
 
@@ -467,6 +472,10 @@ def _select(prob: _OutputError, p: np.ndarray, half: np.ndarray, rss: float,
         tval = {i: abs(coef[k_of[i]]) / se[k_of[i]] if se[k_of[i]] > 0 else np.inf for i in droppable}
         j = min(droppable, key=lambda i: tval[i])
         bic_old = prob.bic(rss, p.size)
+        if tval[j] ** 2 > WALD_KEEP * np.log(prob.n_samples):
+            # dropping it would raise the RSS by ~(c/se)^2 s^2 (Wald), the BIC by ~(c/se)^2 - ln N:
+            # clearly supported, no refit needed
+            break
         keep = [k for k in range(p.size) if k != k_of[j]]
         old_active = list(prob.active)
         prob.active = [i for i in prob.active if i != j]

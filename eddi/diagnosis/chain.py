@@ -65,6 +65,49 @@ def _training_error(fit_eom, recs: Sequence[Record], masks: Sequence[np.ndarray]
     return float(np.mean(errs)) if errs else NRMSE_CAP
 
 
+class _CornerSearch:
+    """The records conditioned with the coupling inverted at each corner (made on demand), and
+    the corner whose baseline refit best reproduces the training records in simulation."""
+
+    def __init__(self, records: Sequence[Record], setup: Setup) -> None:
+        self.records, self.setup = records, setup
+        self.variants: dict[float, list[Record] | None] = {}
+        self.fitters: dict[float, Fitter] = {}
+
+    def fitter(self, fc: float) -> Fitter | None:
+        if fc not in self.variants:
+            recs = [_recondition(r, fc) for r in self.records]
+            self.variants[fc] = None if any(r is None for r in recs) else recs  # type: ignore[assignment]
+            if self.variants[fc] is not None:
+                self.fitters[fc] = Fitter([r.signal() for r in self.variants[fc]], self.setup)  # type: ignore[union-attr]
+        return self.fitters.get(fc)
+
+    def best(self, masks: Sequence[np.ndarray], corners: Sequence[float], patience: int = 0
+             ) -> tuple[float, object]:
+        """(corner, baseline fit) with the lowest training error; with ``patience`` the scan (in
+        increasing corners) stops after that many corners in a row worse than the best so far
+        (the training error has one minimum over the corner)."""
+        best = (math.inf, 0.0, None)
+        worse = 0
+        for fc in corners:
+            if patience and worse >= patience:
+                break
+            worse += 1
+            f = self.fitter(fc)
+            if f is None:
+                continue
+            try:
+                fit = f(masks)(None, None)
+            except EddiError:
+                continue
+            if fit is None:
+                continue
+            err = _training_error(fit.eom, self.variants[fc], masks)  # type: ignore[arg-type]
+            if err < best[0]:
+                best, worse = (err, fc, fit), 0
+        return best[1], best[2]
+
+
 def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
                     fold_masks: Sequence[Sequence[np.ndarray]], base_fold: Sequence[float],
                     consistency: float) -> tuple[Candidate, list[np.ndarray]]:
@@ -74,46 +117,8 @@ def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Par
         return (Candidate("sensor_highpass", float("nan"), (), float("nan"), False, False, {}, {}, None,
                           "", "needs acceleration records (the coupling is inverted on the acceleration)"),
                 [])
-    variants: dict[float, list[Record] | None] = {}
-    fitters: dict[float, Fitter] = {}
-
-    def fitter(fc: float) -> Fitter | None:
-        """The records conditioned with the coupling at ``fc`` inverted (made once)."""
-        if fc not in variants:
-            recs = [_recondition(r, fc) for r in records]
-            variants[fc] = None if any(r is None for r in recs) else recs  # type: ignore[assignment]
-            if variants[fc] is not None:
-                fitters[fc] = Fitter([r.signal() for r in variants[fc]], setup)  # type: ignore[union-attr]
-        return fitters.get(fc)
-
-    def best_corner(masks: Sequence[np.ndarray], corners: Sequence[float], patience: int = 0
-                    ) -> tuple[float, object]:
-        """The corner whose refit best reproduces the training records; with ``patience``,
-        the scan (in increasing corners) stops after that many corners in a row worse than
-        the best so far (the training error has one minimum over the corner)."""
-        best = (math.inf, 0.0, None)
-        worse = 0
-        for fc in corners:
-            if patience and worse >= patience:
-                break
-            worse += 1
-            f = fitter(fc)
-            if f is None:
-                continue
-            try:
-                fit = f(masks)(None, None)
-            except EddiError:
-                continue
-            if fit is None:
-                continue
-            err = _training_error(fit.eom, variants[fc], masks)  # type: ignore[arg-type]
-            if err < best[0]:
-                best, worse = (err, fc, fit), 0
-        return best[1], best[2]
-
-    # a coarse scan of the grid on all the records first (stopped two corners past the
-    # minimum), then the grid next to it; a fold tries only the corners next to the all-data
-    # choice (and none): the whole grid in every fold was 8.4 s of a 14.5 s profiled run
+    search = _CornerSearch(records, setup)
+    best_corner = search.best
     all_m = [(np.arange(r.t.size) >= r.free_start) & (np.arange(r.t.size) < r.free_stop) for r in records]
     coarse = (0.0,) + CORNERS_HZ[1::2] + CORNERS_HZ[-1:]
     fc_all, fit_all = best_corner(all_m, coarse, patience=2)
@@ -135,7 +140,7 @@ def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Par
             folds.append(NRMSE_CAP)
             sims.append(np.full(part.stop - part.start, np.nan))
             continue
-        rec = variants[fc][part.record]  # type: ignore[index]
+        rec = search.variants[fc][part.record]  # type: ignore[index]
         xs, _ = simulate_part_xv(fit.eom, rec, part)
         folds.append(nrmse(xs, rec.x[part.start:part.stop]))
         sims.append(xs)

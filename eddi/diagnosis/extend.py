@@ -112,25 +112,21 @@ def fit_ee(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,
     full = masks
     masks = thin_masks(masks, EE_ROWS)
     a0, y = _rows(sigs, masks, setup)
-    best: tuple[float, np.ndarray, dict[str, float], MechanismFit] | None = None
     proj = _Projector(a0, y)
     if mech is None:
         coef = proj.base()
         mfit = None
     else:
         ctx = _context(sigs, full, setup, base_fit)
-        for shape in mech.shape_grid(ctx):
-            extra = _extra(mech, shape, sigs, masks, setup)
-            c, ssr = proj.fit(extra)
+
+        def trial(shape: dict[str, float]) -> tuple | None:
+            c, ssr = proj.fit(_extra(mech, shape, sigs, masks, setup))
             mf = mech.to_fit(c, shape, setup.mass, setup.stiffness)
-            if mf is None:
-                continue
-            if best is None or ssr < best[0]:
-                best = (ssr, c, shape, mf)
+            return None if mf is None else (ssr, c, shape, mf)
+
+        best = best_shape(trial, mech.shape_grid(ctx), mech.refine)
         if best is None:
             return None
-        if mech.refine:
-            best = _refine(mech, best, sigs, masks, setup, proj)
         coef = proj.base_given(_extra(mech, best[2], sigs, masks, setup), best[1])
         mfit = best[3]
     if setup.base is None:
@@ -180,31 +176,6 @@ def thin_masks(masks: Sequence[np.ndarray], max_rows: int) -> list[np.ndarray]:
 def _extra(mech: Mechanism, shape: dict[str, float], sigs: Sequence[Signal],
            masks: Sequence[np.ndarray], setup: Setup) -> np.ndarray:
     return np.vstack([mech.columns(s, shape, setup.stiffness)[m] for s, m in zip(sigs, masks)])
-
-
-def _refine(mech: Mechanism, best: tuple, sigs: Sequence[Signal], masks: Sequence[np.ndarray],
-            setup: Setup, proj: "_Projector") -> tuple:
-    """Polish the best grid shape with Nelder-Mead on the log of the refined parameters."""
-    keys = mech.refine
-    shape0 = dict(best[2])
-    p0 = np.log([shape0[k] for k in keys])
-    found = [best]
-
-    def cost(p: np.ndarray) -> float:
-        shape = {**shape0, **{k: float(np.exp(v)) for k, v in zip(keys, p)}}
-        c, ssr = proj.fit(_extra(mech, shape, sigs, masks, setup))
-        mf = mech.to_fit(c, shape, setup.mass, setup.stiffness)
-        if mf is None:
-            return float(best[0]) * 10.0
-        if ssr < found[-1][0]:
-            found.append((ssr, c, shape, mf))
-        return ssr / float(best[0])
-
-    optimize.minimize(cost, p0, method="Nelder-Mead",
-                      options={"maxfev": 20 * len(keys), "xatol": 1e-3, "fatol": 1e-6,
-                               "initial_simplex": np.vstack([p0] + [p0 + 0.05 * np.eye(len(keys))[i]
-                                                                    for i in range(len(keys))])})
-    return found[-1]
 
 
 def _context(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,
@@ -313,7 +284,6 @@ def fit_eddi(fold: EddiFold, sigs: Sequence[Signal], masks: Sequence[np.ndarray]
     phase-one misfit for damping, by the phase-two misfit for stiffness (grid, then
     Nelder-Mead on their logarithms).
     """
-    nd = len(fold.d)
     if mech is None:
         k, _ = fold.stiffness_fit(fold.rows0, [])
         try:
@@ -331,8 +301,14 @@ def fit_eddi(fold: EddiFold, sigs: Sequence[Signal], masks: Sequence[np.ndarray]
         # the equation-error baseline: its residual spectrum shows the hidden mode
         eb = ee_base() if ee_base is not None else fit_ee(sigs, masks, ee, None)
         return fit_ee(sigs, masks, ee, mech, base_fit=eb) if eb is not None else None
+    return _fit_native(fold, sigs, masks, setup, mech, base_fit)
+
+
+def _fit_native(fold: EddiFold, sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,
+                mech: Mechanism, base_fit: Fit) -> Fit | None:
+    """:func:`fit_eddi` of a mechanism EDDI fits natively (phase one or phase two)."""
     ctx = _context(sigs, masks, setup, base_fit)
-    nk = len(fold.k)
+    nd, nk = len(fold.d), len(fold.k)
     dt = sigs[0].dt
 
     def trial(shape: dict[str, float]) -> tuple | None:
@@ -346,31 +322,9 @@ def fit_eddi(fold: EddiFold, sigs: Sequence[Signal], masks: Sequence[np.ndarray]
         mf = mech.to_fit(c[nk:], shape, setup.mass, setup.stiffness)
         return None if mf is None else (ssr, c[nk:], shape, mf, fold.b0, c[:nk])
 
-    best = None
-    for shape in mech.shape_grid(ctx):
-        got = trial(shape)
-        if got is not None and (best is None or got[0] < best[0]):
-            best = got
+    best = best_shape(trial, mech.shape_grid(ctx), mech.refine)
     if best is None:
         return None
-    if mech.refine:
-        keys = mech.refine
-        shape0 = dict(best[2])
-        p0 = np.log([shape0[k] for k in keys])
-        found = [best]
-
-        def cost(p: np.ndarray) -> float:
-            got = trial({**shape0, **{k: float(np.exp(v)) for k, v in zip(keys, p)}})
-            if got is None:
-                return 10.0
-            if got[0] < found[-1][0]:
-                found.append(got)
-            return got[0] / float(best[0]) if best[0] > 0 else got[0]
-        optimize.minimize(cost, p0, method="Nelder-Mead",
-                          options={"maxfev": 20 * len(keys), "xatol": 1e-3, "fatol": 1e-6,
-                                   "initial_simplex": np.vstack([p0] + [p0 + 0.05 * np.eye(len(keys))[i]
-                                                                        for i in range(len(keys))])})
-        best = found[-1]
     if mech.native == "damping":
         extra = mech.bases({**best[2], "sample_interval_s": dt}, setup.stiffness)
         rows = potential_rows(fold.energies, list(fold.d) + list(extra),
@@ -384,3 +338,36 @@ def fit_eddi(fold: EddiFold, sigs: Sequence[Signal], masks: Sequence[np.ndarray]
     except ModelError:
         return None
     return Fit(eom=extend(eom, best[3]), mech=best[3], residual=base_fit.residual)
+
+
+def best_shape(trial: Callable[[dict[str, float]], tuple | None], grid: Sequence[dict[str, float]],
+               keys: Sequence[str]) -> tuple | None:
+    """The best trial over a grid of shapes, polished by Nelder-Mead on the logarithms of
+    ``keys`` (20 evaluations per key). ``trial(shape)`` returns a tuple whose first item is
+    the misfit (lower is better) and third the shape, or None when the shape gives no
+    physical fit."""
+    best = None
+    for shape in grid:
+        got = trial(shape)
+        if got is not None and (best is None or got[0] < best[0]):
+            best = got
+    if best is None or not keys:
+        return best
+    shape0 = dict(best[2])
+    p0 = np.log([shape0[k] for k in keys])
+    found = [best]
+    scale = float(best[0]) if best[0] > 0 else 1.0
+
+    def cost(p: np.ndarray) -> float:
+        got = trial({**shape0, **{k: float(np.exp(v)) for k, v in zip(keys, p)}})
+        if got is None:
+            return 10.0
+        if got[0] < found[-1][0]:
+            found.append(got)
+        return got[0] / scale
+
+    optimize.minimize(cost, p0, method="Nelder-Mead",
+                      options={"maxfev": 20 * len(keys), "xatol": 1e-3, "fatol": 1e-6,
+                               "initial_simplex": np.vstack([p0] + [p0 + 0.05 * np.eye(len(keys))[i]
+                                                                    for i in range(len(keys))])})
+    return found[-1]

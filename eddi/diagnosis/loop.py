@@ -34,6 +34,7 @@ from eddi.diagnosis.records import Part, Record, split
 from eddi.diagnosis.results import Candidate, Diagnosis, HeldOut, NoiseFloor, PipelineBaseline, Score, Symptom
 from eddi.diagnosis.settings import (
     DEFAULT_CONSISTENCY, DEFAULT_MARGIN, FITS, MODAL_DIAGNOSE_STIFFNESS, NAMED_FACTOR, NONE_FACTOR,
+    STRONG_MARGIN,
 )
 from eddi.diagnosis.symptoms import baseline_symptoms, notable
 from eddi.diagnosis.threads import one_blas_thread
@@ -51,14 +52,12 @@ def diagnose(
     stiffness: str | Sequence[str] = DEFAULT_STIFFNESS,
     base: EquationOfMotion | None = None,
     mechanisms: Sequence[str] | None = None,
-    margin: float = DEFAULT_MARGIN,
-    consistency: float = DEFAULT_CONSISTENCY,
-    n_bands: int = 3,
-    fit: str = "eddi",
+    margin: float = DEFAULT_MARGIN, consistency: float = DEFAULT_CONSISTENCY,
+    n_bands: int = 3, fit: str = "eddi",
     modal_damping: Sequence[str] = MODAL_DAMPING,
     modal_stiffness: Sequence[str] = MODAL_DIAGNOSE_STIFFNESS,
-    none_factor: float = NONE_FACTOR,
-    named_factor: float = NAMED_FACTOR,
+    none_factor: float = NONE_FACTOR, named_factor: float = NAMED_FACTOR,
+    strong_margin: float | None = STRONG_MARGIN,
     pipeline: PipelineBaseline | None = None,
 ) -> Diagnosis:
     """Find what the baseline model gets wrong, name the mechanism, extend and measure the gain.
@@ -66,49 +65,35 @@ def diagnose(
     Parameters
     ----------
     records : sequence of Record
-        Measured responses (same sample rate). With two or more, each is held out in turn
-        (the others train); with one, its free response is split into ``n_bands`` amplitude
-        bands and each band is held out in turn.
+        Measured responses (same sample rate). With two or more, each is held out in turn;
+        with one, its free response is split into ``n_bands`` amplitude bands held out in turn.
     mass : float, optional
         Mass [kg] (or inertia). Required unless ``base`` is given.
     damping, stiffness : str or sequence of str
-        Baseline term libraries (comma-separated text or a sequence), fitted when ``base``
-        is None.
+        Baseline term libraries, fitted when ``base`` is None.
     base : EquationOfMotion, optional
         A given baseline; its coefficients are kept and only mechanisms are fitted.
     mechanisms : sequence of str, optional
-        Subset of :data:`eddi.diagnosis.catalogue.ALL_NAMES` to try (default: all, the
-        measurement-chain cause ``sensor_highpass`` included).
+        Subset of :data:`~eddi.diagnosis.catalogue.ALL_NAMES` (default: all).
     margin : float
-        Relative reduction of the mean held-out nrmse (over the candidate's reference) the
-        winner must reach, besides winning on every held-out part (0.5: it halves the error).
-    none_factor : float
-        ``cause: "none"`` needs the baseline within this factor of the noise floor on every
-        held-out part.
-    named_factor : float
-        A named mechanism must leave its held-out nrmse within this factor of the floor.
-    pipeline : PipelineBaseline, optional
-        The pipeline's model and held-out error on these records (what ``station identify``
-        gives): it becomes the diagnosis's ``baseline``, and ``none`` also needs it within
-        ``none_factor`` of the floor on the records it did not fit. The candidates are still
-        judged against the same terms fitted per fold (``judged``, see
-        :data:`~eddi.diagnosis.results.JUDGED_WHAT`).
+        Cut of the mean held-out nrmse the winner must reach (0.5: it halves the error),
+        besides winning on every held-out part.
     consistency : float
-        The winner's strength parameter (friction force, gap stiffness...) fitted on each
-        fold must have a spread below ``consistency`` times its value: a mechanism that
-        only fits noise changes from fold to fold.
+        The winner's strength fitted per fold must spread less than this times its value.
     n_bands : int
         Amplitude bands of a single record.
     fit : {"eddi", "equation-error"}
-        How the baseline and the extensions are fitted (see the module notes). EDDI's
-        energy balance is the default: on 72 null cases it gave no false alarm with a
-        largest passing gain of 0.10 (``docs/diagnosis.md``).
+        How the baseline and the extensions are fitted (``docs/diagnosis.md``).
     modal_damping, modal_stiffness : sequence of str
-        Term libraries of each mode of the observed second mode (free decays without force:
-        a modal sum, :mod:`eddi.multimode`). Default: viscous plus ``abs(v)*v`` damping and
-        ``x, abs(x)*x, x^3`` stiffness (:data:`MODAL_DIAGNOSE_STIFFNESS`); the baseline's
-        polynomial library (up to ``x^5``) is not used per mode, as fitted on one band it
-        diverges in simulation.
+        Per-mode libraries of the observed second mode (free decays, :mod:`eddi.multimode`).
+    none_factor, named_factor : float
+        ``none`` needs the baseline within ``none_factor`` of the noise floor; a named
+        mechanism must land within ``named_factor`` of it.
+    strong_margin : float or None
+        Within ``none_factor`` a mechanism is named only if it cuts the error this much.
+    pipeline : PipelineBaseline, optional
+        ``station identify``'s model and held-out error: it becomes ``baseline`` (``none``
+        needs it within the factor too); candidates are judged against ``judged``.
 
     Returns
     -------
@@ -117,8 +102,7 @@ def diagnose(
     Raises
     ------
     SignalError
-        No records, inconsistent sample rates, too few zero crossings, a record too short to
-        split.
+        No records, different sample rates, too few zero crossings, too short to split.
     ModelError
         Bad mass.
     TermError
@@ -131,15 +115,15 @@ def diagnose(
         effects = tuple(e.name for e in base.effects) if base is not None else ()
         skipped = {m.name: m.skip_reason(setup.damping, setup.stiffness, effects) for m in cat}
         check_trainable(records)
-        shown = _show(records, setup, n_bands, none_factor)
+        shown = _show(records, setup, n_bands, none_factor, strong_margin)
         if shown.quiet:
             # nothing to explain: no candidate can change the verdict, none is fitted
             why = f"not tried: the baseline is within {none_factor:g}x the noise floor"
             skipped = {name: why for name in [*skipped, "sensor_highpass"]}
         candidates, observed, chain_sims, notes = _name(
             shown, cat, chosen, skipped, consistency, modal_damping, modal_stiffness)
-        return _conclude(shown, candidates, observed, chain_sims, notes, margin, none_factor, named_factor,
-                         pipeline)
+        return _conclude(shown, candidates, observed, chain_sims, notes, (margin, none_factor, named_factor,
+                                                                          strong_margin), pipeline)
 
 
 @dataclass(frozen=True)
@@ -161,7 +145,8 @@ class _Shown:
     quiet: bool
 
 
-def _show(records: list[Record], setup: Setup, n_bands: int, none_factor: float) -> _Shown:
+def _show(records: list[Record], setup: Setup, n_bands: int, none_factor: float,
+          strong_margin: float | None) -> _Shown:
     """Show and measure: per fold, the baseline judged on the held-out part; the floor."""
     scheme, parts, fold_masks = split(records, n_bands)
     fitter = Fitter([r.signal() for r in records], setup)
@@ -174,7 +159,7 @@ def _show(records: list[Record], setup: Setup, n_bands: int, none_factor: float)
                      fold_nrmse=tuple(res.base_fold), nmte=float(np.mean(res.base_nmte)))
     floor = noise_floor(records, setup, parts, fold_masks, res.base_sims)
     return _Shown(records, setup, scheme, parts, fold_masks, fitter, res, fold_fits, fit_all, bfit_all,
-                  baseline, floor, within_floor(res.base_fold, floor, none_factor))
+                  baseline, floor, strong_margin is None and within_floor(res.base_fold, floor, none_factor))
 
 
 def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skipped: dict[str, str | None],
@@ -218,13 +203,16 @@ def _pipeline_check(pipeline: PipelineBaseline | None, sh: _Shown, none_factor: 
 
 
 def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None,
-              chain_sims: list[np.ndarray], notes: list[str], margin: float, none_factor: float,
-              named_factor: float, pipeline: PipelineBaseline | None) -> Diagnosis:
-    """The verdict, the extended model and the held-out views."""
+              chain_sims: list[np.ndarray], notes: list[str], rules: tuple[float, float, float, float | None],
+              pipeline: PipelineBaseline | None) -> Diagnosis:
+    """The verdict (``rules``: margin, none factor, named factor, strong margin), the extended
+    model and the held-out views."""
+    margin, none_factor, named_factor, strong_margin = rules
     records, res, baseline, floor = sh.records, sh.res, sh.baseline, sh.floor
     symptoms = baseline_symptoms(records, sh.parts, res.base_sims, res.base_vsims, sh.setup.mass)
     symptoms += inspect(records, sh.setup.mass, _frequency(sh.bfit_all.eom))
-    dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor)
+    dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor,
+                 strong_margin=strong_margin)
     off = _pipeline_check(pipeline, sh, none_factor) if dec.cause == "none" else ""
     if off:
         dec = Decision("unexplained", None, None, False, off)

@@ -246,7 +246,7 @@ class Decision:
 
 def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: NoiseFloor,
            margin: float, none_factor: float, named_factor: float,
-           reference_margin: float = REFERENCE_MARGIN) -> Decision:
+           reference_margin: float = REFERENCE_MARGIN, strong_margin: float | None = None) -> Decision:
     """``none`` when the baseline's mean held-out nrmse is within ``none_factor`` of the
     floor's (the mean: one noise realisation per part makes a per-part floor noisy); a mechanism when it beats its reference on every part by more than ``margin``
     (halves the error at 0.5), its strength agrees over folds, and its held-out nrmse is
@@ -260,14 +260,15 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
     tried = [c for c in candidates if not c.skipped and c.model is not None]
     helpful = [c for c in tried if c.wins_every_part and c.gain > 0]
     partial = helpful[0] if helpful else None
-    if within:
+    if within and strong_margin is None:
         return Decision("none", None, None, True, "within the noise floor")
     why = []
+    need = strong_margin if within else margin  # within the floor only a strong cut names
     for c in tried:
         fails = []
         cut = 1.0 - c.nrmse / base if base > 0 else 0.0
-        if not cut >= margin:
-            fails.append(f"cuts the error by {100 * cut:.0f} % (needs {100 * margin:.0f} %)")
+        if not cut >= need:
+            fails.append(f"cuts the error by {100 * cut:.0f} % (needs {100 * need:.0f} %)")
         if c.reference != "baseline" and not c.gain >= reference_margin:
             fails.append(f"beats its {c.reference} by {100 * c.gain:.0f} % (needs {100 * reference_margin:.0f} %)")
         if not c.wins_every_part:
@@ -277,8 +278,10 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
         if not c.nrmse <= named_factor * floor.nrmse:
             fails.append(f"leaves nrmse {c.nrmse:.3g}, over {named_factor:g}x the floor {floor.nrmse:.3g}")
         if not fails:
-            return Decision(c.name, c, None, False, "")
+            return Decision(c.name, c, None, within, "")
         why.append(f"{c.name}: " + ", ".join(fails))
+    if within:
+        return Decision("none", None, None, True, "within the noise floor")
     return Decision("unexplained", None, partial, False, "; ".join(why[:2]))
 
 

@@ -92,3 +92,13 @@ def test_dense_simulation_matches_every_sample_and_falls_back_for_sharp_models()
     dry = eom.model_copy(update={"damping": {"v": 0.2, "sign(v)": 0.01}})
     assert np.array_equal(simulate_dense(dry, t, force=force, x_scale=0.012, v_scale=0.5).x,
                           simulate(dry, t, force=force, x_scale=0.012, v_scale=0.5).x)
+
+
+def test_compiled_internal_force_equals_the_model_s() -> None:
+    from eddi.simulate import internal_force
+
+    rng = np.random.default_rng(2)
+    x, v = rng.normal(0, 0.01, 500), rng.normal(0, 0.3, 500)
+    for eom in MODELS.values():
+        ref = eom.restoring_force(x, v)
+        assert np.max(np.abs(internal_force(eom, x, v) - ref)) <= 1e-12 * np.max(np.abs(ref))
