@@ -173,8 +173,9 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
              f"Cause: {obj['cause']}" + ("" if obj["cause"] != "modal_coupling" else
                                          f" (coupling terms: {obj['coupling_terms']})"),
              f"Natural frequencies: {', '.join(f'{f:.5g} Hz' for f in obj['natural_frequencies_hz'])}",
-             "Coupling coefficients (value +- 95 % half-width, SI per coordinate; terms whose interval "
-             "held zero were dropped): " + "; ".join(
+             "Coupling coefficients (value +- 95 % half-width; SI: N/m^k per physical coordinate, per unit "
+             "modal coordinate otherwise; an interval wider than the value: not determined by these records): "
+             + "; ".join(
                  f"eq {i + 1}: " + (", ".join(f"{t} {c:.4g} +- {h:.2g}" if h is not None else f"{t} {c:.4g}" for t, (c, h) in eq.items()) or "none")
                  for i, eq in enumerate(obj["coupling_coefficients"])),
              f"Model: {obj['model']}"]

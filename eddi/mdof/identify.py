@@ -288,22 +288,20 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
             # and stiffness together on the force balance instead
             both, _ = scaled_lstsq(np.hstack([dmat, smat]), -qdd[i])
             b, k = both[: len(d_terms)], both[len(d_terms):]
-        nd = len(d_terms)
-        k_ci = block_jackknife_ci95(
-            (lambda rows: scaled_lstsq(np.hstack([dmat, smat])[rows], -qdd[i][rows])[0][nd:]) if joint
-            else (lambda rows: scaled_lstsq(smat[rows], k_force[rows])[0]), blocks)
         scale = float(np.sqrt(np.mean(qdd[i] ** 2))) or 1.0
         small_d = [t for t, c, col in zip(damp, b, dmat.T) if t != monomial({i: 1}, n, True)
                    and np.sqrt(np.mean((c * col) ** 2)) < prune * scale]
-        # a term whose force is negligible, or whose coefficient the data do not determine
-        # (its 95 % interval includes zero: e.g. a coupling the records hardly excite)
-        small_s = [t for t, c, h, col in zip(own + cpl, k, k_ci, smat.T) if t != monomial({i: 1}, n)
-                   and (np.sqrt(np.mean((c * col) ** 2)) < prune * scale or h > abs(c))]
+        small_s = [t for t, c, col in zip(own + cpl, k, smat.T) if t != monomial({i: 1}, n)
+                   and np.sqrt(np.mean((c * col) ** 2)) < prune * scale]
         if (not small_d and not small_s) or _round == rounds - 1:  # the last round keeps its fit
             break
         damp = [t for t in damp if t not in small_d]
         own = [t for t in own if t not in small_s]
         cpl = [t for t in cpl if t not in small_s]
+    nd = len(d_terms)
+    k_ci = block_jackknife_ci95(  # of the final fit
+        (lambda rows: scaled_lstsq(np.hstack([dmat, smat])[rows], -qdd[i][rows])[0][nd:]) if joint
+        else (lambda rows: scaled_lstsq(smat[rows], k_force[rows])[0]), blocks)
     dissipated = float(np.sum(np.abs(dq[:, : len(d_terms)] @ b)))
     exchanged = float(np.sum(np.abs(dq[:, len(d_terms):] @ theta))) if theta.size else 0.0
     residual = float(np.sqrt(np.mean(((dq @ coef1 - dr) * w) ** 2)))

@@ -38,3 +38,4 @@ def block_jackknife_ci95(solve, blocks: np.ndarray) -> np.ndarray:
     est = np.array([solve(blocks != k) for k in ids])
     spread = np.sqrt((g - 1) / g * np.sum((est - est.mean(axis=0)) ** 2, axis=0))
     return float(stats.t.ppf(0.975, g - 1)) * spread
+
