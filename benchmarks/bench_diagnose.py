@@ -97,7 +97,19 @@ def run(system: str, name: str | None, magnitude: float, seed: int, snr_db: floa
 
 
 def null_case(seed: int) -> dict:
-    """One null of the calibration set, drawn from ``seed`` (nothing hidden).
+    """One null of the calibration set (:func:`null_recipe`), diagnosed."""
+    recs, info = null_recipe(seed)
+    t0 = time.perf_counter()
+    d = diagnose(recs, info["mass_kg"], damping=DAMPING, stiffness=STIFFNESS)
+    return {"kind": "null", "seed": seed, **info, "cause": d.cause,
+            "baseline_nrmse": d.baseline.nrmse, "floor": d.noise_floor.nrmse,
+            "ratio": d.baseline.nrmse / d.noise_floor.nrmse, "partial": d.partial,
+            "candidates": _cands(d), "seconds": time.perf_counter() - t0}
+
+
+def null_recipe(seed: int) -> tuple[list, dict]:
+    """The records of one null of the calibration set, drawn from ``seed`` (nothing hidden),
+    and what was drawn.
 
     Mass 0.05-0.5 kg, natural frequency 8-30 Hz, a soft (negative ``x^3``, up to -4 % frequency
     shift) or hard (up to +15 %) spring, sample rate 2-40 kHz (record shortened at high
@@ -130,13 +142,8 @@ def null_case(seed: int) -> dict:
             c = condition(r.t, acc=r.acc_m_s2, force=r.force_n, pretrigger_samples=r.pretrigger_samples)
             recs.append(Record.from_conditioned(c, label=f"run {run_i + 1} impact {i + 1}",
                                                 pretrigger_samples=r.pretrigger_samples))
-    t0 = time.perf_counter()
-    d = diagnose(recs, mass, damping=DAMPING, stiffness=STIFFNESS)
-    return {"kind": "null", "seed": seed, "mass_kg": mass, "f1_hz": f1, "spring": "soft" if soft else "hard",
-            "shift": shift, "rate_hz": rate, "snr_db": snr, "captures": len(recs), "cause": d.cause,
-            "baseline_nrmse": d.baseline.nrmse, "floor": d.noise_floor.nrmse,
-            "ratio": d.baseline.nrmse / d.noise_floor.nrmse, "partial": d.partial,
-            "candidates": _cands(d), "seconds": time.perf_counter() - t0}
+    return recs, {"mass_kg": mass, "f1_hz": f1, "spring": "soft" if soft else "hard", "shift": shift,
+                  "rate_hz": rate, "snr_db": snr, "captures": len(recs)}
 
 
 def _cands(d) -> list:

@@ -1,6 +1,6 @@
 """Whole-process start-up of the station CLI, as ratios to the floor (issue 13, item 1).
 
-    python benchmarks/bench_startup.py [--repeats 5] [--importtime COMMAND]
+    python benchmarks/bench_startup.py [--repeats 5] [--importtime COMMAND] [--identify [--no-refine]]
 
 Times each command line in a fresh interpreter (wall and CPU, best of --repeats) beside two
 floors measured in the same run: ``python -c pass`` and ``python -c "import numpy"`` (the
@@ -9,6 +9,15 @@ the numpy floor; a command's ``--help`` imports only what that command uses (no 
 pysindy or numba on the acquisition commands). Then lists, from ``python -X importtime``, the
 largest imports of one command line (default: ``identify --help``), so a regression names
 its module. Test-free: it only prints.
+
+``--identify``: whole-process ``station identify`` on the 45 s x 19.2 kHz record (the rig's
+``duffing-smooth``, 600 N, 45 dB, as ``bench_identify_speed.py``), warm (best and median of
+--repeats) and once with an empty ``NUMBA_CACHE_DIR`` (every kernel compiled), as ratios to the
+floor process (``python -c`` that ``np.load``s the same three columns and makes one pass),
+beside the process that only imports what the command imports (no work: the import budget);
+then the import budget of that command line from ``python -X importtime``: total, the largest
+top-level packages, and the libraries it must not import (matplotlib, pysindy, dask, h5py,
+pyarrow, scipy.signal). Issue 13 targets: <= 0.5 s warm, <= 1.5 s cold.
 """
 
 from __future__ import annotations
@@ -16,8 +25,10 @@ from __future__ import annotations
 import argparse
 import os
 import resource
+import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -41,11 +52,17 @@ LINES = [
 ]
 
 
-def run(cmd: list[str]) -> tuple[float, float]:
+#: Libraries ``station identify FILE.csv`` must not import (it draws nothing, fits no SINDy, runs
+#: no campaign, reads no HDF5; scipy.signal is for modal sums only).
+NOT_FOR_IDENTIFY = ("matplotlib", "pysindy", "dask", "distributed", "pyarrow", "h5py", "scipy.signal")
+IDENTIFY_ARGS = ["--mass", "0.815", "--damping", "v,x^2*v,v^3", "--stiffness", "x,x^2,x^3,x^4,x^5", "--json"]
+
+
+def run(cmd: list[str], env: dict[str, str] | None = None) -> tuple[float, float]:
     """(wall, CPU) seconds of one run of ``cmd``."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    subprocess.run(cmd, env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
+    subprocess.run(cmd, env=env or ENV, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -56,17 +73,77 @@ def best(cmd: list[str], repeats: int) -> tuple[float, float]:
     return min(r[0] for r in runs), min(r[1] for r in runs)
 
 
-def importtime(argv: list[str], top: int = 12) -> list[tuple[int, str]]:
-    """The ``top`` largest cumulative imports [us] of ``station ARGV``."""
+def _importtime_rows(argv: list[str]) -> list[tuple[int, int, str]]:
+    """(self us, cumulative us, indented name) of every import of ``station ARGV``."""
     res = subprocess.run([sys.executable, "-X", "importtime", "-m", "station.cli", *argv], env=ENV,
                          capture_output=True, text=True)
     rows = []
     for line in res.stderr.splitlines():
         if line.startswith("import time:") and "|" in line:
-            _, cum, name = (p.strip() for p in line[len("import time:"):].split("|"))
-            if cum.isdigit() and not name.startswith(" "):
-                rows.append((int(cum), name.strip()))
+            own, cum, name = line[len("import time:"):].split("|")
+            if cum.strip().isdigit():
+                rows.append((int(own), int(cum), name.rstrip()[1:]))
+    return rows
+
+
+def importtime(argv: list[str], top: int = 12) -> list[tuple[int, str]]:
+    """The ``top`` largest cumulative imports [us] of ``station ARGV``."""
+    rows = [(cum, name) for _, cum, name in _importtime_rows(argv) if not name.startswith(" ")]
     return sorted(rows, reverse=True)[:top]
+
+
+def import_budget(argv: list[str], top: int = 8) -> None:
+    """Print the total import time of ``station ARGV``, its largest packages and forbidden imports."""
+    rows = _importtime_rows(argv)
+    names = {name.strip() for _, _, name in rows}
+    per_package: dict[str, int] = {}
+    for own, _, name in rows:
+        root = name.strip().split(".")[0]
+        per_package[root] = per_package.get(root, 0) + own
+    total = sum(per_package.values())
+    print(f"\nimport budget of `station identify FILE` (python -X importtime, self times summed): {total / 1e3:.0f} ms")
+    for root, us in sorted(per_package.items(), key=lambda kv: -kv[1])[:top]:
+        print(f"  {us / 1e3:8.1f} ms  {root}")
+    bad = [m for m in NOT_FOR_IDENTIFY if m in names]
+    print("  must not import " + ", ".join(NOT_FOR_IDENTIFY) + ": " + ("ok" if not bad else "IMPORTED " + ", ".join(bad)))
+
+
+def identify_whole_process(repeats: int, extra: list[str]) -> None:
+    """Whole-process ``station identify`` on the 45 s record, warm and cold, vs the floor."""
+    import numpy as np
+
+    sys.path.insert(0, str(REPO))
+    from simulated_rig.bench import impact_test
+
+    rec = impact_test("duffing-smooth", 600.0, snr_db=45.0, seed=1)
+    with tempfile.TemporaryDirectory() as tmp:
+        csv, npy, cache = Path(tmp) / "long.csv", Path(tmp) / "long.npy", Path(tmp) / "numba-cache"
+        cols = np.column_stack((rec.t, rec.force_n, rec.acc_m_s2))
+        np.savetxt(csv, cols, delimiter=",", header="t,force,acc", comments="", fmt="%.9g")
+        np.save(npy, cols)
+        argv = ["identify", str(csv), *IDENTIFY_ARGS, *extra]
+        floor_cmd = [sys.executable, "-c", f"import numpy as np; a = np.load({str(npy)!r}); np.abs(a).sum(axis=0)"]
+        imports_cmd = [sys.executable, "-c", "import station.cli, station.commands.identify, station.session, "
+                       "station.readers, eddi.fit_record, eddi.refine, eddi.simulate"]
+        env = {**ENV, "NUMBA_CACHE_DIR": str(cache)}
+        cold = run(STATION + argv, env)
+        rows = {"floor (np.load + one pass)": [], "imports only (no work)": [], "station identify (warm)": []}
+        for _ in range(repeats):  # interleaved, so a change of load hits all three alike
+            rows["floor (np.load + one pass)"].append(run(floor_cmd))
+            rows["imports only (no work)"].append(run(imports_cmd, env))
+            rows["station identify (warm)"].append(run(STATION + argv, env))
+        f_cpu = min(c for _, c in rows["floor (np.load + one pass)"])
+        print(f"\nwhole process, {rec.n_samples} samples ({rec.n_samples / rec.rate_hz:.0f} s at {rec.rate_hz:.0f} Hz, "
+              f"CSV {csv.stat().st_size / 1e6:.0f} MB), `station {' '.join(['identify', 'FILE', *IDENTIFY_ARGS[:2], *extra])}`; "
+              f"{repeats} runs, load average {os.getloadavg()[0]:.1f}:")
+        for name, xs in rows.items():
+            walls, cpus = [w for w, _ in xs], [c for _, c in xs]
+            target = "  (target 0.5 s: " + ("met" if min(walls) <= 0.5 else "NOT met") + ")" if "warm" in name else ""
+            print(f"  {name:<28} wall min {min(walls):6.3f} s median {statistics.median(walls):6.3f} s; cpu min "
+                  f"{min(cpus):6.3f} s median {statistics.median(cpus):6.3f} s = {min(cpus) / f_cpu:5.1f}x the floor's CPU{target}")
+        print(f"  {'station identify (cold JIT)':<28} wall {cold[0]:6.3f} s; cpu {cold[1]:6.3f} s = "
+              f"{cold[1] / f_cpu:5.1f}x the floor's CPU  (target 1.5 s: {'met' if cold[0] <= 1.5 else 'NOT met'})")
+        import_budget(argv)
 
 
 def main() -> None:
@@ -75,7 +152,15 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=5, help="runs per command line; the best is kept")
     ap.add_argument("--importtime", default="identify --help", metavar="ARGS",
                     help="station arguments whose largest imports are listed (default: %(default)s)")
+    ap.add_argument("--identify", action="store_true",
+                    help="also time whole-process `station identify` on the 45 s x 19.2 kHz record (warm, cold JIT) "
+                         "and print its import budget")
+    ap.add_argument("--no-refine", action="store_true", help="with --identify: pass --no-refine")
+    ap.add_argument("--only-identify", action="store_true", help="skip the --help lines")
     args = ap.parse_args()
+    if args.only_identify:
+        identify_whole_process(args.repeats, ["--no-refine"] if args.no_refine else [])
+        return
     bare = best([sys.executable, "-c", "pass"], args.repeats)
     floor = best([sys.executable, "-c", "import numpy"], args.repeats)
     print(f"load average {os.getloadavg()[0]:.1f}; best of {args.repeats}; ratios are to `python -c \"import numpy\"`")
@@ -91,6 +176,8 @@ def main() -> None:
     print(f"\nlargest imports of `station {args.importtime}` (cumulative, python -X importtime):")
     for cum, name in importtime(args.importtime.split()):
         print(f"  {cum / 1e3:8.1f} ms  {name}")
+    if args.identify:
+        identify_whole_process(args.repeats, ["--no-refine"] if args.no_refine else [])
 
 
 if __name__ == "__main__":

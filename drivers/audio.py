@@ -32,7 +32,6 @@ read) and the lost samples are estimated from the stream clock into ``dropped_be
 
 from __future__ import annotations
 
-import collections
 import threading
 import time
 import urllib.parse
@@ -41,9 +40,10 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from drivers.blocks import BlockQueue
 from drivers.channels import QUANTITY_UNITS, ChannelInfo
 from drivers.daq import Block, DeviceInfo, Stats
-from drivers.errors import BadUrlError, DeviceError, DeviceGoneError, DeviceNotFoundError, DeviceTimeoutError
+from drivers.errors import BadUrlError, DeviceError, DeviceGoneError, DeviceNotFoundError
 from drivers.protocol import PROTOCOL_VERSION
 
 #: Sensitivity unit of each quantity (per SI unit).
@@ -203,18 +203,14 @@ class AudioDaq:
         self._mask = (1 << len(self._channels)) - 1
         self._block = self.spec.block_size
         self._rate = self._check_rate(self.spec.rate_hz or float(dev["default_samplerate"]))
-        self._cond = threading.Condition()
-        self._blocks: collections.deque[Block] = collections.deque()
+        self._queue = BlockQueue(url, queue_blocks)
         self._stream: Any = None
         self._reader: threading.Thread | None = None
         self._stop = threading.Event()
-        self._error: BaseException | None = None
         self._next = 0          # sample counter: frames since the last configure, lost included
         self._samples = 0
         self._dropped = 0
         self._overflows = 0
-        self._queue_max = 0
-        self._closed = False
         self.streaming = False
         self.start_reply: dict[str, Any] = {}
         self.info = self._make_info()
@@ -292,8 +288,8 @@ class AudioDaq:
         if not self.streaming:
             return
         self._stop.set()
-        with self._cond:
-            self._cond.notify_all()
+        with self._queue.cond:
+            self._queue.cond.notify_all()
         if self._reader is not None:
             self._reader.join(timeout=5.0)
         try:
@@ -317,17 +313,14 @@ class AudioDaq:
         offset = np.array([self._channels[i].offset for i in cols])
         try:
             while not self._stop.is_set():
-                with self._cond:  # flow control: read only when there is room for the block
-                    while len(self._blocks) >= self.queue_blocks and not self._stop.is_set():
-                        self._cond.wait(0.05)
+                # flow control: read only when there is room for the block
+                self._queue.wait_for_room(go_on=lambda: not self._stop.is_set())
                 if self._stop.is_set():
                     break
                 data, overflowed = self._stream.read(self._block)
                 self._put(np.asarray(data), bool(overflowed), cols, scale, offset)
         except Exception as exc:  # PortAudio errors: the device went away
-            with self._cond:
-                self._error = DeviceGoneError(f"{self.url}: audio device gone while reading ({exc})")
-                self._cond.notify_all()
+            self._queue.fail(DeviceGoneError(f"{self.url}: audio device gone while reading ({exc})"))
 
     def _put(self, data: np.ndarray, overflowed: bool, cols: list[int], scale: np.ndarray,
              offset: np.ndarray) -> None:
@@ -342,40 +335,15 @@ class AudioDaq:
         block = Block(self._next, counts, counts * scale + offset, lost)
         self._next += counts.shape[0]
         self._samples += counts.shape[0]
-        with self._cond:
-            self._blocks.append(block)
-            self._queue_max = max(self._queue_max, len(self._blocks))
-            self._cond.notify_all()
+        self._queue.put(block, go_on=lambda: False)  # room was waited for before the read
 
     def read_block(self, timeout_s: float | None = None) -> Block | None:
         """The next block, or None within ``timeout_s`` [s]; DeviceGoneError once the device is gone."""
-        deadline = time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
-        with self._cond:
-            while not self._blocks:
-                if self._error is not None:
-                    raise type(self._error)(*self._error.args)
-                if self._closed:
-                    raise DeviceGoneError(f"{self.url}: device closed")
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    return None
-                self._cond.wait(left)
-            block = self._blocks.popleft()
-            self._cond.notify_all()
-            return block
+        return self._queue.get(self.timeout_s if timeout_s is None else timeout_s)
 
     def read_samples(self, n: int, timeout_s: float | None = None) -> tuple[int, np.ndarray, np.ndarray, int]:
         """At least ``n`` samples: ``(first_sample, counts, si, dropped)``."""
-        blocks: list[Block] = []
-        got = 0
-        while got < n:
-            b = self.read_block(timeout_s)
-            if b is None:
-                raise DeviceTimeoutError(f"{self.url}: no samples within {timeout_s or self.timeout_s} s after {got} of {n}")
-            blocks.append(b)
-            got += b.n_samples
-        return (blocks[0].first_sample, np.concatenate([b.counts for b in blocks]),
-                np.concatenate([b.si for b in blocks]), sum(b.dropped_before for b in blocks[1:]))
+        return self._queue.read_samples(n, self.timeout_s if timeout_s is None else timeout_s)
 
     @property
     def overflows(self) -> int:
@@ -387,16 +355,14 @@ class AudioDaq:
         """Counters: ``samples`` read, ``dropped_samples`` (estimated on overflow), ``lost_frames``
         (overflowed reads). No framing on this link: CRC and framing counters stay 0."""
         return Stats(frames=self._samples // max(1, self._block), samples=self._samples,
-                     dropped_samples=self._dropped, lost_frames=self._overflows, queue_max=self._queue_max)
+                     dropped_samples=self._dropped, lost_frames=self._overflows, queue_max=self._queue.max_seen)
 
     # ------------------------------------------------------------------ lifetime
     def close(self) -> None:
-        if self._closed:
+        if self._queue.closed:
             return
         self.stop()
-        self._closed = True
-        with self._cond:
-            self._cond.notify_all()
+        self._queue.close()
 
     def __enter__(self) -> "AudioDaq":
         return self

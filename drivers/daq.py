@@ -10,7 +10,6 @@ blocks silently; every sample the device lost shows in :attr:`Block.dropped_befo
 
 from __future__ import annotations
 
-import collections
 import dataclasses
 import threading
 import time
@@ -19,6 +18,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from drivers.blocks import BlockQueue
 from drivers.channels import ChannelInfo
 from drivers.errors import DeviceError, DeviceGoneError, DeviceTimeoutError, DriverError, ProtocolError, ProtocolVersionError
 from drivers.protocol import PROTOCOL_VERSION, DataFrame, FrameType, Message, ReplyStatus, StreamDecoder, encode_command
@@ -197,14 +197,11 @@ class Daq:
         self._on_close = list(on_close)
         self._decoder = StreamDecoder()
         self._cond = threading.Condition()
-        self._blocks: collections.deque[Block] = collections.deque()
+        self._queue = BlockQueue(self.url, queue_blocks, self._cond)
         self._replies: dict[int, Message] = {}
         self._awaited: set[int] = set()  # seqs of commands waiting for their reply
         self._waiting_command = 0
-        self._error: BaseException | None = None
-        self._closed = False
         self._seq = 0
-        self._queue_max = 0
         self.streaming = False
         self.start_reply: dict[str, Any] = {}
         self.info: DeviceInfo
@@ -216,8 +213,7 @@ class Daq:
             self._reader.start()
             self._command(FrameType.STOP)  # a stream left running by a previous session ends here
             self._set_info(DeviceInfo.from_reply(self._command(FrameType.IDENTIFY)))
-            with self._cond:
-                self._blocks.clear()
+            self._queue.clear()
         except BaseException:
             self.close()
             raise
@@ -231,16 +227,14 @@ class Daq:
 
     def close(self) -> None:
         """Stop streaming (best effort), close the transport, run the close hooks (idempotent)."""
-        if self._closed:
+        if self._queue.closed:
             return
-        if self.streaming and self._error is None:
+        if self.streaming and self._queue.error is None:
             try:
                 self.stop()
             except DriverError:
                 pass
-        self._closed = True
-        with self._cond:
-            self._cond.notify_all()
+        self._queue.close()
         reader = getattr(self, "_reader", None)
         if reader is not None and reader is not threading.current_thread():
             reader.join(timeout=2.0)
@@ -333,21 +327,7 @@ class Daq:
         ``timeout_s=None`` waits at most the driver timeout. Blocks received before the device
         disappeared are all returned first; then :class:`DeviceGoneError` is raised.
         """
-        wait = self.timeout_s if timeout_s is None else timeout_s
-        deadline = time.monotonic() + wait
-        with self._cond:
-            while not self._blocks:
-                if self._error is not None:
-                    raise self._error_copy()
-                if self._closed:
-                    raise DeviceGoneError(f"{self.url}: device closed")
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    return None
-                self._cond.wait(left)
-            block = self._blocks.popleft()
-            self._cond.notify_all()
-            return block
+        return self._queue.get(self.timeout_s if timeout_s is None else timeout_s)
 
     def read_samples(self, n: int, timeout_s: float | None = None) -> tuple[int, np.ndarray, np.ndarray, int]:
         """Read at least ``n`` samples: ``(first_sample, counts, si, dropped)`` (concatenated blocks).
@@ -357,21 +337,7 @@ class Daq:
         DeviceTimeoutError
             When a block does not come within the timeout.
         """
-        blocks: list[Block] = []
-        got = 0
-        while got < n:
-            b = self.read_block(timeout_s)
-            if b is None:
-                raise DeviceTimeoutError(f"{self.url}: no samples within {timeout_s or self.timeout_s} s after {got} of {n}")
-            blocks.append(b)
-            got += b.n_samples
-        dropped = sum(b.dropped_before for b in blocks[1:])
-        return (
-            blocks[0].first_sample,
-            np.concatenate([b.counts for b in blocks]),
-            np.concatenate([b.si for b in blocks]),
-            dropped,
-        )
+        return self._queue.read_samples(n, self.timeout_s if timeout_s is None else timeout_s)
 
     @property
     def stats(self) -> Stats:
@@ -380,7 +346,7 @@ class Daq:
         return Stats(
             frames=s.frames, bytes=s.bytes, crc_errors=s.crc_errors, framing_errors=s.framing_errors,
             resyncs=s.resyncs, dropped_samples=s.dropped_samples, lost_frames=s.lost_frames,
-            stale_frames=s.stale_frames, repeated_samples=s.repeated_samples, samples=s.samples, malformed=s.malformed, queue_max=self._queue_max,
+            stale_frames=s.stale_frames, repeated_samples=s.repeated_samples, samples=s.samples, malformed=s.malformed, queue_max=self._queue.max_seen,
         )
 
     # ------------------------------------------------------------------ internals
@@ -389,17 +355,11 @@ class Daq:
         self._scale = np.array([c.scale for c in info.channels], dtype=float)
         self._offset = np.array([c.offset for c in info.channels], dtype=float)
 
-    def _error_copy(self) -> BaseException:
-        err = self._error
-        assert err is not None
-        return type(err)(*err.args)
-
     def _command(self, command: FrameType, **params: Any) -> dict[str, Any]:
-        if self._closed and command != FrameType.STOP:
+        if self._queue.closed and command != FrameType.STOP:
             raise DeviceGoneError(f"{self.url}: device closed")
         with self._cond:
-            if self._error is not None:
-                raise self._error_copy()
+            self._queue.raise_error()
             seq = self._seq
             self._seq = (self._seq + 1) & 0xFFFFFFFF
             self._waiting_command += 1
@@ -410,8 +370,7 @@ class Daq:
             with self._cond:
                 self._cond.notify_all()  # let a reader waiting on a full queue go on
                 while seq not in self._replies:
-                    if self._error is not None:
-                        raise self._error_copy()
+                    self._queue.raise_error()
                     left = deadline - time.monotonic()
                     if left <= 0:
                         raise DeviceTimeoutError(
@@ -435,7 +394,7 @@ class Daq:
 
     def _read_loop(self) -> None:
         try:
-            while not self._closed:
+            while not self._queue.closed:
                 data = self.transport.read(self.READ_CHUNK, 0.05)
                 if not data:
                     continue
@@ -452,15 +411,10 @@ class Daq:
                                 self._replies[cseq] = frame
                                 self._cond.notify_all()
         except DriverError as exc:
-            with self._cond:
-                if not self._closed:
-                    self._error = exc
-                self.streaming = False
-                self._cond.notify_all()
+            self.streaming = False
+            self._queue.fail(exc, unless_closed=True)
         except BaseException as exc:  # pragma: no cover - a bug: surface it to the caller
-            with self._cond:
-                self._error = DriverError(f"{self.url}: reader failed: {type(exc).__name__}: {exc}")
-                self._cond.notify_all()
+            self._queue.fail(DriverError(f"{self.url}: reader failed: {type(exc).__name__}: {exc}"))
 
     def _put_block(self, frame: DataFrame) -> None:
         counts = frame.counts
@@ -468,10 +422,6 @@ class Daq:
             self._decoder.stats.malformed += 1
             return
         si = counts * self._scale + self._offset
-        block = Block(frame.first_sample, counts, si, frame.dropped_before)
-        with self._cond:
-            while len(self._blocks) >= self.queue_blocks and not self._closed and not self._waiting_command:
-                self._cond.wait(0.05)
-            self._blocks.append(block)
-            self._queue_max = max(self._queue_max, len(self._blocks))
-            self._cond.notify_all()
+        # a command waiting for its reply lets the reader go on (the reply may follow this block)
+        self._queue.put(Block(frame.first_sample, counts, si, frame.dropped_before),
+                        go_on=lambda: not self._waiting_command)

@@ -36,6 +36,7 @@ No I/O, no threads: arrays in, frozen results out.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from collections.abc import Sequence
@@ -234,12 +235,22 @@ def _ar_extend(v: np.ndarray, n_pad: int, order: int) -> np.ndarray:
     return np.concatenate((head, v, tail))
 
 
-def _band_filter(band_hz: tuple[float, float], fs: float, order: int) -> np.ndarray:
-    """Second-order sections of the Butterworth band-pass (low-pass when ``low == 0``)."""
-    lo, hi = band_hz
+def _band_filter(band_hz: Sequence[float], fs: float, order: int) -> np.ndarray:
+    """Second-order sections of the Butterworth band-pass (low-pass when ``low == 0``).
+
+    Cached: diagnosis designs the same few filters hundreds of times (2.2 s of a 19 s run).
+    The array is shared: callers must not change it (SciPy's filters only read it, but
+    need it writeable)."""
+    return _butter_sos(float(band_hz[0]), float(band_hz[1]), float(fs), int(order))
+
+
+@functools.lru_cache(maxsize=256)
+def _butter_sos(lo: float, hi: float, fs: float, order: int) -> np.ndarray:
     if lo > 0:
-        return signal.butter(order, [lo, hi], btype="bandpass", fs=fs, output="sos")
-    return signal.butter(order, hi, btype="lowpass", fs=fs, output="sos")
+        sos = signal.butter(order, [lo, hi], btype="bandpass", fs=fs, output="sos")
+    else:
+        sos = signal.butter(order, hi, btype="lowpass", fs=fs, output="sos")
+    return sos
 
 
 def _zero_phase(sos: np.ndarray, y: np.ndarray, pad: int = 256, ar_order: int = 30) -> np.ndarray:
@@ -304,22 +315,43 @@ def separate_modes(
     -------
     ModalComponents
     """
-    t, v, dt = _check_signal(t, v)
-    fs = 1.0 / dt
-    n = v.size
-    n_pad = min(n, int(round(pad_s * fs)))
-    vp = _ar_extend(v, n_pad, ar_order)
-    x_raw = signal.detrend(integrate(vp, dt), type="linear")
-    a_raw = differentiate(vp, dt)
-    keep = slice(n_pad, n_pad + n)
+    return _separate(t, v, bands_hz, filter_order, pad_s, ar_order, None)
+
+
+def _separate(t: np.ndarray, v: np.ndarray, bands_hz: Sequence[tuple[float, float]], filter_order: int,
+              pad_s: float, ar_order: int, cache: dict | None) -> ModalComponents:
+    """:func:`separate_modes`; with ``cache`` (a dict the caller keeps while ``v`` lives), the
+    padded record and each band's components are made once per record (diagnosis separates
+    the same records in every fold)."""
+    key = (id(v), v.size, float(pad_s), int(ar_order))
+    prep = cache.get(key) if cache is not None else None
+    if prep is None:
+        t, v, dt = _check_signal(t, v)
+        fs = 1.0 / dt
+        n = v.size
+        n_pad = min(n, int(round(pad_s * fs)))
+        vp = _ar_extend(v, n_pad, ar_order)
+        x_raw = signal.detrend(integrate(vp, dt), type="linear")
+        a_raw = differentiate(vp, dt)
+        prep = (t, fs, vp, x_raw, a_raw, slice(n_pad, n_pad + n))
+        if cache is not None:
+            cache[key] = prep
+    t, fs, vp, x_raw, a_raw, keep = prep
     xs, vs, as_ = [], [], []
     for lo, hi in bands_hz:
         if not (0 <= lo < hi < fs / 2):
             raise SignalError(f"band ({lo}, {hi}) Hz must satisfy 0 <= low < high < {fs / 2:.1f}")
-        sos = _band_filter((lo, hi), fs, filter_order)
-        xs.append(signal.sosfiltfilt(sos, x_raw)[keep])
-        vs.append(signal.sosfiltfilt(sos, vp)[keep])
-        as_.append(signal.sosfiltfilt(sos, a_raw)[keep])
+        bkey = key + (float(lo), float(hi), int(filter_order))
+        got = cache.get(bkey) if cache is not None else None
+        if got is None:
+            sos = _band_filter((lo, hi), fs, filter_order)
+            got = (signal.sosfiltfilt(sos, x_raw)[keep], signal.sosfiltfilt(sos, vp)[keep],
+                   signal.sosfiltfilt(sos, a_raw)[keep])
+            if cache is not None:
+                cache[bkey] = got
+        xs.append(got[0])
+        vs.append(got[1])
+        as_.append(got[2])
     return ModalComponents(
         t=t, x=np.array(xs), v=np.array(vs), a=np.array(as_),
         bands_hz=tuple((float(lo), float(hi)) for lo, hi in bands_hz),
@@ -487,6 +519,7 @@ def identify_modes(
     floor_ratio: float = 0.02,
     initial_window_s: float = 0.02,
     notes: str = "",
+    cache: dict | None = None,
 ) -> tuple[ModalSumModel, tuple[ModeFit, ...]]:
     """Identify a modal-sum model from one or more velocity ring-downs (per unit mass).
 
@@ -509,6 +542,10 @@ def identify_modes(
         Stored in the model: window used later to estimate initial states [s].
     notes : str
         Stored in the model.
+    cache : dict, optional
+        Kept by a caller that identifies from the same records many times (diagnosis folds):
+        each record's separated components and filtered term columns are made once. Keyed
+        by the identity of each ``v`` array, so the caller must keep them alive and unchanged.
 
     Returns
     -------
@@ -525,31 +562,23 @@ def identify_modes(
         raise IdentificationError("expected at least one record, got none")
     d_terms = [parse_term(s) for s in damping]
     k_terms = [parse_term(s) for s in stiffness]
-    comps = [separate_modes(t, v, bands_hz, filter_order=filter_order) for t, v in records]
+    comps = [_separate(t, v, bands_hz, filter_order, 0.5, 30, cache) for t, v in records]
     modes, fits = [], []
     for k in range(len(bands_hz)):
         q_rows, r_rows, spans = [], [], []
-        for c in comps:
-            dt = float(c.t[1] - c.t[0])
-            span = _usable_span(c.v[k], dt, trim_s, floor_ratio)
+        for ri, c in enumerate(comps):
+            rkey = ("phase-one rows", id(records[ri][1]), tuple(bands_hz[k]), filter_order, tuple(damping),
+                    trim_s, floor_ratio)
+            got = cache.get(rkey) if cache is not None else None
+            if got is None:  # the component's span and energy rows: once per record and band
+                got = _phase_one_rows(c, k, d_terms, trim_s, floor_ratio)
+                if cache is not None:
+                    cache[rkey] = got
+            span, rows = got
             spans.append(span)
-            t_k, x_k, v_k = c.t[span], c.x[k][span], c.v[k][span]
-            if t_k.size < 16:
-                continue
-            gam = _zero_crossings(t_k, x_k)
-            if gam.size < 4:
-                continue
-            # cubic splines: linear interpolation of v at its peak (x = 0) under-reads T by
-            # ~(omega dt)^2 / 4, which is comparable to the energy lost per cycle here
-            t_energy = 0.5 * interpolate.CubicSpline(t_k, v_k)(gam) ** 2
-            cols = []
-            for term in d_terms:
-                w = interpolate.CubicSpline(t_k, v_k * term(x_k, v_k)).antiderivative()
-                wg = w(gam)
-                cols.append(wg[1:] - wg[0])
-            scale = t_energy[0] if t_energy[0] > 0 else 1.0
-            q_rows.append(np.column_stack(cols) / scale)
-            r_rows.append((t_energy[0] - t_energy[1:]) / scale)
+            if rows is not None:
+                q_rows.append(rows[0])
+                r_rows.append(rows[1])
         if not q_rows:
             raise IdentificationError(
                 f"mode {k + 1} (band {bands_hz[k]} Hz): expected at least 4 zero crossings "
@@ -563,14 +592,21 @@ def identify_modes(
         # is applied to every term's values so target and columns see the same band
         # (otherwise an abs(x)*x coefficient comes out ~20 % low, see tests).
         phi_rows, kf_rows = [], []
-        for c, span in zip(comps, spans):
+        for ri, (c, span) in enumerate(zip(comps, spans)):
             if span.stop - span.start < 16:
                 continue
             band = _band_filter(bands_hz[k], 1.0 / float(c.t[1] - c.t[0]), filter_order)
             xf, vf = c.x[k], c.v[k]
             damp = sum((bj * term(xf, vf) for bj, term in zip(b, d_terms)), np.zeros_like(xf))
             kf = (-c.a[k] - _zero_phase(band, damp))[span]
-            cols = np.column_stack([_zero_phase(band, term(xf, vf))[span] for term in k_terms])
+            ckey = ("phase-two columns", id(records[ri][1]), tuple(bands_hz[k]), filter_order,
+                    tuple(stiffness)) if cache is not None else None
+            full = cache.get(ckey) if cache is not None else None
+            if full is None:  # depends on the component only: made once per record and band
+                full = np.column_stack([_zero_phase(band, term(xf, vf)) for term in k_terms])
+                if cache is not None:
+                    cache[ckey] = full
+            cols = full[span]
             # weigh each record by its amplitude so large records do not dominate
             wgt = 1.0 / max(float(np.sqrt(np.mean(kf**2))), 1e-300)
             phi_rows.append(cols * wgt)
@@ -594,6 +630,29 @@ def identify_modes(
         notes=notes,
     )
     return model, tuple(fits)
+
+
+def _phase_one_rows(c: ModalComponents, k: int, d_terms: Sequence[Any], trim_s: float, floor_ratio: float
+                    ) -> tuple[slice, tuple[np.ndarray, np.ndarray] | None]:
+    """Usable span of mode ``k`` of a record and its phase-one rows (None when too short)."""
+    dt = float(c.t[1] - c.t[0])
+    span = _usable_span(c.v[k], dt, trim_s, floor_ratio)
+    t_k, x_k, v_k = c.t[span], c.x[k][span], c.v[k][span]
+    if t_k.size < 16:
+        return span, None
+    gam = _zero_crossings(t_k, x_k)
+    if gam.size < 4:
+        return span, None
+    # cubic splines: linear interpolation of v at its peak (x = 0) under-reads T by
+    # ~(omega dt)^2 / 4, which is comparable to the energy lost per cycle here
+    t_energy = 0.5 * interpolate.CubicSpline(t_k, v_k)(gam) ** 2
+    cols = []
+    for term in d_terms:
+        w = interpolate.CubicSpline(t_k, v_k * term(x_k, v_k)).antiderivative()
+        wg = w(gam)
+        cols.append(wg[1:] - wg[0])
+    scale = t_energy[0] if t_energy[0] > 0 else 1.0
+    return span, (np.column_stack(cols) / scale, (t_energy[0] - t_energy[1:]) / scale)
 
 
 def _lstsq(a: np.ndarray, b: np.ndarray, what: str) -> tuple[np.ndarray, float]:

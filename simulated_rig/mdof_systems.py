@@ -41,7 +41,7 @@ from eddi.mdof.terms import monomial
 from simulated_rig.bench import measure
 from simulated_rig.errors import ScenarioError
 from simulated_rig.hammer import HammerSpec, hammer_force
-from simulated_rig.sensors import ac_couple, accelerometer, force_sensor
+from simulated_rig.sensors import SensorSpec, ac_couple, accelerometer, force_sensor
 
 #: Folder of the built-in MDOF system files.
 MDOF_DIR = Path(__file__).with_name("mdof")
@@ -194,6 +194,8 @@ class MdofRecord:
     peak_force_n : float
     infos : tuple of ChannelInfo
         ADC channels (force first).
+    sensors : tuple of SensorSpec
+        The sensors resolved on this record (absolute noise and range; force first).
     """
 
     t: np.ndarray
@@ -208,6 +210,7 @@ class MdofRecord:
     truth_a: np.ndarray
     peak_force_n: float
     infos: tuple[ChannelInfo, ...]
+    sensors: tuple[SensorSpec, ...] = ()
 
     def columns(self) -> dict[str, np.ndarray]:
         """``force``, ``acc1``.. as a mapping (SI)."""
@@ -270,7 +273,7 @@ def mdof_impact_test(system: str | MdofSystem, peak_force_n: float, *, snr_db: f
     si = np.column_stack([infos[j].to_si(counts[:, j]) for j in range(len(infos))])
     return MdofRecord(t=t, force_n=si[:, 0], acc_m_s2=si[:, 1:].T.copy(), channels=eom.channels, rate_hz=rate,
                       pretrigger_samples=n_pre, model=eom, truth_x=eom.phi @ sim.x, truth_v=eom.phi @ sim.v,
-                      truth_a=acc_true, peak_force_n=float(peak_force_n), infos=infos)
+                      truth_a=acc_true, peak_force_n=float(peak_force_n), infos=infos, sensors=resolved)
 
 
 def _amplitude_guess(eom: MdofModel, peak_n: float, hammer: HammerSpec) -> float:

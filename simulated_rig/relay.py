@@ -13,7 +13,6 @@ from __future__ import annotations
 import errno
 import os
 import select
-import threading
 import time
 import tty
 from dataclasses import dataclass
@@ -21,6 +20,7 @@ from dataclasses import dataclass
 from drivers.errors import ProtocolError
 from drivers.protocol import DataFrame, FrameType, Message, StreamDecoder, decode_one, encode_command
 from simulated_rig.errors import EmulatorError
+from simulated_rig.loop import StepLoop, close_fds
 
 
 @dataclass(frozen=True)
@@ -44,7 +44,7 @@ class Corruption:
     after: int
 
 
-class PtyRelay:
+class PtyRelay(StepLoop):
     """Relay between ``device_path`` and a new pty (a thread; a context manager).
 
     Parameters
@@ -78,9 +78,8 @@ class PtyRelay:
         self._segment = bytearray()
         self._to_host = bytearray()
         self._to_device = bytearray()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-        self.error: BaseException | None = None
+        super().__init__()
+        self.thread_name = f"relay {device_path}"
 
     # ------------------------------------------------------------------ lifetime
     def wait_for_device(self, timeout_s: float = 20.0, retry_s: float = 0.5) -> None:
@@ -115,27 +114,9 @@ class PtyRelay:
                     return
         raise EmulatorError(f"the device at {self.device_path} did not answer IDENTIFY within {timeout_s:g} s")
 
-    def start(self) -> "PtyRelay":
-        self._thread = threading.Thread(target=self._run, name=f"relay {self.device_path}", daemon=True)
-        self._thread.start()
-        return self
-
-    def close(self) -> None:
-        self._stop.set()
-        if self._thread is not None and self._thread is not threading.current_thread():
-            self._thread.join(timeout=2.0)
-        for fd in (self.master_fd, self.slave_fd, self.device_fd):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
+    def release(self) -> None:
+        close_fds(self.master_fd, self.slave_fd, self.device_fd)
         self.master_fd = self.slave_fd = self.device_fd = -1
-
-    def __enter__(self) -> "PtyRelay":
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     @property
     def tap_stats(self):
@@ -143,14 +124,7 @@ class PtyRelay:
         return None if self._tap is None else self._tap.stats
 
     # ------------------------------------------------------------------ loop
-    def _run(self) -> None:
-        try:
-            while not self._stop.is_set():
-                self._step()
-        except BaseException as exc:  # recorded for whoever started the thread
-            self.error = exc
-
-    def _step(self) -> None:
+    def step(self) -> None:
         dev, host = self.device_fd, self.master_fd
         # read the device only while what it sent has been passed on: its own flow control
         rlist = [host] + ([dev] if len(self._to_host) < (1 << 16) else [])

@@ -42,10 +42,11 @@ import tty
 from typing import IO, Callable, Sequence
 
 from simulated_rig.device import EmulatedDaq
-from simulated_rig.errors import RigError
+from simulated_rig.errors import RigError, ScenarioError
+from simulated_rig.loop import StepLoop, close_fds
 
 
-class PtyServer:
+class PtyServer(StepLoop):
     """The emulated DAQ behind a pty.
 
     Parameters
@@ -96,11 +97,10 @@ class PtyServer:
         self.control = control
         self._control_sock: socket.socket | None = None
         self._out = bytearray()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        super().__init__()
+        self.thread_name = f"rig {self.port}"
         self._t0: float | None = None
         self._produced = 0
-        self.error: BaseException | None = None
         if control is not None:
             try:
                 self._control_sock = _listen(control)
@@ -110,22 +110,9 @@ class PtyServer:
                 raise
 
     # ------------------------------------------------------------------ lifetime
-    def start(self) -> "PtyServer":
-        """Run the loop in a daemon thread; returns self."""
-        self._thread = threading.Thread(target=self.serve_forever, name=f"rig {self.port}", daemon=True)
-        self._thread.start()
-        return self
-
-    def close(self) -> None:
-        """Stop the loop and close the pty: the host then sees the device disappear."""
-        self._stop.set()
-        if self._thread is not None and self._thread is not threading.current_thread():
-            self._thread.join(timeout=2.0)
-        for fd in (self.master_fd, self.slave_fd):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
+    def release(self) -> None:
+        """Close the pty (the host then sees the device disappear), the link and the control socket."""
+        close_fds(self.master_fd, self.slave_fd)
         self.master_fd = self.slave_fd = -1
         if self.link is not None and os.path.islink(self.link) and os.readlink(self.link) == self.port:
             os.unlink(self.link)  # only our own link: a later server may have taken the name
@@ -135,20 +122,10 @@ class PtyServer:
             if self.control is not None and _is_socket(self.control):
                 os.unlink(self.control)
 
-    def __enter__(self) -> "PtyServer":
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
     # ------------------------------------------------------------------ loop
     def serve_forever(self) -> None:
-        """Serve until :meth:`close` (or until the pty fails)."""
-        try:
-            while not self._stop.is_set():
-                self.step()
-        except BaseException as exc:  # recorded for whoever started the thread
-            self.error = exc
+        """Serve until :meth:`close` (or until the pty fails): :meth:`StepLoop.run` in this thread."""
+        self.run()
 
     def step(self) -> None:
         """One round: wait for the pty, take commands, acquire samples, write what fits."""
@@ -353,16 +330,27 @@ RIG_START_TIMEOUT_S = 300.0
 def build_firmware(system: str, seed: int | None = None, block_size: int = 256) -> EmulatedDaq:
     """The emulated DAQ of a named system (physics resolved, simulator compiled).
 
+    A multi-DOF system (:func:`simulated_rig.mdof_systems.mdof_systems`) streams the force and
+    one accelerometer per mass (:class:`simulated_rig.mdof_source.MdofRigSource`).
+
     Raises
     ------
     ScenarioError
         For an unknown system (the message lists the known ones).
     """
+    from simulated_rig.mdof_systems import mdof_systems
     from simulated_rig.source import RigSource
-    from simulated_rig.systems import system_info
+    from simulated_rig.systems import SYSTEMS, system_info
 
-    system_info(system)  # an unknown name: one line that lists the known ones
-    source = RigSource.from_system(system, seed=seed)
+    if system in mdof_systems():  # force + one accelerometer per mass
+        from simulated_rig.mdof_source import MdofRigSource
+
+        source: object = MdofRigSource.from_system(system, seed=seed)
+    else:
+        if system not in SYSTEMS:
+            raise ScenarioError(f"unknown system {system!r}; known: {', '.join(tuple(SYSTEMS) + mdof_systems())}")
+        system_info(system)
+        source = RigSource.from_system(system, seed=seed)
     warm_up(source)
     return EmulatedDaq(source, model=f"EDDI-SIM ({system})", serial=f"SIM-{system}", block_size=block_size)
 
@@ -417,8 +405,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (RigError, OSError) as exc:
         print(f"rig: error: {exc}", file=sys.stderr)
         return 2
-    signal.signal(signal.SIGTERM, lambda *_: server._stop.set())
-    threading.Thread(target=_watch_stdin, args=(server._stop.set,), daemon=True).start()
+    signal.signal(signal.SIGTERM, lambda *_: server.stop())
+    threading.Thread(target=_watch_stdin, args=(server.stop,), daemon=True).start()
     print(json.dumps({"port": server.port, "pid": os.getpid(), "system": args.system, "paced": args.paced}),
           flush=True)
     try:

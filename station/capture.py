@@ -16,14 +16,14 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Protocol
+from typing import Any, Callable, Protocol, Sequence
 
 import numpy as np
 
 from drivers.channels import ChannelInfo
 from drivers.errors import DriverError
 from station.config import BenchConfig
-from station.errors import StationError
+from station.errors import ConfigError, StationError
 from station.storage import CaptureWriter
 from station.trigger import Capture, Trigger, TriggerSettings
 
@@ -260,6 +260,7 @@ def acquire(
     idle_s = 0.0
     origin: list[float] = []  # [wall time at START, first sample of the stream]
     sensors = config.sensor_metadata()
+    driving_point = _driving_point(config, channels, settings.channel, scenario)
 
     def report() -> None:
         if on_status is not None:
@@ -278,7 +279,8 @@ def acquire(
         idx = writer.append(
             cap, device=dev, rig=rig, notes=config.notes, mass_kg=config.specimen.mass_kg, t0_unix_s=t0, sensors=sensors,
             source=str(dev.get("url", "")), dropped_before_total=trig.dropped_total,
-            extra={"peak_force": float(np.nanmax(np.abs(cap.si[:, settings.channel]))) if cap.n_samples else 0.0},
+            extra={"peak_force": float(np.nanmax(np.abs(cap.si[:, settings.channel]))) if cap.n_samples else 0.0,
+                   **({"driving_point": driving_point} if driving_point else {})},
         )
         result.indices.append(idx)
         if cap.partial:
@@ -392,6 +394,30 @@ def _check_session(writer: CaptureWriter, rate_hz: float, mass_kg: float | None,
     if problem is not None:
         raise StationError(f"{writer.path}: this run's {problem} (capture {last.get('index', '?')}); "
                            "write this run to another file")
+
+
+def _driving_point(config: BenchConfig, channels: Sequence[ChannelInfo], trigger_channel: int,
+                   scenario: str | None) -> str | None:
+    """The response channel at the hammer: ``[specimen] driving_point`` (``--driving-point``), else
+    the simulated rig's (its scenario's ``driving_point``), else None (not stored).
+
+    Raises
+    ------
+    ConfigError
+        A configured driving point that is not one of the device's response channels.
+    """
+    names = [c.name for k, c in enumerate(channels) if k != trigger_channel and c.quantity != "force"]
+    dp = config.specimen.driving_point
+    if dp is None and scenario:
+        try:
+            dp = json.loads(scenario).get("driving_point")
+        except (ValueError, AttributeError):
+            dp = None
+        return str(dp) if dp in names else None
+    if dp is not None and dp not in names:
+        raise ConfigError(f"specimen.driving_point: expected one of the device's response channels {names}, "
+                          f"got {dp!r}")
+    return dp
 
 
 def device_metadata(daq: Any, url: str | None = None) -> dict[str, Any]:

@@ -63,9 +63,10 @@ class DeviceEntry:
 
 def simulated_systems() -> tuple[str, ...]:
     """Names accepted by ``sim://``."""
+    from simulated_rig.mdof_systems import mdof_systems
     from simulated_rig.systems import SYSTEMS
 
-    return tuple(SYSTEMS)
+    return tuple(SYSTEMS) + mdof_systems()
 
 
 def parse_sim_url(url: str) -> SimUrl:

@@ -79,7 +79,7 @@ def timeseries_figure(diag: Diagnosis) -> Figure:
         zoom = t0 <= (10.0 / f0 if f0 > 0 else t0[-1] / 20)
         series = [("measured", h.x_measured, "measured", 0.9)]
         if np.all(np.isfinite(h.x_baseline)):
-            series.append(("baseline", h.x_baseline, f"baseline ({diag.baseline.fold_nrmse[i]:.3g})", 0.7))
+            series.append(("baseline", h.x_baseline, f"baseline ({diag.judging.fold_nrmse[i]:.3g})", 0.7))
         else:
             series.append(("baseline", np.nan_to_num(h.x_baseline), "baseline (diverged)", 0.7))
         if diag.cause not in ("none", "unexplained") and np.all(np.isfinite(h.x_extended)):
@@ -151,7 +151,7 @@ def _binned(amp: np.ndarray, y: np.ndarray, bins: int = 12) -> tuple[np.ndarray,
 
 def energy_figure(diag: Diagnosis, cache: dict | None = None) -> Figure:
     """Energy lost per cycle versus amplitude, log-log (per mode for a modal sum)."""
-    mass = diag.baseline.model.mass
+    mass = diag.judging.model.mass
     model = _modal(diag)
     n_modes = len(model.modes) if model is not None else 0
     fig, ax = _new(1, 1 + n_modes, (6.0 + 4.6 * n_modes, 4.2))
@@ -205,8 +205,8 @@ def modal_backbone_figure(diag: Diagnosis, model: ModalSumModel, cache: dict | N
     """Per mode: frequency and damping ratio versus modal amplitude, measured and model."""
     n_modes = len(model.modes)
     fig, ax = _new(n_modes, 2, (11.0, 3.6 * n_modes + 0.5))
-    kb = diag.baseline.model.linear_stiffness()
-    fb = np.sqrt(max(kb, 0.0) / diag.baseline.model.mass) / (2 * np.pi)
+    kb = diag.judging.model.linear_stiffness()
+    fb = np.sqrt(max(kb, 0.0) / diag.judging.model.mass) / (2 * np.pi)
     fig.suptitle(f"backbone per mode (the single-mode baseline sits at {fb:.4g} Hz, off these axes)",
                  fontsize=10)
     for k in range(n_modes):
@@ -257,7 +257,7 @@ def backbone_figure(diag: Diagnosis, cache: dict | None = None) -> Figure:
     model = _modal(diag)
     if model is not None:
         return modal_backbone_figure(diag, model, cache)
-    mass = diag.baseline.model.mass
+    mass = diag.judging.model.mass
     fig, ax = _new(1, 2, (10.0, 3.8))
     seen: list[np.ndarray] = []
     for name, parts in _curves(diag):
@@ -292,7 +292,7 @@ def backbone_figure(diag: Diagnosis, cache: dict | None = None) -> Figure:
 def residual_figure(diag: Diagnosis, records: Sequence[Record], max_points: int = 20000,
                     cache: dict | None = None) -> Figure:
     """Force the model misses over (x, v): baseline, and after the extension."""
-    models = [("baseline", diag.baseline.model)]
+    models = [("baseline", diag.judging.model)]
     modal = _modal(diag)
     if (diag.cause not in ("none", "unexplained") and modal is None
             and diag.extended.model.effect("second_mode") is None):  # type: ignore[union-attr]
@@ -443,8 +443,12 @@ def _html(diag: Diagnosis, records: Sequence[Record], figures: Sequence[Path]) -
         "<th>parameters (SI)</th></tr>",
         f"<tr><td>noise floor</td><td>{fl.nrmse:.4g}</td><td></td><td></td><td>{esc(fl.method)}</td></tr>"
         if fl is not None else "",
-        f"<tr><td>baseline</td><td>{diag.baseline.nrmse:.4g}</td><td></td><td></td>"
-        f"<td><code>{esc(diag.baseline.model.equation_text())}</code></td></tr>",
+        (f"<tr><td>baseline (the pipeline's, as station identify)</td><td>{diag.baseline.nrmse:.4g}</td>"
+         f"<td></td><td></td><td><code>{esc(diag.baseline.model.equation_text())}</code></td></tr>"
+         if diag.judged is not None else ""),
+        f"<tr><td>baseline{' per fold (the candidates are judged against it)' if diag.judged is not None else ''}"
+        f"</td><td>{diag.judging.nrmse:.4g}</td><td></td><td></td>"
+        f"<td><code>{esc(diag.judging.model.equation_text())}</code></td></tr>",
         *rows, "</table>",
         "<h2>Symptoms</h2><ul>", *[f"<li><b>{esc(s.kind)}</b>: {esc(s.text)}</li>" for s in diag.symptoms],
         "</ul>", "<h2>Figures</h2>",

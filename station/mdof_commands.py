@@ -68,29 +68,16 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     records, names, dp = condition_all(meas, driving_point)
     if len(records) < 2:
         raise InputFileError("diagnose on multi-channel captures needs at least 2 captures (one is held out)")
-    folds: dict[str, list] = {"baseline": [], "coupled": []}
-    per_channel = {k: {c: [] for c in names} for k in folds}
-    per_mode: dict[str, list] = {k: [] for k in folds}
-    span = 0.0
-    for k in range(len(records)):
-        train = [r for j, r in enumerate(records) if j != k]
-        for kind, coupling in (("baseline", False), ("coupled", True)):
-            try:
-                ident = identify_mdof(train, names, dp, coupling=coupling)
-            except IdentificationError as exc:
-                raise InputFileError(f"identification failed with {records[k].label} held out: {exc}") from None
-            span = max(span, ident.span_residual)
-            v = validate_mdof(ident.model, records[k])
-            folds[kind].append(v.nrmse)
-            per_mode[kind].append([float(x) for x in v.mode_nrmse])
-            for c, e in v.channel_nrmse.items():
-                per_channel[kind][c].append(e)
+    folds, per_channel, per_mode, span = _held_out_folds(records, names, dp)
     base = float(np.mean(folds["baseline"]))
     cpl = float(np.mean(folds["coupled"]))
     gain = (base - cpl) / base if base > 0 and math.isfinite(base) else (1.0 if math.isfinite(cpl) else 0.0)
-    final = identify_mdof(records, names, dp, coupling=gain > margin)
+    if gain > margin:
+        final = identify_mdof(records, names, dp, coupling=True)
+    else:  # no coupling earns its place: the baseline
+        final = identify_mdof(records, names, dp, coupling=False)
     notes = list(final.notes)
-    if final.coordinates == "physical" and any("physical coordinates kept" in n for n in final.notes):
+    if not final.modal_basis:
         cause = "missing_mode"
         notes.append("missing mode: the linear modes of the low-amplitude tail do not describe the motion - "
                      "a coordinate with no linear mode (e.g. an essentially nonlinear attachment)")
@@ -116,6 +103,10 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         "natural_frequencies_hz": model.natural_frequencies_hz().tolist(),
         "coupling_terms": [sorted(t for t in s if len(_coords(t)) > 1 or _coords(t) != {i})
                            for i, s in enumerate(model.stiffness)],
+        "coupling_coefficients": [
+            {t: [c, (model.stiffness_ci95[i].get(t) if model.stiffness_ci95 else None)]
+             for t, c in sorted(st.items()) if len(_coords(t)) > 1 or _coords(t) != {i}}
+            for i, st in enumerate(model.stiffness)],
         "exchanged_fraction": [f.exchanged_fraction for f in final.equations],
         "model": model.equation_text(), "notes": notes,
     }
@@ -123,6 +114,45 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         Path(save_model).write_text(model.to_json() + "\n")
         obj["saved_model"] = save_model
     return obj
+
+
+def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str
+                    ) -> tuple[dict[str, list], dict[str, dict[str, list]], dict[str, list], float]:
+    """Leave-one-out held-out errors of the coupled model and of the baseline (no nonlinear coupling).
+
+    Returns per kind (``baseline``, ``coupled``) the fold nrmse, the per-channel and per-mode
+    errors, and the largest span residual of the tail's shapes.
+    """
+    folds: dict[str, list] = {"baseline": [], "coupled": []}
+    per_channel = {k: {c: [] for c in names} for k in folds}
+    per_mode: dict[str, list] = {k: [] for k in folds}
+    span = 0.0
+    for k in range(len(records)):
+        train = [r for j, r in enumerate(records) if j != k]
+        # the baseline has no nonlinear coupling: the better (held out) of uncoupled modes and
+        # physical coordinates joined by linear springs only
+        for kind, variants in (("coupled", (("auto", True),)),
+                               ("baseline", (("auto", False), ("physical", "linear")))):
+            best = None
+            for coords, coupling in variants:
+                try:
+                    ident = identify_mdof(train, names, dp, coordinates=coords, coupling=coupling)
+                except IdentificationError as exc:
+                    if best is not None or (coords, coupling) != variants[-1]:
+                        continue
+                    raise InputFileError(f"identification failed with {records[k].label} held out: {exc}") from None
+                cand = (validate_mdof(ident.model, records[k]), ident)
+                if best is None or cand[0].nrmse < best[0].nrmse or not math.isfinite(best[0].nrmse):
+                    best = cand
+            if best is None:
+                raise InputFileError(f"identification failed with {records[k].label} held out")
+            v, ident = best
+            span = max(span, ident.span_residual)
+            folds[kind].append(v.nrmse)
+            per_mode[kind].append([float(x) for x in v.mode_nrmse])
+            for c, e in v.channel_nrmse.items():
+                per_channel[kind][c].append(e)
+    return folds, per_channel, per_mode, span
 
 
 def _coords(text: str) -> set[int]:
@@ -143,6 +173,11 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
              f"Cause: {obj['cause']}" + ("" if obj["cause"] != "modal_coupling" else
                                          f" (coupling terms: {obj['coupling_terms']})"),
              f"Natural frequencies: {', '.join(f'{f:.5g} Hz' for f in obj['natural_frequencies_hz'])}",
+             "Coupling coefficients (value +- 95 % half-width; SI: N/m^k per physical coordinate, per unit "
+             "modal coordinate otherwise; an interval wider than the value: not determined by these records): "
+             + "; ".join(
+                 f"eq {i + 1}: " + (", ".join(f"{t} {c:.4g} +- {h:.2g}" if h is not None else f"{t} {c:.4g}" for t, (c, h) in eq.items()) or "none")
+                 for i, eq in enumerate(obj["coupling_coefficients"])),
              f"Model: {obj['model']}"]
     lines += [f"Note: {n}." for n in obj["notes"]]
     if "saved_model" in obj:

@@ -43,9 +43,12 @@ def resolve_driving_point(meas: Measurement, driving_point: str | None) -> str:
 
 
 def _configured_driving_point(meas: Measurement) -> str | None:
-    """``specimen.driving_point`` of a bench config stored with the capture, if any."""
+    """The capture's stored driving point (``station acquire``), else ``specimen.driving_point`` of a
+    bench config stored with it, if any."""
     import json
 
+    if meas.metadata.get("driving_point"):
+        return str(meas.metadata["driving_point"])
     cfg = meas.metadata.get("bench_config")
     if isinstance(cfg, str):
         try:

@@ -20,19 +20,23 @@ No numerics of its own, no printing: the commands and :mod:`station.report` pres
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
 from eddi.conditioning import ConditionedSignal
 from eddi.model import EquationOfMotion
-from eddi.multimode import ModalSumModel, predict_record
 from eddi.fit_record import Pipeline, PipelineResult, validate_conditioned
 from eddi.validate import Validation
 from station.errors import ConfigError, InputFileError
-from station.readers import Measurement, read_measurement, split_spec
+from station.readers import Measurement, read_measurement, split_spec  # noqa: F401 (read_measurement: re-export)
+from station.records import LazyMap, RecordInfo, Records, peak_force  # noqa: F401 (peak_force: re-export)
+
+if TYPE_CHECKING:  # eddi.multimode imports scipy.signal (~0.3 s): only when a modal-sum model is used
+    from eddi.multimode import ModalSumModel
 
 
 @dataclass(frozen=True)
@@ -90,8 +94,8 @@ class SessionResult:
 
     Attributes
     ----------
-    measurements : tuple of Measurement
-        All records, in the order given.
+    measurements : sequence of Measurement
+        All records, in the order given (:class:`station.records.Records`: read on access).
     fit_index : int
         Position in ``measurements`` of the record identified on.
     fit : PipelineResult
@@ -102,11 +106,17 @@ class SessionResult:
         With ``refine``: the same validation of the plain EDDI estimate (empty otherwise).
     """
 
-    measurements: tuple[Measurement, ...]
+    measurements: Sequence[Measurement]
     fit_index: int
     fit: PipelineResult
     held_out: tuple[RecordCheck, ...]
     eddi_held_out: tuple[RecordCheck, ...] = ()
+
+    @property
+    def sources(self) -> tuple[str, ...]:
+        """``source`` of every record (without reading streamed ones)."""
+        recs = self.measurements
+        return recs.sources if isinstance(recs, Records) else tuple(m.source for m in recs)
 
     @property
     def mean_nrmse(self) -> float | None:
@@ -132,12 +142,12 @@ def expand_specs(specs: Sequence[str]) -> list[str]:
     InputFileError, CaptureFormatError
         Missing or foreign file.
     """
-    from station.storage import check_file
-
     out: list[str] = []
     for spec in specs:
         path, capture = split_spec(spec)
         if capture is None and path.suffix.lower() in (".h5", ".hdf5"):
+            from station.storage import check_file  # local: h5py only for HDF5 files
+
             if not path.is_file():
                 raise InputFileError(f"{path}: no such file")
             count = check_file(path)
@@ -149,9 +159,13 @@ def expand_specs(specs: Sequence[str]) -> list[str]:
     return out
 
 
-def read_all(specs: Sequence[str]) -> tuple[Measurement, ...]:
-    """Read every record of :func:`expand_specs` (``FILE.h5`` means all its captures)."""
-    return tuple(read_measurement(s) for s in expand_specs(specs))
+def read_all(specs: Sequence[str]) -> Records:
+    """Every record of :func:`expand_specs` (``FILE.h5`` means all its captures), read on use.
+
+    Each is read once here (a bad one is refused now) and again when used: never all at once
+    (:class:`station.records.Records`).
+    """
+    return Records(expand_specs(specs))
 
 
 def on_one_grid(measurements: Sequence[Measurement]) -> tuple[list[Measurement], str | None]:
@@ -198,7 +212,7 @@ def on_one_grid(measurements: Sequence[Measurement]) -> tuple[list[Measurement],
     return out, (f"resampled onto {rate:.6g} Hz (5th-order spline): " + ", ".join(moved))
 
 
-def session_mass(measurements: Sequence[Measurement], mass: float | None) -> float:
+def session_mass(measurements: Sequence[Measurement] | Sequence[RecordInfo], mass: float | None) -> float:
     """The mass given, else the one the first record stores.
 
     Raises
@@ -234,13 +248,7 @@ def condition_measurement(meas: Measurement, pipeline: Pipeline | None = None) -
         raise type(exc)(f"{meas.source}: {exc}") from None
 
 
-def peak_force(meas: Measurement) -> float | None:
-    """Largest ``|force|`` of a record [N], None without a force channel."""
-    f = meas.channels.get("force")
-    return None if f is None or f.size == 0 else float(np.nanmax(np.abs(f)))
-
-
-def choose_fit_index(measurements: Sequence[Measurement]) -> int:
+def choose_fit_index(measurements: Sequence[Measurement] | Sequence[RecordInfo]) -> int:
     """The record of the median peak force (the lower middle one for an even count).
 
     Without force channels: the first record.
@@ -250,6 +258,13 @@ def choose_fit_index(measurements: Sequence[Measurement]) -> int:
         return 0
     order = sorted(range(len(peaks)), key=lambda i: peaks[i])  # type: ignore[arg-type,return-value]
     return order[(len(order) - 1) // 2]
+
+
+def is_modal_sum(model: object) -> bool:
+    """True for a :class:`~eddi.multimode.ModalSumModel` (without importing that module: a model
+    of that class exists only once it is imported)."""
+    mm = sys.modules.get("eddi.multimode")
+    return mm is not None and isinstance(model, mm.ModalSumModel)
 
 
 def validate_measurement(model: EquationOfMotion | ModalSumModel, meas: Measurement) -> RecordCheck:
@@ -265,7 +280,9 @@ def validate_measurement(model: EquationOfMotion | ModalSumModel, meas: Measurem
         When the record cannot be conditioned or predicted.
     """
     pf = peak_force(meas)
-    if isinstance(model, ModalSumModel):
+    if is_modal_sum(model):
+        from eddi.multimode import predict_record
+
         v = meas.channels.get("vel")
         if v is None:
             v = condition_measurement(meas).v
@@ -277,7 +294,7 @@ def validate_measurement(model: EquationOfMotion | ModalSumModel, meas: Measurem
     return record_check(meas, val, by_force)
 
 
-def record_check(meas: Measurement, val: Validation, by_force: bool) -> RecordCheck:
+def record_check(meas: Measurement | RecordInfo, val: Validation, by_force: bool) -> RecordCheck:
     """A :class:`RecordCheck` of a validation of ``meas``."""
     return RecordCheck(meas.source, val.nrmse, val.nmte, "force" if by_force else "initial state",
                        peak_force(meas), val.t, val.x_measured, val.x_simulated, "displacement", val.diverged,
@@ -323,22 +340,26 @@ def run_session(
     EddiError
         When identification fails on the fit record (one line).
     """
-    recs = tuple(measurements)
-    if not recs:
+    recs = measurements if isinstance(measurements, Records) else tuple(measurements)
+    if not len(recs):
         raise ConfigError("expected at least one record, got none")
-    m = session_mass(recs, mass)
-    k = fit_record_index(recs, fit_index)
+    info = recs.info if isinstance(recs, Records) else tuple(RecordInfo.of(r) for r in recs)
+    m = session_mass(info, mass)
+    k = fit_record_index(info, fit_index)
     pipe = pipeline if pipeline is not None else Pipeline.create(damping, stiffness, route, refine)
-    others = [r for i, r in enumerate(recs) if i != k]
-    fit = pipe.fit(condition_measurement(recs[k], pipe), m,
-                   held_out=[condition_measurement(r, pipe) for r in others])
-    held = tuple(record_check(r, v, fit.driven_by_force_of(i)) for i, (r, v) in enumerate(zip(others, fit.held_out)))
-    eddi_held = tuple(record_check(r, v, fit.driven_by_force_of(i))
-                      for i, (r, v) in enumerate(zip(others, fit.eddi_held_out)))
+    others = [i for i in range(len(recs)) if i != k]
+    if isinstance(recs, Records):  # streamed: each held-out record read and conditioned when validated
+        held_out: Sequence[ConditionedSignal] = LazyMap(recs, others, lambda r: condition_measurement(r, pipe))
+    else:
+        held_out = [condition_measurement(recs[i], pipe) for i in others]
+    fit = pipe.fit(condition_measurement(recs[k], pipe), m, held_out=held_out)
+    held = tuple(record_check(info[i], v, fit.driven_by_force_of(j)) for j, (i, v) in enumerate(zip(others, fit.held_out)))
+    eddi_held = tuple(record_check(info[i], v, fit.driven_by_force_of(j))
+                      for j, (i, v) in enumerate(zip(others, fit.eddi_held_out)))
     return SessionResult(recs, k, fit, held, eddi_held)
 
 
-def fit_record_index(recs: Sequence[Measurement], fit_index: int | None) -> int:
+def fit_record_index(recs: Sequence[Measurement] | Sequence[RecordInfo], fit_index: int | None) -> int:
     """``fit_index`` checked (negative from the end), or :func:`choose_fit_index`.
 
     Raises

@@ -442,6 +442,8 @@ def measurement_of(cap: StoredCapture, path: str | os.PathLike[str]) -> Any:
         "units": {MEASUREMENT_KEYS[c.info.quantity]: c.info.unit for c in cap.channels.values() if c.info.quantity in MEASUREMENT_KEYS},
         "sensitivities": {c.info.name: [c.info.sensitivity, c.info.sensitivity_unit] for c in cap.channels.values()},
     }
+    if cap.attrs.get("driving_point"):  # multi-DOF: the response channel at the hammer
+        meta["driving_point"] = str(cap.attrs["driving_point"])
     t0 = float(cap.attrs.get("t0_s", 0.0))  # imported records keep their first time stamp
     return Measurement(
         t=t0 + cap.t,

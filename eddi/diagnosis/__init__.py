@@ -18,7 +18,9 @@ Everything here is pure numerics: arrays in, a frozen :class:`Diagnosis` out.
 from eddi.diagnosis.catalogue import ALL_NAMES, CHAIN_NAMES, MECHANISM_NAMES
 from eddi.diagnosis.loop import diagnose
 from eddi.diagnosis.records import Part, Record
-from eddi.diagnosis.results import Candidate, Diagnosis, HeldOut, NoiseFloor, Score, Symptom
+from eddi.diagnosis.results import (
+    Candidate, Diagnosis, HeldOut, NoiseFloor, PipelineBaseline, Score, Symptom,
+)
 from eddi.diagnosis.settings import (
     DEFAULT_CONSISTENCY, DEFAULT_MARGIN, FITS, MODAL_DIAGNOSE_STIFFNESS, NAMED_FACTOR, NONE_FACTOR,
     NRMSE_CAP, REFERENCE_MARGIN,
@@ -26,6 +28,6 @@ from eddi.diagnosis.settings import (
 from eddi.diagnosis.show import backbone, energy_per_cycle, nmte, nrmse, residual_force, spectrum
 
 __all__ = ["ALL_NAMES", "CHAIN_NAMES", "MECHANISM_NAMES", "diagnose", "Part", "Record", "Candidate",
-           "Diagnosis", "HeldOut", "NoiseFloor", "Score", "Symptom", "DEFAULT_CONSISTENCY",
+           "Diagnosis", "HeldOut", "NoiseFloor", "PipelineBaseline", "Score", "Symptom", "DEFAULT_CONSISTENCY",
            "DEFAULT_MARGIN", "FITS", "MODAL_DIAGNOSE_STIFFNESS", "NAMED_FACTOR", "NONE_FACTOR",
            "NRMSE_CAP", "REFERENCE_MARGIN", "backbone", "energy_per_cycle", "nmte", "nrmse", "residual_force", "spectrum"]

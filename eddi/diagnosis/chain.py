@@ -65,6 +65,49 @@ def _training_error(fit_eom, recs: Sequence[Record], masks: Sequence[np.ndarray]
     return float(np.mean(errs)) if errs else NRMSE_CAP
 
 
+class _CornerSearch:
+    """The records conditioned with the coupling inverted at each corner (made on demand), and
+    the corner whose baseline refit best reproduces the training records in simulation."""
+
+    def __init__(self, records: Sequence[Record], setup: Setup) -> None:
+        self.records, self.setup = records, setup
+        self.variants: dict[float, list[Record] | None] = {}
+        self.fitters: dict[float, Fitter] = {}
+
+    def fitter(self, fc: float) -> Fitter | None:
+        if fc not in self.variants:
+            recs = [_recondition(r, fc) for r in self.records]
+            self.variants[fc] = None if any(r is None for r in recs) else recs  # type: ignore[assignment]
+            if self.variants[fc] is not None:
+                self.fitters[fc] = Fitter([r.signal() for r in self.variants[fc]], self.setup)  # type: ignore[union-attr]
+        return self.fitters.get(fc)
+
+    def best(self, masks: Sequence[np.ndarray], corners: Sequence[float], patience: int = 0
+             ) -> tuple[float, object]:
+        """(corner, baseline fit) with the lowest training error; with ``patience`` the scan (in
+        increasing corners) stops after that many corners in a row worse than the best so far
+        (the training error has one minimum over the corner)."""
+        best = (math.inf, 0.0, None)
+        worse = 0
+        for fc in corners:
+            if patience and worse >= patience:
+                break
+            worse += 1
+            f = self.fitter(fc)
+            if f is None:
+                continue
+            try:
+                fit = f(masks)(None, None)
+            except EddiError:
+                continue
+            if fit is None:
+                continue
+            err = _training_error(fit.eom, self.variants[fc], masks)  # type: ignore[arg-type]
+            if err < best[0]:
+                best, worse = (err, fc, fit), 0
+        return best[1], best[2]
+
+
 def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
                     fold_masks: Sequence[Sequence[np.ndarray]], base_fold: Sequence[float],
                     consistency: float) -> tuple[Candidate, list[np.ndarray]]:
@@ -74,42 +117,33 @@ def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Par
         return (Candidate("sensor_highpass", float("nan"), (), float("nan"), False, False, {}, {}, None,
                           "", "needs acceleration records (the coupling is inverted on the acceleration)"),
                 [])
-    variants: dict[float, list[Record] | None] = {}
-    fitters: dict[float, Fitter] = {}
-    for fc in CORNERS_HZ:
-        recs = [_recondition(r, fc) for r in records]
-        variants[fc] = None if any(r is None for r in recs) else recs  # type: ignore[assignment]
-        if variants[fc] is not None:
-            fitters[fc] = Fitter([r.signal() for r in variants[fc]], setup)  # type: ignore[union-attr]
-
-    def best_corner(masks: Sequence[np.ndarray]) -> tuple[float, object]:
-        best = (math.inf, 0.0, None)
-        for fc, f in fitters.items():
-            try:
-                fit = f(masks)(None, None)
-            except EddiError:
-                continue
-            if fit is None:
-                continue
-            err = _training_error(fit.eom, variants[fc], masks)  # type: ignore[arg-type]
-            if err < best[0]:
-                best = (err, fc, fit)
-        return best[1], best[2]
-
+    search = _CornerSearch(records, setup)
+    best_corner = search.best
+    all_m = [(np.arange(r.t.size) >= r.free_start) & (np.arange(r.t.size) < r.free_stop) for r in records]
+    coarse = (0.0,) + CORNERS_HZ[1::2] + CORNERS_HZ[-1:]
+    fc_all, fit_all = best_corner(all_m, coarse, patience=2)
+    k = CORNERS_HZ.index(fc_all)
+    if k > 0:  # the grid between the coarse points next to the choice
+        fc2, fit2 = best_corner(all_m, [fc_all, *CORNERS_HZ[max(1, k - 1):k + 2:2]])
+        if fc2 != fc_all:
+            fc_all, fit_all = fc2, fit2
+    if fc_all == 0.0:
+        return (Candidate("sensor_highpass", float("nan"), (), float("nan"), False, False, {}, {}, None, "",
+                          "no corner reproduces the records better than the records as conditioned"), [])
+    k = CORNERS_HZ.index(fc_all)
+    near = sorted({0.0, *CORNERS_HZ[max(1, k - 1):k + 2]})
     folds, sims, corners = [], [], []
     for part, masks in zip(parts, fold_masks):
-        fc, fit = best_corner(masks)
+        fc, fit = best_corner(masks, near)
         corners.append(fc)
         if fit is None:
             folds.append(NRMSE_CAP)
             sims.append(np.full(part.stop - part.start, np.nan))
             continue
-        rec = variants[fc][part.record]  # type: ignore[index]
+        rec = search.variants[fc][part.record]  # type: ignore[index]
         xs, _ = simulate_part_xv(fit.eom, rec, part)
         folds.append(nrmse(xs, rec.x[part.start:part.stop]))
         sims.append(xs)
-    all_m = [(np.arange(r.t.size) >= r.free_start) & (np.arange(r.t.size) < r.free_stop) for r in records]
-    fc_all, fit_all = best_corner(all_m)
     mean = float(np.mean(folds))
     ref = float(np.mean(base_fold))
     params = {"corner_hz": float(fc_all)}

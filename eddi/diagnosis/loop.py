@@ -16,25 +16,28 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
 
-from eddi.diagnosis.catalogue import ALL_NAMES, catalogue
+from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
 from eddi.diagnosis.chain import inspect, sensor_highpass
-from eddi.diagnosis.extend import Setup
+from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.measure import noise_floor
 from eddi.diagnosis.name import (
-    Decision, Fitter, all_masks, build_candidates, check_trainable, decide, judge_baseline, judge_candidates,
+    Decision, Fitter, FoldFitter, FoldResults, all_masks, build_candidates, check_trainable, decide, judge_baseline, judge_candidates,
     rank, spread_of, within_floor,
 )
 from eddi.diagnosis.observed import Observed, observed_second_mode
-from eddi.diagnosis.records import Record, split
-from eddi.diagnosis.results import Candidate, Diagnosis, HeldOut, NoiseFloor, Score, Symptom
+from eddi.diagnosis.records import Part, Record, split
+from eddi.diagnosis.results import Candidate, Diagnosis, HeldOut, NoiseFloor, PipelineBaseline, Score, Symptom
 from eddi.diagnosis.settings import (
     DEFAULT_CONSISTENCY, DEFAULT_MARGIN, FITS, MODAL_DIAGNOSE_STIFFNESS, NAMED_FACTOR, NONE_FACTOR,
+    STRONG_MARGIN,
 )
 from eddi.diagnosis.symptoms import baseline_symptoms, notable
+from eddi.diagnosis.threads import one_blas_thread
 from eddi.errors import ModelError, SignalError, TermError
 from eddi.model import EquationOfMotion
 from eddi.multimode import MODAL_DAMPING
@@ -49,57 +52,48 @@ def diagnose(
     stiffness: str | Sequence[str] = DEFAULT_STIFFNESS,
     base: EquationOfMotion | None = None,
     mechanisms: Sequence[str] | None = None,
-    margin: float = DEFAULT_MARGIN,
-    consistency: float = DEFAULT_CONSISTENCY,
-    n_bands: int = 3,
-    fit: str = "eddi",
+    margin: float = DEFAULT_MARGIN, consistency: float = DEFAULT_CONSISTENCY,
+    n_bands: int = 3, fit: str = "eddi",
     modal_damping: Sequence[str] = MODAL_DAMPING,
     modal_stiffness: Sequence[str] = MODAL_DIAGNOSE_STIFFNESS,
-    none_factor: float = NONE_FACTOR,
-    named_factor: float = NAMED_FACTOR,
+    none_factor: float = NONE_FACTOR, named_factor: float = NAMED_FACTOR,
+    strong_margin: float | None = STRONG_MARGIN,
+    pipeline: PipelineBaseline | None = None,
 ) -> Diagnosis:
     """Find what the baseline model gets wrong, name the mechanism, extend and measure the gain.
 
     Parameters
     ----------
     records : sequence of Record
-        Measured responses (same sample rate). With two or more, each is held out in turn
-        (the others train); with one, its free response is split into ``n_bands`` amplitude
-        bands and each band is held out in turn.
+        Measured responses (same sample rate). With two or more, each is held out in turn;
+        with one, its free response is split into ``n_bands`` amplitude bands held out in turn.
     mass : float, optional
         Mass [kg] (or inertia). Required unless ``base`` is given.
     damping, stiffness : str or sequence of str
-        Baseline term libraries (comma-separated text or a sequence), fitted when ``base``
-        is None.
+        Baseline term libraries, fitted when ``base`` is None.
     base : EquationOfMotion, optional
         A given baseline; its coefficients are kept and only mechanisms are fitted.
     mechanisms : sequence of str, optional
-        Subset of :data:`eddi.diagnosis.catalogue.ALL_NAMES` to try (default: all, the
-        measurement-chain cause ``sensor_highpass`` included).
+        Subset of :data:`~eddi.diagnosis.catalogue.ALL_NAMES` (default: all).
     margin : float
-        Relative reduction of the mean held-out nrmse (over the candidate's reference) the
-        winner must reach, besides winning on every held-out part (0.5: it halves the error).
-    none_factor : float
-        ``cause: "none"`` needs the baseline within this factor of the noise floor on every
-        held-out part.
-    named_factor : float
-        A named mechanism must leave its held-out nrmse within this factor of the floor.
+        Cut of the mean held-out nrmse the winner must reach (0.5: it halves the error),
+        besides winning on every held-out part.
     consistency : float
-        The winner's strength parameter (friction force, gap stiffness...) fitted on each
-        fold must have a spread below ``consistency`` times its value: a mechanism that
-        only fits noise changes from fold to fold.
+        The winner's strength fitted per fold must spread less than this times its value.
     n_bands : int
         Amplitude bands of a single record.
     fit : {"eddi", "equation-error"}
-        How the baseline and the extensions are fitted (see the module notes). EDDI's
-        energy balance is the default: on 72 null cases it gave no false alarm with a
-        largest passing gain of 0.10 (``docs/diagnosis.md``).
+        How the baseline and the extensions are fitted (``docs/diagnosis.md``).
     modal_damping, modal_stiffness : sequence of str
-        Term libraries of each mode of the observed second mode (free decays without force:
-        a modal sum, :mod:`eddi.multimode`). Default: viscous plus ``abs(v)*v`` damping and
-        ``x, abs(x)*x, x^3`` stiffness (:data:`MODAL_DIAGNOSE_STIFFNESS`); the baseline's
-        polynomial library (up to ``x^5``) is not used per mode, as fitted on one band it
-        diverges in simulation.
+        Per-mode libraries of the observed second mode (free decays, :mod:`eddi.multimode`).
+    none_factor, named_factor : float
+        ``none`` needs the baseline within ``none_factor`` of the noise floor; a named
+        mechanism must land within ``named_factor`` of it.
+    strong_margin : float or None
+        Within ``none_factor`` a mechanism is named only if it cuts the error this much.
+    pipeline : PipelineBaseline, optional
+        ``station identify``'s model and held-out error: it becomes ``baseline`` (``none``
+        needs it within the factor too); candidates are judged against ``judged``.
 
     Returns
     -------
@@ -108,23 +102,54 @@ def diagnose(
     Raises
     ------
     SignalError
-        No records, inconsistent sample rates, too few zero crossings, a record too short to
-        split.
+        No records, different sample rates, too few zero crossings, too short to split.
     ModelError
         Bad mass.
     TermError
         Bad terms or unknown mechanism.
     """
-    records = _check_records(records)
-    setup, chosen = _setup(records, mass, damping, stiffness, base, mechanisms, fit)
-    cat = [m for m in catalogue() if m.name in chosen]
-    effects = tuple(e.name for e in base.effects) if base is not None else ()
-    skipped = {m.name: m.skip_reason(setup.damping, setup.stiffness, effects) for m in cat}
-    check_trainable(records)
+    with one_blas_thread():
+        records = _check_records(records)
+        setup, chosen = _setup(records, mass, damping, stiffness, base, mechanisms, fit)
+        cat = [m for m in catalogue() if m.name in chosen]
+        effects = tuple(e.name for e in base.effects) if base is not None else ()
+        skipped = {m.name: m.skip_reason(setup.damping, setup.stiffness, effects) for m in cat}
+        check_trainable(records)
+        shown = _show(records, setup, n_bands, none_factor, strong_margin)
+        if shown.quiet:
+            # nothing to explain: no candidate can change the verdict, none is fitted
+            why = f"not tried: the baseline is within {none_factor:g}x the noise floor"
+            skipped = {name: why for name in [*skipped, "sensor_highpass"]}
+        candidates, observed, chain_sims, notes = _name(
+            shown, cat, chosen, skipped, consistency, modal_damping, modal_stiffness)
+        return _conclude(shown, candidates, observed, chain_sims, notes, (margin, none_factor, named_factor,
+                                                                          strong_margin), pipeline)
+
+
+@dataclass(frozen=True)
+class _Shown:
+    """The baseline judged held out (``res``: per fold) and the noise floor."""
+
+    records: list[Record]
+    setup: Setup
+    scheme: str
+    parts: list[Part]
+    fold_masks: list[list[np.ndarray]]
+    fitter: Fitter
+    res: FoldResults
+    fold_fits: list
+    fit_all: FoldFitter
+    bfit_all: Fit
+    baseline: Score
+    floor: NoiseFloor
+    quiet: bool
+
+
+def _show(records: list[Record], setup: Setup, n_bands: int, none_factor: float,
+          strong_margin: float | None) -> _Shown:
+    """Show and measure: per fold, the baseline judged on the held-out part; the floor."""
     scheme, parts, fold_masks = split(records, n_bands)
     fitter = Fitter([r.signal() for r in records], setup)
-
-    # show: per fold, the baseline judged on the held-out part; measure: the noise floor
     res, fold_fits = judge_baseline(records, setup, parts, fold_masks, fitter)
     fit_all = fitter(all_masks(records))
     bfit_all = fit_all(None, None)
@@ -133,37 +158,90 @@ def diagnose(
     baseline = Score(model=bfit_all.eom, nrmse=float(np.mean(res.base_fold)),
                      fold_nrmse=tuple(res.base_fold), nmte=float(np.mean(res.base_nmte)))
     floor = noise_floor(records, setup, parts, fold_masks, res.base_sims)
-    quiet = within_floor(res.base_fold, floor, none_factor)
-    if quiet:
-        # nothing to explain: no candidate can change the verdict, none is fitted
-        why = f"not tried: the baseline is within {none_factor:g}x the noise floor"
-        skipped = {name: why for name in skipped}
-        if "sensor_highpass" in chosen:
-            skipped["sensor_highpass"] = why
-    # name: per fold, every mechanism added, refitted on the training parts, judged held out
-    judge_candidates(res, fold_fits, records, setup, cat, skipped, parts, fold_masks, fitter)
+    return _Shown(records, setup, scheme, parts, fold_masks, fitter, res, fold_fits, fit_all, bfit_all,
+                  baseline, floor, strong_margin is None and within_floor(res.base_fold, floor, none_factor))
+
+
+def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skipped: dict[str, str | None],
+          consistency: float, modal_damping: Sequence[str], modal_stiffness: Sequence[str]
+          ) -> tuple[list[Candidate], Observed | None, list[np.ndarray], list[str]]:
+    """Name: per fold, every mechanism added, refitted on the training parts, judged held out."""
+    sh = shown
+    records, res = sh.records, sh.res
+    judge_candidates(res, sh.fold_fits, records, sh.setup, cat, skipped, sh.parts, sh.fold_masks, sh.fitter)
     observed: Observed | None = None
-    if not quiet and any(m.name == "second_mode" for m in cat) and all(r.force is None for r in records):
-        observed = observed_second_mode(records, parts, fold_masks, res.base_sims,
-                                        _frequency(bfit_all.eom), tuple(modal_damping),
+    if not sh.quiet and any(m.name == "second_mode" for m in cat) and all(r.force is None for r in records):
+        observed = observed_second_mode(records, sh.parts, sh.fold_masks, res.base_sims,
+                                        _frequency(sh.bfit_all.eom), tuple(modal_damping),
                                         tuple(modal_stiffness))
-    candidates, _finals, notes = build_candidates(cat, skipped, res, fit_all, bfit_all, len(parts),
-                                                  consistency, setup.stiffness, observed)
+    candidates, _finals, notes = build_candidates(cat, skipped, res, sh.fit_all, sh.bfit_all, len(sh.parts),
+                                                  consistency, sh.setup.stiffness, observed)
     chain_sims: list[np.ndarray] = []
     if "sensor_highpass" in chosen:
-        if quiet:
+        if sh.quiet:
             candidates.append(Candidate("sensor_highpass", float("nan"), (), float("nan"), False, False,
                                         {}, {}, None, "", skipped["sensor_highpass"]))
         else:
-            hp, chain_sims = sensor_highpass(records, setup, parts, fold_masks, res.base_fold, consistency)
+            hp, chain_sims = sensor_highpass(records, sh.setup, sh.parts, sh.fold_masks, res.base_fold,
+                                             consistency)
             candidates.append(hp)
-    candidates = rank(candidates)
+    return rank(candidates), observed, chain_sims, notes
 
-    symptoms = baseline_symptoms(records, parts, res.base_sims, res.base_vsims, setup.mass)
-    symptoms += inspect(records, setup.mass, _frequency(bfit_all.eom))
-    dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor)
+
+def _pipeline_check(pipeline: PipelineBaseline | None, sh: _Shown, none_factor: float) -> str:
+    """Why the pipeline's model is not within the floor on the records it did not fit ('' if it is)."""
+    if pipeline is None or not pipeline.held_out:
+        return ""
+    floors = [f for p, f in zip(sh.parts, sh.floor.fold_nrmse) if p.record in pipeline.held_out]
+    floor = float(np.mean(floors)) if floors else sh.floor.nrmse
+    if pipeline.nrmse <= none_factor * floor:
+        return ""
+    return (f"the pipeline's model (as station identify gives it, fitted on {sh.records[pipeline.fit_record].label or 'one record'}) "
+            f"departs from the records it did not fit (held-out nrmse {pipeline.nrmse:.3g}, "
+            f"{pipeline.nrmse / floor:.1f}x the floor {floor:.3g}) although the same terms fitted on the "
+            "other records of each fold stay within it: the pipeline's fit, not a missing mechanism")
+
+
+def _floor_note(dec: Decision, candidates: Sequence[Candidate], floor: NoiseFloor, base: float,
+                margin: float) -> list[str]:
+    """A warning when ``none`` rests on a floor that is mostly the baseline's own sensitivity
+    to the noise while a candidate reproduces the held-out parts below that floor (a wrong
+    baseline inflates the floor: docs/diagnosis.md, "Calibration")."""
+    if dec.cause != "none":
+        return []
+    preds = [p for p in floor.prediction_nrmse if np.isfinite(p)]
+    cond = float(np.mean(floor.conditioning_nrmse)) if floor.conditioning_nrmse else 0.0
+    best = next((c for c in candidates if not c.skipped and c.model is not None and c.wins_every_part
+                 and c.nrmse < floor.nrmse and c.nrmse <= (1.0 - margin) * base), None)
+    if not preds or best is None or not float(np.mean(preds)) > 2.0 * cond:
+        return []
+    return [f"uncertain none: the noise floor ({floor.nrmse:.3g}) is mostly how far the baseline's own refit "
+            f"moves with the noise (mean {float(np.mean(preds)):.3g}, against {cond:.3g} for the "
+            f"conditioned records), and {best.name} reproduces every held-out part better, at "
+            f"{best.nrmse:.3g}, below that floor: a baseline that misses a mechanism inflates its floor"]
+
+
+def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None,
+              chain_sims: list[np.ndarray], notes: list[str], rules: tuple[float, float, float, float | None],
+              pipeline: PipelineBaseline | None) -> Diagnosis:
+    """The verdict (``rules``: margin, none factor, named factor, strong margin), the extended
+    model and the held-out views."""
+    margin, none_factor, named_factor, strong_margin = rules
+    records, res, baseline, floor = sh.records, sh.res, sh.baseline, sh.floor
+    symptoms = baseline_symptoms(records, sh.parts, res.base_sims, res.base_vsims, sh.setup.mass)
+    symptoms += inspect(records, sh.setup.mass, _frequency(sh.bfit_all.eom))
+    dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor,
+                 strong_margin=strong_margin)
+    off = _pipeline_check(pipeline, sh, none_factor) if dec.cause == "none" else ""
+    if off:
+        dec = Decision("unexplained", None, None, False, off)
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
+    notes = notes + _floor_note(dec, candidates, floor, baseline.nrmse, margin)
+    if pipeline is not None:
+        verdict += (f" The pipeline's model (as station identify gives it) has held-out nrmse "
+                    f"{pipeline.nrmse:.3g}; the candidates are judged against the same terms fitted per "
+                    f"fold (nrmse {baseline.nrmse:.3g}).")
     winner = dec.winner
     extended, ext_sims, modal = baseline, res.base_sims, None
     if winner is not None:
@@ -184,13 +262,21 @@ def diagnose(
                          v_extended=modal[i][1] if modal is not None else None,
                          x_modes=modal[i][2] if modal is not None else None,
                          v_modes=modal[i][3] if modal is not None else None)
-                 for i, (p, xb, xe, vb) in enumerate(zip(parts, res.base_sims, ext_sims, res.base_vsims)))
-    b_spread = spread_of(res.base_coefs, list(res.base_coefs[0])) if setup.base is None else {}
+                 for i, (p, xb, xe, vb) in enumerate(zip(sh.parts, res.base_sims, ext_sims, res.base_vsims)))
+    b_spread = spread_of(res.base_coefs, list(res.base_coefs[0])) if sh.setup.base is None else {}
+    judged = None
+    if pipeline is not None:
+        judged = baseline
+        baseline = Score(model=pipeline.model, nrmse=float(pipeline.nrmse),
+                         fold_nrmse=tuple(float(v) for v in pipeline.held_out.values()))
+        if winner is None:
+            extended = baseline
     return Diagnosis(cause=dec.cause, baseline=baseline, extended=extended, gain=float(gain),
-                     candidates=tuple(candidates), scheme=scheme, parts=tuple(parts),
+                     candidates=tuple(candidates), scheme=sh.scheme, parts=tuple(sh.parts),
                      margin=float(margin), verdict=verdict, symptom=symptom, held_out=held,
                      baseline_spread=b_spread, notes=tuple(notes), noise_floor=floor,
-                     symptoms=tuple(symptoms), partial=dec.partial.name if dec.partial else "")
+                     symptoms=tuple(symptoms), partial=dec.partial.name if dec.partial else "",
+                     judged=judged, pipeline=pipeline)
 
 
 def _frequency(eom: EquationOfMotion) -> float:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -23,14 +23,13 @@ from eddi.diagnosis.settings import NRMSE_CAP, REFERENCE_MARGIN
 from eddi.diagnosis.show import nmte, nrmse, simulate_part, simulate_part_xv
 from eddi.errors import IdentificationError, ModelError, SignalError
 
-FitFn = Callable[[Mechanism | None, Fit | None], Fit | None]
 
 
 class Fitter:
     """Fitting functions for given training masks, sharing the segments' energy cache.
 
-    ``Fitter(sigs, setup)(masks)`` returns ``fit(mech, base_fit)``: the baseline (``mech``
-    None) or the baseline plus ``mech`` fitted on the samples ``masks``.
+    ``Fitter(sigs, setup)(masks)`` returns a :class:`FoldFitter`: ``fit(mech, base_fit)``
+    fits the baseline (``mech`` None) or the baseline plus ``mech`` on the samples ``masks``.
     """
 
     def __init__(self, sigs: Sequence, setup: Setup) -> None:
@@ -38,12 +37,32 @@ class Fitter:
         self.setup = setup
         self.cache: dict = {}
 
-    def __call__(self, masks: Sequence[np.ndarray]) -> FitFn:
-        sigs, setup = self.sigs, self.setup
-        if setup.fit == "equation-error":
-            return lambda mech, base_fit=None: fit_ee(sigs, masks, setup, mech, base_fit=base_fit)
-        fold = EddiFold(sigs, masks, setup, self.cache)
-        return lambda mech, base_fit=None: fit_eddi(fold, sigs, masks, setup, mech, base_fit=base_fit)
+    def __call__(self, masks: Sequence[np.ndarray]) -> "FoldFitter":
+        return FoldFitter(self, masks)
+
+
+class FoldFitter:
+    """The fits of one fold (training masks); the equation-error baseline is fitted once."""
+
+    def __init__(self, fitter: Fitter, masks: Sequence[np.ndarray]) -> None:
+        self.sigs, self.setup, self.masks = fitter.sigs, fitter.setup, masks
+        self.fold = EddiFold(self.sigs, masks, self.setup, fitter.cache) if self.setup.fit == "eddi" else None
+        self._ee: list[Fit | None] = []
+
+    def ee_base(self) -> Fit | None:
+        """The baseline refitted by equation error (the reference of non-native mechanisms)."""
+        if not self._ee:
+            st = self.setup
+            ee = Setup(mass=st.mass, damping=st.damping, stiffness=st.stiffness, base=st.base,
+                       coordinate=st.coordinate, fit="equation-error")
+            self._ee.append(fit_ee(self.sigs, self.masks, ee, None))
+        return self._ee[0]
+
+    def __call__(self, mech: Mechanism | None, base_fit: Fit | None = None) -> Fit | None:
+        if self.fold is None:
+            return fit_ee(self.sigs, self.masks, self.setup, mech, base_fit=base_fit)
+        return fit_eddi(self.fold, self.sigs, self.masks, self.setup, mech, base_fit=base_fit,
+                        ee_base=self.ee_base)
 
 
 def all_masks(records: Sequence[Record]) -> list[np.ndarray]:
@@ -73,7 +92,7 @@ class FoldResults:
 
 def judge_baseline(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
                    fold_masks: Sequence[Sequence[np.ndarray]], fitter: Fitter
-                   ) -> tuple[FoldResults, list[tuple[FitFn, Fit]]]:
+                   ) -> tuple[FoldResults, list[tuple[FoldFitter, Fit]]]:
     """Per fold: the baseline fitted on the training parts, simulated on the held-out one.
 
     Returns the results and, per fold, the fitting function and the baseline fit (reused by
@@ -102,7 +121,7 @@ def judge_baseline(records: Sequence[Record], setup: Setup, parts: Sequence[Part
     return res, fits
 
 
-def judge_candidates(res: FoldResults, fits: Sequence[tuple[FitFn, Fit]], records: Sequence[Record],
+def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], records: Sequence[Record],
                      setup: Setup, cat: Sequence[Mechanism], skipped: dict[str, str | None],
                      parts: Sequence[Part], fold_masks: Sequence[Sequence[np.ndarray]],
                      fitter: Fitter) -> None:
@@ -119,9 +138,7 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FitFn, Fit]], record
         if need_ee:
             # a mechanism refitted by equation error is judged against the baseline fitted
             # the same way, so it cannot win by its fitter rather than by its physics
-            ee = Setup(mass=setup.mass, damping=setup.damping, stiffness=setup.stiffness,
-                       base=setup.base, coordinate=setup.coordinate, fit="equation-error")
-            ee_fit = fit_ee(fitter.sigs, masks, ee, None)
+            ee_fit = fit_fold.ee_base()
             res.ee_ref.append(nrmse(simulate_part(ee_fit.eom, rec, part), xm) if ee_fit else NRMSE_CAP)
         for mech in tried:
             fit = fit_fold(mech, bfit)
@@ -147,7 +164,7 @@ def spread_of(plist: Sequence[dict[str, float]], keys: Sequence[str]) -> dict[st
 
 
 def build_candidates(cat: Sequence[Mechanism], skipped: dict[str, str | None], res: FoldResults,
-                     fit_all: FitFn, bfit_all: Fit, n_parts: int, consistency: float,
+                     fit_all: FoldFitter, bfit_all: Fit, n_parts: int, consistency: float,
                      k_terms: tuple[str, ...], observed: Observed | None
                      ) -> tuple[list[Candidate], dict[str, Fit], list[str]]:
     """One :class:`Candidate` per mechanism (the kept form of the second mode), and notes."""
@@ -229,7 +246,7 @@ class Decision:
 
 def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: NoiseFloor,
            margin: float, none_factor: float, named_factor: float,
-           reference_margin: float = REFERENCE_MARGIN) -> Decision:
+           reference_margin: float = REFERENCE_MARGIN, strong_margin: float | None = None) -> Decision:
     """``none`` when the baseline's mean held-out nrmse is within ``none_factor`` of the
     floor's (the mean: one noise realisation per part makes a per-part floor noisy); a mechanism when it beats its reference on every part by more than ``margin``
     (halves the error at 0.5), its strength agrees over folds, and its held-out nrmse is
@@ -243,14 +260,15 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
     tried = [c for c in candidates if not c.skipped and c.model is not None]
     helpful = [c for c in tried if c.wins_every_part and c.gain > 0]
     partial = helpful[0] if helpful else None
-    if within:
+    if within and strong_margin is None:
         return Decision("none", None, None, True, "within the noise floor")
     why = []
+    need = strong_margin if within else margin  # within the floor only a strong cut names
     for c in tried:
         fails = []
         cut = 1.0 - c.nrmse / base if base > 0 else 0.0
-        if not cut >= margin:
-            fails.append(f"cuts the error by {100 * cut:.0f} % (needs {100 * margin:.0f} %)")
+        if not cut >= need:
+            fails.append(f"cuts the error by {100 * cut:.0f} % (needs {100 * need:.0f} %)")
         if c.reference != "baseline" and not c.gain >= reference_margin:
             fails.append(f"beats its {c.reference} by {100 * c.gain:.0f} % (needs {100 * reference_margin:.0f} %)")
         if not c.wins_every_part:
@@ -260,8 +278,10 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
         if not c.nrmse <= named_factor * floor.nrmse:
             fails.append(f"leaves nrmse {c.nrmse:.3g}, over {named_factor:g}x the floor {floor.nrmse:.3g}")
         if not fails:
-            return Decision(c.name, c, None, False, "")
+            return Decision(c.name, c, None, within, "")
         why.append(f"{c.name}: " + ", ".join(fails))
+    if within:
+        return Decision("none", None, None, True, "within the noise floor")
     return Decision("unexplained", None, partial, False, "; ".join(why[:2]))
 
 

@@ -59,15 +59,18 @@ def _mode_params(model: ModalSumModel) -> dict[str, float]:
     return out
 
 
-def _training_segments(records: Sequence[Record], masks: Sequence[np.ndarray]
+def _training_segments(records: Sequence[Record], masks: Sequence[np.ndarray], memo: dict
                        ) -> list[tuple[np.ndarray, np.ndarray]]:
-    """(t, v) of every contiguous training stretch long enough to separate modes."""
+    """(t, v) of every contiguous training stretch long enough to separate modes.
+
+    ``memo`` keeps one pair of views per stretch, so the folds hand :func:`identify_modes`
+    the same arrays and its cache separates each stretch once."""
     out = []
-    for r, m in zip(records, masks):
+    for i, (r, m) in enumerate(zip(records, masks)):
         n_min = int(MODE_MIN_SEGMENT_S * r.rate_hz)
         for a, b in runs(m):
             if b - a >= n_min:
-                out.append((r.t[a:b], r.v[a:b]))
+                out.append(memo.setdefault((i, a, b), (r.t[a:b], r.v[a:b])))
     return out
 
 
@@ -107,9 +110,49 @@ def observed_second_mode(records: Sequence[Record], parts: Sequence[Part],
     first: on single-mode nulls with the spectral gate bypassed the two-band model beat it by
     55-82 %, as the wider band identified the one mode worse, a false alarm in waiting.)
     """
-    free_all = []
-    for r in records:
-        free_all.append((r.t[r.free_start:r.free_stop], r.v[r.free_start:r.free_stop]))
+    memo: dict = {}
+    cache: dict = {}  # identify_modes' separations, shared by the folds (arrays kept in memo)
+    free_all = [memo.setdefault((i, r.free_start, r.free_stop), (r.t[r.free_start:r.free_stop],
+                                                                 r.v[r.free_start:r.free_stop]))
+                for i, r in enumerate(records)]
+    gate = _spectral_gate(records, parts, base_sims, base_freq_hz, free_all)
+    if isinstance(gate, Observed):
+        return gate
+    bands_all, peaks, shares, second, ratio, lost = gate
+    folds = _judge_folds(records, parts, fold_masks, (bands_all[1 - second],), damping, stiffness, memo, cache)
+    fold_nrmse, fold_nmte, ref_nrmse, ref_nmte, fold_params, sims = folds
+    try:
+        model, _fits = identify_modes(free_all, bands_all, damping=damping, stiffness=stiffness, cache=cache,
+                                      notes="observed second mode, fitted by eddi.diagnose on every record")
+    except (IdentificationError, SignalError, ModelError) as exc:
+        return Observed(skipped=f"the modal sum could not be fitted on all the records: {exc}")
+    f_miss = peaks[second]
+    other = peaks[1 - second]
+    if lost == len(parts):
+        has = "its simulation diverges (or grows past twice the measurement) on every held-out record"
+    else:
+        has = ("its simulation has no energy there" if ratio[second] < 0.01 else
+               f"its simulation has {100 * ratio[second]:.0f} % of the measured amplitude there")
+        if lost:
+            has += (f" (on the {len(parts) - lost} of {len(parts)} held-out records where it does not "
+                    "diverge)")
+    symptom = (f"misses a second resonance near {f_miss:.4g} Hz, which holds {100 * shares[second]:.0f} % "
+               f"of the measured rate's power (the main one, at {other:.4g} Hz, the rest): {has}. The "
+               "two resonances superposed make the measured cycles change shape and the envelope beat, "
+               "which one mode cannot do; the single-mode model, fitted to both, sits at "
+               f"{base_freq_hz:.4g} Hz. A second mode, seen in the measured coordinate")
+    return Observed(skipped="", fold_nrmse=tuple(fold_nrmse), fold_nmte=tuple(fold_nmte),
+                     ref_fold_nrmse=tuple(ref_nrmse), ref_fold_nmte=tuple(ref_nmte),
+                     fold_params=tuple(fold_params), model=model, params=_mode_params(model),
+                     sims=tuple(sims), symptom=symptom)
+
+
+def _spectral_gate(records: Sequence[Record], parts: Sequence[Part], base_sims: Sequence[np.ndarray],
+                   base_freq_hz: float, free_all: list) -> "Observed | tuple":
+    """Show: two resonances in the measured rate, the baseline lacking the second one.
+
+    Returns an :class:`Observed` saying why the form is not tried, or ``(bands, peaks [Hz],
+    power shares, index of the second, baseline/measured amplitude per peak, lost parts)``."""
     try:
         bands_all = suggest_bands_many(free_all, 2, min_power_ratio=MODE_POWER_RATIO)
     except SignalError:
@@ -145,12 +188,20 @@ def observed_second_mode(records: Sequence[Record], parts: Sequence[Part],
     if ratio[second] >= MODE_BASELINE_SHARE and not on_harmonic:
         return Observed(skipped=(f"the baseline's simulation has both resonances of the measured "
                                   f"spectrum ({peaks[0]:.4g} and {peaks[1]:.4g} Hz)"))
+    return bands_all, peaks, shares, second, ratio, lost
+
+
+def _judge_folds(records: Sequence[Record], parts: Sequence[Part], fold_masks: Sequence[Sequence[np.ndarray]],
+                 main_band: tuple, damping: Sequence[str], stiffness: Sequence[str], memo: dict,
+                 cache: dict) -> tuple:
+    """Extend, per fold: the two-band modal sum and the reference (the main mode's band only,
+    the same model without the second mode) identified on the training records and
+    predicted on the held-out part. Returns ``(fold_nrmse, fold_nmte, ref_nrmse, ref_nmte,
+    fold_params, sims)``."""
     fold_nrmse, fold_nmte, ref_nrmse, ref_nmte, fold_params, sims = [], [], [], [], [], []
-    # the reference keeps the main mode's band only: the same model without the second mode
-    main_band = (bands_all[1 - second],)
     for p, masks in zip(parts, fold_masks):
         rec = records[p.record]
-        segs = _training_segments(records, masks)
+        segs = _training_segments(records, masks, memo)
         xm = rec.x[p.start:p.stop]
         vm = rec.v[p.start:p.stop]
         n = p.stop - p.start
@@ -167,7 +218,7 @@ def observed_second_mode(records: Sequence[Record], parts: Sequence[Part],
             try:
                 if b is None or not segs:
                     raise IdentificationError("no two resonances in the training records")
-                model, _fits = identify_modes(segs, b, damping=damping, stiffness=stiffness)
+                model, _fits = identify_modes(segs, b, damping=damping, stiffness=stiffness, cache=cache)
                 pred = predict_record(model, rec.t, rec.v, start=p.start)
                 xs = pred.simulation.x_modes[:, :n]
                 vs = pred.simulation.v_modes[:, :n]
@@ -192,27 +243,4 @@ def observed_second_mode(records: Sequence[Record], parts: Sequence[Part],
         else:
             ref_nrmse.append(nrmse(one[1].sum(axis=0), xm))
             ref_nmte.append(nmte(one[2].sum(axis=0), vm))
-    try:
-        model, _fits = identify_modes(free_all, bands_all, damping=damping, stiffness=stiffness,
-                                      notes="observed second mode, fitted by eddi.diagnose on every record")
-    except (IdentificationError, SignalError, ModelError) as exc:
-        return Observed(skipped=f"the modal sum could not be fitted on all the records: {exc}")
-    f_miss = peaks[second]
-    other = peaks[1 - second]
-    if lost == len(parts):
-        has = "its simulation diverges (or grows past twice the measurement) on every held-out record"
-    else:
-        has = ("its simulation has no energy there" if ratio[second] < 0.01 else
-               f"its simulation has {100 * ratio[second]:.0f} % of the measured amplitude there")
-        if lost:
-            has += (f" (on the {len(parts) - lost} of {len(parts)} held-out records where it does not "
-                    "diverge)")
-    symptom = (f"misses a second resonance near {f_miss:.4g} Hz, which holds {100 * shares[second]:.0f} % "
-               f"of the measured rate's power (the main one, at {other:.4g} Hz, the rest): {has}. The "
-               "two resonances superposed make the measured cycles change shape and the envelope beat, "
-               "which one mode cannot do; the single-mode model, fitted to both, sits at "
-               f"{base_freq_hz:.4g} Hz. A second mode, seen in the measured coordinate")
-    return Observed(skipped="", fold_nrmse=tuple(fold_nrmse), fold_nmte=tuple(fold_nmte),
-                     ref_fold_nrmse=tuple(ref_nrmse), ref_fold_nmte=tuple(ref_nmte),
-                     fold_params=tuple(fold_params), model=model, params=_mode_params(model),
-                     sims=tuple(sims), symptom=symptom)
+    return fold_nrmse, fold_nmte, ref_nrmse, ref_nmte, fold_params, sims

@@ -50,6 +50,10 @@ class NoiseFloor:
         Per record: change of the conditioned coordinate over its free response under one
         more draw of the noise (relative to its norm).
     method : str
+    prediction_nrmse : tuple of float
+        Per held-out part: ``d_pred``, how far the baseline's refit simulation moves under
+        that draw (NaN where the refit failed). When it dominates, the floor is mostly the
+        baseline's own sensitivity, which a wrong baseline inflates.
     """
 
     nrmse: float
@@ -57,11 +61,12 @@ class NoiseFloor:
     noise_rms: tuple[float, ...]
     conditioning_nrmse: tuple[float, ...]
     method: str
+    prediction_nrmse: tuple[float, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         return {"nrmse": self.nrmse, "fold_nrmse": list(self.fold_nrmse),
                 "noise_rms": list(self.noise_rms), "conditioning_nrmse": list(self.conditioning_nrmse),
-                "method": self.method}
+                "prediction_nrmse": list(self.prediction_nrmse), "method": self.method}
 
 
 @dataclass(frozen=True)
@@ -85,6 +90,43 @@ class Score:
     nrmse: float
     fold_nrmse: tuple[float, ...]
     nmte: float = float("nan")
+
+
+#: What the judging baseline is, and why it is not the pipeline's model (JSON and docs).
+JUDGED_WHAT = ("the same terms fitted by EDDI on the training records of each fold, the fit the "
+               "candidates get: a held-out judgement needs a model that has not seen the part it is "
+               "judged on (the pipeline's model saw its fit record), and a mechanism's gain must come "
+               "from the mechanism, not from a different fit (one record vs several, refined vs not)")
+
+
+@dataclass(frozen=True)
+class PipelineBaseline:
+    """The baseline every other command gives (:class:`eddi.fit_record.Pipeline`).
+
+    ``station identify`` / ``report`` / ``replay`` / ``demo`` fit one record (the median
+    blow) with the pipeline (EDDI, the refinement when it lowers the held-out error) and
+    validate on the others; given to :func:`~eddi.diagnosis.diagnose`, this is the
+    diagnosis's ``baseline`` (the same model and held-out error, bit for bit).
+
+    Attributes
+    ----------
+    model : EquationOfMotion
+    nrmse : float
+        Mean displacement nrmse over the records not used for the fit (over the fit record
+        itself when there is no other).
+    fit_record : int
+        Index of the record the pipeline fitted.
+    held_out : dict of int to float
+        Record index -> its held-out nrmse.
+    choices : dict
+        What the pipeline chose (route, refinement and why, terms; JSON-ready).
+    """
+
+    model: EquationOfMotion
+    nrmse: float
+    fit_record: int
+    held_out: dict[int, float] = field(default_factory=dict)
+    choices: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -187,10 +229,13 @@ class Diagnosis:
         The winning mechanism, ``"none"`` (the baseline reproduces the held-out parts within
         the noise floor) or ``"unexplained"`` (above the floor and no mechanism earns its place).
     baseline, extended : Score
-        The baseline and the extended model (same as the baseline when the cause is none).
+        The baseline and the extended model (same as the baseline when no mechanism is
+        named). With a :class:`PipelineBaseline`, ``baseline`` is the pipeline's model and
+        held-out error (``fold_nrmse``: the records it did not fit) and the per-fold fit the
+        candidates are judged against is :attr:`judged`.
     gain : float
-        Relative reduction of the mean held-out nrmse, ``1 - extended / baseline`` (0 when
-        the cause is none). The verdict itself uses each candidate's gain over its reference
+        Relative reduction of the mean held-out nrmse, ``1 - extended / judging`` (0 when
+        no mechanism is named). The verdict itself uses each candidate's gain over its reference
         (:attr:`Candidate.gain`).
     candidates : tuple of Candidate
         Every mechanism, best first (skipped ones last).
@@ -217,6 +262,9 @@ class Diagnosis:
     partial : str
         Under ``"unexplained"``: the best partial explanation (a mechanism that lowers the
         held-out error on every part without earning the name), empty when none.
+    judged : Score or None
+        With a pipeline baseline: the same terms fitted per fold (:data:`JUDGED_WHAT`).
+    pipeline : PipelineBaseline or None
     """
 
     cause: str
@@ -235,6 +283,14 @@ class Diagnosis:
     noise_floor: NoiseFloor | None = None
     symptoms: tuple[Symptom, ...] = ()
     partial: str = ""
+    judged: Score | None = None
+    pipeline: PipelineBaseline | None = None
+
+    @property
+    def judging(self) -> Score:
+        """The per-fold baseline the candidates are judged against (:attr:`judged`, or the
+        baseline itself when no pipeline baseline was given)."""
+        return self.judged if self.judged is not None else self.baseline
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (no arrays)."""
@@ -255,7 +311,13 @@ class Diagnosis:
             "notes": list(self.notes),
             "parts": [{"record": p.record, "start": p.start, "stop": p.stop,
                        "from_rest": p.from_rest, "label": p.label} for p in self.parts],
-            "baseline": {**score(self.baseline), "spread": self.baseline_spread},
+            "baseline": {**score(self.baseline),
+                         **({"spread": self.baseline_spread} if self.judged is None else
+                            {"source": "pipeline", "fit_record": self.pipeline.fit_record,  # type: ignore[union-attr]
+                             "held_out": {str(k): v for k, v in self.pipeline.held_out.items()},  # type: ignore[union-attr]
+                             "pipeline": dict(self.pipeline.choices)})},  # type: ignore[union-attr]
+            "judged_baseline": ({**score(self.judged), "spread": self.baseline_spread,
+                                 "what": JUDGED_WHAT} if self.judged is not None else None),
             "extended": score(self.extended),
             "candidates": [{
                 "name": c.name, "nrmse": c.nrmse, "fold_nrmse": list(c.fold_nrmse),

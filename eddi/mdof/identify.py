@@ -11,7 +11,9 @@ and the impact force at the driving point). Steps:
    ``physical`` (one coordinate per channel): the motion has a part no linear mode
    describes (a nonlinear energy sink has no linear stiffness, hence no linear mode). With
    ``coordinates="auto"`` the modal choice is also fitted in physical coordinates and
-   dropped when the physical equations close (force balance) twice as well.
+   dropped when the physical equations close (force balance) twice as well; with coupling
+   terms the identification is then also run in physical coordinates and the coordinates whose
+   model reproduces the training records better (mean simulated nrmse) are kept.
 3. **Per coordinate, EDDI with coupling terms** (per unit mass). Library of equation ``i``:
    damping ``v_1..v_n``; own stiffness ``x_i, x_i^3``; coupling stiffness ``x_j`` and every cubic
    monomial but ``x_i^3``. *Phase one* (paper Eq. 7) at the zero crossings ``gamma_k`` of
@@ -26,7 +28,7 @@ and the impact force at the driving point). Steps:
    fitted together on the force balance.
 4. **Sparsity.** A term whose force (RMS over the data) is below ``prune`` times the RMS of
    ``q_i''`` is dropped and the equation refitted (sequential thresholding).
-5. **Input and masses.** Over the impact, ``q_i'' + B_i + K_i = g_i F`` gives the force per
+5. **Input and masses** (:mod:`eddi.mdof.masses`). Over the impact, ``q_i'' + B_i + K_i = g_i F`` gives the force per
    unit mass ``g_i`` by least squares. Modal coordinates: the force enters equation ``i`` as
    ``psi_di F`` (``d`` the driving point) so the modal mass is ``m_i = psi_di / g_i``, the
    driving-point residue route: no mass needs to be given. Physical coordinates: the driven
@@ -52,6 +54,8 @@ import numpy as np
 from eddi.energy import cumulative_energy, rate_interpolant, zero_crossings
 from eddi.errors import IdentificationError
 from eddi.mdof.modal import LinearModes, era, tail_segments
+from eddi.mdof.intervals import JACKKNIFE_BLOCKS, block_jackknife_ci95
+from eddi.mdof.masses import masses_and_inputs
 from eddi.mdof.model import MdofModel
 from eddi.mdof.signals import HIGHPASS_HZ, quasi_static
 from eddi.mdof.terms import MultiTerm, monomial, parse_multi_term
@@ -101,13 +105,19 @@ class Library:
     coupling: tuple[str, ...]
 
 
-def default_library(i: int, n: int, coupling: bool = True) -> Library:
-    """The library of equation ``i`` (0-based) of ``n`` (see the module docstring)."""
+def default_library(i: int, n: int, coupling: bool | str = True) -> Library:
+    """The library of equation ``i`` (0-based) of ``n`` (see the module docstring).
+
+    ``coupling``: True, every coupling term; ``"linear"``, only the linear ones (``x_j``, ``v_j``:
+    physical coordinates joined by linear springs, no nonlinear coupling); False, none.
+    """
     damping = tuple(monomial({j: 1}, n, rate=True) for j in range(n))
     own = (monomial({i: 1}, n), monomial({i: 3}, n))
     if not coupling or n == 1:
         return Library((monomial({i: 1}, n, rate=True),), own, ())
     cpl = [monomial({j: 1}, n) for j in range(n) if j != i]
+    if coupling == "linear":
+        return Library(damping, own, tuple(cpl))
     for combo in itertools.combinations_with_replacement(range(n), 3):
         powers: dict[int, int] = {}
         for j in combo:
@@ -136,6 +146,9 @@ class EquationFit:
     force_residual : float
         RMS of the force balance ``q_i'' + B_i + K_i`` over the free windows relative to the
         RMS of ``q_i''``.
+    stiffness_ci95 : dict of str to float
+        Half-width of the 95 % interval of each stiffness coefficient (per unit mass), from a
+        delete-one-block jackknife of the stiffness fit (:func:`eddi.mdof.intervals.block_jackknife_ci95`).
     """
 
     damping: dict[str, float]
@@ -145,6 +158,7 @@ class EquationFit:
     exchanged_fraction: float
     half_cycles: int
     force_residual: float = math.nan
+    stiffness_ci95: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -162,6 +176,10 @@ class MdofIdentification:
     span_residual : float
         Part of the measured displacement (RMS, relative) the linear mode shapes do not span.
     notes : tuple of str
+    modal_basis : bool
+        False when the tail's linear modes are no modal basis of the motion (more oscillating
+        poles than channels, shapes that do not span it or are ill-conditioned): a motion no
+        linear mode describes, the ``missing_mode`` of diagnosis.
     """
 
     model: MdofModel
@@ -170,6 +188,7 @@ class MdofIdentification:
     equations: tuple[EquationFit, ...]
     span_residual: float
     notes: tuple[str, ...] = field(default_factory=tuple)
+    modal_basis: bool = True
 
 
 def linear_modes(records: Sequence[ChannelRecord], *, tail_fraction: float = 0.2,
@@ -233,7 +252,10 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
     """
     n = data[0][1].shape[0]
     damp, own, cpl = list(lib.damping), list(lib.own), list(lib.coupling)
-    for _round in range(4):
+    blocks = np.concatenate([np.minimum(np.arange(r[1].shape[1]) * JACKKNIFE_BLOCKS // r[1].shape[1],
+                                        JACKKNIFE_BLOCKS - 1) + JACKKNIFE_BLOCKS * j for j, r in enumerate(data)])
+    rounds = 6
+    for _round in range(rounds):
         d_terms, s_terms = _terms(damp, n), _terms(own + cpl, n)
         e_terms = d_terms + _terms(cpl, n)
         rows, rhs, kin0 = [], [], []
@@ -259,7 +281,8 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
         k_force = -qdd[i] - dmat @ b
         k, _ = scaled_lstsq(smat, k_force)
         exchanged = float(np.sum(np.abs(dq[:, len(d_terms):] @ theta))) if theta.size else 0.0
-        if exchanged > max_exchange * float(np.sum(np.abs(dq[:, : len(d_terms)] @ b))):
+        joint = exchanged > max_exchange * float(np.sum(np.abs(dq[:, : len(d_terms)] @ b)))
+        if joint:
             # the coordinate's energy is mostly exchanged, not dissipated (physical coordinates
             # joined by springs): the half-cycle balance cannot resolve the damping; fit damping
             # and stiffness together on the force balance instead
@@ -270,21 +293,26 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
                    and np.sqrt(np.mean((c * col) ** 2)) < prune * scale]
         small_s = [t for t, c, col in zip(own + cpl, k, smat.T) if t != monomial({i: 1}, n)
                    and np.sqrt(np.mean((c * col) ** 2)) < prune * scale]
-        if not small_d and not small_s:
+        if (not small_d and not small_s) or _round == rounds - 1:  # the last round keeps its fit
             break
         damp = [t for t in damp if t not in small_d]
         own = [t for t in own if t not in small_s]
         cpl = [t for t in cpl if t not in small_s]
+    nd = len(d_terms)
+    k_ci = block_jackknife_ci95(  # of the final fit
+        (lambda rows: scaled_lstsq(np.hstack([dmat, smat])[rows], -qdd[i][rows])[0][nd:]) if joint
+        else (lambda rows: scaled_lstsq(smat[rows], k_force[rows])[0]), blocks)
     dissipated = float(np.sum(np.abs(dq[:, : len(d_terms)] @ b)))
     exchanged = float(np.sum(np.abs(dq[:, len(d_terms):] @ theta))) if theta.size else 0.0
     residual = float(np.sqrt(np.mean(((dq @ coef1 - dr) * w) ** 2)))
     damping = {t: float(c) for t, c in zip(damp, b)}
     stiffness = {t: float(c) for t, c in zip(own + cpl, k)}
+    ci95 = {t: float(h) for t, h in zip(own + cpl, k_ci)}
     gain = _input_gain(i, impacts, d_terms, s_terms, b, k)
     dmat, smat = _matrix(_terms(damp, n), q, qd), _matrix(_terms(own + cpl, n), q, qd)
     force_res = float(np.sqrt(np.mean((qdd[i] + dmat @ b + smat @ k) ** 2)) / scale)
     return EquationFit(damping, stiffness, gain, residual, exchanged / max(dissipated, 1e-300), int(dr.size),
-                       force_res)
+                       force_res, ci95)
 
 
 def _input_gain(i: int, impacts: list[tuple], d_terms: list[MultiTerm], s_terms: list[MultiTerm],
@@ -299,7 +327,7 @@ def _input_gain(i: int, impacts: list[tuple], d_terms: list[MultiTerm], s_terms:
 
 
 def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], driving_point: str, *,
-                  coordinates: str = "auto", coupling: bool = True, tail_fraction: float = 0.2,
+                  coordinates: str = "auto", coupling: bool | str = True, tail_fraction: float = 0.2,
                   max_freq_hz: float | None = None, prune: float = 3e-3,
                   highpass_hz: float | None = HIGHPASS_HZ) -> MdofIdentification:
     """Identify ``M q'' + B(q, q') + K(q) = u F`` from multi-channel records (module docstring).
@@ -312,8 +340,9 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
     driving_point : str
         The channel at the hammer.
     coordinates : {"auto", "modal", "physical"}
-    coupling : bool
-        Include coupling terms (False: uncoupled modes, the baseline of diagnosis).
+    coupling : bool or "linear"
+        Include coupling terms (False: uncoupled modes, the baseline of diagnosis in modal
+        coordinates; ``"linear"``: linear coupling only, its baseline in physical ones).
     tail_fraction : float
         Linear modal analysis uses the record after the envelope falls below this fraction.
     max_freq_hz : float, optional
@@ -335,6 +364,30 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
     if driving_point not in channels:
         raise IdentificationError(f"driving point {driving_point!r} is not a channel ({', '.join(channels)})")
     d = channels.index(driving_point)
+    args = (channels, driving_point, d)
+    opts = (coupling, tail_fraction, max_freq_hz, prune, highpass_hz)
+    chosen = _identify_twice(records, *args, coordinates, *opts)
+    if coordinates != "auto" or coupling is not True or chosen.coordinates != "modal" or len(channels) < 2:
+        return chosen
+    # both coordinate systems describe a coupled structure exactly with a complete library; they
+    # differ in conditioning. Keep the one whose model reproduces the training records better.
+    try:
+        other = _identify_twice(records, *args, "physical", *opts)
+    except IdentificationError:
+        return chosen
+    e_modal, e_phys = _training_error(chosen, records), _training_error(other, records)
+    if e_phys < e_modal:
+        note = (f"physical coordinates reproduce the training records better than modal ones (mean nrmse "
+                f"{e_phys:.3g} vs {e_modal:.3g}): physical kept")
+        return replace(other, notes=tuple(dict.fromkeys(other.notes + (note,))))
+    note = f"modal coordinates kept (training nrmse {e_modal:.3g}; physical {e_phys:.3g})"
+    return replace(chosen, notes=tuple(dict.fromkeys(chosen.notes + (note,))))
+
+
+def _identify_twice(records: Sequence[ChannelRecord], channels: tuple[str, ...], driving_point: str, d: int,
+                    coordinates: str, coupling: bool | str, tail_fraction: float, max_freq_hz: float | None,
+                    prune: float, highpass_hz: float | None) -> MdofIdentification:
+    """One identification, then (with a force and ``highpass_hz``) a second on restored records."""
     first = _identify_once(records, channels, driving_point, d, coordinates, coupling, tail_fraction,
                            max_freq_hz, prune)
     if highpass_hz is None or all(r.force is None for r in records):
@@ -342,7 +395,15 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
     fixed = [restore_quasi_static(r, first.model) for r in records]
     second = _identify_once(fixed, channels, driving_point, d, first.coordinates, coupling, tail_fraction,
                             max_freq_hz, prune)
-    return replace(second, notes=tuple(dict.fromkeys(first.notes + second.notes)))
+    return replace(second, notes=tuple(dict.fromkeys(first.notes + second.notes)), modal_basis=first.modal_basis)
+
+
+def _training_error(ident: MdofIdentification, records: Sequence[ChannelRecord]) -> float:
+    """Mean per-channel nrmse of the model's simulation of the records (inf when it diverges)."""
+    from eddi.mdof.validate import validate_mdof  # validation imports this module
+
+    errs = [validate_mdof(ident.model, r).nrmse for r in records]
+    return float(np.mean(errs)) if all(np.isfinite(errs)) else math.inf
 
 
 def receptance(model: MdofModel):
@@ -374,13 +435,14 @@ def restore_quasi_static(r: ChannelRecord, model: MdofModel) -> ChannelRecord:
 
 
 def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], driving_point: str, d: int,
-                   coordinates: str, coupling: bool, tail_fraction: float, max_freq_hz: float | None,
+                   coordinates: str, coupling: bool | str, tail_fraction: float, max_freq_hz: float | None,
                    prune: float) -> MdofIdentification:
     modes = linear_modes(records, tail_fraction=tail_fraction, max_freq_hz=max_freq_hz, driving_point=d)
     kind, tmat, span = choose_coordinates(records, modes, coordinates=coordinates)
     fits = _fit_all(records, tmat, coupling, prune)
     notes_pre: list[str] = []
-    if coordinates == "auto" and kind == "physical":
+    basis = not (coordinates == "auto" and kind == "physical")
+    if not basis:
         notes_pre.append(f"the tail's {modes.shapes.shape[1]} linear mode(s) for {tmat.shape[0]} channels are not a "
                          f"modal basis of the motion (span residual {100 * span:.1f} %): physical coordinates kept")
     if coordinates == "auto" and kind == "modal":
@@ -394,20 +456,36 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
                              f"{100 * r_phys:.2g} %: physical coordinates kept")
             kind, tmat, fits = "physical", np.eye(tmat.shape[0]), phys
     n = tmat.shape[1]
-    masses, inputs, notes = _masses(kind, fits, tmat, d, n)
+    masses, inputs, notes = masses_and_inputs(kind, fits, tmat, d, n)
     notes = notes_pre + notes
     model = MdofModel.create(
         coordinates=kind, mass=tuple(masses), input=tuple(inputs),
         damping=tuple({t: c * m for t, c in f.damping.items()} for f, m in zip(fits, masses)),
         stiffness=tuple({t: c * m for t, c in f.stiffness.items()} for f, m in zip(fits, masses)),
+        stiffness_ci95=tuple({t: h * m for t, h in f.stiffness_ci95.items()} for f, m in zip(fits, masses)),
         channels=channels, shapes=tuple(tuple(float(v) for v in row) for row in tmat),
         driving_point=driving_point,
         notes=f"identified by eddi.mdof from {len(records)} record(s); {kind} coordinates; "
               f"linear modes {', '.join(f'{f:.4g} Hz' for f in modes.frequencies_hz)}")
-    return MdofIdentification(model, modes, kind, fits, span, tuple(notes))
+    growth = _linear_growth_rate(model)
+    if growth > 0:
+        notes.append(f"warning: the identified linear part is unstable (a mode grows at {growth:.3g} 1/s): "
+                     "the damping is not determined by these records")
+    return MdofIdentification(model, modes, kind, fits, span, tuple(notes), basis)
 
 
-def _fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool, prune: float
+def _linear_growth_rate(model: MdofModel) -> float:
+    """Largest real part of the eigenvalues of the model's linear part [1/s] (> 0: unstable)."""
+    m, c, k = model.linear_matrices()
+    n = model.n_coords
+    try:
+        a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(m, k), -np.linalg.solve(m, c)]])
+        return float(np.max(np.linalg.eigvals(a).real))
+    except np.linalg.LinAlgError:
+        return math.nan
+
+
+def _fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool | str, prune: float
              ) -> tuple[EquationFit, ...]:
     """EDDI per coordinate ``q = pinv(T) y`` over every record."""
     proj = np.linalg.pinv(tmat)
@@ -422,62 +500,3 @@ def _fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool,
     noise = np.abs(proj) @ np.max([r.noise for r in records], axis=0)
     return tuple(fit_equation(i, data, impacts, default_library(i, n, coupling), float(noise[i]), prune)
                  for i in range(n))
-
-
-def _masses(kind: str, fits: tuple[EquationFit, ...], tmat: np.ndarray, d: int, n: int
-            ) -> tuple[list[float], list[float], list[str]]:
-    """Masses and input shares (see step 5 of the module docstring)."""
-    notes: list[str] = []
-    gains = np.array([f.input_gain for f in fits])
-    if not np.any(np.abs(gains) > 0):
-        notes.append("no force: every coordinate identified per unit mass (mass 1)")
-        return [1.0] * n, [0.0] * n, notes
-    if kind == "modal":
-        masses, inputs = [], []
-        for i in range(n):
-            u = float(tmat[d, i])
-            g = gains[i]
-            if abs(u) < 1e-6 or g == 0 or u / g <= 0:
-                notes.append(f"mode {i + 1}: no driving-point residue (node at the driving point?); "
-                             "identified per unit mass")
-                masses.append(1.0)
-                inputs.append(float(g))
-            else:
-                masses.append(u / g)
-                inputs.append(u)
-        return masses, inputs, notes
-    masses = [math.nan] * n
-    masses[d] = 1.0 / gains[d] if gains[d] > 0 else 1.0
-    for _ in range(n):  # spread from the driven mass through the coupling terms
-        for i, j in itertools.permutations(range(n), 2):
-            if math.isnan(masses[i]) or not math.isnan(masses[j]):
-                continue
-            ratio = _reciprocity(fits[i], fits[j], i, j, n)
-            if ratio is not None:
-                masses[j] = masses[i] * ratio
-    for j in range(n):
-        if math.isnan(masses[j]):
-            notes.append(f"coordinate {j + 1}: no coupling to a driven mass; identified per unit mass")
-            masses[j] = 1.0
-    return masses, [1.0 if i == d else 0.0 for i in range(n)], notes
-
-
-def _reciprocity(fi: EquationFit, fj: EquationFit, i: int, j: int, n: int) -> float | None:
-    """``m_j / m_i`` from potential terms shared by equations ``i`` and ``j``, or None."""
-    num = den = 0.0
-    for text_i, ci in fi.stiffness.items():
-        e = parse_multi_term(text_i, n).exponents[0].copy()  # powers of x in d P / d x_i
-        e[i] += 1  # the potential monomial P
-        a, b_ = int(e[i]), int(e[j])
-        if b_ == 0 or int(e.sum()) != int(e[i] + e[j]):
-            continue
-        ej = e.copy()
-        ej[j] -= 1
-        text_j = monomial({k: int(p) for k, p in enumerate(ej) if p}, n)
-        cj = fj.stiffness.get(text_j)
-        if cj is None:
-            continue
-        # theta = m_i ci / a = m_j cj / b  ->  m_j / m_i = b ci / (a cj)
-        num += (b_ * ci / a) * cj
-        den += cj * cj
-    return num / den if den > 0 and num / den > 0 else None

@@ -124,6 +124,11 @@ def era(
         if q > 1 and s.shape[1] > 30 * q:
             s = signal.decimate(s, q, ftype="fir", axis=1, zero_phase=True)
         segs.append(s)
+    segs = [s for s in segs if s.shape[1] > 0]
+    if not segs:
+        raise IdentificationError("no low-amplitude tail for ERA: every record ends before its envelope "
+                                  "decays; record longer ring-downs")
+    longest = max(s.shape[1] for s in segs)
     n_ch = segs[0].shape[0]
     p = block_rows or max(max_order, 40 // n_ch + 2)
     h0, h1 = _hankel(segs, p)
@@ -148,7 +153,7 @@ def era(
         wn = abs(l)
         zeta = -l.real / wn
         fd = l.imag / (2 * math.pi)
-        if 0 <= zeta < max_zeta and fd > 0.5 / (dt * len(segs[0][0])) and (max_freq_hz is None or fd < 1.2 * max_freq_hz):
+        if 0 <= zeta < max_zeta and fd > 0.5 / (dt * longest) and (max_freq_hz is None or fd < 1.2 * max_freq_hz):
             keep.append((fd, zeta, k))
     if not keep:
         raise IdentificationError("ERA found no oscillating mode in the free decays")

@@ -54,6 +54,9 @@ class MdofModel(BaseModel):
         ``phi``, shape (n_channels, n_coords): channel displacement per unit coordinate.
     driving_point : str
         The channel at the hammer.
+    stiffness_ci95 : tuple of dict of str to float
+        Optional: half-width of the 95 % interval of each stiffness coefficient (same units),
+        one dict per equation (empty: not estimated).
     notes : str
     """
 
@@ -69,6 +72,7 @@ class MdofModel(BaseModel):
     channels: tuple[str, ...]
     shapes: tuple[tuple[float, ...], ...]
     driving_point: str
+    stiffness_ci95: tuple[dict[str, float], ...] = ()
     notes: str = ""
 
     @model_validator(mode="after")
@@ -86,6 +90,8 @@ class MdofModel(BaseModel):
             raise ValueError(f"mass: every entry must be > 0, got {list(self.mass)}")
         if len(self.shapes) != len(self.channels) or any(len(r) != n for r in self.shapes):
             raise ValueError(f"shapes: expected {len(self.channels)} rows of {n} values")
+        if self.stiffness_ci95 and len(self.stiffness_ci95) != n:
+            raise ValueError(f"stiffness_ci95: expected {n} entries (one per coordinate), got {len(self.stiffness_ci95)}")
         if self.driving_point not in self.channels:
             raise ValueError(f"driving_point {self.driving_point!r} is not among channels {list(self.channels)}")
         for i, (bd, kd) in enumerate(zip(self.damping, self.stiffness)):

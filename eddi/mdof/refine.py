@@ -72,4 +72,38 @@ def refine_mdof(model: MdofModel, records: Sequence[ChannelRecord], *, max_nfev:
     after = float(np.sum(sol.fun**2) * 2 / len(prepared) / n_ch)
     if after >= before:
         return model, before, before
-    return _with(model, sol.x), before, after
+    out = _with(model, sol.x)
+    half = _ci95_scales(sol.jac, sol.fun, [y.size // 2 + y.size % 2 for _r, y, _n in prepared])
+    k, ci = 0, []
+    for i in range(model.n_coords):
+        k += len(model.damping[i])
+        ci.append({t: float(abs(c) * h) for (t, c), h in zip(out.stiffness[i].items(), half[k:])})
+        k += len(model.stiffness[i])
+    return out.model_copy(update={"stiffness_ci95": tuple(ci)}), before, after
+
+
+def _ci95_scales(jac: np.ndarray, fun: np.ndarray, sizes: list[int]) -> np.ndarray:
+    """95 % half-widths of the relative scales ``p`` (coefficient = start value times ``1 + p``).
+
+    Gauss-Newton covariance ``tau s^2 (J^T J)^-1`` at the solution: ``s^2`` the residual
+    variance, ``tau`` the integrated autocorrelation time of the residual (summed until the
+    autocorrelation first drops below zero, averaged over the records): the residual of a
+    ring-down is correlated over many samples (slow noise of the double integration, a phase
+    drift), which inflates the spread of the fit by about ``tau`` over independent samples.
+    """
+    jac = np.asarray(jac.toarray() if hasattr(jac, "toarray") else jac, float)
+    taus, start = [], 0
+    for size in sizes:
+        r = fun[start:start + size]
+        start += size
+        r = r - r.mean()
+        ac = np.correlate(r, r, "full")[r.size - 1:] / max(float(r @ r), 1e-300)
+        neg = np.nonzero(ac < 0)[0]
+        taus.append(1.0 + 2.0 * float(np.sum(ac[1:neg[0] if neg.size else ac.size])))
+    tau = max(1.0, float(np.mean(taus)))
+    s2 = float(fun @ fun) / max(fun.size - jac.shape[1], 1)
+    try:
+        cov = np.linalg.pinv(jac.T @ jac) * s2 * tau
+    except np.linalg.LinAlgError:
+        return np.full(jac.shape[1], np.inf)
+    return 1.96 * np.sqrt(np.maximum(np.diag(cov), 0.0))

@@ -37,6 +37,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--config", metavar="FILE", help="bench configuration (TOML, docs/bench-config.md)")
     p.add_argument("--notes", help="operator notes stored with every capture (replaces the configuration's)")
     p.add_argument("--mass", type=finite_positive, metavar="KG", help="oscillating mass [kg] (replaces the configuration's)")
+    p.add_argument("--driving-point", metavar="CHANNEL",
+                   help="multi-DOF: the response channel at the hammer, stored with every capture (replaces the "
+                        "configuration's [specimen] driving_point; default: the simulated rig's, else none)")
     p.add_argument("--idle-timeout", type=positive_seconds, default=None, metavar="S",
                    help="give up when no data comes for S seconds (default: 10 s for sim://, else wait)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -89,6 +92,8 @@ def _config(args: argparse.Namespace) -> BenchConfig:
         data["notes"] = args.notes
     if args.mass is not None:
         data["specimen"] = {**data["specimen"], "mass_kg": args.mass}
+    if args.driving_point is not None:
+        data["specimen"] = {**data["specimen"], "driving_point": args.driving_point}
     cfg = parse_config(data, "options")
     if cfg.device is None:
         raise ConfigError("--device: expected a device URL (or device.url in --config), got none")

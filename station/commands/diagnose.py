@@ -19,16 +19,24 @@ import argparse
 import math
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from eddi.diagnosis import DEFAULT_MARGIN, FITS, Diagnosis, Record, diagnose
 from eddi.errors import ModelError
-from eddi.diagnosis import ALL_NAMES
-from eddi.model import EquationOfMotion
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
 from station.argtypes import damping_terms, finite_positive, fraction, stiffness_terms
 from station.errors import InputFileError
 from station.output import emit
+
+if TYPE_CHECKING:  # the engine is imported when captures are diagnosed, not for --help
+    from eddi.diagnosis import Diagnosis, PipelineBaseline, Record
+
+#: ``eddi.diagnosis.FITS``, ``DEFAULT_MARGIN`` and ``ALL_NAMES``, written out so that ``--help``
+#: does not import the engine (scipy, numba, pydantic: ~1 s); tests/station/test_cli_startup.py
+#: checks that they equal the engine's.
+FITS = ("eddi", "equation-error")
+DEFAULT_MARGIN = 0.5
+ALL_NAMES = ("coulomb_friction", "quadratic_damping", "cubic_damping", "clearance", "smooth_stiffening",
+             "asymmetric_stiffness", "second_mode", "sensor_highpass")
 
 
 def register(subparsers: Any) -> None:
@@ -59,7 +67,7 @@ def register(subparsers: Any) -> None:
                         "eddi.multimode.load_any_model)")
     p.add_argument("--report", metavar="DIR", help="write an HTML page (index.html) and its figures "
                    "(PNG, units on every axis) into DIR")
-    from station.commands.identify import add_refine_option
+    from station.argtypes import add_refine_option
 
     add_refine_option(p)
     p.add_argument("--driving-point", metavar="CHANNEL",
@@ -95,6 +103,7 @@ def load_measurements(specs: list[str]) -> tuple[list[Record], float | None, lis
     resampled : str or None
         What was resampled onto one grid (clocks differing by up to 200 ppm), None if nothing.
     """
+    from eddi.diagnosis import Record
     from station.readers import read_measurement
     from station.session import condition_measurement, expand_specs
 
@@ -122,22 +131,33 @@ def load_measurements(specs: list[str]) -> tuple[list[Record], float | None, lis
 
 
 def pipeline_baseline(measurements: list[Any], mass: float, damping: str, stiffness: str,
-                      refine: bool) -> dict[str, Any]:
-    """The baseline every other command gives (:func:`station.session.run_session`), JSON-ready.
+                      refine: bool) -> tuple[dict[str, Any], PipelineBaseline]:
+    """The baseline every other command gives (:func:`station.session.run_session`).
 
     The same model and held-out error as ``station identify`` / ``report`` / ``replay`` on
-    these records: identified on the middle force level, validated on the others.
+    these records: identified on the middle force level, validated on the others. Returns
+    the JSON object (as ``replay``) and the :class:`~eddi.diagnosis.PipelineBaseline` the
+    diagnosis takes as its baseline.
     """
+    from eddi.diagnosis import PipelineBaseline
     from station.commands.replay import session_object
     from station.session import run_session
 
     session = run_session(measurements, mass, damping=damping, stiffness=stiffness, refine=refine)
     obj = session_object(session)
     obj["model"] = session.fit.model.eom.to_dict()
-    return obj
+    k = session.fit_index
+    others = [i for i in range(len(measurements)) if i != k]
+    held = {i: float(c.nrmse) for i, c in zip(others, session.held_out)}
+    nrmse = session.mean_nrmse if session.mean_nrmse is not None else session.fit.validation.nrmse
+    choices = session.fit.choices.as_dict() if session.fit.choices is not None else {}
+    return obj, PipelineBaseline(model=session.fit.model.eom, nrmse=float(nrmse), fit_record=k,
+                                 held_out=held, choices=choices)
 
 
 def handle(args: argparse.Namespace) -> int:
+    from eddi.diagnosis import diagnose
+    from eddi.model import EquationOfMotion
     from station.output_safety import check_output
 
     inputs = [*args.captures, *([args.model] if args.model else [])]
@@ -172,14 +192,16 @@ def handle(args: argparse.Namespace) -> int:
         raise InputFileError("no mass: give --mass KG (or --model, or captures with a mass in their metadata)")
     if base is not None and args.mass is not None and abs(args.mass - base.mass) > 1e-9 * base.mass:
         raise ModelError(f"--mass {args.mass} differs from the model's mass {base.mass}")
+    pipe_obj, pipe = None, None
+    if base is None:  # the baseline is the pipeline's (the same model and error as identify)
+        pipe_obj, pipe = pipeline_baseline(measurements, float(mass), args.damping, args.stiffness, args.refine)
     diag = diagnose(records, mass, damping=args.damping, stiffness=args.stiffness, base=base,
-                    mechanisms=mechanisms, margin=args.margin, fit=args.fit)
+                    mechanisms=mechanisms, margin=args.margin, fit=args.fit, pipeline=pipe)
     obj = diag.to_dict()
     obj["captures"] = [r.label for r in records]
     obj["resampled"] = resampled
-    if base is None:
-        obj["pipeline_baseline"] = pipeline_baseline(measurements, float(mass), args.damping, args.stiffness,
-                                                     args.refine)
+    if pipe_obj is not None:
+        obj["pipeline_baseline"] = pipe_obj
     if args.save_model:
         Path(args.save_model).write_text(diag.extended.model.to_json() + "\n")
         obj["saved_model"] = args.save_model
@@ -199,7 +221,8 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
              "",
              f"{'rank':>4}  {'mechanism':<22} {'held-out nrmse':>14} {'gain':>7}  {'every part':<10} "
              f"{'consistent':<10} parameters (± spread over folds)",
-             f"{'':>4}  {'(baseline)':<22} {diag.baseline.nrmse:>14.4g}"]
+             f"{'':>4}  {'(baseline per fold)' if diag.judged is not None else '(baseline)':<22} "
+             f"{diag.judging.nrmse:>14.4g}"]
     rank = 0
     for c in diag.candidates:
         if c.skipped:
@@ -225,6 +248,9 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
     if obj.get("resampled"):
         lines.append(f"Note: {obj['resampled']}.")
     lines += ["", f"Baseline: {diag.baseline.model.equation_text()}"]
+    if diag.judged is not None:
+        lines.append(f"Judged against (the same terms fitted on all the records, as in every fold): "
+                     f"{diag.judged.model.equation_text()}")
     pb = obj.get("pipeline_baseline")
     if pb is not None:
         v = pb["validation"]["nrmse"]

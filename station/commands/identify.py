@@ -10,14 +10,16 @@ from __future__ import annotations
 
 import argparse
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from eddi.fit_record import Pipeline, PipelineResult
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
 from station.argtypes import add_refine_option, damping_terms, finite_positive, stiffness_terms  # noqa: F401 (re-export)
 from station.errors import ConfigError
 from station.output import emit
-from station.readers import Measurement, read_measurement
+
+if TYPE_CHECKING:  # the engine is imported when a record is identified, not for --help
+    from eddi.fit_record import PipelineResult
+    from station.readers import Measurement
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -62,6 +64,7 @@ def _mass(arg: float | None, meas: Measurement) -> float:
 def run_identify(meas: Measurement, mass: float, damping: str, stiffness: str,
                  route: str = "auto", refine: bool = True) -> PipelineResult:
     """Condition, identify and validate one measurement (:class:`eddi.fit_record.Pipeline`)."""
+    from eddi.fit_record import Pipeline
     from station.session import condition_measurement
 
     pipe = Pipeline.create(damping, stiffness, route, refine)
@@ -158,6 +161,7 @@ def _text(obj: dict[str, Any]) -> str:
 
 
 def handler(args: argparse.Namespace) -> int:
+    from station.readers import read_measurement
     from station.session import expand_specs, read_all, run_session
 
     specs = expand_specs(list(args.path))

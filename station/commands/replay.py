@@ -95,7 +95,7 @@ def stream_through_device(path: str, capture: int, *, timeout_s: float = 5.0) ->
 
 
 def register(subparsers: Any) -> None:
-    from station.commands.identify import add_refine_option
+    from station.argtypes import add_refine_option
 
     """Add the ``replay`` sub-command."""
     p = subparsers.add_parser("replay", help="rerun the pipeline on saved captures (optionally through the device)",

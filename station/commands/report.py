@@ -21,7 +21,7 @@ from station.output import emit
 
 
 def register(subparsers: Any) -> None:
-    from station.commands.identify import add_refine_option
+    from station.argtypes import add_refine_option
 
     """Add the ``report`` sub-command."""
     p = subparsers.add_parser("report", help="HTML report with the paper's figures (identify + validate)",

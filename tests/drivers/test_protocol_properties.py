@@ -114,3 +114,70 @@ def test_pure_garbage_never_raises_and_yields_nothing(garbage, chunk):
     assert out == []
     assert dec.stats.frames == 0
     assert dec.stats.bytes == len(garbage)
+
+
+class _GeneralPathOnly(StreamDecoder):
+    """The decoder without its fast path for in-order DATA frames (the reference)."""
+
+    def _in_order_data(self, raws):  # type: ignore[no-untyped-def]
+        return None
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n_frames=st.integers(1, 30),
+    events=st.lists(st.tuples(st.integers(0, 29), st.sampled_from(["gap", "repeat", "back", "reply", "short"])),
+                    max_size=5),
+    seq0=st.sampled_from([0, 2**32 - 3]),
+    expect=st.sampled_from([None, 0, 5]),
+    chunks=st.lists(st.integers(1, 5000), min_size=1, max_size=5),
+)
+def test_fast_path_counts_and_delivers_exactly_as_the_general_path(seed, n_frames, events, seq0, expect, chunks):
+    """Equal-size DATA frames take the decoder's fast path unless a seq/counter jump, a reply or
+    another layout interrupts them; frames and every counter equal the general path's."""
+    rng = np.random.default_rng(seed)
+    block, nch, width = 16, 3, 3
+    counts = rng.integers(-(1 << 23), 1 << 23, (block * (n_frames + 10), nch)).astype(np.int32)
+    todo = dict(events)
+    parts, seq, first = [], seq0, 0
+    for k in range(n_frames):
+        what = todo.get(k)
+        if what == "gap":
+            first += 7
+            seq += 2
+        elif what == "back":
+            first = max(0, first - 3)
+        elif what == "reply":
+            parts.append(encode_reply(seq, 1, FrameType.STATUS, ReplyStatus.OK, {}))
+            seq += 1
+        n = block // 2 if what == "short" else block
+        frame = encode_data(seq, first, counts[first : first + n], width, 7)
+        parts.append(frame)
+        if what == "repeat":
+            parts.append(frame)
+        seq += 1
+        first += n
+    data = b"".join(parts)
+    results = []
+    for cls in (StreamDecoder, _GeneralPathOnly):
+        dec = cls()
+        dec.expect_sample(expect)
+        got, pos, i = [], 0, 0
+        while pos < len(data):
+            got += dec.feed(data[pos : pos + chunks[i % len(chunks)]])
+            pos += chunks[i % len(chunks)]
+            i += 1
+        results.append((dec, got))
+    (fast, got_fast), (ref, got_ref) = results
+    assert fast.stats == ref.stats
+    assert fast.expected_sample == ref.expected_sample and fast._expected_seq == ref._expected_seq
+    assert len(got_fast) == len(got_ref)
+    for a, b in zip(got_fast, got_ref):
+        assert type(a) is type(b)
+        if isinstance(a, DataFrame):
+            assert (a.seq, a.first_sample, a.channel_mask, a.dropped_before) == (
+                b.seq, b.first_sample, b.channel_mask, b.dropped_before)
+            np.testing.assert_array_equal(a.counts, b.counts)
+        else:
+            assert a == b

@@ -13,7 +13,10 @@ import pytest
 from station.cli import COMMANDS, main
 
 REPO = Path(__file__).resolve().parents[2]
-HEAVY = ("numpy", "scipy", "numba", "matplotlib", "pysindy", "h5py", "pydantic")
+HEAVY = ("numpy", "scipy", "numba", "matplotlib", "pysindy", "h5py", "pydantic", "scipy.signal", "dask",
+         "distributed", "pyarrow")
+#: What analysis commands' ``--help`` must not import (numpy is allowed): the engine's libraries.
+ENGINE = {"scipy", "numba", "pydantic", "matplotlib", "pysindy", "dask", "distributed", "h5py", "pyarrow"}
 
 
 def _modules_after(argv: list[str]) -> tuple[int, set[str], str]:
@@ -45,6 +48,33 @@ def test_acquisition_commands_help_imports_no_engine(command: str) -> None:
     rc, heavy, out = _modules_after([command, "--help"])
     assert rc == 0 and f"usage: station {command}" in out
     assert not heavy & {"numba", "matplotlib", "pysindy", "scipy"}, heavy
+
+
+@pytest.mark.parametrize("command", ["identify", "validate", "diagnose", "report", "replay", "campaign", "export"])
+def test_analysis_commands_help_imports_no_engine(command: str) -> None:
+    """Issue 13: ``--help`` of a command that runs the engine does not load it (~1 s of CPU)."""
+    rc, heavy, out = _modules_after([command, "--help"])
+    assert rc == 0 and f"usage: station {command}" in out
+    assert not heavy & ENGINE, heavy
+
+
+def test_identify_on_a_csv_imports_only_what_it_uses() -> None:
+    """A CSV record: no HDF5, no figures, no SINDy, no Dask, no scipy.signal (modal sums only)."""
+    csv = REPO / "station" / "examples" / "duffing-impact.csv"
+    rc, heavy, out = _modules_after(["identify", str(csv), "--mass", "0.815", "--no-refine", "--json"])
+    assert rc == 0 and json.loads(out)["validation"]["nrmse"] < 0.1
+    assert {"numpy", "scipy", "numba"} <= heavy  # it did identify and simulate
+    assert not heavy & {"matplotlib", "pysindy", "dask", "distributed", "h5py", "pyarrow", "scipy.signal"}, heavy
+
+
+def test_diagnose_help_constants_are_the_engines() -> None:
+    """``station diagnose`` writes three engine constants out so that ``--help`` stays light."""
+    from eddi import diagnosis
+    from station.commands import diagnose
+
+    assert diagnose.ALL_NAMES == diagnosis.ALL_NAMES
+    assert diagnose.FITS == diagnosis.FITS
+    assert diagnose.DEFAULT_MARGIN == diagnosis.DEFAULT_MARGIN
 
 
 def test_version_is_printed_and_exits_0(capsys: pytest.CaptureFixture[str]) -> None:

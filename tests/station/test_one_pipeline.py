@@ -33,7 +33,15 @@ def test_identify_replay_report_demo_and_diagnose_agree(tmp_path: Path) -> None:
     ident = _json(["identify", session])
     replay = _json(["replay", session])
     report = _json(["report", session, "--out", str(tmp_path / "rep")])
-    diag = _json(["diagnose", session, "--mechanisms", "coulomb_friction"])["pipeline_baseline"]
+    full = _json(["diagnose", session, "--mechanisms", "coulomb_friction"])
+    diag = full["pipeline_baseline"]
+    # diagnose's own baseline is the pipeline's: the same model and held-out error as identify
+    # (the candidates are judged against the per-fold fit, reported beside it)
+    assert full["baseline"]["source"] == "pipeline"
+    assert full["baseline"]["model"]["stiffness"] == ident["stiffness"]
+    assert full["baseline"]["model"]["damping"] == ident["damping"]
+    assert full["baseline"]["nrmse"] == ident["held_out"]["nrmse"]
+    assert full["judged_baseline"]["fold_nrmse"] and full["judged_baseline"]["what"]
     models = {"demo": dobj["identified"], "identify": ident, "replay": replay["identified"],
               "report": report["identified"], "diagnose": diag["identified"]}
     errors = {"demo": dobj["validation"]["nrmse"], "identify": ident["held_out"]["nrmse"],

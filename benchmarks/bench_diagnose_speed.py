@@ -1,0 +1,173 @@
+"""Diagnosis speed as ratios to a floor measured in the same run (issue 13 item 2).
+
+Two cases:
+
+* ``three``: three 6 s captures at 10 kHz of the 12.3 Hz test system with a hidden clearance
+  (the simulated rig, acceleration-only chain at 45 dB; made before timing starts);
+* ``beam``: the nine real double-beam ring-downs (``/work/shared/data/resonant-double-beam``
+  or ``tests/data/resonant-double-beam``; velocity at 5120 Hz, no force).
+
+For each, the **floor** is reading and conditioning the same records (what any analysis of
+them must pay: ``condition`` on the arrays for ``three``, CSV read + conditioning for
+``beam``); the diagnosis is :func:`eddi.diagnosis.diagnose` on the conditioned records
+(library call, default catalogue). Printed: min and median wall time over ``--runs``, the
+process CPU time, the ratio to the floor, and the 1-minute load average before and after.
+Targets (issue 13): ``three`` <= 3 s, ``beam`` <= 8 s on a quiet 2-core machine.
+
+    python benchmarks/bench_diagnose_speed.py                  # both cases, 3 runs each
+    python benchmarks/bench_diagnose_speed.py --case three --runs 1 --profile 25
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import os
+import pstats
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+BEAM_DIRS = (Path("/work/shared/data/resonant-double-beam"), ROOT / "tests" / "data" / "resonant-double-beam")
+
+
+def _three_raw() -> list:
+    """Three raw rig captures (6 s at 10 kHz, hidden clearance 0.1) as ImpactRecords."""
+    from eddi.model import EquationOfMotion
+    from simulated_rig.bench import impact_test
+    from simulated_rig.systems import hide_effect
+
+    eom = EquationOfMotion.create(mass=0.1, damping={"v": 0.06}, stiffness={"x": 600.0, "x^3": 2e7})
+    r = impact_test(eom, 25.0, rate_hz=10000.0, pretrigger_s=0.05, record_s=0.5, snr_db=None, seed=0)
+    amp, vel = float(np.max(np.abs(r.truth_x))), float(np.max(np.abs(r.truth_v)))
+    truth = hide_effect(eom, "clearance", 0.1, 0, amplitude_m=amp, velocity_m_s=vel)
+    return [impact_test(truth, f, rate_hz=10000.0, pretrigger_s=0.2, record_s=6.0, snr_db=45.0, seed=i)
+            for i, f in enumerate((20.0, 25.0, 30.0))]
+
+
+def _three_floor(raw: list) -> list:
+    from eddi.conditioning import condition
+    from eddi.diagnosis import Record
+
+    out = []
+    for i, r in enumerate(raw):
+        c = condition(r.t, acc=r.acc_m_s2, force=r.force_n, pretrigger_samples=r.pretrigger_samples)
+        out.append(Record.from_conditioned(c, label=f"impact {i + 1}", pretrigger_samples=r.pretrigger_samples))
+    return out
+
+
+def _beam_files() -> list[str]:
+    for d in BEAM_DIRS:
+        files = sorted(str(p) for p in d.glob("ringdown-*.csv"))
+        if len(files) >= 2:
+            return files
+    raise SystemExit("no double-beam ring-downs found in " + " or ".join(map(str, BEAM_DIRS)))
+
+
+def _beam_floor(files: list[str]) -> list:
+    from station.commands.diagnose import load_records
+
+    return load_records(files)[0]
+
+
+def _time(fn, runs: int) -> tuple[list[float], float, object]:
+    walls, out = [], None
+    c0 = time.process_time()
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        out = fn()
+        walls.append(time.perf_counter() - t0)
+    return walls, (time.process_time() - c0) / runs, out
+
+
+def run_case(case: str, runs: int, profile: int) -> None:
+    from eddi.diagnosis import diagnose
+
+    if case == "three":
+        raw = _three_raw()
+        floor_fn = lambda: _three_floor(raw)  # noqa: E731
+        kw = dict(mass=0.1, damping="v,x^2*v,v^3", stiffness="x,x^2,x^3,x^4,x^5")
+        target = 3.0
+    else:
+        files = _beam_files()
+        floor_fn = lambda: _beam_floor(files)  # noqa: E731
+        kw = dict(mass=1.0)
+        target = 8.0
+    load0 = os.getloadavg()[0]
+    fwall, fcpu, records = _time(floor_fn, runs)
+    diagnose(records, **kw)  # warm: imports, numba caches
+    if profile:
+        prof = cProfile.Profile()
+        prof.enable()
+        d = diagnose(records, **kw)
+        prof.disable()
+        pstats.Stats(prof).sort_stats("cumulative").print_stats(profile)
+        pstats.Stats(prof).sort_stats("tottime").print_stats(profile)
+    dwall, dcpu, d = _time(lambda: diagnose(records, **kw), runs)
+    load1 = os.getloadavg()[0]
+    fmin, dmin = min(fwall), min(dwall)
+    print(f"{case}: {len(records)} records; floor (read + condition) min {fmin:.3f} s median "
+          f"{statistics.median(fwall):.3f} s (CPU {fcpu:.3f} s)")
+    print(f"{case}: diagnose min {dmin:.2f} s median {statistics.median(dwall):.2f} s (CPU {dcpu:.2f} s "
+          f"per run) = {dmin / fmin:.1f}x the floor; target {target:g} s "
+          f"({'met' if dmin <= target else 'NOT met'} at this load); cause {d.cause}")  # type: ignore[attr-defined]
+    print(f"{case}: load average (1 min) {load0:.2f} before, {load1:.2f} after; {os.cpu_count()} CPUs")
+
+
+def run_cli(runs: int) -> None:
+    """``station diagnose`` as a whole process on the ``three`` captures written as CSV, with
+    and without the pipeline baseline's refinement; floor: ``python -c "import numpy"``."""
+    import subprocess
+    import tempfile
+
+    raw = _three_raw()
+    with tempfile.TemporaryDirectory() as tmp:
+        files = []
+        for i, r in enumerate(raw):
+            path = Path(tmp) / f"c{i}.csv"
+            np.savetxt(path, np.column_stack((r.t, r.force_n, r.acc_m_s2)), delimiter=",",
+                       header="t,force,acc", comments="", fmt="%.10g")
+            files.append(str(path))
+        env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+        cmds = {"import numpy (floor)": [sys.executable, "-c", "import numpy"],
+                "station diagnose --no-refine": [sys.executable, "-m", "station.cli", "diagnose", *files,
+                                                 "--mass", "0.1", "--no-refine", "--json"],
+                "station diagnose (default: refine)": [sys.executable, "-m", "station.cli", "diagnose", *files,
+                                                       "--mass", "0.1", "--json"]}
+        load0 = os.getloadavg()[0]
+        walls: dict[str, list[float]] = {}
+        for name, cmd in cmds.items():
+            for _ in range(runs):
+                t0 = time.perf_counter()
+                subprocess.run(cmd, env=env, check=True, stdout=subprocess.DEVNULL)
+                walls.setdefault(name, []).append(time.perf_counter() - t0)
+        floor = min(walls["import numpy (floor)"])
+        for name, w in walls.items():
+            print(f"cli: {name}: min {min(w):.2f} s median {statistics.median(w):.2f} s = "
+                  f"{min(w) / floor:.1f}x the floor")
+        print(f"cli: load average (1 min) {load0:.2f} before, {os.getloadavg()[0]:.2f} after")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+    ap.add_argument("--case", choices=("three", "beam", "both", "cli"), default="both",
+                    help="cli: whole station diagnose processes on the three captures as CSV")
+    ap.add_argument("--runs", type=int, default=3, help="timed runs per case (default: %(default)s)")
+    ap.add_argument("--profile", type=int, default=0, metavar="N",
+                    help="print the N top cProfile lines of one extra run (default: off)")
+    args = ap.parse_args()
+    np.seterr(all="ignore")
+    if args.case == "cli":
+        run_cli(max(1, args.runs))
+        return
+    for case in (("three", "beam") if args.case == "both" else (args.case,)):
+        run_case(case, max(1, args.runs), args.profile)
+
+
+if __name__ == "__main__":
+    main()
