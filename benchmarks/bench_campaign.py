@@ -31,13 +31,18 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-import psutil
+# the floor loop runs BLAS single-threaded, as the CLI and Dask's workers do (station.cli, the
+# nanny's pre-spawn environment): set before numpy is imported
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
+import psutil  # noqa: E402
 
 from simulated_rig.bench import impact_test
 from simulated_rig.systems import system_info
 from station.campaign import tasks
-from station.campaign.run import dask_client, run_campaign
+from station.campaign.run import MAX_AUTO_CHUNK, dask_client, run_campaign
 from station.campaign.sources import expand_sources
 from station.campaign.table import Journal
 from station.storage import CaptureWriter
@@ -140,7 +145,8 @@ def main() -> None:
     ap.add_argument("--rate", type=float, default=10000.0, help="sample rate [Hz] (default 10000)")
     ap.add_argument("--per-session", type=int, default=50, help="captures per HDF5 session file (default 50)")
     ap.add_argument("--workers", default="1,2", help="worker counts to run, comma-separated (default 1,2)")
-    ap.add_argument("--chunk", type=int, default=1, help="captures per Dask task (default 1)")
+    ap.add_argument("--chunk", type=int, default=None,
+                    help="captures per Dask task (default: as station campaign, station.campaign.run.auto_chunk)")
     ap.add_argument("--floor-n", type=int, default=100, help="captures of the in-process floor loop (default 100)")
     ap.add_argument("--data", help="folder for the generated sessions (kept; default: a temporary folder)")
     ap.add_argument("--refine", action=argparse.BooleanOptionalAction, default=None,
@@ -189,16 +195,17 @@ def main() -> None:
                           f"{1000 * r['net_cpu_per_capture_s']:.0f} ms: Dask's cost per capture "
                           f"{1000 * (r['net_cpu_per_capture_s'] - fl_cpu / fl_n):.0f} ms")
             widest = max(results, key=lambda r: r["workers"])
+            big_chunk = args.chunk or MAX_AUTO_CHUNK  # a million captures: the automatic chunk's cap
             eff = min(1.0, widest["rate"] / (widest["workers"] * base["rate"]))
             per_worker = base["rate"]
             print(f"projection for 1,000,000 captures (per-worker rate {per_worker:.2f}/s measured on 1 worker, "
                   f"parallel efficiency {eff:.2f} measured on {widest['workers']}; the Dask scheduler handles a few thousand "
-                  f"tasks/s, so beyond ~{int(2000 * args.chunk / max(per_worker, 1e-9))} workers use --chunk):")
+                  f"tasks/s, so beyond ~{int(2000 * big_chunk / max(per_worker, 1e-9))} workers use larger --chunk):")
             cpu_rate = 1.0 / widest["net_cpu_per_capture_s"]  # captures per core-second, net of idle background
             print(f"  {'workers':>7}  {'from wall rates here':>20}  {'from CPU per capture (own cores)':>32}")
             for n in (2, 16, 64, 256, 1024):
-                rate = min(n * per_worker * eff, 2000.0 * args.chunk)
-                rate_cpu = min(n * cpu_rate, 2000.0 * args.chunk)
+                rate = min(n * per_worker * eff, 2000.0 * big_chunk)
+                rate_cpu = min(n * cpu_rate, 2000.0 * big_chunk)
                 print(f"  {n:7d}  {1e6 / rate / 3600:18.2f} h  {1e6 / rate_cpu / 3600:30.2f} h")
 
 

@@ -2,7 +2,7 @@
 
 For each system and seed an impact record is simulated (``tests/eddi/impact_cases.py``:
 half-sine hammer, force + accelerometer, white noise at ``--snr`` dB, 24-bit), conditioned
-and identified by the pipeline with the system's own terms (``Pipeline(damping=...,
+(``Pipeline.condition``) and identified by the pipeline with the system's own terms (``Pipeline(damping=...,
 stiffness=...)``, as ``station identify --damping ... --stiffness ...`` does). For every true
 coefficient, ``z = (c - c_true) / (ci95 / 1.96)``; the interval covers when ``|z| <= 1.96``.
 
@@ -36,7 +36,6 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from eddi.conditioning import condition  # noqa: E402
 from eddi.fit_record import Pipeline  # noqa: E402
 from tests.eddi.impact_cases import SYSTEMS, impact_record  # noqa: E402
 
@@ -66,7 +65,7 @@ def run_case(spec: dict, seeds: range, snr_db: float, refine: bool, rate_hz: flo
     pipe = Pipeline(damping=tuple(spec["damping"]), stiffness=tuple(spec["stiffness"]), refine=refine)
     for seed in seeds:
         r = impact_record(spec, rate_hz=rate_hz, duration_s=duration_s, pretrigger_s=0.2, snr_db=snr_db, seed=seed)
-        res = pipe.fit(condition(r.t, acc=r.acc, force=r.force), spec["mass"])
+        res = pipe.fit(pipe.condition(r.t, acc=r.acc, force=r.force), spec["mass"])
         kind = "refined" if res.choices.refinement == "kept" else "EDDI"
         for group in ("damping", "stiffness"):
             for term, c in spec[group].items():

@@ -137,7 +137,7 @@ def coupling_errors(truth: MdofModel, ident: MdofModel, records: list[ChannelRec
             worst = max(worst, err)
             ci = ident.stiffness_ci95[i].get(t) if ident.stiffness_ci95 else None
             if t not in ident.stiffness[i]:
-                band = " (dropped: not determined by the data)"
+                band = " (pruned: force below 0.3 % of the equation's)"
             elif ci is None:
                 band = ""
             else:

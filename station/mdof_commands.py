@@ -68,35 +68,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     records, names, dp = condition_all(meas, driving_point)
     if len(records) < 2:
         raise InputFileError("diagnose on multi-channel captures needs at least 2 captures (one is held out)")
-    folds: dict[str, list] = {"baseline": [], "coupled": []}
-    per_channel = {k: {c: [] for c in names} for k in folds}
-    per_mode: dict[str, list] = {k: [] for k in folds}
-    span = 0.0
-    for k in range(len(records)):
-        train = [r for j, r in enumerate(records) if j != k]
-        # the baseline has no nonlinear coupling: the better (held out) of uncoupled modes and
-        # physical coordinates joined by linear springs only
-        for kind, variants in (("coupled", (("auto", True),)),
-                               ("baseline", (("auto", False), ("physical", "linear")))):
-            best = None
-            for coords, coupling in variants:
-                try:
-                    ident = identify_mdof(train, names, dp, coordinates=coords, coupling=coupling)
-                except IdentificationError as exc:
-                    if best is not None or (coords, coupling) != variants[-1]:
-                        continue
-                    raise InputFileError(f"identification failed with {records[k].label} held out: {exc}") from None
-                cand = (validate_mdof(ident.model, records[k]), ident)
-                if best is None or cand[0].nrmse < best[0].nrmse or not math.isfinite(best[0].nrmse):
-                    best = cand
-            if best is None:
-                raise InputFileError(f"identification failed with {records[k].label} held out")
-            v, ident = best
-            span = max(span, ident.span_residual)
-            folds[kind].append(v.nrmse)
-            per_mode[kind].append([float(x) for x in v.mode_nrmse])
-            for c, e in v.channel_nrmse.items():
-                per_channel[kind][c].append(e)
+    folds, per_channel, per_mode, span = _held_out_folds(records, names, dp)
     base = float(np.mean(folds["baseline"]))
     cpl = float(np.mean(folds["coupled"]))
     gain = (base - cpl) / base if base > 0 and math.isfinite(base) else (1.0 if math.isfinite(cpl) else 0.0)
@@ -144,6 +116,45 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     return obj
 
 
+def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str
+                    ) -> tuple[dict[str, list], dict[str, dict[str, list]], dict[str, list], float]:
+    """Leave-one-out held-out errors of the coupled model and of the baseline (no nonlinear coupling).
+
+    Returns per kind (``baseline``, ``coupled``) the fold nrmse, the per-channel and per-mode
+    errors, and the largest span residual of the tail's shapes.
+    """
+    folds: dict[str, list] = {"baseline": [], "coupled": []}
+    per_channel = {k: {c: [] for c in names} for k in folds}
+    per_mode: dict[str, list] = {k: [] for k in folds}
+    span = 0.0
+    for k in range(len(records)):
+        train = [r for j, r in enumerate(records) if j != k]
+        # the baseline has no nonlinear coupling: the better (held out) of uncoupled modes and
+        # physical coordinates joined by linear springs only
+        for kind, variants in (("coupled", (("auto", True),)),
+                               ("baseline", (("auto", False), ("physical", "linear")))):
+            best = None
+            for coords, coupling in variants:
+                try:
+                    ident = identify_mdof(train, names, dp, coordinates=coords, coupling=coupling)
+                except IdentificationError as exc:
+                    if best is not None or (coords, coupling) != variants[-1]:
+                        continue
+                    raise InputFileError(f"identification failed with {records[k].label} held out: {exc}") from None
+                cand = (validate_mdof(ident.model, records[k]), ident)
+                if best is None or cand[0].nrmse < best[0].nrmse or not math.isfinite(best[0].nrmse):
+                    best = cand
+            if best is None:
+                raise InputFileError(f"identification failed with {records[k].label} held out")
+            v, ident = best
+            span = max(span, ident.span_residual)
+            folds[kind].append(v.nrmse)
+            per_mode[kind].append([float(x) for x in v.mode_nrmse])
+            for c, e in v.channel_nrmse.items():
+                per_channel[kind][c].append(e)
+    return folds, per_channel, per_mode, span
+
+
 def _coords(text: str) -> set[int]:
     import re
 
@@ -162,8 +173,9 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
              f"Cause: {obj['cause']}" + ("" if obj["cause"] != "modal_coupling" else
                                          f" (coupling terms: {obj['coupling_terms']})"),
              f"Natural frequencies: {', '.join(f'{f:.5g} Hz' for f in obj['natural_frequencies_hz'])}",
-             "Coupling coefficients (value +- 95 % half-width, SI per coordinate; terms whose interval "
-             "held zero were dropped): " + "; ".join(
+             "Coupling coefficients (value +- 95 % half-width; SI: N/m^k per physical coordinate, per unit "
+             "modal coordinate otherwise; an interval wider than the value: not determined by these records): "
+             + "; ".join(
                  f"eq {i + 1}: " + (", ".join(f"{t} {c:.4g} +- {h:.2g}" if h is not None else f"{t} {c:.4g}" for t, (c, h) in eq.items()) or "none")
                  for i, eq in enumerate(obj["coupling_coefficients"])),
              f"Model: {obj['model']}"]

@@ -163,13 +163,14 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
                 raise InputFileError(f"{path}: empty file; expected a header naming columns t, acc, ...")
             names = [h.strip().lower() for h in header.strip().split(",")]
             _check_header(path, names)
-            try:  # numpy's C reader: correctly rounded, ~0.2 s for 2.6 M numbers (numba's compile of
-                # the hand-written parser it replaces cost 1.1 s on a first run, its speed-up 0.1 s)
-                with warnings.catch_warnings():  # "input contained no data": said below, in one line
-                    warnings.simplefilter("ignore", UserWarning)
-                    data = np.loadtxt(fh, delimiter=",", ndmin=2, dtype=float)
-            except ValueError as exc:
-                raise InputFileError(f"{path}: {_row_problem(path, len(names), exc)}") from None
+        try:  # numpy's C reader, given the path (~20 % faster than a file object): correctly rounded,
+            # ~0.18 s for 2.6 M numbers (numba's compile of the hand-written parser it replaces cost
+            # 1.1 s on a first run, its speed-up 0.1 s)
+            with warnings.catch_warnings():  # "input contained no data": said below, in one line
+                warnings.simplefilter("ignore", UserWarning)
+                data = np.loadtxt(path, delimiter=",", ndmin=2, dtype=float, skiprows=1, encoding="utf-8")
+        except ValueError as exc:
+            raise InputFileError(f"{path}: {_row_problem(path, len(names), exc)}") from None
     except UnicodeDecodeError:
         raise InputFileError(f"{path}: not a text CSV file") from None
     if data.size == 0:

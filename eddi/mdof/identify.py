@@ -28,7 +28,7 @@ and the impact force at the driving point). Steps:
    fitted together on the force balance.
 4. **Sparsity.** A term whose force (RMS over the data) is below ``prune`` times the RMS of
    ``q_i''`` is dropped and the equation refitted (sequential thresholding).
-5. **Input and masses.** Over the impact, ``q_i'' + B_i + K_i = g_i F`` gives the force per
+5. **Input and masses** (:mod:`eddi.mdof.masses`). Over the impact, ``q_i'' + B_i + K_i = g_i F`` gives the force per
    unit mass ``g_i`` by least squares. Modal coordinates: the force enters equation ``i`` as
    ``psi_di F`` (``d`` the driving point) so the modal mass is ``m_i = psi_di / g_i``, the
    driving-point residue route: no mass needs to be given. Physical coordinates: the driven
@@ -54,6 +54,8 @@ import numpy as np
 from eddi.energy import cumulative_energy, rate_interpolant, zero_crossings
 from eddi.errors import IdentificationError
 from eddi.mdof.modal import LinearModes, era, tail_segments
+from eddi.mdof.intervals import JACKKNIFE_BLOCKS, block_jackknife_ci95
+from eddi.mdof.masses import masses_and_inputs
 from eddi.mdof.model import MdofModel
 from eddi.mdof.signals import HIGHPASS_HZ, quasi_static
 from eddi.mdof.terms import MultiTerm, monomial, parse_multi_term
@@ -146,7 +148,7 @@ class EquationFit:
         RMS of ``q_i''``.
     stiffness_ci95 : dict of str to float
         Half-width of the 95 % interval of each stiffness coefficient (per unit mass), from a
-        delete-one-block jackknife of the stiffness fit (:func:`block_jackknife_ci95`).
+        delete-one-block jackknife of the stiffness fit (:func:`eddi.mdof.intervals.block_jackknife_ci95`).
     """
 
     damping: dict[str, float]
@@ -286,22 +288,20 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
             # and stiffness together on the force balance instead
             both, _ = scaled_lstsq(np.hstack([dmat, smat]), -qdd[i])
             b, k = both[: len(d_terms)], both[len(d_terms):]
-        nd = len(d_terms)
-        k_ci = block_jackknife_ci95(
-            (lambda rows: scaled_lstsq(np.hstack([dmat, smat])[rows], -qdd[i][rows])[0][nd:]) if joint
-            else (lambda rows: scaled_lstsq(smat[rows], k_force[rows])[0]), blocks)
         scale = float(np.sqrt(np.mean(qdd[i] ** 2))) or 1.0
         small_d = [t for t, c, col in zip(damp, b, dmat.T) if t != monomial({i: 1}, n, True)
                    and np.sqrt(np.mean((c * col) ** 2)) < prune * scale]
-        # a term whose force is negligible, or whose coefficient the data do not determine
-        # (its 95 % interval includes zero: e.g. a coupling the records hardly excite)
-        small_s = [t for t, c, h, col in zip(own + cpl, k, k_ci, smat.T) if t != monomial({i: 1}, n)
-                   and (np.sqrt(np.mean((c * col) ** 2)) < prune * scale or h > abs(c))]
+        small_s = [t for t, c, col in zip(own + cpl, k, smat.T) if t != monomial({i: 1}, n)
+                   and np.sqrt(np.mean((c * col) ** 2)) < prune * scale]
         if (not small_d and not small_s) or _round == rounds - 1:  # the last round keeps its fit
             break
         damp = [t for t in damp if t not in small_d]
         own = [t for t in own if t not in small_s]
         cpl = [t for t in cpl if t not in small_s]
+    nd = len(d_terms)
+    k_ci = block_jackknife_ci95(  # of the final fit
+        (lambda rows: scaled_lstsq(np.hstack([dmat, smat])[rows], -qdd[i][rows])[0][nd:]) if joint
+        else (lambda rows: scaled_lstsq(smat[rows], k_force[rows])[0]), blocks)
     dissipated = float(np.sum(np.abs(dq[:, : len(d_terms)] @ b)))
     exchanged = float(np.sum(np.abs(dq[:, len(d_terms):] @ theta))) if theta.size else 0.0
     residual = float(np.sqrt(np.mean(((dq @ coef1 - dr) * w) ** 2)))
@@ -313,36 +313,6 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
     force_res = float(np.sqrt(np.mean((qdd[i] + dmat @ b + smat @ k) ** 2)) / scale)
     return EquationFit(damping, stiffness, gain, residual, exchanged / max(dissipated, 1e-300), int(dr.size),
                        force_res, ci95)
-
-
-#: Contiguous blocks per record of the delete-one-block jackknife.
-JACKKNIFE_BLOCKS = 5
-
-
-def block_jackknife_ci95(solve, blocks: np.ndarray) -> np.ndarray:
-    """95 % half-widths of a least-squares fit by the delete-one-block jackknife.
-
-    Samples of a ring-down are correlated over many cycles, so the textbook covariance of
-    the fit understates its spread; deleting one contiguous block (a fifth of a record) at a
-    time and measuring how far the coefficients move does not assume independent samples.
-    Half-width ``t_{0.975, g-1} sqrt((g-1)/g sum (c_k - mean c)^2)`` over ``g`` blocks.
-
-    Parameters
-    ----------
-    solve : callable
-        ``solve(rows) -> coefficients`` for a boolean mask of the samples to keep.
-    blocks : ndarray of int, shape (n_samples,)
-        Block of each sample.
-    """
-    from scipy import stats
-
-    ids = np.unique(blocks)
-    g = ids.size
-    if g < 3:
-        return np.full(np.asarray(solve(np.ones(blocks.size, bool))).shape, math.inf)
-    est = np.array([solve(blocks != k) for k in ids])
-    spread = np.sqrt((g - 1) / g * np.sum((est - est.mean(axis=0)) ** 2, axis=0))
-    return float(stats.t.ppf(0.975, g - 1)) * spread
 
 
 def _input_gain(i: int, impacts: list[tuple], d_terms: list[MultiTerm], s_terms: list[MultiTerm],
@@ -486,7 +456,7 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
                              f"{100 * r_phys:.2g} %: physical coordinates kept")
             kind, tmat, fits = "physical", np.eye(tmat.shape[0]), phys
     n = tmat.shape[1]
-    masses, inputs, notes = _masses(kind, fits, tmat, d, n)
+    masses, inputs, notes = masses_and_inputs(kind, fits, tmat, d, n)
     notes = notes_pre + notes
     model = MdofModel.create(
         coordinates=kind, mass=tuple(masses), input=tuple(inputs),
@@ -530,62 +500,3 @@ def _fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool 
     noise = np.abs(proj) @ np.max([r.noise for r in records], axis=0)
     return tuple(fit_equation(i, data, impacts, default_library(i, n, coupling), float(noise[i]), prune)
                  for i in range(n))
-
-
-def _masses(kind: str, fits: tuple[EquationFit, ...], tmat: np.ndarray, d: int, n: int
-            ) -> tuple[list[float], list[float], list[str]]:
-    """Masses and input shares (see step 5 of the module docstring)."""
-    notes: list[str] = []
-    gains = np.array([f.input_gain for f in fits])
-    if not np.any(np.abs(gains) > 0):
-        notes.append("no force: every coordinate identified per unit mass (mass 1)")
-        return [1.0] * n, [0.0] * n, notes
-    if kind == "modal":
-        masses, inputs = [], []
-        for i in range(n):
-            u = float(tmat[d, i])
-            g = gains[i]
-            if abs(u) < 1e-6 or g == 0 or u / g <= 0:
-                notes.append(f"mode {i + 1}: no driving-point residue (node at the driving point?); "
-                             "identified per unit mass")
-                masses.append(1.0)
-                inputs.append(float(g))
-            else:
-                masses.append(u / g)
-                inputs.append(u)
-        return masses, inputs, notes
-    masses = [math.nan] * n
-    masses[d] = 1.0 / gains[d] if gains[d] > 0 else 1.0
-    for _ in range(n):  # spread from the driven mass through the coupling terms
-        for i, j in itertools.permutations(range(n), 2):
-            if math.isnan(masses[i]) or not math.isnan(masses[j]):
-                continue
-            ratio = _reciprocity(fits[i], fits[j], i, j, n)
-            if ratio is not None:
-                masses[j] = masses[i] * ratio
-    for j in range(n):
-        if math.isnan(masses[j]):
-            notes.append(f"coordinate {j + 1}: no coupling to a driven mass; identified per unit mass")
-            masses[j] = 1.0
-    return masses, [1.0 if i == d else 0.0 for i in range(n)], notes
-
-
-def _reciprocity(fi: EquationFit, fj: EquationFit, i: int, j: int, n: int) -> float | None:
-    """``m_j / m_i`` from potential terms shared by equations ``i`` and ``j``, or None."""
-    num = den = 0.0
-    for text_i, ci in fi.stiffness.items():
-        e = parse_multi_term(text_i, n).exponents[0].copy()  # powers of x in d P / d x_i
-        e[i] += 1  # the potential monomial P
-        a, b_ = int(e[i]), int(e[j])
-        if b_ == 0 or int(e.sum()) != int(e[i] + e[j]):
-            continue
-        ej = e.copy()
-        ej[j] -= 1
-        text_j = monomial({k: int(p) for k, p in enumerate(ej) if p}, n)
-        cj = fj.stiffness.get(text_j)
-        if cj is None:
-            continue
-        # theta = m_i ci / a = m_j cj / b  ->  m_j / m_i = b ci / (a cj)
-        num += (b_ * ci / a) * cj
-        den += cj * cj
-    return num / den if den > 0 and num / den > 0 else None

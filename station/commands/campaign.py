@@ -50,7 +50,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--model", metavar="MODEL.json", help="the model to validate (--task validate)")
     p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="use a running Dask scheduler")
     p.add_argument("--workers", type=int, metavar="N", help="local worker processes (default: the cores)")
-    p.add_argument("--chunk", type=int, default=1, metavar="K", help="captures per Dask task (default: 1)")
+    p.add_argument("--chunk", type=int, default=None, metavar="K",
+                   help="captures per Dask task (default: enough for 8 tasks per worker, at most 8)")
     p.add_argument("--retry-errors", action="store_true", help="run again the captures whose row is an error")
     p.add_argument("--json", action="store_true", help="print one JSON object (no progress bar)")
     p.set_defaults(func=handle)

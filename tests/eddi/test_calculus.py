@@ -146,3 +146,16 @@ def test_dense_record_eddi_on_a_decimated_grid_gives_the_same_coefficients() -> 
     exact = r.a[w0:w1][idx]
     ratio = np.std(ad - exact) / (np.std(r.acc[w0:w1] - r.a[w0:w1]) / math.sqrt(q))
     assert 0.9 < ratio < 1.25  # the curvature correction adds ~10 % to the block mean's noise
+
+
+def test_free_drift_slope_removes_the_impact_step_from_x() -> None:
+    # clean record at 41 samples a period: the integral over the impact leaves a small velocity
+    # step; a drift clamped flat at the motion's start spreads it over the first knot
+    # intervals (x off by 1.7e-3 of its RMS), a free slope takes it (3.9e-4)
+    r = impact_record(COARSE, rate_hz=2048.0, duration_s=3.0, pretrigger_s=0.5, pulse_s=3e-3, snr_db=None, seed=4)
+    errs = {}
+    for free in (False, True):
+        cond = condition(r.t, acc=r.acc, force=r.force, free_drift_slope=free)
+        w0, w1 = cond.window
+        errs[free] = np.linalg.norm(cond.x[w0:w1] - r.x[w0:w1]) / np.linalg.norm(r.x[w0:w1])
+    assert errs[True] < 6e-4 < 1.2e-3 < errs[False]

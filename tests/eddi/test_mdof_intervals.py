@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from eddi.mdof.identify import block_jackknife_ci95
+from eddi.mdof.intervals import block_jackknife_ci95
 from eddi.phase_one import scaled_lstsq
 
 
@@ -28,7 +28,7 @@ def test_jackknife_interval_covers_the_truth_and_holds_zero_for_an_absent_term()
         coef = scaled_lstsq(cols, y)[0]
         half = block_jackknife_ci95(lambda rows: scaled_lstsq(cols[rows], y[rows])[0], blocks)
         covered += int(abs(coef[1] - 2.0e4) <= half[1])
-        held_zero += int(half[2] > abs(coef[2]))  # the absent coupling: the rule drops it
+        held_zero += int(half[2] > abs(coef[2]))  # the absent coupling: its interval holds zero
         assert half[0] < 0.01 * 4.0e4  # the strong linear term is well determined
     assert covered >= 16 and held_zero >= 16  # about 95 % each, with room for 20 draws
 

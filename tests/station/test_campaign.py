@@ -20,7 +20,7 @@ import pytest
 from eddi.model import EquationOfMotion
 from simulated_rig.bench import impact_test
 from simulated_rig.systems import system_info
-from station.campaign.run import dask_client, run_campaign
+from station.campaign.run import auto_chunk, dask_client, run_campaign
 from station.campaign.sources import CaptureRef, expand_sources
 from station.campaign.table import Journal
 from station.campaign.tasks import TaskOptions
@@ -127,6 +127,13 @@ def test_campaign_table_row_by_row_and_resume(captures, client, tmp_path):
             assert here.model.eom.stiffness["x"] == row["k[x]"] and here.validation.nrmse == row["nrmse"]
         model = EquationOfMotion.from_json((tmp_path / "out" / row["model_json"]).read_text())
         assert model.mass == SYSTEM.eom.mass and model.stiffness["x^3"] == row["k[x^3]"]
+
+    # several captures per task (as the automatic chunking makes for long campaigns): the same rows
+    chunked = run_campaign(client, refs, opts, Journal(tmp_path / "chunked", opts.as_dict()), chunk=4, quiet=True)
+    assert (chunked.processed, chunked.failed) == (6, 1)
+    same = [{k: v for k, v in r.items() if k not in ("seconds", "worker")} for r in pq.read_table(chunked.parquet).to_pylist()]
+    assert same == [{k: v for k, v in r.items() if k not in ("seconds", "worker")} for r in table]
+    assert [auto_chunk(n, 2) for n in (0, 6, 60, 1000, 10**6)] == [1, 1, 3, 8, 8]
 
     # resume: nothing to do; with --retry-errors only the failed capture runs (and fails again)
     again = run_campaign(client, refs, opts, Journal(tmp_path / "out", opts.as_dict()), quiet=True)
