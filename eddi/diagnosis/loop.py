@@ -239,7 +239,8 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
                               named_factor)
     notes = notes + _floor_note(dec, candidates, floor, baseline.nrmse, margin)
     if pipeline is not None:
-        verdict += (f" The pipeline's model (as station identify gives it) has held-out nrmse "
+        how = "held-out nrmse" if pipeline.held_out else "nrmse on its own fit record (nothing held out)"
+        verdict += (f" The pipeline's model (as station identify gives it) has {how} "
                     f"{pipeline.nrmse:.3g}; the candidates are judged against the same terms fitted per "
                     f"fold (nrmse {baseline.nrmse:.3g}).")
     winner = dec.winner
