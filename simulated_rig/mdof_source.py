@@ -4,8 +4,8 @@
 :mod:`simulated_rig.mdof_systems` (``two-mass-cubic``, ``nes``, ``internal-1-3`` or a system
 file): ``read(n)`` returns ADC counts of ``force, acc1..accN`` in sample time (no wall
 clock), so the emulated firmware (:class:`simulated_rig.device.EmulatedDaq`) streams
-``1 + N`` channels (the protocol carries up to 8 in a frame's channel mask, the firmware up
-to 32). At rest the channels carry sensor noise; :meth:`MdofRigSource.deliver_impact`
+``1 + N`` channels (a DATA frame names its channels in a 32-bit mask; the emulated firmware
+takes up to 32). At rest the channels carry sensor noise; :meth:`MdofRigSource.deliver_impact`
 schedules a hammer blow on the driving mass ``impact_delay_s`` after the current sample and
 integrates the coupled equations (:func:`eddi.mdof.simulate.simulate_mdof`) one second at a
 time from the state at the blow, continuing from the last state as the reads go on, until
