@@ -69,6 +69,9 @@ from eddi.terms import evaluate
 NUISANCE = 3
 #: Fractions of the record fitted in successive stages.
 STAGES = (0.125, 0.5, 1.0)
+#: Starts whose residual over the whole window is below this (relative to the signal, ~ the
+#: phase error in rad) are fitted on the whole window at once.
+DIRECT_NRMSE = 0.2
 
 
 @dataclass(frozen=True)
@@ -425,7 +428,9 @@ def refine_output_error(
     norm = float(np.linalg.norm(prob.y)) or 1.0
     before = float(np.linalg.norm(prob.residual(p, n))) / norm
     sol = None
-    for frac in STAGES:
+    # a start already within a fraction of a radian of the record over the whole window is in
+    # the whole window's basin: the growing stages are for starts that would slip a cycle
+    for frac in (STAGES if before > DIRECT_NRMSE else STAGES[-1:]):
         stop = max(64, int(round(frac * n)))
         sol = prob.fit(p, stop, max_nfev)
         p = sol.x

@@ -63,7 +63,7 @@ def _z_scores(refine: bool, seeds: range) -> tuple[np.ndarray, list[str]]:
 def test_confidence_intervals_cover_the_truth_over_seeds() -> None:
     # nominal 95 %; measured 0.957 over 40 seeds x 7 systems (benchmarks/bench_ci_coverage.py).
     # 12 seeds x 3 nulls (108 coefficients; the Duffing null is the weakest case, 0.86 over 40
-    # seeds): 0.89 here; intervals 1.5x too narrow would cover 0.78, 2x too wide 1.0 with
+    # seeds): 0.89 here; intervals 1.5x too narrow would cover 0.76, 2x too wide 1.0 with
     # ~10 % of |z| > 1 (0.40 here)
     z, returned = _z_scores(True, range(12))
     assert 0.85 <= float(np.mean(z <= 1.959964))
