@@ -219,7 +219,7 @@ class Pipeline:
                   pretrigger_samples: int | None = None, ac_coupling_s: float | None = None) -> ConditionedSignal:
         """Step 1: :func:`eddi.conditioning.condition` (see there)."""
         return condition(t, acc=acc, vel=vel, disp=disp, force=force, pretrigger_samples=pretrigger_samples,
-                         ac_coupling_s=ac_coupling_s, free_drift_slope=True)
+                         ac_coupling_s=ac_coupling_s)
 
     def _identify(self, cond: ConditionedSignal, mass: float) -> tuple[IdentifiedModel, int]:
         """EDDI (on a decimated copy of a densely sampled window), then the refinement.
@@ -312,34 +312,9 @@ class Pipeline:
         pairs = [validate_conditioned(model.eom, c) for c in held_out]
         held = tuple(v for v, _ in pairs)
         held_force = tuple(f for _, f in pairs)
-        eddi_held: tuple[Validation, ...] = ()
         judged_on = f"held-out records ({len(held)})" if held else "fit record"
-        if model.unrefined is None:
-            refinement, reason, n_eddi, n_ref = "off", "refinement not asked for (--no-refine)", None, None
-        else:
-            eddi_val, _ = validate_conditioned(model.unrefined, cond)
-            eddi_held = tuple(validate_conditioned(model.unrefined, c)[0] for c in held_out)
-            # held-out records: their displacement; the fit record alone: the signal its sensor
-            # measured (the conditioned displacement carries the integration's error, and EDDI
-            # was fitted to it: judged on it, a better refined model lost to EDDI's)
-            n_ref = _mean_nrmse(held) if held else measured_nrmse(model.eom, val, cond)
-            n_eddi = _mean_nrmse(eddi_held) if held else measured_nrmse(model.unrefined, eddi_val, cond)
-            div_ref = val.diverged or any(h.diverged for h in held)
-            div_eddi = eddi_val.diverged or any(h.diverged for h in eddi_held)
-            what = "displacement" if held else f"{SIGNAL_NAME[REFINE_CHANNEL[cond.response]]} (measured)"
-            if (div_ref, n_ref) <= (div_eddi, n_eddi):
-                refinement = "kept"
-                reason = (f"{what} nrmse on the {judged_on} {n_eddi:.4g} (EDDI) -> {n_ref:.4g} (refined)")
-            else:
-                refinement = "rejected"
-                if div_ref and not div_eddi:
-                    reason = (f"the refined model's simulation diverged on the {judged_on} ({what} nrmse "
-                              f"{n_ref:.4g}) although it fitted the measured signal better; EDDI estimate kept")
-                else:
-                    reason = (f"refinement raised the {what} nrmse on the {judged_on}: {n_eddi:.4g} (EDDI) -> "
-                              f"{n_ref:.4g}; EDDI estimate kept")
-                model = replace(model, eom=model.unrefined)
-                val, held = eddi_val, eddi_held
+        judged = _judge_refinement(model, cond, held_out, val, held, judged_on)
+        model, val, held, eddi_held, refinement, reason, n_eddi, n_ref = judged
         nrmse_sensor = None
         if sensor_only and by_force and cond.acc_measured:
             nrmse_sensor = validate_conditioned(model.eom, cond, fused=False)[0].nrmse
@@ -396,6 +371,46 @@ def highest_frequency(cond: ConditionedSignal, half_cycles: int = 10) -> float:
 def cond_warnings(cond: ConditionedSignal) -> tuple[str, ...]:
     """Warnings the conditioning raised (notes starting with ``WARNING:``)."""
     return tuple(n.removeprefix("WARNING: ") for n in cond.notes if n.startswith("WARNING: "))
+
+
+def _judge_refinement(model: IdentifiedModel, cond: ConditionedSignal, held_out: Sequence[ConditionedSignal],
+                      val: Validation, held: tuple[Validation, ...], judged_on: str) -> tuple:
+    """Keep the refined model or EDDI's (see the module notes); returns what :meth:`Pipeline.fit` needs.
+
+    Returns
+    -------
+    model, val, held, eddi_held, refinement, reason, n_eddi, n_ref
+        The chosen model with its validations, EDDI's held-out validations, ``"kept"`` /
+        ``"rejected"`` / ``"off"``, the one-line reason and the compared errors.
+    """
+    eddi_held: tuple[Validation, ...] = ()
+    if model.unrefined is None:
+        refinement, reason, n_eddi, n_ref = "off", "refinement not asked for (--no-refine)", None, None
+    else:
+        eddi_val, _ = validate_conditioned(model.unrefined, cond)
+        eddi_held = tuple(validate_conditioned(model.unrefined, c)[0] for c in held_out)
+        # held-out records: their displacement; the fit record alone: the signal its sensor
+        # measured (the conditioned displacement carries the integration's error, and EDDI
+        # was fitted to it: judged on it, a better refined model lost to EDDI's)
+        n_ref = _mean_nrmse(held) if held else measured_nrmse(model.eom, val, cond)
+        n_eddi = _mean_nrmse(eddi_held) if held else measured_nrmse(model.unrefined, eddi_val, cond)
+        div_ref = val.diverged or any(h.diverged for h in held)
+        div_eddi = eddi_val.diverged or any(h.diverged for h in eddi_held)
+        what = "displacement" if held else f"{SIGNAL_NAME[REFINE_CHANNEL[cond.response]]} (measured)"
+        if (div_ref, n_ref) <= (div_eddi, n_eddi):
+            refinement = "kept"
+            reason = (f"{what} nrmse on the {judged_on} {n_eddi:.4g} (EDDI) -> {n_ref:.4g} (refined)")
+        else:
+            refinement = "rejected"
+            if div_ref and not div_eddi:
+                reason = (f"the refined model's simulation diverged on the {judged_on} ({what} nrmse "
+                          f"{n_ref:.4g}) although it fitted the measured signal better; EDDI estimate kept")
+            else:
+                reason = (f"refinement raised the {what} nrmse on the {judged_on}: {n_eddi:.4g} (EDDI) -> "
+                          f"{n_ref:.4g}; EDDI estimate kept")
+            model = replace(model, eom=model.unrefined)
+            val, held = eddi_val, eddi_held
+    return model, val, held, eddi_held, refinement, reason, n_eddi, n_ref
 
 
 def measured_nrmse(eom: EquationOfMotion, val: Validation, cond: ConditionedSignal) -> float:

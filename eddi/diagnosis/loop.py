@@ -202,6 +202,25 @@ def _pipeline_check(pipeline: PipelineBaseline | None, sh: _Shown, none_factor: 
             "other records of each fold stay within it: the pipeline's fit, not a missing mechanism")
 
 
+def _floor_note(dec: Decision, candidates: Sequence[Candidate], floor: NoiseFloor, base: float,
+                margin: float) -> list[str]:
+    """A warning when ``none`` rests on a floor that is mostly the baseline's own sensitivity
+    to the noise while a candidate reproduces the held-out parts below that floor (a wrong
+    baseline inflates the floor: docs/diagnosis.md, "Calibration")."""
+    if dec.cause != "none":
+        return []
+    preds = [p for p in floor.prediction_nrmse if np.isfinite(p)]
+    cond = float(np.mean(floor.conditioning_nrmse)) if floor.conditioning_nrmse else 0.0
+    best = next((c for c in candidates if not c.skipped and c.model is not None and c.wins_every_part
+                 and c.nrmse < floor.nrmse and c.nrmse <= (1.0 - margin) * base), None)
+    if not preds or best is None or not float(np.mean(preds)) > 2.0 * cond:
+        return []
+    return [f"uncertain none: the noise floor ({floor.nrmse:.3g}) is mostly how far the baseline's own refit "
+            f"moves with the noise (mean {float(np.mean(preds)):.3g}, against {cond:.3g} for the "
+            f"conditioned records), and {best.name} reproduces every held-out part better, at "
+            f"{best.nrmse:.3g}, below that floor: a baseline that misses a mechanism inflates its floor"]
+
+
 def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None,
               chain_sims: list[np.ndarray], notes: list[str], rules: tuple[float, float, float, float | None],
               pipeline: PipelineBaseline | None) -> Diagnosis:
@@ -218,8 +237,10 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
         dec = Decision("unexplained", None, None, False, off)
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
+    notes = notes + _floor_note(dec, candidates, floor, baseline.nrmse, margin)
     if pipeline is not None:
-        verdict += (f" The pipeline's model (as station identify gives it) has held-out nrmse "
+        how = "held-out nrmse" if pipeline.held_out else "nrmse on its own fit record (nothing held out)"
+        verdict += (f" The pipeline's model (as station identify gives it) has {how} "
                     f"{pipeline.nrmse:.3g}; the candidates are judged against the same terms fitted per "
                     f"fold (nrmse {baseline.nrmse:.3g}).")
     winner = dec.winner

@@ -78,6 +78,7 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
         cond.append(float(np.linalg.norm(q.x[s:e] - r.x[s:e]) / (np.linalg.norm(r.x[s:e]) or 1.0)))
     fitter = Fitter([r.signal() for r in pert], setup)
     fold: list[float] = []
+    preds: list[float] = []
     for part, masks, xb in zip(parts, fold_masks, base_sims):
         rec, q = records[part.record], pert[part.record]
         xm = rec.x[part.start:part.stop]
@@ -90,6 +91,7 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
         xs = simulate_part(fit.eom, q, part) if fit is not None else None
         if xs is None or not (np.all(np.isfinite(xs)) and np.all(np.isfinite(xb))):
             fold.append(float("nan"))
+            preds.append(float("nan"))
             continue
         d_pred = float(np.linalg.norm(xs - xb)) / den
         if max(float(np.linalg.norm(xb - xm)), float(np.linalg.norm(xs - xm))) / den >= LOST:
@@ -97,11 +99,12 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
             # moves wildly with any perturbation: that says nothing of the noise
             d_pred = 0.0
         fold.append(float(np.hypot(d_cond, d_pred)))
+        preds.append(d_pred)
     known = [f for f in fold if np.isfinite(f) and f < NRMSE_CAP]
     fill = min(known) if known else MIN_FLOOR
     fold = [max(MIN_FLOOR, f if (np.isfinite(f) and f < NRMSE_CAP) else fill) for f in fold]
     return NoiseFloor(nrmse=float(np.mean(fold)), fold_nrmse=tuple(fold),
                       noise_rms=tuple(float(r.noise_rms) for r in records),
-                      conditioning_nrmse=tuple(cond),
+                      conditioning_nrmse=tuple(cond), prediction_nrmse=tuple(preds),
                       method=("one more draw of each record's measured noise on its response channel, "
                               "conditioned again; per part sqrt(d_cond^2 + d_pred^2) (module notes)"))

@@ -50,6 +50,10 @@ class NoiseFloor:
         Per record: change of the conditioned coordinate over its free response under one
         more draw of the noise (relative to its norm).
     method : str
+    prediction_nrmse : tuple of float
+        Per held-out part: ``d_pred``, how far the baseline's refit simulation moves under
+        that draw (NaN where the refit failed). When it dominates, the floor is mostly the
+        baseline's own sensitivity, which a wrong baseline inflates.
     """
 
     nrmse: float
@@ -57,11 +61,12 @@ class NoiseFloor:
     noise_rms: tuple[float, ...]
     conditioning_nrmse: tuple[float, ...]
     method: str
+    prediction_nrmse: tuple[float, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         return {"nrmse": self.nrmse, "fold_nrmse": list(self.fold_nrmse),
                 "noise_rms": list(self.noise_rms), "conditioning_nrmse": list(self.conditioning_nrmse),
-                "method": self.method}
+                "prediction_nrmse": list(self.prediction_nrmse), "method": self.method}
 
 
 @dataclass(frozen=True)

@@ -159,7 +159,3 @@ def test_free_drift_slope_removes_the_impact_step_from_x() -> None:
         w0, w1 = cond.window
         errs[free] = np.linalg.norm(cond.x[w0:w1] - r.x[w0:w1]) / np.linalg.norm(r.x[w0:w1])
     assert errs[True] < 6e-4 < 1.2e-3 < errs[False]
-    # the pipeline conditions with the free slope
-    cond = Pipeline().condition(r.t, acc=r.acc, force=r.force)
-    w0, w1 = cond.window
-    assert np.linalg.norm(cond.x[w0:w1] - r.x[w0:w1]) / np.linalg.norm(r.x[w0:w1]) == pytest.approx(errs[True])

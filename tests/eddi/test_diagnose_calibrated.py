@@ -55,3 +55,27 @@ def test_weak_second_mode_above_the_factor_is_not_silent() -> None:
     assert d.cause != "none", d.verdict
     assert d.cause in ("unexplained", "second_mode")
     assert "follows" not in d.symptom
+
+
+def test_none_on_an_inflated_floor_is_flagged_uncertain() -> None:
+    """Friction (0.03 of ``k1 A``) on a 0.3 kg, 7.1 Hz softening system at 20 kHz, 35 dB (a
+    held-out ladder rung): the baseline's own refit swings with the noise, so the floor (0.09)
+    nearly equals the baseline's error (0.11) and the verdict is ``none``, while the friction
+    model reaches 0.046. The verdict must then say that it is uncertain and why."""
+    system = EquationOfMotion.create(mass=0.3, damping={"v": 2 * 0.006 * np.sqrt(600.0 * 0.3)},
+                                     stiffness={"x": 600.0, "x^3": -3e5})
+    r = impact_test(system, 75.0, rate_hz=20000.0, pretrigger_s=0.05, record_s=0.5, snr_db=None, seed=0)
+    truth = hide_effect(system, "coulomb_friction", 0.03, 10, amplitude_m=float(np.max(np.abs(r.truth_x))),
+                        velocity_m_s=float(np.max(np.abs(r.truth_v))))
+    recs = []
+    for i, f in enumerate((60.0, 75.0, 90.0)):
+        m = impact_test(truth, f, rate_hz=20000.0, pretrigger_s=0.2, record_s=4.0, snr_db=35.0,
+                        seed=10_000 + 10 * i + 7)
+        c = condition(m.t, acc=m.acc_m_s2, force=m.force_n, pretrigger_samples=m.pretrigger_samples)
+        recs.append(Record.from_conditioned(c, label=f"impact {i + 1}", pretrigger_samples=m.pretrigger_samples))
+    d = diagnose(recs, system.mass)
+    assert d.cause in ("none", "coulomb_friction"), d.verdict
+    if d.cause == "none":
+        note = next(n for n in d.notes if n.startswith("uncertain none"))
+        assert "coulomb_friction" in note
+        assert max(d.noise_floor.prediction_nrmse) > 2 * max(d.noise_floor.conditioning_nrmse)
