@@ -107,7 +107,6 @@ def _rk4_sens(deg, dt, substeps, x0, v0, inv_m, exps, coefs, n, out_x, out_v, ou
     tv = np.zeros(npar)
     x = x0
     v = v0
-    h = dt / substeps
     for i in range(n):
         a = _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, k1x, k1v)
         out_x[i] = x
@@ -119,7 +118,9 @@ def _rk4_sens(deg, dt, substeps, x0, v0, inv_m, exps, coefs, n, out_x, out_v, ou
             sens_a[i, k] = k1v[k]
         if i == n - 1:
             break
-        for s in range(substeps):
+        m = substeps[i] if i < substeps.shape[0] else substeps[substeps.shape[0] - 1]
+        h = dt / m
+        for s in range(m):
             a1 = a
             if s > 0:  # at s == 0, k1 is the output sample's evaluation above
                 a1 = _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, k1x, k1v)
@@ -152,7 +153,8 @@ def _rk4_sens(deg, dt, substeps, x0, v0, inv_m, exps, coefs, n, out_x, out_v, ou
 
 
 def free_response_sensitivities(eom: EquationOfMotion, dt: float, n: int, x0: float, v0: float,
-                                substeps: int, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray, bool]:
+                                substeps: int | np.ndarray,
+                                jacobian: bool = True) -> tuple[np.ndarray, np.ndarray, bool]:
     """Free response of ``eom`` and its Jacobian with respect to coefficients and initial state.
 
     Parameters
@@ -166,8 +168,9 @@ def free_response_sensitivities(eom: EquationOfMotion, dt: float, n: int, x0: fl
         Output samples (the first is the initial state).
     x0, v0 : float
         Initial state.
-    substeps : int
-        RK4 steps per output interval.
+    substeps : int or ndarray of int, shape (n - 1,)
+        RK4 steps per output interval (one number, or one per interval: fewer where the
+        response has decayed and moves slower).
     jacobian : bool
         False: the response alone (the same integration as :func:`eddi.simulate.simulate`
         for these models, with the terms' powers formed by multiplication).
@@ -188,6 +191,7 @@ def free_response_sensitivities(eom: EquationOfMotion, dt: float, n: int, x0: fl
     resp = np.full((3, n), np.nan)
     jac = np.full((3, n, npar), np.nan)
     deg = int(exps[:, :4].max()) if exps.size else 0
-    div = _rk4_sens(deg, float(dt), int(substeps), float(x0), float(v0), 1.0 / eom.mass, exps, coefs, int(n),
+    steps = np.maximum(np.atleast_1d(np.asarray(substeps, dtype=np.int64)), 1)
+    div = _rk4_sens(deg, float(dt), steps, float(x0), float(v0), 1.0 / eom.mass, exps, coefs, int(n),
                     resp[0], resp[1], resp[2], jac[0], jac[1], jac[2])
     return resp.T, jac, bool(div >= 0)

@@ -102,3 +102,17 @@ def test_compiled_internal_force_equals_the_model_s() -> None:
     for eom in MODELS.values():
         ref = eom.restoring_force(x, v)
         assert np.max(np.abs(internal_force(eom, x, v) - ref)) <= 1e-12 * np.max(np.abs(ref))
+
+
+def test_local_substeps_follow_the_decay_and_keep_the_peak_rule() -> None:
+    from eddi.refine import local_substeps
+
+    eom = MODELS["duffing"]
+    t = np.arange(4000) * 2e-3
+    env = 0.012 * np.exp(-t / 2.0)  # a ring-down's envelope
+    steps = local_substeps(eom, 2e-3, env, 30.0 * env, most=6)
+    assert steps.shape == (3999,) and steps.min() >= 1 and steps.max() <= 6
+    # hardening: ~88 rad/s at the peak (4 steps of omega h <= 0.05), 22 rad/s at the end (1)
+    assert steps[0] == 4 and steps[-1] == 1
+    assert np.all(np.diff(steps) <= 0)  # never more steps as the amplitude falls
+    assert local_substeps(eom, 2e-3, env, 30.0 * env, most=2).max() == 2  # the peak's rule caps it
