@@ -4,8 +4,8 @@
 :mod:`simulated_rig.mdof_systems` (``two-mass-cubic``, ``nes``, ``internal-1-3`` or a system
 file): ``read(n)`` returns ADC counts of ``force, acc1..accN`` in sample time (no wall
 clock), so the emulated firmware (:class:`simulated_rig.device.EmulatedDaq`) streams
-``1 + N`` channels (the protocol carries up to 8 in a frame's channel mask, the firmware up
-to 32). At rest the channels carry sensor noise; :meth:`MdofRigSource.deliver_impact`
+``1 + N`` channels (a DATA frame names its channels in a 32-bit mask; the emulated firmware
+takes up to 32). At rest the channels carry sensor noise; :meth:`MdofRigSource.deliver_impact`
 schedules a hammer blow on the driving mass ``impact_delay_s`` after the current sample and
 integrates the coupled equations (:func:`eddi.mdof.simulate.simulate_mdof`) one second at a
 time from the state at the blow, continuing from the last state as the reads go on, until
@@ -35,6 +35,7 @@ from eddi.mdof.simulate import simulate_mdof
 from simulated_rig.bench import measure
 from simulated_rig.errors import ScenarioError
 from simulated_rig.hammer import HammerSpec, hammer_force
+from simulated_rig.measured_channels import MeasuredChannels
 from simulated_rig.mdof_systems import MdofSystem, load_mdof_system, mdof_impact_test
 from simulated_rig.sensors import SensorSpec
 
@@ -44,7 +45,7 @@ IMPACT_DELAY_S = 5.0e-3
 CHUNK_S = 1.0
 
 
-class MdofRigSource:
+class MdofRigSource(MeasuredChannels):
     """Sample-time source of ``force, acc1..accN`` counts for the emulated DAQ.
 
     Parameters
@@ -171,25 +172,13 @@ class MdofRigSource:
         clean[:avail, 0] = self._force[k0:k0 + avail]
         clean[:avail, 1:] = self._acc[:, k0:k0 + avail].T
         counts, _infos, _clipped = measure(self.sensors, clean, self._rng.standard_normal((n, len(self.channels))))
-        for j, ch in enumerate(self.channels):
-            self.clip_counts[ch.name] += int(np.count_nonzero((counts[:, j] == ch.max_count)
-                                                              | (counts[:, j] == ch.min_count)))
+        self._count_clips(counts)
         self.sample_index += n
         # drop what has been consumed, keeping the last row (the state continuation starts from)
         used = max(0, min(self._force.size - 1, k0 + n))
         self._force, self._acc, self._state = self._force[used:], self._acc[:, used:], self._state[:, used:]
         self._seg_start += used
         return counts
-
-    @property
-    def clipped(self) -> tuple[str, ...]:
-        """Channels that have clipped so far."""
-        return tuple(name for name, c in self.clip_counts.items() if c > 0)
-
-    @property
-    def noise_rms(self) -> dict[str, float]:
-        """Noise standard deviation of each channel [SI]."""
-        return {s.name: float(s.noise_rms_si or 0.0) for s in self.sensors}
 
     # -- internals ----------------------------------------------------------------------
     def _pad_to(self, k: int) -> None:

@@ -38,6 +38,7 @@ from eddi.simulate import simulate
 from simulated_rig.bench import impact_test, measure, simulate_truth
 from simulated_rig.errors import ScenarioError
 from simulated_rig.hammer import HammerSpec, hammer_force
+from simulated_rig.measured_channels import MeasuredChannels
 from simulated_rig.scenario import Scenario
 from simulated_rig.sensors import SensorSpec, iepe_filter
 
@@ -48,7 +49,7 @@ IMPACT_DELAY_S = 5.0e-3
 CONTINUATION_S = 1.0
 
 
-class RigSource:
+class RigSource(MeasuredChannels):
     """Sample-time source of ADC counts for the emulated DAQ.
 
     Parameters
@@ -205,21 +206,9 @@ class RigSource:
                 clean[:, j], self._zi[j] = sps.lfilter(filt[0], filt[1], clean[:, j], zi=self._zi[j])
         normals = self._rng.standard_normal((n, 2))
         counts, _channels, _clipped = measure(self.sensors, clean, normals)
-        for j, ch in enumerate(self.channels):
-            hit = int(np.count_nonzero((counts[:, j] == ch.max_count) | (counts[:, j] == ch.min_count)))
-            self.clip_counts[ch.name] += hit
+        self._count_clips(counts)
         self.sample_index += n
         return counts
-
-    @property
-    def clipped(self) -> tuple[str, ...]:
-        """Channels that have clipped so far."""
-        return tuple(name for name, c in self.clip_counts.items() if c > 0)
-
-    @property
-    def noise_rms(self) -> dict[str, float]:
-        """Noise standard deviation of each channel [SI]."""
-        return {s.name: float(s.noise_rms_si or 0.0) for s in self.sensors}
 
     # -- internals ----------------------------------------------------------------------
     def _set_rate(self, rate_hz: float) -> None:

@@ -239,130 +239,171 @@ def acquire(
     """
     if n_impacts < 1:
         raise StationError(f"--impacts: expected at least 1, got {n_impacts}")
-    info = daq.info
-    channels = config.resolve_channels(info.channels)
-    rate = float(info.rate_hz)
-    settings = config.trigger_settings(channels, rate)
-    scale = np.array([c.scale for c in channels])
-    offset = np.array([c.offset for c in channels])
-    _check_session(writer, rate, config.specimen.mass_kg, [c.name for c in channels])
-    trig = Trigger(settings, channels, rate)
-    policy = (config.trigger.on_double_hit, config.trigger.on_overload)
-    units = {c.name: c.unit for c in channels}
-    dev = device_meta if device_meta is not None else device_metadata(daq)
-    scenario = getattr(info, "scenario_json", None)
-    result = AcquireResult(file=writer.path)
-    levels: dict[str, float] = {c.name: 0.0 for c in channels}
-    message = "arming"
-    next_impact = 0
-    impact_at: int | None = None  # sample position when the pending impact was requested
-    last_peak: tuple[float, bool] | None = None
-    idle_s = 0.0
-    origin: list[float] = []  # [wall time at START, first sample of the stream]
-    sensors = config.sensor_metadata()
-    driving_point = _driving_point(config, channels, settings.channel, scenario)
+    run = _AcquisitionRun(daq, config, writer, n_impacts, impacts=impacts, on_status=on_status,
+                          device_meta=device_meta)
+    return run.execute(idle_timeout_s=idle_timeout_s, read_timeout_s=read_timeout_s, wall_clock=wall_clock)
 
-    def report() -> None:
-        if on_status is not None:
-            on_status(Status(trig.state, len(result.indices), n_impacts, len(result.rejected), trig.progress,
-                             dict(levels), units, trig.dropped_total, message))
 
-    def save(cap: Capture) -> None:
-        nonlocal message
+class _AcquisitionRun:
+    """The state of one :func:`acquire` call: trigger, schedule, status and the saves."""
+
+    def __init__(self, daq: DaqLike, config: BenchConfig, writer: CaptureWriter, n_impacts: int, *,
+                 impacts: ImpactPlan | None, on_status: Callable[[Status], None] | None,
+                 device_meta: dict[str, Any] | None) -> None:
+        info = daq.info
+        self.daq, self.config, self.writer, self.n_impacts = daq, config, writer, n_impacts
+        self.impacts, self.on_status = impacts, on_status
+        self.channels = config.resolve_channels(info.channels)
+        self.rate = float(info.rate_hz)
+        self.settings = config.trigger_settings(self.channels, self.rate)
+        self.scale = np.array([c.scale for c in self.channels])
+        self.offset = np.array([c.offset for c in self.channels])
+        _check_session(writer, self.rate, config.specimen.mass_kg, [c.name for c in self.channels])
+        self.trig = Trigger(self.settings, self.channels, self.rate)
+        self.policy = (config.trigger.on_double_hit, config.trigger.on_overload)
+        self.units = {c.name: c.unit for c in self.channels}
+        self.dev = device_meta if device_meta is not None else device_metadata(daq)
+        self.scenario = getattr(info, "scenario_json", None)
+        self.result = AcquireResult(file=writer.path)
+        self.levels: dict[str, float] = {c.name: 0.0 for c in self.channels}
+        self.message = "arming"
+        self.next_impact = 0
+        self.impact_at: int | None = None  # sample position when the pending impact was requested
+        self.last_peak: tuple[float, bool] | None = None
+        self.origin: list[float] = []  # [wall time at START, first sample of the stream]
+        self.sensors = config.sensor_metadata()
+        self.driving_point = _driving_point(config, self.channels, self.settings.channel, self.scenario)
+        self.blows: list[tuple[int, float, bool]] = []  # (device sample, peak, double hit) of each scheduled blow
+
+    def report(self) -> None:
+        if self.on_status is not None:
+            r, trig = self.result, self.trig
+            self.on_status(Status(trig.state, len(r.indices), self.n_impacts, len(r.rejected), trig.progress,
+                                  dict(self.levels), self.units, trig.dropped_total, self.message))
+
+    def save(self, cap: Capture) -> None:
         rig = None
-        if scenario is not None or last_peak is not None:
-            rig = {"scenario": scenario or ""}
-            if last_peak is not None:
-                rig["requested_peak_force_n"] = last_peak[0]
-                rig["requested_double_hit"] = last_peak[1]
-        t0 = origin[0] + (cap.first_sample - origin[1]) / rate if len(origin) == 2 else None
-        idx = writer.append(
-            cap, device=dev, rig=rig, notes=config.notes, mass_kg=config.specimen.mass_kg, t0_unix_s=t0, sensors=sensors,
-            source=str(dev.get("url", "")), dropped_before_total=trig.dropped_total,
-            extra={"peak_force": float(np.nanmax(np.abs(cap.si[:, settings.channel]))) if cap.n_samples else 0.0,
-                   **({"driving_point": driving_point} if driving_point else {})},
+        if self.scenario is not None or self.last_peak is not None:
+            rig = {"scenario": self.scenario or ""}
+            if self.last_peak is not None:
+                rig["requested_peak_force_n"] = self.last_peak[0]
+                rig["requested_double_hit"] = self.last_peak[1]
+        origin = self.origin
+        t0 = origin[0] + (cap.first_sample - origin[1]) / self.rate if len(origin) == 2 else None
+        peak = float(np.nanmax(np.abs(cap.si[:, self.settings.channel]))) if cap.n_samples else 0.0
+        idx = self.writer.append(
+            cap, device=self.dev, rig=rig, notes=self.config.notes, mass_kg=self.config.specimen.mass_kg,
+            t0_unix_s=t0, sensors=self.sensors, source=str(self.dev.get("url", "")),
+            dropped_before_total=self.trig.dropped_total,
+            extra={"peak_force": peak, **({"driving_point": self.driving_point} if self.driving_point else {})},
         )
-        result.indices.append(idx)
+        self.result.indices.append(idx)
         if cap.partial:
-            result.partial_index = idx
-        message = f"capture {idx} saved" + (" (partial)" if cap.partial else "")
+            self.result.partial_index = idx
+        self.message = f"capture {idx} saved" + (" (partial)" if cap.partial else "")
 
-    blows = _schedule(daq, impacts)  # (device sample, peak, double hit) of each scheduled blow
-    daq.start()
-    origin.append(wall_clock())
-    report()
-    try:
-        while len(result.indices) < n_impacts:
-            if blows and trig.next_sample is not None and trig.state != "triggered" and (
-                    trig.next_sample > blows[-1][0] + settings.record_samples + settings.holdoff_samples):
-                raise StationError(f"the simulated rig gave all {len(blows)} scheduled impacts; "
-                                   f"{len(result.indices)} accepted, {len(result.rejected)} rejected; giving up")
-            # a simulated rig without a schedule: ask for the next impact once the trigger is armed
-            if impacts is not None and not blows and impact_at is None and trig.state == "armed":
-                if next_impact >= len(impacts.peaks_n):
-                    raise StationError(f"the simulated rig gave {result.missed_impacts} impacts that did not trigger "
-                                       f"(level {settings.level:g}) and {len(result.rejected)} rejected; giving up")
-                last_peak = (impacts.peaks_n[next_impact], impacts.double_hits[next_impact])
-                daq.impact(last_peak[0], double_hit=last_peak[1])  # type: ignore[attr-defined]
-                next_impact += 1
-                impact_at = _device_position(daq, trig.next_sample or 0)
-                message = f"impact {next_impact} requested ({last_peak[0]:.1f} N)"
-            block = daq.read_block(timeout_s=read_timeout_s)
-            if block is None:
-                idle_s += read_timeout_s
-                if idle_timeout_s is not None and idle_s >= idle_timeout_s:
-                    raise StationError(f"no data from {dev.get('url', 'the device')} for {idle_s:.1f} s; expected a sample stream")
-                continue
-            idle_s = 0.0
-            if len(origin) == 1:
-                origin.append(float(block.first_sample))
-            si = block.counts * scale + offset
-            if block.counts.shape[0]:
-                peaks = np.max(np.abs(si), axis=0)
-                levels = {c.name: float(p) for c, p in zip(channels, peaks)}
-            for cap in trig.feed(_Block(block.first_sample, block.counts, si)):
-                if blows:
-                    last_peak = _blow_of(blows, cap.trigger_sample)
-                reason = cap.rejection(*policy)
-                if reason is not None:
-                    result.rejected.append(reason)
-                    message = f"rejected: {reason}"
-                else:
-                    save(cap)
-                impact_at = None
-                if len(result.indices) >= n_impacts:
-                    break
-            if impact_at is not None and trig.state != "triggered" and trig.next_sample is not None:
-                # an impact that has not triggered within a record length: count it missed
-                if trig.next_sample - impact_at > settings.record_samples + settings.holdoff_samples:
-                    result.missed_impacts += 1
-                    message = f"impact {next_impact} did not reach the trigger level {settings.level:g}"
-                    impact_at = None
-            report()
-    except KeyboardInterrupt:
-        result.interrupted = True
-        message = "interrupted"
-    except (DriverError, StationError) as exc:
-        result.error = str(exc)
-        message = f"stopped: {exc}"
-    finally:
-        result.dropped_samples = trig.dropped_total
-        partial = trig.flush()
+    def execute(self, *, idle_timeout_s: float | None, read_timeout_s: float,
+                wall_clock: Callable[[], float]) -> AcquireResult:
+        result = self.result
+        self.blows = _schedule(self.daq, self.impacts)
+        self.daq.start()
+        self.origin.append(wall_clock())
+        self.report()
+        idle_s = 0.0
+        try:
+            while len(result.indices) < self.n_impacts:
+                self._check_schedule()
+                block = self.daq.read_block(timeout_s=read_timeout_s)
+                if block is None:
+                    idle_s += read_timeout_s
+                    if idle_timeout_s is not None and idle_s >= idle_timeout_s:
+                        raise StationError(f"no data from {self.dev.get('url', 'the device')} for {idle_s:.1f} s; "
+                                           f"expected a sample stream")
+                    continue
+                idle_s = 0.0
+                self._feed(block)
+                self._check_missed()
+                self.report()
+        except KeyboardInterrupt:
+            result.interrupted = True
+            self.message = "interrupted"
+        except (DriverError, StationError) as exc:
+            result.error = str(exc)
+            self.message = f"stopped: {exc}"
+        finally:
+            self._finish()
+        return result
+
+    def _check_schedule(self) -> None:
+        """Give up when the rig's schedule is spent; ask a rig without one for the next impact."""
+        trig, settings, result = self.trig, self.settings, self.result
+        blows = self.blows
+        if blows and trig.next_sample is not None and trig.state != "triggered" and (
+                trig.next_sample > blows[-1][0] + settings.record_samples + settings.holdoff_samples):
+            raise StationError(f"the simulated rig gave all {len(blows)} scheduled impacts; "
+                               f"{len(result.indices)} accepted, {len(result.rejected)} rejected; giving up")
+        # a simulated rig without a schedule: ask for the next impact once the trigger is armed
+        impacts = self.impacts
+        if impacts is not None and not blows and self.impact_at is None and trig.state == "armed":
+            if self.next_impact >= len(impacts.peaks_n):
+                raise StationError(f"the simulated rig gave {result.missed_impacts} impacts that did not trigger "
+                                   f"(level {settings.level:g}) and {len(result.rejected)} rejected; giving up")
+            self.last_peak = (impacts.peaks_n[self.next_impact], impacts.double_hits[self.next_impact])
+            self.daq.impact(self.last_peak[0], double_hit=self.last_peak[1])  # type: ignore[attr-defined]
+            self.next_impact += 1
+            self.impact_at = _device_position(self.daq, trig.next_sample or 0)
+            self.message = f"impact {self.next_impact} requested ({self.last_peak[0]:.1f} N)"
+
+    def _feed(self, block: Any) -> None:
+        """Scale a block, update the levels, and save or reject the captures it completes."""
+        result = self.result
+        if len(self.origin) == 1:
+            self.origin.append(float(block.first_sample))
+        si = block.counts * self.scale + self.offset
+        if block.counts.shape[0]:
+            peaks = np.max(np.abs(si), axis=0)
+            self.levels = {c.name: float(p) for c, p in zip(self.channels, peaks)}
+        for cap in self.trig.feed(_Block(block.first_sample, block.counts, si)):
+            if self.blows:
+                self.last_peak = _blow_of(self.blows, cap.trigger_sample)
+            reason = cap.rejection(*self.policy)
+            if reason is not None:
+                result.rejected.append(reason)
+                self.message = f"rejected: {reason}"
+            else:
+                self.save(cap)
+            self.impact_at = None
+            if len(result.indices) >= self.n_impacts:
+                break
+
+    def _check_missed(self) -> None:
+        """An impact that has not triggered within a record length is counted missed."""
+        trig, settings = self.trig, self.settings
+        if self.impact_at is not None and trig.state != "triggered" and trig.next_sample is not None:
+            if trig.next_sample - self.impact_at > settings.record_samples + settings.holdoff_samples:
+                self.result.missed_impacts += 1
+                self.message = f"impact {self.next_impact} did not reach the trigger level {settings.level:g}"
+                self.impact_at = None
+
+    def _finish(self) -> None:
+        """Save the partial capture in progress, stop the device, report; never raises."""
+        result = self.result
+        result.dropped_samples = self.trig.dropped_total
+        partial = self.trig.flush()
         if partial is not None and partial.n_samples > 0:
             try:
-                save(partial)
+                self.save(partial)
             except (StationError, OSError) as exc:
                 result.error = result.error or str(exc)
             except KeyboardInterrupt:
                 result.interrupted = True
         try:
-            daq.stop()
+            self.daq.stop()
         except (DriverError, OSError):
             pass
         except KeyboardInterrupt:
             result.interrupted = True
-        report()
-    return result
+        self.report()
 
 
 def _schedule(daq: Any, impacts: ImpactPlan | None) -> list[tuple[int, float, bool]]:

@@ -443,7 +443,9 @@ def _html(diag: Diagnosis, records: Sequence[Record], figures: Sequence[Path]) -
         "<th>parameters (SI)</th></tr>",
         f"<tr><td>noise floor</td><td>{fl.nrmse:.4g}</td><td></td><td></td><td>{esc(fl.method)}</td></tr>"
         if fl is not None else "",
-        (f"<tr><td>baseline (the pipeline's, as station identify)</td><td>{diag.baseline.nrmse:.4g}</td>"
+        (f"<tr><td>baseline (the pipeline's, as station identify"
+         f"{'' if diag.pipeline and diag.pipeline.held_out else '; on its fit record, not held out'})</td>"
+         f"<td>{diag.baseline.nrmse:.4g}</td>"
          f"<td></td><td></td><td><code>{esc(diag.baseline.model.equation_text())}</code></td></tr>"
          if diag.judged is not None else ""),
         f"<tr><td>baseline{' per fold (the candidates are judged against it)' if diag.judged is not None else ''}"

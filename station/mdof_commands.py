@@ -129,10 +129,13 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str
     span = 0.0
     for k in range(len(records)):
         train = [r for j, r in enumerate(records) if j != k]
-        # the baseline has no nonlinear coupling: the better (held out) of uncoupled modes and
-        # physical coordinates joined by linear springs only
-        for kind, variants in (("coupled", (("auto", True),)),
-                               ("baseline", (("auto", False), ("physical", "linear")))):
+        # the baseline has no nonlinear coupling: uncoupled modes, and when the coupled model is
+        # in physical coordinates also those coordinates joined by linear springs only (a
+        # linear chain is not "modal coupling"); the better held out
+        chosen = "auto"
+        for kind in ("coupled", "baseline"):
+            variants: tuple[tuple[str, bool | str], ...] = (("auto", True),) if kind == "coupled" else (
+                (("auto", False),) + ((("physical", "linear"),) if chosen == "physical" else ()))
             best = None
             for coords, coupling in variants:
                 try:
@@ -147,6 +150,7 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str
             if best is None:
                 raise InputFileError(f"identification failed with {records[k].label} held out")
             v, ident = best
+            chosen = ident.coordinates if kind == "coupled" else chosen
             span = max(span, ident.span_residual)
             folds[kind].append(v.nrmse)
             per_mode[kind].append([float(x) for x in v.mode_nrmse])

@@ -16,12 +16,16 @@ import numpy as np
 from eddi.mdof.identify import ChannelRecord
 from eddi.mdof.signals import HIGHPASS_HZ, impact_window, kinematics, lowest_mode_hz
 from station.errors import InputFileError
-from station.readers import Measurement, response_channels
+from station.readers import Measurement, is_multichannel_record, response_channels
 
 
 def is_multichannel(meas: Measurement) -> bool:
-    """True when the record has more than one response channel."""
-    return len(response_channels(meas.channels)) > 1
+    """True when the record has several response sensors (``acc1, acc2, ...``).
+
+    Plain ``acc`` / ``vel`` / ``disp`` side by side are one coordinate measured several ways
+    (conditioning uses them together), not several coordinates.
+    """
+    return is_multichannel_record(meas)
 
 
 def channel_names(meas: Measurement) -> tuple[str, ...]:

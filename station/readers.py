@@ -50,6 +50,31 @@ MIN_SAMPLES = 16
 MULTI_COLUMN = re.compile(r"^(acc|vel|disp)(?:[0-9]+|_[a-z0-9_]+)$")
 
 
+def is_multichannel_record(meas: Measurement) -> bool:
+    """True when a record has several response sensors (suffixed names: ``acc1, acc2, ...``).
+
+    Plain ``acc`` / ``vel`` / ``disp`` side by side are one coordinate measured several ways.
+    """
+    resp = response_channels(meas.channels)
+    return len(resp) > 1 and any(name not in RESPONSE_CHANNELS for name in resp)
+
+
+def require_one_coordinate(meas: Measurement, command: str) -> None:
+    """Refuse a multi-sensor record on a one-coordinate command, saying what to use instead.
+
+    Raises
+    ------
+    InputFileError
+        When ``meas`` has several response sensors.
+    """
+    if is_multichannel_record(meas):
+        names = ", ".join(response_channels(meas.channels))
+        raise InputFileError(
+            f"{meas.source}: {len(response_channels(meas.channels))} response sensors ({names}); "
+            f"`station {command}` identifies one coordinate: use `station diagnose` on these captures for "
+            f"the coupled multi-DOF model (no mass needed) and `station validate MODEL.json` to score it")
+
+
 def response_channels(channels: Mapping[str, np.ndarray]) -> dict[str, tuple[str, np.ndarray]]:
     """Response channels of a record, in order: ``name -> (quantity, samples)``.
 

@@ -17,7 +17,7 @@ from typing import Any, overload
 
 import numpy as np
 
-from station.readers import Measurement, read_measurement
+from station.readers import Measurement, read_measurement, require_one_coordinate
 
 
 @dataclass(frozen=True)
@@ -65,13 +65,20 @@ class Records(Sequence[Measurement]):
     Raises
     ------
     InputFileError, CaptureFormatError
-        When a record cannot be read (at construction, for the first bad one).
+        When a record cannot be read, or has several response sensors (a multi-DOF capture),
+        at construction, for the first bad one.
     """
 
-    def __init__(self, specs: Sequence[str], read: Callable[[str], Measurement] = read_measurement) -> None:
+    def __init__(self, specs: Sequence[str], read: Callable[[str], Measurement] = read_measurement,
+                 command: str = "identify") -> None:
         self.specs = tuple(specs)
         self._read = read
-        self.info = tuple(RecordInfo.of(read(spec)) for spec in self.specs)
+        self.info = tuple(self._check(read(spec), command) for spec in self.specs)
+
+    @staticmethod
+    def _check(meas: Measurement, command: str) -> RecordInfo:
+        require_one_coordinate(meas, command)
+        return RecordInfo.of(meas)
 
     def __len__(self) -> int:
         return len(self.specs)

@@ -159,13 +159,13 @@ def expand_specs(specs: Sequence[str]) -> list[str]:
     return out
 
 
-def read_all(specs: Sequence[str]) -> Records:
+def read_all(specs: Sequence[str], command: str = "identify") -> Records:
     """Every record of :func:`expand_specs` (``FILE.h5`` means all its captures), read on use.
 
     Each is read once here (a bad one is refused now) and again when used: never all at once
     (:class:`station.records.Records`).
     """
-    return Records(expand_specs(specs))
+    return Records(expand_specs(specs), command=command)
 
 
 def on_one_grid(measurements: Sequence[Measurement]) -> tuple[list[Measurement], str | None]:

@@ -205,8 +205,8 @@ def _pipeline_check(pipeline: PipelineBaseline | None, sh: _Shown, none_factor: 
 def _floor_note(dec: Decision, candidates: Sequence[Candidate], floor: NoiseFloor, base: float,
                 margin: float) -> list[str]:
     """A warning when ``none`` rests on a floor that is mostly the baseline's own sensitivity
-    to the noise while a candidate reproduces the held-out parts below that floor (a wrong
-    baseline inflates the floor: docs/diagnosis.md, "Calibration")."""
+    to the noise while a candidate reproduces the held-out parts below that floor (the floor
+    then overstates what the noise costs: docs/diagnosis.md, "Calibration")."""
     if dec.cause != "none":
         return []
     preds = [p for p in floor.prediction_nrmse if np.isfinite(p)]
@@ -218,7 +218,8 @@ def _floor_note(dec: Decision, candidates: Sequence[Candidate], floor: NoiseFloo
     return [f"uncertain none: the noise floor ({floor.nrmse:.3g}) is mostly how far the baseline's own refit "
             f"moves with the noise (mean {float(np.mean(preds)):.3g}, against {cond:.3g} for the "
             f"conditioned records), and {best.name} reproduces every held-out part better, at "
-            f"{best.nrmse:.3g}, below that floor: a baseline that misses a mechanism inflates its floor"]
+            f"{best.nrmse:.3g}, below that floor: the floor may overstate what the noise costs a model "
+            "that describes these records"]
 
 
 def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None,
@@ -239,7 +240,8 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
                               named_factor)
     notes = notes + _floor_note(dec, candidates, floor, baseline.nrmse, margin)
     if pipeline is not None:
-        verdict += (f" The pipeline's model (as station identify gives it) has held-out nrmse "
+        how = "held-out nrmse" if pipeline.held_out else "nrmse on its own fit record (nothing held out)"
+        verdict += (f" The pipeline's model (as station identify gives it) has {how} "
                     f"{pipeline.nrmse:.3g}; the candidates are judged against the same terms fitted per "
                     f"fold (nrmse {baseline.nrmse:.3g}).")
     winner = dec.winner

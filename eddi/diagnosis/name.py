@@ -1,7 +1,8 @@
 """Name: every mechanism refitted on the training parts and judged on the held-out ones.
 
-:func:`judge_folds` runs the folds (baseline and every candidate, fitted without the held-out
-part and simulated over it); :func:`build_candidates` turns the fold results into ranked
+:func:`judge_baseline` and :func:`judge_candidates` run the folds (the baseline and every
+candidate, fitted without the held-out part and simulated over it; :class:`FoldFitter` shares
+what a fold's fits have in common); :func:`build_candidates` turns the fold results into ranked
 :class:`~eddi.diagnosis.results.Candidate` rows (gain over its reference, win on every part,
 strength agreeing over folds); :func:`decide` gives the verdict against the noise floor.
 """
@@ -254,7 +255,8 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
     explanation. A candidate judged against another reference than the baseline (refitted by
     equation error, a modal sum) must also beat that reference by ``reference_margin``, so it
     cannot win by its fitter. A baseline lost on any part (nrmse at the cap) is never
-    ``none``."""
+    ``none``. With ``strong_margin``, a candidate passing every test with a cut of at least
+    that much is named even within ``none_factor`` (``none`` otherwise there)."""
     base = float(np.mean(base_fold))
     within = within_floor(base_fold, floor, none_factor)
     tried = [c for c in candidates if not c.skipped and c.model is not None]

@@ -53,7 +53,7 @@ class NoiseFloor:
     prediction_nrmse : tuple of float
         Per held-out part: ``d_pred``, how far the baseline's refit simulation moves under
         that draw (NaN where the refit failed). When it dominates, the floor is mostly the
-        baseline's own sensitivity, which a wrong baseline inflates.
+        refit's sensitivity to one noise draw (see the "uncertain none" note of the loop).
     """
 
     nrmse: float

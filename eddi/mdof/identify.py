@@ -456,7 +456,9 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
                              f"{100 * r_phys:.2g} %: physical coordinates kept")
             kind, tmat, fits = "physical", np.eye(tmat.shape[0]), phys
     n = tmat.shape[1]
-    masses, inputs, notes = masses_and_inputs(kind, fits, tmat, d, n)
+    proj = np.linalg.pinv(tmat)
+    amp = np.sqrt(np.mean(np.hstack([proj @ r.x[:, r.window[0]:r.window[1]] for r in records]) ** 2, axis=1))
+    masses, inputs, notes = masses_and_inputs(kind, fits, tmat, d, n, amp)
     notes = notes_pre + notes
     model = MdofModel.create(
         coordinates=kind, mass=tuple(masses), input=tuple(inputs),

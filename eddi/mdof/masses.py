@@ -23,12 +23,13 @@ if TYPE_CHECKING:
     from eddi.mdof.identify import EquationFit
 
 
-def masses_and_inputs(kind: str, fits: tuple[EquationFit, ...], tmat: np.ndarray, d: int, n: int
-                      ) -> tuple[list[float], list[float], list[str]]:
+def masses_and_inputs(kind: str, fits: tuple[EquationFit, ...], tmat: np.ndarray, d: int, n: int,
+                      amplitude: np.ndarray | None = None) -> tuple[list[float], list[float], list[str]]:
     """Masses [kg] and input shares of every coordinate, and notes (see the module docstring).
 
     ``kind`` is ``"modal"`` or ``"physical"``; ``tmat`` the shapes (channels x coordinates);
-    ``d`` the driving-point channel.
+    ``d`` the driving-point channel; ``amplitude`` the RMS of each coordinate over the records
+    [m] (weights of :func:`reciprocity`).
     """
     notes: list[str] = []
     gains = np.array([f.input_gain for f in fits])
@@ -51,13 +52,18 @@ def masses_and_inputs(kind: str, fits: tuple[EquationFit, ...], tmat: np.ndarray
         return masses, inputs, notes
     masses = [math.nan] * n
     masses[d] = 1.0 / gains[d] if gains[d] > 0 else 1.0
-    for _ in range(n):  # spread from the driven mass through the coupling terms
+    for _ in range(n):  # spread from the known masses, through the strongest coupling first
+        best = None
         for i, j in itertools.permutations(range(n), 2):
             if math.isnan(masses[i]) or not math.isnan(masses[j]):
                 continue
-            ratio = reciprocity(fits[i], fits[j], i, j, n)
-            if ratio is not None:
-                masses[j] = masses[i] * ratio
+            got = reciprocity(fits[i], fits[j], i, j, n, amplitude)
+            if got is not None and (best is None or got[1] > best[2]):
+                best = (i, j, got[1], got[0])
+        if best is None:
+            break
+        i, j, _w, ratio = best
+        masses[j] = masses[i] * ratio
     for j in range(n):
         if math.isnan(masses[j]):
             notes.append(f"coordinate {j + 1}: no coupling to a driven mass; identified per unit mass")
@@ -65,8 +71,21 @@ def masses_and_inputs(kind: str, fits: tuple[EquationFit, ...], tmat: np.ndarray
     return masses, [1.0 if i == d else 0.0 for i in range(n)], notes
 
 
-def reciprocity(fi: EquationFit, fj: EquationFit, i: int, j: int, n: int) -> float | None:
-    """``m_j / m_i`` from potential terms shared by equations ``i`` and ``j``, or None."""
+def reciprocity(fi: EquationFit, fj: EquationFit, i: int, j: int, n: int,
+                amplitude: np.ndarray | None = None) -> tuple[float, float] | None:
+    """``(m_j / m_i, weight)`` from potential terms shared by equations ``i`` and ``j``, or None.
+
+    ``weight`` (the weighted sum of squares of equation ``j``'s shared terms) says how strongly
+    the two coordinates are coupled: the masses are spread through the strongest coupling
+    first, not through a spurious small term.
+
+    Each shared potential monomial ``P`` gives one estimate; they are combined by least
+    squares weighted by the size of ``P`` at the records' amplitudes (``amplitude``, RMS of
+    each coordinate [m]): coefficients of different degrees have different units (N/m,
+    N/m^3), and unweighted the cubic ones (large numbers) would outweigh a linear spring, or
+    a spurious small linear term a cubic spring.
+    """
+    amp = np.ones(n) if amplitude is None else np.asarray(amplitude, float)
     num = den = 0.0
     for text_i, ci in fi.stiffness.items():
         e = parse_multi_term(text_i, n).exponents[0].copy()  # powers of x in d P / d x_i
@@ -81,6 +100,7 @@ def reciprocity(fi: EquationFit, fj: EquationFit, i: int, j: int, n: int) -> flo
         if cj is None:
             continue
         # theta = m_i ci / a = m_j cj / b  ->  m_j / m_i = b ci / (a cj)
-        num += (b_ * ci / a) * cj
-        den += cj * cj
-    return num / den if den > 0 and num / den > 0 else None
+        size = float(np.prod(amp ** e))  # P at the records' amplitudes [m^degree]
+        num += (b_ * ci / a) * cj * size * size
+        den += (cj * size) ** 2
+    return (num / den, den) if den > 0 and num / den > 0 else None

@@ -161,12 +161,13 @@ def _text(obj: dict[str, Any]) -> str:
 
 
 def handler(args: argparse.Namespace) -> int:
-    from station.readers import read_measurement
+    from station.readers import read_measurement, require_one_coordinate
     from station.session import expand_specs, read_all, run_session
 
     specs = expand_specs(list(args.path))
     if len(specs) == 1:
         meas = read_measurement(specs[0])
+        require_one_coordinate(meas, "identify")
         mass = _mass(args.mass, meas)
         res = run_identify(meas, mass, args.damping, args.stiffness, args.route, args.refine)
         obj = result_object(meas, res)

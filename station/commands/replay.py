@@ -172,7 +172,7 @@ def handle(args: argparse.Namespace) -> int:
             lines.append(f"capture {c.capture}: {c.samples} samples through {c.transport_url}: "
                          + ("bit-exact" if c.bit_exact else f"{c.mismatched_samples} samples differ")
                          + f" (dropped {c.dropped_samples}, CRC errors {c.crc_errors})")
-    session = run_session(read_all(specs), args.mass,
+    session = run_session(read_all(specs, command="replay"), args.mass,
                           damping=terms_or_default(args.damping, DEFAULT_DAMPING),
                           stiffness=terms_or_default(args.stiffness, DEFAULT_STIFFNESS), fit_index=args.fit,
                           refine=args.refine)

@@ -53,7 +53,7 @@ def handle(args: argparse.Namespace) -> int:
 
     check_output(args.out, "dir", args.records, option="--out")
     t0 = time.perf_counter()
-    recs = read_all(args.records)
+    recs = read_all(args.records, command="report")
     session = run_session(recs, args.mass, damping=terms_or_default(args.damping, DEFAULT_DAMPING),
                           stiffness=terms_or_default(args.stiffness, DEFAULT_STIFFNESS), route=args.route,
                           fit_index=args.fit, refine=args.refine)

@@ -32,3 +32,25 @@ def test_jackknife_interval_covers_the_truth_and_holds_zero_for_an_absent_term()
         assert half[0] < 0.01 * 4.0e4  # the strong linear term is well determined
     assert covered >= 16 and held_zero >= 16  # about 95 % each, with room for 20 draws
 
+
+
+def test_masses_from_reciprocity_go_through_the_real_springs_not_a_spurious_term():
+    """Three masses in a chain (ground-1-2-3, cubic spring 2-3), no mass given but the driven one.
+    A small spurious 1-3 coupling (as noise leaves it) must not set mass 3, and the N/m^3
+    coefficients (1e10) must not swamp the N/m ones (1e4)."""
+    from eddi.mdof.identify import EquationFit
+    from eddi.mdof.masses import masses_and_inputs
+    from simulated_rig.mdof_systems import Element, MdofSystem
+
+    true_m = (1.0, 0.7, 0.4)
+    chain = MdofSystem(masses_kg=true_m, elements=(
+        Element(between=(0, 1), k=5e4), Element(between=(1, 2), k=3e4),
+        Element(between=(2, 3), k=2e4, k3=1e10)))
+    model = chain.model()
+    per_mass = [{t: c / m for t, c in model.stiffness[i].items()} for i, m in enumerate(true_m)]
+    per_mass[0]["x3"] = -180.0  # spurious, 0.6 % of the real 1-2 spring
+    per_mass[2]["x1"] = -350.0  # its partner: alone they would make mass 3 0.51 kg
+    per_mass[2]["x1^3"] = 4e8   # spurious cubic, large as a number
+    fits = tuple(EquationFit({}, st, 1.0 if i == 0 else 0.0, 0.0, 0.0, 0) for i, st in enumerate(per_mass))
+    masses, inputs, notes = masses_and_inputs("physical", fits, np.eye(3), 0, 3, np.array([1e-3, 1.6e-3, 2.2e-3]))
+    assert np.allclose(masses, true_m, rtol=0.01) and inputs == [1.0, 0.0, 0.0] and not notes

@@ -61,6 +61,7 @@ def build_files(d: Path) -> dict[str, Path]:
         files[name] = p
 
     csv("good")
+    csv("two_sensors", "t,force,acc1,acc2", good[:, [0, 1, 2, 2]])  # a multi-DOF record on a 1-DOF command
     text("empty", "")
     text("header_only", "t,force,acc\n")
     text("blank_header", "   \n1,2,3\n")
@@ -221,6 +222,8 @@ CASES: list[tuple[str, list[str]]] = [
         "acc_constant", "semicolons", "nul_bytes", "wrong_suffix", "no_suffix", "folder", "missing"]],
     ("csv-capture-on-csv", ["identify", G + ":3", "--mass", "1"]),
     ("csv-force-no-impact", ["identify", _f("force_no_impact"), "--mass", "1"]),
+    ("csv-two-sensors-identify", ["identify", _f("two_sensors"), "--mass", "1"]),
+    ("csv-two-sensors-replay", ["replay", _f("two_sensors"), "--mass", "1"]),
     # -- HDF5 content (station identify FILE.h5[:N])
     *[(f"h5-{n}", ["identify", _f(n)]) for n in [
         "not_hdf5", "zero_h5", "foreign", "captures_dataset", "no_captures", "empty_session", "version_99",
