@@ -38,9 +38,8 @@ from simulated_rig.hammer import HammerSpec, hammer_force
 from simulated_rig.measured_channels import MeasuredChannels
 from simulated_rig.mdof_systems import MdofSystem, load_mdof_system, mdof_impact_test
 from simulated_rig.sensors import SensorSpec
+from simulated_rig.source import IMPACT_DELAY_S  # the same delay as the 1-DOF rig's
 
-#: Delay from :meth:`MdofRigSource.deliver_impact` to the start of the pulse [s].
-IMPACT_DELAY_S = 5.0e-3
 #: Length of each simulated chunk of a ring-down [s].
 CHUNK_S = 1.0
 
