@@ -1,0 +1,89 @@
+"""Input checks: a uniform time base, finite channels, clipped (flat-topped) runs."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from eddi.errors import SignalError
+
+
+
+def check_time(t: np.ndarray) -> float:
+    """Check a time vector and return its sample rate [Hz].
+
+    Raises
+    ------
+    SignalError
+        If ``t`` is not 1-D, has fewer than 16 samples, is not finite, not increasing or
+        not uniform (a sample more than 1 % of a step off the uniform grid).
+    """
+    t = np.asarray(t, dtype=float)
+    if t.ndim != 1 or t.size < 16:
+        raise SignalError(f"time must be a 1-D array of at least 16 samples, got shape {t.shape}")
+    bad = np.nonzero(~np.isfinite(t))[0]
+    if bad.size:
+        raise SignalError(f"time is NaN or infinite at sample {int(bad[0])}")
+    dt = np.diff(t)
+    if np.any(dt <= 0):
+        i = int(np.nonzero(dt <= 0)[0][0])
+        raise SignalError(f"time must increase; t[{i + 1}] = {t[i + 1]:g} after t[{i}] = {t[i]:g}")
+    step = (t[-1] - t[0]) / (t.size - 1)
+    # each sample within 1 % of a step of the uniform grid (allows times printed with few digits)
+    dev = np.abs(t - (t[0] + step * np.arange(t.size)))
+    if np.max(dev) > 0.01 * step:
+        i = int(np.argmax(dev))
+        raise SignalError(
+            f"time must be uniformly sampled; t[{i}] = {t[i]:.9g} s is {dev[i]:.3g} s off the grid "
+            f"of step {step:.6g} s (expected within 1 % of a step)"
+        )
+    return 1.0 / step
+
+
+
+def check_channel(name: str, y: np.ndarray, n: int) -> np.ndarray:
+    """A channel as a float array of length ``n``, finite everywhere.
+
+    Raises
+    ------
+    SignalError
+        Wrong length, or a NaN / infinite value (the message names the sample).
+    """
+    y = np.asarray(y, dtype=float)
+    if y.shape != (n,):
+        raise SignalError(f"channel {name!r} has shape {y.shape}, expected ({n},) like the time")
+    bad = np.nonzero(~np.isfinite(y))[0]
+    if bad.size:
+        raise SignalError(f"channel {name!r} is NaN or infinite at sample {int(bad[0])}")
+    return y
+
+
+
+def clipped_run(y: np.ndarray, min_run: int = 5) -> int | None:
+    """Index where ``y`` sits flat at its global maximum or minimum for ``min_run`` samples.
+
+    A clipped channel is flat-topped at its extreme value; a smooth signal sampled with
+    enough resolution does not repeat its extreme value several samples in a row.
+
+    Returns
+    -------
+    int or None
+        First sample of the first such run, or None when the signal is not clipped.
+    """
+    y = np.asarray(y, dtype=float)
+    if y.size < min_run or np.ptp(y) == 0:
+        return None
+    for extreme in (np.max(y), np.min(y)):
+        if extreme == 0:
+            continue
+        hit = (y == extreme).astype(np.int8)
+        if hit.sum() < min_run:
+            continue
+        # run lengths of consecutive hits
+        edges = np.diff(np.concatenate(([0], hit, [0])))
+        starts = np.nonzero(edges == 1)[0]
+        stops = np.nonzero(edges == -1)[0]
+        long = np.nonzero(stops - starts >= min_run)[0]
+        if long.size:
+            return int(starts[long[0]])
+    return None
+

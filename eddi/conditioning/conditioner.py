@@ -1,0 +1,380 @@
+"""The conditioner: measured channels -> ``x, v, a`` and the free-response window.
+
+See the package docstring (:mod:`eddi.conditioning`) for the method.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import cumulative_trapezoid
+
+from eddi.calculus import integrate, spline_cumulative_integral
+from eddi.conditioning.checks import check_channel, check_time
+from eddi.conditioning.conditioned import ConditionedSignal
+from eddi.conditioning.equilibrium import EquilibriumIntegral, _equilibrium_note, integrate_about_equilibrium
+from eddi.conditioning.kinematics import (
+    _drift_spline, _drift_spline_eval, _sg_derivative, _sg_derivative_modes, anchor_residual,
+)
+from eddi.conditioning.levels import _envelope_stop, _onset, _pulse_end, crossings, noise_rms
+from eddi.errors import SignalError
+
+
+#: e.g. dry friction that sticks after a cycle, is data; fewer hold nothing to anchor the drift).
+MIN_CROSSINGS = 3
+#: Knot spacing of the drift spline, in (longest) periods of the response.
+KNOT_PERIODS = 2.0
+#: Half width of the sample groups around each acceleration zero crossing, in periods.
+ANCHOR_HALF_WIDTH = 0.02
+#: A record that starts in motion is treated as one restoring force (drift anchored where
+#: ``a = 0``) when ``x`` there is within this fraction of its RMS of ``c_a a + c_v v`` (plus
+#: a line in time); otherwise (several modes) it is integrated about the equilibrium only.
+#: Measured: one mode 0.0004-0.05, two modes 0.5-0.9 (docs/conditioning.md).
+ONE_FORCE_RESIDUAL = 0.3
+
+
+
+def condition(
+    t: np.ndarray,
+    *,
+    acc: np.ndarray | None = None,
+    vel: np.ndarray | None = None,
+    disp: np.ndarray | None = None,
+    force: np.ndarray | None = None,
+    pretrigger_samples: int | None = None,
+    ac_coupling_s: float | None = None,
+    noise_factor: float = 10.0,
+    free_drift_slope: bool = False,
+) -> ConditionedSignal:
+    """Turn measured channels into ``x, v, a`` and find the free-response window.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,), [s]
+        Uniform, increasing time.
+    acc, vel, disp : ndarray, shape (n,), optional
+        Measured acceleration [m/s^2], velocity [m/s], displacement [m]; at least one. Given
+        ``disp`` and ``vel`` are used as they are.
+    force : ndarray, shape (n,), [N], optional
+        Measured hammer force; used to find the impact and its end.
+    pretrigger_samples : int, optional
+        Samples of rest before the trigger (default: detected).
+    ac_coupling_s : float, optional
+        Time constant [s] of a first-order AC coupling (IEPE) on ``acc``; when given, the
+        coupling is inverted before integration.
+    noise_factor : float
+        The free response stops where the envelope of the measured response falls below
+        ``noise_factor`` times its noise RMS.
+    free_drift_slope : bool
+        With a rest before the impact, the integration drift is 0 at the motion's start;
+        False (default) also holds its slope at 0 there, True leaves the slope free: the
+        integral over the impact pulse leaves a small velocity step that a clamped slope
+        spreads over the first knot intervals (on a clean 50 Hz record at 41 samples a
+        period the displacement error fell from 1.7e-3 to 3.9e-4 of its RMS, 4.4e-4 in the
+        first tenth of the window instead of 1.8e-3).
+    Returns
+    -------
+    ConditionedSignal
+
+    Raises
+    ------
+    SignalError
+        Bad time base, NaN, no response channel, no motion, too few zero crossings.
+    """
+    w = _inputs(t, acc, vel, disp, force)
+    w.free_slope = bool(free_drift_slope)
+    _onset_and_rest(w, pretrigger_samples)
+    _remove_rest_offsets(w, ac_coupling_s)
+    _impact_end_from_force(w)
+    _period(w)
+    if w.disp is not None:
+        _kinematics_from_disp(w)
+    elif w.vel is not None or w.acc is not None:
+        _kinematics_by_integration(w, noise_factor)
+    return _free_window(w, noise_factor)
+
+
+
+@dataclass
+class _Work:
+    """State passed between the steps of :func:`condition` (internal, mutable)."""
+
+    t: np.ndarray
+    rate: float
+    acc: np.ndarray | None
+    vel: np.ndarray | None
+    disp: np.ndarray | None
+    force: np.ndarray | None
+    resp_name: str
+    resp: np.ndarray
+    notes: list[str]
+    margin: int = 2
+    start: int = 0
+    rest: bool = False
+    noise_stop: int = 0
+    sigma: float = 0.0
+    f_sigma: float = 0.0
+    impact_end: int = -1
+    period_s: float = 0.0
+    x: np.ndarray | None = None
+    v: np.ndarray | None = None
+    a: np.ndarray | None = None
+    method: str = ""
+    free_slope: bool = False
+
+    @property
+    def n(self) -> int:
+        return self.t.size
+
+
+
+def _inputs(t: np.ndarray, acc: np.ndarray | None, vel: np.ndarray | None, disp: np.ndarray | None,
+            force: np.ndarray | None) -> _Work:
+    """Check the channels; the exact uniform grid; the response channel that shows the motion."""
+    rate = check_time(t)
+    t = np.asarray(t, dtype=float)
+    n = t.size
+    # the exact uniform grid (times in files are often printed with few digits)
+    t = t[0] + np.arange(n) * ((t[-1] - t[0]) / (n - 1))
+    if acc is None and vel is None and disp is None:
+        raise SignalError("need at least one of acc, vel, disp; got none")
+    acc = None if acc is None else check_channel("acc", acc, n)
+    vel = None if vel is None else check_channel("vel", vel, n)
+    disp = None if disp is None else check_channel("disp", disp, n)
+    force = None if force is None else check_channel("force", force, n)
+    if acc is not None:
+        name, resp = "acc", acc
+    elif vel is not None:
+        name, resp = "vel", vel
+    else:
+        name, resp = "disp", disp
+    return _Work(t, rate, acc, vel, disp, force, name, resp, [],  # type: ignore[arg-type]
+                 margin=max(2, int(round(2e-4 * rate))))
+
+
+
+def _onset_and_rest(w: _Work, pretrigger_samples: int | None) -> None:
+    """Onset of the motion, whether a rest was seen before it, and the response's noise RMS."""
+    n, resp = w.n, w.resp
+    head = max(8, min(pretrigger_samples or n // 20, n // 5))
+    if w.force is not None and np.ptp(w.force) > 0:
+        onset, _ = _onset(w.force - np.median(w.force[:head]), head)
+    else:
+        onset, _ = _onset(resp - np.median(resp[:head]), head)
+    if pretrigger_samples is not None:
+        if not 0 <= pretrigger_samples < n:
+            raise SignalError(f"pretrigger_samples must be in 0..{n - 1}, got {pretrigger_samples}")
+        onset = min(onset, int(pretrigger_samples)) if pretrigger_samples > 0 else onset
+    start = max(0, onset - w.margin)
+    rest = start >= 32 if pretrigger_samples is None else (pretrigger_samples > 0 and start > 0)
+    if rest and pretrigger_samples is None:
+        # rest means quiet: the head must be small compared with the response
+        quiet = resp[:start]
+        if np.std(quiet) > 0.02 * np.max(np.abs(resp - np.mean(quiet))):
+            rest = False
+    w.start = start if rest else 0
+    w.rest = rest
+    w.noise_stop = max(0, w.start - w.margin) if rest else 0
+    w.sigma = noise_rms(resp, w.noise_stop)
+    w.notes.append(f"motion starts at sample {w.start} ({'rest before' if rest else 'no rest seen'})")
+
+
+
+def _remove_rest_offsets(w: _Work, ac_coupling_s: float | None) -> None:
+    """Offsets seen at rest removed from the force and the acceleration; AC coupling inverted."""
+    n, ns = w.n, w.noise_stop
+    if w.force is not None:
+        f_off = float(np.mean(w.force[:ns])) if ns >= 8 else float(np.median(w.force[: max(8, n // 50)]))
+        w.force = w.force - f_off
+    if w.acc is not None and w.rest and ns >= 8:
+        w.acc = w.acc - float(np.mean(w.acc[:ns]))
+    if w.acc is not None and ac_coupling_s is not None:
+        if not ac_coupling_s > 0:
+            raise SignalError(f"ac_coupling_s must be > 0, got {ac_coupling_s}")
+        w.acc = w.acc + cumulative_trapezoid(w.acc, w.t, initial=0.0) / ac_coupling_s
+        w.notes.append(f"AC coupling ({ac_coupling_s:g} s) inverted")
+
+
+
+def _impact_end_from_force(w: _Work) -> None:
+    """End of the impact where the force returns within its noise of zero (force measured)."""
+    f = w.force
+    if f is None or not np.ptp(f) > 0:
+        return  # decided after integration (first extremum of x)
+    w.f_sigma = noise_rms(f, w.noise_stop)
+    f_peak_i = int(np.argmax(np.abs(f)))
+    thr = max(5.0 * w.f_sigma, 0.01 * abs(float(f[f_peak_i])))
+    look = f[f_peak_i: min(w.n, f_peak_i + int(0.1 * w.rate))]
+    above = np.nonzero(np.abs(look) > thr)[0]
+    w.impact_end = min(w.n - 1, f_peak_i + int(above[-1]) + 1 + w.margin)
+    w.notes.append(f"impact ends at sample {w.impact_end} (force within {thr:.3g} N of zero)")
+
+
+
+def _period(w: _Work) -> None:
+    """Longest period of the response, from its zero crossings."""
+    resp = w.resp
+    hyst = max(3.0 * w.sigma, 1e-9 * float(np.max(np.abs(resp))))
+    base = resp if w.resp_name == "acc" else resp - np.median(resp[w.start:])
+    crs = crossings(base, hyst, start=max(w.start, w.impact_end))
+    if crs.size < MIN_CROSSINGS:
+        raise SignalError(
+            f"too few zero crossings of {w.resp_name} in the response: {crs.size}, expected >= {MIN_CROSSINGS}"
+        )
+    half = np.diff(crs)
+    w.period_s = 2.0 * float(np.percentile(half[: max(4, half.size // 2)], 90)) / w.rate
+    w.notes.append(f"longest period {w.period_s:.4g} s; drift knots every {KNOT_PERIODS * w.period_s:.4g} s")
+
+
+
+def _kinematics_from_disp(w: _Work) -> None:
+    """A measured displacement: ``v`` and ``a`` as measured or by Savitzky-Golay derivatives."""
+    split = w.impact_end if w.impact_end >= 0 else w.start
+    x = w.disp
+    assert x is not None
+    if w.vel is not None:
+        w.x, w.v = x, w.vel
+        w.a = w.acc if w.acc is not None else _sg_derivative(w.vel, w.rate, w.period_s, 1, split)
+        w.method = "disp and vel as measured" + (", acc as measured" if w.acc is not None
+                                                 else ", acc by Savitzky-Golay derivative of vel")
+        return
+    w.x = x
+    w.v = _sg_derivative(x, w.rate, w.period_s, 1, split)
+    w.a = w.acc if w.acc is not None else _sg_derivative(x, w.rate, w.period_s, 2, split)
+    w.method = "disp as measured; vel and acc by Savitzky-Golay derivatives"
+
+
+
+def _anchored_drift(w: _Work, x_int: np.ndarray, v_int: np.ndarray, a_for_anchor: np.ndarray,
+                    noise_factor: float) -> tuple[np.ndarray, np.ndarray]:
+    """The drift ``d, d'`` of an integrated ``x``, anchored where ``a = 0`` and in the noise tail."""
+    first = max(w.start, w.impact_end)
+    a_sigma = noise_rms(a_for_anchor, w.noise_stop)
+    h = max(3.0 * a_sigma, 1e-9 * float(np.max(np.abs(a_for_anchor))))
+    anc = crossings(a_for_anchor, h, start=first)
+    if w.impact_end < 0 and anc.size:
+        anc = anc[1:]  # no force: the first crossing is at the end of the impact
+    stop = _envelope_stop(a_for_anchor, first, a_sigma, noise_factor, w.period_s, w.rate)
+    anc = anc[anc < stop]
+    if anc.size < MIN_CROSSINGS:
+        raise SignalError(
+            f"too few zero crossings of the acceleration above the noise: {anc.size}, expected >= {MIN_CROSSINGS}"
+        )
+    # samples within +-2 % of a period of each crossing (|x| below ~12 % of its amplitude)
+    half_w = max(1, int(round(ANCHOR_HALF_WIDTH * w.period_s * w.rate)))
+    centre = np.rint(anc).astype(int)
+    near = (centre[:, None] + np.arange(-half_w, half_w + 1)[None, :]).ravel()
+    near = near[(near > max(first, w.start)) & (near < stop)]
+    step = max(1, int(round(w.period_s * w.rate / (2 * half_w + 1) / 2.0)))
+    tail = np.arange(stop, w.n, step)
+    pts = np.unique(np.concatenate((near, tail)))
+    local = -np.column_stack((a_for_anchor[pts], v_int[pts]))
+    spl = _drift_spline(w.t, x_int, pts, KNOT_PERIODS * w.period_s, w.start, clamped=w.rest, local=local,
+                        free_slope=w.free_slope)
+    return _drift_spline_eval(spl, w.t, w.start)
+
+
+
+def _kinematics_by_integration(w: _Work, noise_factor: float) -> None:
+    """Velocity and/or acceleration: integrate (from rest, or about the equilibrium), remove the drift."""
+    eq: EquilibriumIntegral | None = None
+    one_force = True
+    if not w.rest:
+        # recorded already in motion: integration constants unknown; first integrate about the
+        # equilibrium (valid for any number of modes), then check whether the record behaves as
+        # one restoring force (x ~ 0 where a = 0)
+        eq = integrate_about_equilibrium(w.t, vel=w.vel) if w.vel is not None else \
+            integrate_about_equilibrium(w.t, acc=w.acc)
+        w.a = w.acc if w.acc is not None else _sg_derivative_modes(w.vel, w.rate, w.period_s)  # type: ignore[arg-type]
+        v_eq = w.vel if w.vel is not None else eq.v
+        resid = anchor_residual(eq.x, v_eq, w.a)
+        one_force = resid < ONE_FORCE_RESIDUAL
+        w.notes.append(_equilibrium_note(eq) + f"; x at the acc zero crossings off a single "
+                       f"restoring force by {resid:.3g} of its RMS")
+    if not one_force:
+        assert eq is not None
+        w.x, w.v = eq.x, (w.vel if w.vel is not None else eq.v)
+        w.method = ("vel as measured" if w.vel is not None else "acc") + \
+            "; integrated about the equilibrium (zero mean over every cycle of every mode)" + \
+            ("; acc as measured" if w.acc is not None else "; acc by Savitzky-Golay derivative of vel")
+    elif w.vel is not None:
+        _integrate_velocity(w, noise_factor)
+    else:
+        _integrate_acceleration(w, eq, noise_factor)
+
+
+
+def _integrate_velocity(w: _Work, noise_factor: float) -> None:
+    """A measured velocity (one restoring force): ``x`` by integration, drift anchored."""
+    vel, start, dt = w.vel, w.start, 1.0 / w.rate
+    assert vel is not None
+    split = w.impact_end if w.impact_end >= 0 else start
+    if w.rest:
+        w.a = w.acc if w.acc is not None else _sg_derivative(vel, w.rate, w.period_s, 1, split)
+    v0 = vel - (float(np.mean(vel[:w.noise_stop])) if w.rest and w.noise_stop >= 8 else 0.0)
+    x_int = np.zeros(w.n)
+    x_int[start:] = (integrate(v0[start:], dt, smooth_from=_pulse_end(v0, start, w.impact_end) - start)
+                     if w.rest else spline_cumulative_integral(w.t, v0))
+    assert w.a is not None
+    d, _ = _anchored_drift(w, x_int, v0, w.a, noise_factor)
+    w.x, w.v = x_int - d, vel
+    w.method = ("vel as measured; disp by integration " + ("from rest" if w.rest else "from the start")
+                + " with drift anchored at acc zero crossings")
+
+
+
+def _integrate_acceleration(w: _Work, eq: EquilibriumIntegral | None, noise_factor: float) -> None:
+    """A measured acceleration alone: ``v, x`` by integration, drift anchored."""
+    a, start, t = w.acc, w.start, w.t
+    assert a is not None
+    w.a = a
+    if eq is None:
+        v_int = np.zeros(w.n)
+        x_int = np.zeros(w.n)
+        # 4th-order integration (the trapezoid loses (w h)^2 / 12 a pass: eddi.calculus),
+        # trapezoid over the impact (a pulse is not smooth)
+        smooth = _pulse_end(a, start, w.impact_end) - start
+        v_int[start:] = integrate(a[start:], 1.0 / w.rate, smooth_from=smooth)
+        x_int[start:] = integrate(v_int[start:], 1.0 / w.rate, smooth_from=smooth)
+    else:
+        # unknown v0 and x0: a line in x, removed by least squares before the anchored fit (it
+        # dwarfs x; the cycle-mean v is biased where a damped response chirps)
+        v_int = spline_cumulative_integral(t, a)
+        x_int = spline_cumulative_integral(t, v_int)
+        line = np.polynomial.polynomial.polyfit(t - t[0], x_int, 1)
+        x_int = x_int - line[0] - line[1] * (t - t[0])
+        v_int = v_int - line[1]
+    d, dd = _anchored_drift(w, x_int, v_int, a, noise_factor)
+    w.x, w.v = x_int - d, v_int - dd
+    w.method = ("acc integrated from rest" if w.rest else "acc integrated about the equilibrium") + \
+        "; drift anchored at acc zero crossings (x = 0) and the noise tail"
+
+
+
+def _free_window(w: _Work, noise_factor: float) -> ConditionedSignal:
+    """The free-response window: after the impact, until the response sinks into the noise."""
+    x, v, a, n, start = w.x, w.v, w.a, w.n, w.start
+    assert x is not None and v is not None and a is not None
+    impact_end = w.impact_end
+    if impact_end < 0:
+        # without force: from the first extremum of x after the motion starts (the first
+        # crossing of v after v has left its rest: at the onset v is still ~0)
+        moving = np.nonzero(np.abs(v[start:]) >= 0.3 * float(np.max(np.abs(v[start:]))))[0]
+        first_move = start + (int(moving[0]) if moving.size else 0)
+        vx = crossings(v, max(3.0 * noise_rms(v, w.noise_stop), 1e-12), start=first_move)
+        impact_end = int(math.ceil(vx[0])) if (w.rest and vx.size) else start
+    free_start = min(impact_end, n - 2)
+    free_stop = _envelope_stop(w.resp if w.resp_name != "disp" else x, free_start, w.sigma, noise_factor,
+                               w.period_s, w.rate)
+    free_stop = max(free_stop, min(n, free_start + 2))
+    w.notes.append(f"noise RMS of {w.resp_name}: {w.sigma:.3g}; free response [{free_start}, {free_stop})")
+    return ConditionedSignal(
+        t=w.t, x=np.ascontiguousarray(x), v=np.ascontiguousarray(v), a=np.ascontiguousarray(a),
+        force=w.force, rate_hz=w.rate, free_start=int(free_start), free_stop=int(free_stop),
+        method=w.method, notes=tuple(w.notes), impact_start=int(start), impact_end=int(impact_end),
+        noise_rms=w.sigma, force_noise_rms=w.f_sigma, acc_measured=w.acc is not None,
+        response=w.resp_name,
+    )
+

@@ -1,0 +1,173 @@
+"""Integration and differentiation helpers of the conditioner: the paper's high-pass
+integration, Savitzky-Golay derivatives, the drift spline anchored where ``x = 0``."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate import cumulative_trapezoid
+from scipy.interpolate import BSpline
+
+from eddi.conditioning.checks import check_time
+from eddi.conditioning.equilibrium import _spectral_peaks
+from eddi.conditioning.levels import _at, crossings, noise_rms
+
+
+
+def integrate_highpass(t: np.ndarray, acc: np.ndarray, cutoff_hz: float = 2.0,
+                       order: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """The paper's integration: integrate, then zero-phase Butterworth high-pass, twice.
+
+    Paper Sec. 4.1: "numerically integrating the accelerations and high-pass filtering the
+    output using a third-order Butterworth filter with a cutoff frequency of 2 Hz" (3 Hz in
+    Sec. 4.2). Kept as the reference that :func:`condition` is measured against.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,), [s]
+    acc : ndarray, shape (n,), [m/s^2]
+    cutoff_hz : float
+    order : int
+
+    Returns
+    -------
+    x, v : ndarray, shape (n,)
+        Displacement [m] and velocity [m/s].
+    """
+    from scipy import signal as sps  # local: scipy.signal imports scipy.stats (~0.5 s)
+
+    rate = check_time(t)
+    sos = sps.butter(order, cutoff_hz, btype="highpass", fs=rate, output="sos")
+    v = sps.sosfiltfilt(sos, cumulative_trapezoid(acc, t, initial=0.0))
+    x = sps.sosfiltfilt(sos, cumulative_trapezoid(v, t, initial=0.0))
+    return x, v
+
+
+
+def _sg_derivative(y: np.ndarray, rate_hz: float, period_s: float, deriv: int,
+                   split: int = 0) -> np.ndarray:
+    """Zero-phase Savitzky-Golay derivative with a window of about a tenth of a period.
+
+    The record is differentiated in two pieces, ``[:split]`` and ``[split:]``, so that the
+    jump of the rate at an impact is not smeared into the free response.
+    """
+    from scipy import signal as sps  # local: scipy.signal imports scipy.stats (~0.5 s)
+
+    out = np.zeros_like(y)
+    for lo, hi in ((0, split), (split, y.size)):
+        seg = y[lo:hi]
+        if seg.size < 5:
+            out[lo:hi] = np.gradient(seg, 1.0 / rate_hz) if seg.size > 1 and deriv == 1 else 0.0
+            continue
+        win = int(round(period_s * rate_hz / 10.0)) | 1
+        win = max(5, min(win, 201))
+        if win > seg.size:
+            win = seg.size if seg.size % 2 else seg.size - 1
+        out[lo:hi] = sps.savgol_filter(seg, win, polyorder=min(3, win - 1), deriv=deriv,
+                                       delta=1.0 / rate_hz)
+    return out
+
+
+
+def _sg_derivative_modes(y: np.ndarray, rate_hz: float, period_s: float) -> np.ndarray:
+    """Zero-phase Savitzky-Golay first derivative (5th order, a quarter of the shortest period).
+
+    The shortest period is that of the highest peak of ``|Y(f)|`` above 5 % of the largest
+    (``period_s`` when there is none). Against the tenth-of-a-period cubic window this
+    quarters the noise on the derivative at the same bias on the modes (measured in
+    ``docs/conditioning.md``).
+    """
+    from scipy import signal as sps  # local: scipy.signal imports scipy.stats (~0.5 s)
+
+    peaks = _spectral_peaks(y, rate_hz, power=0, rel=0.05)
+    shortest = 1.0 / peaks[-1] if peaks else period_s
+    win = max(7, int(round(0.25 * shortest * rate_hz)) | 1)
+    if win > y.size:
+        win = y.size if y.size % 2 else y.size - 1
+    return sps.savgol_filter(y, win, polyorder=min(5, win - 1), deriv=1, delta=1.0 / rate_hz)
+
+
+
+def _drift_spline(
+    t: np.ndarray, x_int: np.ndarray, pts: np.ndarray, knot_s: float, start: int, clamped: bool,
+    local: np.ndarray, free_slope: bool = False,
+) -> BSpline:
+    """Least-squares cubic spline ``d`` with ``x_int = d(t) + local @ c`` at samples ``pts``.
+
+    ``local`` holds, per sample, signals to which the true ``x`` is locally proportional
+    near its zeros (``-a`` and ``-v``: near ``x = 0``, ``k1 x = -m a - b1 v``); their
+    coefficients ``c`` are fitted with the spline. With ``clamped``, ``d`` and (unless
+    ``free_slope``) its slope are 0 at ``t[start]`` (rest).
+    """
+    t0, t1 = float(t[start]), float(t[-1])
+    n_int = max(1, int(math.ceil((t1 - t0) / knot_s)))
+    inner = np.linspace(t0, t1, n_int + 1)
+    knots = np.concatenate(([t0] * 3, inner, [t1] * 3))
+    basis = BSpline.design_matrix(t[pts], knots, 3)
+    first = (1 if free_slope else 2) if clamped else 0
+    # the B-spline block stays sparse (4 non-zeros a row): the normal equations are built
+    # block by block, never as a dense (rows x knots) product (a dense one took 2 s of
+    # multi-threaded BLAS on a 45 s record; this takes a few ms)
+    b = basis.tocsc()[:, first:]
+    m = b.shape[1]
+    # a light second-difference penalty keeps intervals without samples well posed
+    d2 = np.diff(np.eye(m), 2, axis=0)
+    btb = (b.T @ b).toarray()
+    lam = 1e-3 * float(np.mean(np.diag(btb)))
+    scale = np.max(np.abs(local), axis=0)
+    scale[scale == 0] = 1.0
+    loc = local / scale
+    y = x_int[pts]
+    k = m + loc.shape[1]
+    normal = np.empty((k, k))
+    normal[:m, :m] = btb + lam * d2.T @ d2
+    normal[:m, m:] = np.asarray(b.T @ loc)
+    normal[m:, :m] = normal[:m, m:].T
+    normal[m:, m:] = loc.T @ loc
+    rhs = np.concatenate((np.asarray(b.T @ y).ravel(), loc.T @ y))
+    sol = np.linalg.solve(normal + 1e-12 * np.eye(k), rhs)
+    coef = np.zeros(basis.shape[1])
+    coef[first:] = sol[:m]
+    return BSpline(knots, coef, 3, extrapolate=False)
+
+
+
+def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int) -> tuple[np.ndarray, np.ndarray]:
+    d = np.zeros(t.size)
+    dd = np.zeros(t.size)
+    d[start:] = spl(t[start:])
+    dd[start:] = spl.derivative()(t[start:])
+    return np.nan_to_num(d), np.nan_to_num(dd)
+
+
+
+def anchor_residual(x: np.ndarray, v: np.ndarray, a: np.ndarray) -> float:
+    """How far ``x`` is from one restoring force at the zero crossings of ``a``.
+
+    With one restoring force ``K(x)`` with its only zero at 0, ``a = 0`` gives
+    ``K(x) = -B(x, v)``: near there ``x = c_a a + c_v v``. ``x`` at the crossings of ``a``
+    (hysteresis: 3 noise RMS, at least 0.1 % of the peak) is regressed on ``1, t, a, v``;
+    with several modes ``a = 0`` says nothing about ``x`` and the residual is large.
+
+    Parameters
+    ----------
+    x, v, a : ndarray, shape (n,)
+        Displacement, velocity, acceleration of a free response.
+
+    Returns
+    -------
+    float
+        RMS of the regression residual over the RMS of ``x`` (inf with fewer than 8 crossings).
+    """
+    hyst = max(3.0 * noise_rms(a, 0), 1e-3 * float(np.max(np.abs(a))))
+    anc = crossings(a, hyst)
+    if anc.size < 8:
+        return math.inf
+    tau = anc / x.size
+    design = np.column_stack((np.ones(anc.size), tau, _at(a, anc), _at(v, anc)))
+    design /= np.maximum(np.max(np.abs(design), axis=0), 1e-300)
+    xa = _at(x, anc)
+    coef, *_ = np.linalg.lstsq(design, xa, rcond=None)
+    return float(np.sqrt(np.mean((xa - design @ coef) ** 2)) / max(np.sqrt(np.mean(x ** 2)), 1e-300))
+

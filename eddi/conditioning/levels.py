@@ -1,0 +1,122 @@
+"""Noise levels, zero crossings, the onset of motion and where a response sinks into the noise."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+
+def noise_rms(y: np.ndarray, rest_stop: int) -> float:
+    """Noise RMS of a channel: from its rest part ``y[:rest_stop]`` or, without one, its tail.
+
+    The tail estimate uses first differences (``std(diff) / sqrt 2``), which ignores a slow
+    residual response.
+    """
+    y = np.asarray(y, float)
+    if rest_stop >= 32:
+        seg = y[:rest_stop]
+        return float(np.std(seg - np.mean(seg)))
+    tail = y[-max(32, y.size // 10):]
+    return float(np.std(np.diff(tail)) / math.sqrt(2.0))
+
+
+
+def crossings(y: np.ndarray, hysteresis: float, start: int = 0, stop: int | None = None) -> np.ndarray:
+    """Zero crossings of ``y`` with hysteresis, as fractional sample indices.
+
+    A crossing counts only when ``y`` has gone beyond ``+-hysteresis`` on both sides; its
+    position is the linear interpolation of the last sign change before reaching the other
+    side.
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        Fractional indices (``i + frac``) in ``[start, stop)``.
+    """
+    stop = y.size if stop is None else stop
+    seg = np.asarray(y[start:stop], float)
+    if seg.size < 3:
+        return np.zeros(0)
+    state = np.where(seg > hysteresis, 1, np.where(seg < -hysteresis, -1, 0))
+    nz = np.nonzero(state)[0]
+    if nz.size < 2:
+        return np.zeros(0)
+    s = state[nz]
+    flips = nz[1:][s[1:] != s[:-1]]  # first sample beyond threshold on the new side
+    sign_change = np.nonzero(np.signbit(seg[:-1]) != np.signbit(seg[1:]))[0]
+    if flips.size == 0 or sign_change.size == 0:
+        return np.zeros(0)
+    pos = np.searchsorted(sign_change, flips, side="left") - 1
+    ok = pos >= 0
+    i = sign_change[pos[ok]]
+    y0, y1 = seg[i], seg[i + 1]
+    frac = np.where(y1 != y0, y0 / (y0 - y1), 0.5)
+    return start + i + np.clip(frac, 0.0, 1.0)
+
+
+
+def _onset(r: np.ndarray, head: int) -> tuple[int, float]:
+    """Start of the run of ``|r|`` above the noise that leads to its peak, and the peak.
+
+    ``r`` has its rest offset removed; ``head`` samples at the start give a (robust) noise
+    scale. The level is the larger of 5 % of the peak and 6 noise RMS.
+    """
+    peak_i = int(np.argmax(np.abs(r)))
+    peak = abs(float(r[peak_i]))
+    h = r[: max(8, head)]
+    sigma = 1.4826 * float(np.median(np.abs(h - np.median(h))))
+    level = max(0.05 * peak, 6.0 * sigma)
+    below = np.nonzero(np.abs(r[: peak_i + 1]) <= level)[0]
+    return (int(below[-1]) + 1 if below.size else 0), peak
+
+
+
+def _at(y: np.ndarray, pos: np.ndarray) -> np.ndarray:
+    """``y`` linearly interpolated at fractional sample indices ``pos``."""
+    idx = np.floor(pos).astype(int)
+    frac = pos - idx
+    nxt = np.minimum(idx + 1, y.size - 1)
+    return y[idx] * (1 - frac) + y[nxt] * frac
+
+
+
+def _envelope_stop(y: np.ndarray, first: int, sigma: float, factor: float, period_s: float,
+                   rate: float) -> int:
+    """End of the last block (one period long) whose peak exceeds ``factor * sigma``.
+
+    Without noise (``sigma == 0``) the floor is 1e-4 of the peak after ``first``.
+    """
+    n = y.size
+    seg = np.abs(y[first:])
+    if seg.size == 0:
+        return n
+    floor = max(factor * sigma, 1e-4 * float(np.max(seg)))
+    block = max(4, int(round(period_s * rate)))
+    nb = seg.size // block
+    if nb == 0:
+        return n
+    peaks = seg[: nb * block].reshape(nb, block).max(axis=1)
+    above = np.nonzero(peaks > floor)[0]
+    if above.size == 0:
+        return min(n, first + block)
+    last = int(above[-1])
+    return n if last == nb - 1 else first + (last + 1) * block
+
+
+
+def _pulse_end(y: np.ndarray, start: int, impact_end: int) -> int:
+    """Last sample of the impact (plus 3, the stencil's reach) for the integration.
+
+    From the force when it was measured (``impact_end >= 0``); otherwise symmetric about the
+    first peak of ``|y|`` after ``start`` (a hammer pulse is near a half-sine).
+    """
+    if impact_end >= 0:
+        return impact_end + 3
+    seg = np.abs(y[start:])
+    if seg.size == 0:
+        return start
+    first_peak = int(np.argmax(seg[: max(4, seg.size // 20)]))
+    return start + 2 * first_peak + 3
+
