@@ -566,7 +566,7 @@ def select_terms(prob: _OutputError, p: np.ndarray, half: np.ndarray, rss: float
     if not (div_b or weak or negative or misfit or not np.all(np.isfinite(hb))):
         return pb, hb, dropped
     saved = (list(prob.active), prob.scale.copy())
-    fwd = _forward(prob, pb[-NUISANCE:] * saved[1][-NUISANCE:], core, core_coef, max_nfev)
+    fwd = _forward(prob, prob.p0[-NUISANCE:] * saved[1][-NUISANCE:], core, core_coef, max_nfev)
     if fwd is None:
         prob.active, prob.scale = saved
         return pb, hb, dropped
@@ -594,7 +594,9 @@ def _forward(prob: _OutputError, nuisance: np.ndarray, core: list[int], core_coe
     prob.scale[others] = prob.floor[others]
     prob.active = list(core)
     p = np.concatenate((core_coef / prob.scale[core], nuisance / prob.scale[-NUISANCE:]))
-    for frac in STAGES:
+    norm = float(np.linalg.norm(prob.y)) or 1.0
+    direct = float(np.linalg.norm(prob.residual(p, n))) / norm <= DIRECT_NRMSE
+    for frac in (STAGES[-1:] if direct else STAGES):
         p = prob.fit(p, max(64, int(round(frac * n))), max_nfev).x
     r = prob.residual(p, n)
     if prob.diverged:
