@@ -130,8 +130,11 @@ def test_duffing_phase_one_energies(duffing, duffing_model):
     e_exact = 0.5 * M * v[i0:i1] ** 2 + K * x[i0:i1] ** 2 / 2 + K_NL * x[i0:i1] ** 4 / 4
     # mechanical energy re-anchored at crossings: within 1e-7 of the local energy
     assert np.max(np.abs(p1.mechanical_anchored - e_exact) / e_exact) < 1e-7
-    # Eq. 12 energy: within 1e-8 of the initial energy everywhere
-    assert np.max(np.abs(p1.mechanical - e_exact)) < 1e-8 * 2.5
+    # Eq. 12 energy: within 2e-8 of the initial energy everywhere (1.5e-8 measured with the
+    # full-cycle rows of phase one, 0.4e-8 with half-cycle rows: full cycles cancel the slow
+    # velocity error of integrated records, eddi/phase_one.py; on this clean record they
+    # leave the quadrature's error over one more half cycle per row)
+    assert np.max(np.abs(p1.mechanical - e_exact)) < 2e-8 * 2.5
     # modelled dissipated energy matches the measured one at the crossings
     assert np.max(np.abs(p1.dissipated_model_at_gamma - p1.r_vector)) < 1e-8 * 2.5
 
