@@ -66,6 +66,7 @@ class Background(Generic[T]):
         self._forked = False
         if background_allowed():
             self._forked = True
+            # (multiprocessing flushes stdout / stderr before it forks: nothing is printed twice)
             ctx = multiprocessing.get_context("fork")
             self._conn, child = ctx.Pipe(duplex=False)
             self._proc = ctx.Process(target=_worker, args=(child, fn, args), daemon=True)

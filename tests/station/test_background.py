@@ -63,3 +63,18 @@ def test_station_serial_runs_the_call_here_at_once(monkeypatch: pytest.MonkeyPat
     assert job()[0] == os.getpid()
     with pytest.raises(SignalError, match="at once"):  # raised by the constructor, as a plain call
         Background(_fails, "at once")
+
+
+@needs_fork
+def test_what_was_printed_before_the_fork_is_printed_once() -> None:
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    code = ("import sys; from station.background import Background\n"
+            "print('printed before the worker starts')\n"  # block-buffered (a pipe): still in the buffer
+            "print(Background(int, '7')())\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={"PYTHONPATH": str(root), "PATH": ""}).stdout
+    assert out.splitlines() == ["printed before the worker starts", "7"]
