@@ -21,14 +21,13 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from eddi.kernels import Kernels
 from eddi.model import EquationOfMotion
 from eddi.terms import exponent_table
 
 
-@numba.njit(cache=True)
 def _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, dsx, dsv, use_abs):  # pragma: no cover - compiled
     """Acceleration of the state, and the sensitivities' rates into dsx, dsv.
 
@@ -92,7 +91,6 @@ def _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, dsx, dsv, use_abs):  # pragma: no
     return -r * inv_m
 
 
-@numba.njit(cache=True)
 def _rk4_sens(deg, dt, substeps, x0, v0, inv_m, exps, coefs, n, out_x, out_v, out_a, sens_x, sens_v, sens_a):  # pragma: no cover
     nt = exps.shape[0]
     npar = sens_x.shape[1]  # nt + 2, or 0 for the response alone
@@ -203,6 +201,12 @@ def free_response_sensitivities(eom: EquationOfMotion, dt: float, n: int, x0: fl
     jac = np.full((3, n, npar), np.nan)
     deg = int(exps[:, :4].max()) if exps.size else 0
     steps = np.maximum(np.atleast_1d(np.asarray(substeps, dtype=np.int64)), 1)
-    div = _rk4_sens(deg, float(dt), steps, float(x0), float(v0), 1.0 / eom.mass, exps, coefs, int(n),
+    div = _KERNELS._rk4_sens(deg, float(dt), steps, float(x0), float(v0), 1.0 / eom.mass, exps, coefs, int(n),
                     resp[0], resp[1], resp[2], jac[0], jac[1], jac[2])
     return resp.T, jac, bool(div >= 0)
+
+
+#: The compiled kernels (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
+_KERNELS = Kernels(globals(), {
+    "_rk4_sens": ["i8(i8, f8, i8[::1], f8, f8, f8, i8[:, ::1], f8[::1], i8, f8[::1], f8[::1], f8[::1], f8[:, ::1], f8[:, ::1], f8[:, ::1])"],
+}, callees=("_rhs",))
