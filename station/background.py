@@ -9,8 +9,8 @@ no re-import, the arguments are not copied but inherited; the result comes back 
 through a pipe) and hands the result back when asked. The result is the one the same call gives
 in this process (same code, same inputs, one BLAS thread each).
 
-With one core, without ``fork`` (Windows, macOS' default) or with ``STATION_SERIAL=1`` in
-the environment, the call runs here at once, as before (its errors raised at once). A worker
+With one core, without ``fork`` (Windows, macOS' default), with other threads running, or with
+``STATION_SERIAL=1`` in the environment, the call runs here at once, as before (its errors raised at once). A worker
 that dies (killed, out of memory) is replaced by the same call in this process.
 """
 
@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import threading
 from typing import Any, Callable, Generic, TypeVar
 
 T = TypeVar("T")
@@ -32,9 +33,11 @@ def usable_cores() -> int:
 
 
 def background_allowed() -> bool:
-    """True when a second process can run alongside: >= 2 cores, ``fork``, not ``STATION_SERIAL``."""
+    """True when a second process can run alongside: >= 2 cores, ``fork``, not ``STATION_SERIAL``,
+    and no other Python thread (a fork copies the locks other threads may hold: the worker
+    could wait on one forever; the CLI has none, a library caller may)."""
     return (usable_cores() >= 2 and "fork" in multiprocessing.get_all_start_methods()
-            and os.environ.get("STATION_SERIAL", "") in ("", "0"))
+            and os.environ.get("STATION_SERIAL", "") in ("", "0") and threading.active_count() == 1)
 
 
 def _worker(conn: Any, fn: Callable[..., Any], args: tuple[Any, ...]) -> None:  # pragma: no cover - in the child

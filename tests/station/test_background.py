@@ -78,3 +78,18 @@ def test_what_was_printed_before_the_fork_is_printed_once() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env={"PYTHONPATH": str(root), "PATH": ""}).stdout
     assert out.splitlines() == ["printed before the worker starts", "7"]
+
+
+def test_with_another_thread_running_the_call_runs_here() -> None:
+    import threading
+
+    release = threading.Event()
+    other = threading.Thread(target=release.wait)
+    other.start()
+    try:
+        job = Background(_work, 10, 2)
+        assert not job.in_background  # no fork while another thread may hold a lock
+        assert job()[0] == os.getpid()
+    finally:
+        release.set()
+        other.join()
