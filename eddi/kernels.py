@@ -130,7 +130,11 @@ class Kernels:
         if mod is None:
             return None
         stamp = getattr(mod, f"{self._prefix}__fingerprint", None)
-        if stamp is None or stamp() != self.fingerprint():
+        try:
+            mine = self.fingerprint()
+        except (OSError, TypeError):  # no source to compare (a frozen or stripped installation)
+            return None
+        if stamp is None or stamp() != mine:
             return None  # built from other source: never run it
         out = {}
         for name, sigs in self._signatures.items():
