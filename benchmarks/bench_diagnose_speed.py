@@ -16,6 +16,13 @@ Targets (issue 13): ``three`` <= 3 s, ``beam`` <= 8 s on a quiet 2-core machine.
 
     python benchmarks/bench_diagnose_speed.py                  # both cases, 3 runs each
     python benchmarks/bench_diagnose_speed.py --case three --runs 1 --profile 25
+    python benchmarks/bench_diagnose_speed.py --case cli --runs 3    # whole processes, wall + CPU
+
+``--case cli``: whole ``station diagnose`` processes (imports, reading, conditioning, the
+pipeline baseline, the diagnosis): by default the pipeline baseline runs in a second process
+while the candidates are fitted (``station/background.py``); ``serial`` lines set
+``STATION_SERIAL=1`` (one process, as on a one-core machine). CPU is the process's and its
+worker's.
 """
 
 from __future__ import annotations
@@ -118,52 +125,80 @@ def run_case(case: str, runs: int, profile: int) -> None:
     print(f"{case}: load average (1 min) {load0:.2f} before, {load1:.2f} after; {os.cpu_count()} CPUs")
 
 
-def run_cli(runs: int) -> None:
-    """``station diagnose`` as a whole process on the ``three`` captures written as CSV, with
-    and without the pipeline baseline's refinement; floor: ``python -c "import numpy"``."""
+def _child_run(cmd: list[str], env: dict[str, str]) -> tuple[float, float]:
+    """Wall and CPU time (user + sys of the process and its own children) of one command."""
+    import resource
     import subprocess
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    subprocess.run(cmd, env=env, check=True, stdout=subprocess.DEVNULL)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def run_cli(runs: int, cases: tuple[str, ...] = ("three", "beam")) -> None:
+    """``station diagnose`` as a whole process: the ``three`` captures written as CSV (with and
+    without the pipeline baseline's refinement) and the nine double-beam ring-downs, each with
+    the pipeline baseline in a second process (the default on >= 2 cores) and serial
+    (``STATION_SERIAL=1``); floor: ``python -c "import numpy"``. Wall and CPU (the process
+    and its worker), min and median over ``--runs``, runs interleaved."""
     import tempfile
 
-    raw = _three_raw()
     with tempfile.TemporaryDirectory() as tmp:
-        files = []
-        for i, r in enumerate(raw):
-            path = Path(tmp) / f"c{i}.csv"
-            np.savetxt(path, np.column_stack((r.t, r.force_n, r.acc_m_s2)), delimiter=",",
-                       header="t,force,acc", comments="", fmt="%.10g")
-            files.append(str(path))
         env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-        cmds = {"import numpy (floor)": [sys.executable, "-c", "import numpy"],
-                "station diagnose --no-refine": [sys.executable, "-m", "station.cli", "diagnose", *files,
-                                                 "--mass", "0.1", "--no-refine", "--json"],
-                "station diagnose (default: refine)": [sys.executable, "-m", "station.cli", "diagnose", *files,
-                                                       "--mass", "0.1", "--json"]}
+        cmds: dict[str, tuple[list[str], dict[str, str]]] = {
+            "import numpy (floor)": ([sys.executable, "-c", "import numpy"], env)}
+        serial = {**env, "STATION_SERIAL": "1"}
+        if "three" in cases:
+            files = []
+            for i, r in enumerate(_three_raw()):
+                path = Path(tmp) / f"c{i}.csv"
+                np.savetxt(path, np.column_stack((r.t, r.force_n, r.acc_m_s2)), delimiter=",",
+                           header="t,force,acc", comments="", fmt="%.10g")
+                files.append(str(path))
+            three = [sys.executable, "-m", "station.cli", "diagnose", *files, "--mass", "0.1", "--json"]
+            cmds["three: station diagnose --no-refine"] = (three + ["--no-refine"], env)
+            cmds["three: station diagnose"] = (three, env)
+            cmds["three: station diagnose, serial"] = (three, serial)
+        if "beam" in cases:
+            beam = [sys.executable, "-m", "station.cli", "diagnose", *_beam_files(), "--mass", "1", "--json"]
+            cmds["beam: station diagnose"] = (beam, env)
+            cmds["beam: station diagnose, serial"] = (beam, serial)
         load0 = os.getloadavg()[0]
         walls: dict[str, list[float]] = {}
-        for name, cmd in cmds.items():
-            for _ in range(runs):
-                t0 = time.perf_counter()
-                subprocess.run(cmd, env=env, check=True, stdout=subprocess.DEVNULL)
-                walls.setdefault(name, []).append(time.perf_counter() - t0)
-        floor = min(walls["import numpy (floor)"])
-        for name, w in walls.items():
-            print(f"cli: {name}: min {min(w):.2f} s median {statistics.median(w):.2f} s = "
-                  f"{min(w) / floor:.1f}x the floor")
-        print(f"cli: load average (1 min) {load0:.2f} before, {os.getloadavg()[0]:.2f} after")
+        cpus: dict[str, list[float]] = {}
+        for _ in range(runs):
+            for name, (cmd, e) in cmds.items():
+                w, c = _child_run(cmd, e)
+                walls.setdefault(name, []).append(w)
+                cpus.setdefault(name, []).append(c)
+        fw, fc = min(walls["import numpy (floor)"]), min(cpus["import numpy (floor)"])
+        for name in cmds:
+            w, c = walls[name], cpus[name]
+            target = {"three": 3.0, "beam": 8.0}.get(name.split(":")[0])
+            print(f"cli: {name:<38} wall min {min(w):6.2f} s median {statistics.median(w):6.2f} s "
+                  f"({min(w) / fw:5.1f}x the floor); CPU min {min(c):6.2f} s median {statistics.median(c):6.2f} s "
+                  f"({min(c) / fc:5.1f}x)" + (f"; target {target:g} s wall: {'met' if min(w) <= target else 'NOT met'}"
+                                               if target else ""))
+        print(f"cli: load average (1 min) {load0:.2f} before, {os.getloadavg()[0]:.2f} after; "
+              f"{os.cpu_count()} CPUs")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
-    ap.add_argument("--case", choices=("three", "beam", "both", "cli"), default="both",
-                    help="cli: whole station diagnose processes on the three captures as CSV")
+    ap.add_argument("--case", choices=("three", "beam", "both", "cli", "cli-three", "cli-beam"), default="both",
+                    help="cli: whole station diagnose processes (the three captures as CSV and the "
+                         "nine ring-downs; cli-three / cli-beam: one of them)")
     ap.add_argument("--runs", type=int, default=3, help="timed runs per case (default: %(default)s)")
     ap.add_argument("--profile", type=int, default=0, metavar="N",
                     help="print the N top cProfile lines of one extra run (default: off)")
     args = ap.parse_args()
     np.seterr(all="ignore")
-    if args.case == "cli":
-        run_cli(max(1, args.runs))
+    if args.case.startswith("cli"):
+        run_cli(max(1, args.runs), ("three", "beam") if args.case == "cli" else (args.case[4:],))
         return
     for case in (("three", "beam") if args.case == "both" else (args.case,)):
         run_case(case, max(1, args.runs), args.profile)

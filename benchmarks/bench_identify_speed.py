@@ -6,8 +6,8 @@ CLI end to end in a fresh process (interpreter start, imports, CSV read, conditi
 identification with ``--route auto``, validation by simulation):
 
 * **cold**: numba's on-disk cache in a fresh, empty directory (``NUMBA_CACHE_DIR``), so the
-  compiled kernels (CSV parser, RK4) are compiled in that run, as on the first run after
-  installation;
+  compiled kernels (RK4) are compiled in that run, as on the first run after installation,
+  unless they were built ahead of time (``python -m eddi.kernels``; the first line says which);
 * **warm**: the same cache directory again, ``--runs`` times; minimum and median are printed
   (the machine may be shared: the minimum is the best estimate of an unloaded machine, the
   CPU time (user + sys of the child) is printed too).
@@ -61,6 +61,16 @@ def _run_cli(path: Path, cache_dir: str) -> tuple[float, float, str]:
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return wall, cpu, out.split('"nrmse": ')[1].split(",")[0]
+
+
+def _kernels_source() -> str:
+    """How this checkout runs the simulator's kernels: built ahead of time or numba's JIT
+    (``eddi.kernels``; ``python -m eddi.kernels`` builds them, ``EDDI_JIT=1`` ignores them)."""
+    import importlib
+
+    k = importlib.import_module("eddi.simulate")._KERNELS
+    k._load()
+    return k.source
 
 
 def _stats(xs: list[float]) -> str:
@@ -142,7 +152,7 @@ def main() -> None:
                    header="t,force,acc", comments="", fmt="%.9g")
         print(f"record: {rec.n_samples} samples ({rec.n_samples / rec.rate_hz:.1f} s at "
               f"{rec.rate_hz:.0f} Hz), {path.stat().st_size / 1e6:.1f} MB CSV; "
-              f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+              f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; kernels: {_kernels_source()}")
         cache = str(Path(tmp) / "numba-cache")
         wall, cpu, nrmse = _run_cli(path, cache)
         print(f"cold (empty numba cache)   wall {wall:5.2f} s, cpu {cpu:5.2f} s, nrmse {nrmse}")

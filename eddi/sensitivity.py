@@ -21,18 +21,18 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from eddi.kernels import Kernels
 from eddi.model import EquationOfMotion
 from eddi.terms import exponent_table
 
 
-@numba.njit(cache=True)
-def _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, dsx, dsv):  # pragma: no cover - compiled
+def _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, dsx, dsv, use_abs):  # pragma: no cover - compiled
     """Acceleration of the state, and the sensitivities' rates into dsx, dsv.
 
-    ``pw``: work array (4, deg + 1) for the powers of x, v, |x|, |v|.
+    ``pw``: work array (4, deg + 1) for the powers of x, v, |x|, |v| (rows 2, 3 stay at 1
+    unless ``use_abs``: some term has a power of ``|x|`` or ``|v|``).
     """
     ax = abs(x)
     av = abs(v)
@@ -45,9 +45,12 @@ def _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, dsx, dsv):  # pragma: no cover - 
     for k in range(1, pw.shape[1]):
         pw[0, k] = pw[0, k - 1] * x
         pw[1, k] = pw[1, k - 1] * v
-        pw[2, k] = pw[2, k - 1] * ax
-        pw[3, k] = pw[3, k - 1] * av
+    if use_abs:  # the powers of |x|, |v| only for the terms that have them (same values)
+        for k in range(1, pw.shape[1]):
+            pw[2, k] = pw[2, k - 1] * ax
+            pw[3, k] = pw[3, k - 1] * av
     nt = exps.shape[0]
+    npar = sx.shape[0]
     r = 0.0
     rx = 0.0
     rv = 0.0
@@ -55,6 +58,14 @@ def _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, dsx, dsv):  # pragma: no cover - 
         px, pv, pax, pav = exps[j, 0], exps[j, 1], exps[j, 2], exps[j, 3]
         fx = pw[0, px] * pw[2, pax]
         fv = pw[1, pv] * pw[3, pav]
+        if exps[j, 4] % 2 == 1:
+            fx *= sgx
+        if exps[j, 5] % 2 == 1:
+            fv *= sgv
+        phi = fx * fv
+        r += coefs[j] * phi
+        if npar == 0:  # the response alone: no derivative of the force is needed
+            continue
         dx = 0.0
         if px >= 1:
             dx = px * pw[0, px - 1] * pw[2, pax]
@@ -66,18 +77,13 @@ def _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, dsx, dsv):  # pragma: no cover - 
         if pav >= 1:
             dv += pav * pw[1, pv] * pw[3, pav - 1] * sgv
         if exps[j, 4] % 2 == 1:
-            fx *= sgx
             dx *= sgx
         if exps[j, 5] % 2 == 1:
-            fv *= sgv
             dv *= sgv
-        phi = fx * fv
-        r += coefs[j] * phi
         rx += coefs[j] * dx * fv
         rv += coefs[j] * fx * dv
-        if dsv.shape[0] > 0:
-            dsv[j] = -phi * inv_m  # the coefficient's own term
-    for k in range(sx.shape[0]):
+        dsv[j] = -phi * inv_m  # the coefficient's own term
+    for k in range(npar):
         dsx[k] = sv[k]
         if k >= nt:
             dsv[k] = 0.0
@@ -85,7 +91,6 @@ def _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, dsx, dsv):  # pragma: no cover - 
     return -r * inv_m
 
 
-@numba.njit(cache=True)
 def _rk4_sens(deg, dt, substeps, x0, v0, inv_m, exps, coefs, n, out_x, out_v, out_a, sens_x, sens_v, sens_a):  # pragma: no cover
     nt = exps.shape[0]
     npar = sens_x.shape[1]  # nt + 2, or 0 for the response alone
@@ -94,7 +99,11 @@ def _rk4_sens(deg, dt, substeps, x0, v0, inv_m, exps, coefs, n, out_x, out_v, ou
     if npar > 0:
         sx[nt] = 1.0
         sv[nt + 1] = 1.0
-    pw = np.zeros((4, deg + 1))
+    pw = np.ones((4, deg + 1))
+    use_abs = False
+    for j in range(nt):
+        if exps[j, 2] > 0 or exps[j, 3] > 0:
+            use_abs = True
     k1x = np.zeros(npar)
     k1v = np.zeros(npar)
     k2x = np.zeros(npar)
@@ -108,7 +117,7 @@ def _rk4_sens(deg, dt, substeps, x0, v0, inv_m, exps, coefs, n, out_x, out_v, ou
     x = x0
     v = v0
     for i in range(n):
-        a = _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, k1x, k1v)
+        a = _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, k1x, k1v, use_abs)
         out_x[i] = x
         out_v[i] = v
         out_a[i] = a
@@ -123,25 +132,25 @@ def _rk4_sens(deg, dt, substeps, x0, v0, inv_m, exps, coefs, n, out_x, out_v, ou
         for s in range(m):
             a1 = a
             if s > 0:  # at s == 0, k1 is the output sample's evaluation above
-                a1 = _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, k1x, k1v)
+                a1 = _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, k1x, k1v, use_abs)
             for k in range(npar):
                 tx[k] = sx[k] + 0.5 * h * k1x[k]
                 tv[k] = sv[k] + 0.5 * h * k1v[k]
             x2 = x + 0.5 * h * v
             v2 = v + 0.5 * h * a1
-            a2 = _rhs(x2, v2, tx, tv, exps, coefs, inv_m, pw, k2x, k2v)
+            a2 = _rhs(x2, v2, tx, tv, exps, coefs, inv_m, pw, k2x, k2v, use_abs)
             for k in range(npar):
                 tx[k] = sx[k] + 0.5 * h * k2x[k]
                 tv[k] = sv[k] + 0.5 * h * k2v[k]
             x3 = x + 0.5 * h * v2
             v3 = v + 0.5 * h * a2
-            a3 = _rhs(x3, v3, tx, tv, exps, coefs, inv_m, pw, k3x, k3v)
+            a3 = _rhs(x3, v3, tx, tv, exps, coefs, inv_m, pw, k3x, k3v, use_abs)
             for k in range(npar):
                 tx[k] = sx[k] + h * k3x[k]
                 tv[k] = sv[k] + h * k3v[k]
             x4 = x + h * v3
             v4 = v + h * a3
-            a4 = _rhs(x4, v4, tx, tv, exps, coefs, inv_m, pw, k4x, k4v)
+            a4 = _rhs(x4, v4, tx, tv, exps, coefs, inv_m, pw, k4x, k4v, use_abs)
             x = x + h / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4)
             v = v + h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
             for k in range(npar):
@@ -192,6 +201,12 @@ def free_response_sensitivities(eom: EquationOfMotion, dt: float, n: int, x0: fl
     jac = np.full((3, n, npar), np.nan)
     deg = int(exps[:, :4].max()) if exps.size else 0
     steps = np.maximum(np.atleast_1d(np.asarray(substeps, dtype=np.int64)), 1)
-    div = _rk4_sens(deg, float(dt), steps, float(x0), float(v0), 1.0 / eom.mass, exps, coefs, int(n),
+    div = _KERNELS._rk4_sens(deg, float(dt), steps, float(x0), float(v0), 1.0 / eom.mass, exps, coefs, int(n),
                     resp[0], resp[1], resp[2], jac[0], jac[1], jac[2])
     return resp.T, jac, bool(div >= 0)
+
+
+#: The compiled kernels (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
+_KERNELS = Kernels(globals(), {
+    "_rk4_sens": ["i8(i8, f8, i8[::1], f8, f8, f8, i8[:, ::1], f8[::1], i8, f8[::1], f8[::1], f8[::1], f8[:, ::1], f8[:, ::1], f8[:, ::1])"],
+}, callees=("_rhs",))

@@ -8,7 +8,8 @@ stiffest state the model is expected to reach, which keeps RK4's relative error 
 well below 1e-6.
 
 The compiled kernel evaluates terms from their exponent table (see :mod:`eddi.terms`), so
-one compilation serves every model; numba caches it on disk.
+one compilation serves every model: built ahead of time (``python -m eddi.kernels``) or
+compiled by numba at first use and cached on disk (:mod:`eddi.kernels`).
 """
 
 from __future__ import annotations
@@ -16,10 +17,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from eddi.errors import ModelError, SignalError
+from eddi.kernels import Kernels
 from eddi.model import EquationOfMotion
 from eddi.terms import exponent_table, parse_term
 
@@ -59,7 +60,6 @@ class SimulationResult:
     substeps: int
 
 
-@numba.njit(cache=True, fastmath=False)
 def _internal(x, v, y, exps, coefs, eff):  # pragma: no cover - compiled
     total = 0.0
     for j in range(exps.shape[0]):
@@ -97,7 +97,6 @@ def _internal(x, v, y, exps, coefs, eff):  # pragma: no cover - compiled
     return total
 
 
-@numba.njit(cache=True)
 def _rk4(force, dt, substeps, state0, inv_m, exps, coefs, eff, out):  # pragma: no cover
     n = out.shape[0]
     x = state0[0]
@@ -315,7 +314,7 @@ def simulate(
     eff = _effect_vector(eom)
     out = np.empty((n, 4))
     state0 = np.array([float(x0), float(v0), 0.0, 0.0])
-    div = _rk4(f, dt, substeps, state0, 1.0 / eom.mass, exps, coefs, eff, out)
+    div = _KERNELS._rk4(f, dt, substeps, state0, 1.0 / eom.mass, exps, coefs, eff, out)
     has_mode = eom.effect("second_mode") is not None
     return SimulationResult(
         t=t,
@@ -357,7 +356,6 @@ DENSE_H_OMEGA = 0.2
 DENSE_STEP_H_OMEGA = 0.05
 
 
-@numba.njit(cache=True)
 def _internal_many(x, v, exps, coefs, eff, out):  # pragma: no cover - compiled
     for i in range(x.shape[0]):
         out[i] = _internal(x[i], v[i], 0.0, exps, coefs, eff)
@@ -383,11 +381,10 @@ def internal_force(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> np.nd
     exps = exponent_table(eom.damping_terms() + eom.stiffness_terms())
     coefs = np.array(list(eom.damping.values()) + list(eom.stiffness.values()), dtype=float)
     out = np.empty(x.size)
-    _internal_many(x, v, exps, coefs, _effect_vector(eom), out)
+    _KERNELS._internal_many(x, v, exps, coefs, _effect_vector(eom), out)
     return out
 
 
-@numba.njit(cache=True)
 def _hermite_fill(xc, vc, ac, q, h, x, v, a):  # pragma: no cover - compiled
     """Cubic Hermite from every ``q``-th sample (``x, v`` and ``v, a``) onto every sample."""
     for j in range(x.shape[0]):
@@ -463,6 +460,14 @@ def simulate_dense(eom: EquationOfMotion, t: np.ndarray, *, force: np.ndarray | 
     a = np.empty(n)
     if head is not None:
         x[:last], v[:last], a[:last] = head.x[:last], head.v[:last], head.a[:last]
-    _hermite_fill(tail.x, tail.v, tail.a, q, q * dt, x[last:], v[last:], a[last:])
+    _KERNELS._hermite_fill(tail.x, tail.v, tail.a, q, q * dt, x[last:], v[last:], a[last:])
     diverged = bool(tail.diverged or not np.all(np.isfinite(x)))
     return SimulationResult(t=t, x=x, v=v, a=a, y=None, diverged=diverged, substeps=sub or tail.substeps)
+
+
+#: The compiled kernels (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
+_KERNELS = Kernels(globals(), {
+    "_rk4": ["i8(f8[::1], f8, i8, f8[::1], f8, i8[:, ::1], f8[::1], f8[::1], f8[:, ::1])"],
+    "_internal_many": ["void(f8[::1], f8[::1], i8[:, ::1], f8[::1], f8[::1], f8[::1])"],
+    "_hermite_fill": ["void(f8[:], f8[:], f8[:], i8, f8, f8[:], f8[:], f8[:])"],
+}, callees=("_internal",))

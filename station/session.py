@@ -311,6 +311,7 @@ def run_session(
     fit_index: int | None = None,
     refine: bool = True,
     pipeline: Pipeline | None = None,
+    conditioned: Sequence[ConditionedSignal] | None = None,
 ) -> SessionResult:
     """Identify on one record, validate on all the others.
 
@@ -332,11 +333,15 @@ def run_session(
         in ``eddi_held_out``.
     pipeline : Pipeline, optional
         Overrides ``damping``, ``stiffness``, ``route`` and ``refine``.
+    conditioned : sequence of ConditionedSignal, optional
+        The records already conditioned by :func:`condition_measurement` (same order, same
+        length): used as they are instead of conditioning them again (conditioning does not
+        depend on the pipeline's terms or options).
 
     Raises
     ------
     ConfigError
-        No record, bad fit index, no mass.
+        No record, bad fit index, no mass, or ``conditioned`` of another length.
     EddiError
         When identification fails on the fit record (one line).
     """
@@ -348,11 +353,16 @@ def run_session(
     k = fit_record_index(info, fit_index)
     pipe = pipeline if pipeline is not None else Pipeline.create(damping, stiffness, route, refine)
     others = [i for i in range(len(recs)) if i != k]
-    if isinstance(recs, Records):  # streamed: each held-out record read and conditioned when validated
+    if conditioned is not None:
+        if len(conditioned) != len(recs):
+            raise ConfigError(f"{len(conditioned)} conditioned records for {len(recs)} records")
+        fit = pipe.fit(conditioned[k], m, held_out=[conditioned[i] for i in others])
+    elif isinstance(recs, Records):  # streamed: each held-out record read and conditioned when validated
         held_out: Sequence[ConditionedSignal] = LazyMap(recs, others, lambda r: condition_measurement(r, pipe))
     else:
         held_out = [condition_measurement(recs[i], pipe) for i in others]
-    fit = pipe.fit(condition_measurement(recs[k], pipe), m, held_out=held_out)
+    if conditioned is None:
+        fit = pipe.fit(condition_measurement(recs[k], pipe), m, held_out=held_out)
     held = tuple(record_check(info[i], v, fit.driven_by_force_of(j)) for j, (i, v) in enumerate(zip(others, fit.held_out)))
     eddi_held = tuple(record_check(info[i], v, fit.driven_by_force_of(j))
                       for j, (i, v) in enumerate(zip(others, fit.eddi_held_out)))

@@ -185,7 +185,10 @@ def _lowest_mode_frequency(t: np.ndarray, x: np.ndarray, rate: float, f1: float,
     c = crossings(xl, 0.02 * amp, start=edge, stop=n - edge)
     if c.size < 6:
         return const
-    env = np.array([np.max(np.abs(xl[int(c[i]): int(c[i + 2]) + 1])) for i in range(c.size - 2)])
+    # peak |xl| over [c_i, c_(i+2)] (samples, inclusive): the larger of the two half-cycles' peaks
+    ci = c.astype(np.int64)
+    half = np.maximum(np.maximum.reduceat(np.abs(xl), ci)[:-1], np.abs(xl[ci[1:]]))
+    env = np.maximum(half[:-1], half[1:])
     tm = t[0] + (c[2:] + c[:-2]) / (2.0 * rate)
     fr = rate / (c[2:] - c[:-2])
     keep = env > 0.05 * amp

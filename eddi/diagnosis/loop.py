@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -58,7 +58,7 @@ def diagnose(
     modal_stiffness: Sequence[str] = MODAL_DIAGNOSE_STIFFNESS,
     none_factor: float = NONE_FACTOR, named_factor: float = NAMED_FACTOR,
     strong_margin: float | None = STRONG_MARGIN,
-    pipeline: PipelineBaseline | None = None,
+    pipeline: PipelineBaseline | Callable[[], PipelineBaseline | None] | None = None,
 ) -> Diagnosis:
     """Find what the baseline model gets wrong, name the mechanism, extend and measure the gain.
 
@@ -93,7 +93,10 @@ def diagnose(
         Within ``none_factor`` a mechanism is named only if it cuts the error this much.
     pipeline : PipelineBaseline, optional
         ``station identify``'s model and held-out error: it becomes ``baseline`` (``none``
-        needs it within the factor too); candidates are judged against ``judged``.
+        needs it within the factor too); candidates are judged against ``judged``. May be a
+        function returning it, called only once the candidates are judged (which do not
+        need it), so that a caller can compute it meanwhile (``station diagnose`` does, in
+        another process).
 
     Returns
     -------
@@ -122,6 +125,8 @@ def diagnose(
             skipped = {name: why for name in [*skipped, "sensor_highpass"]}
         candidates, observed, chain_sims, notes = _name(
             shown, cat, chosen, skipped, consistency, modal_damping, modal_stiffness)
+        if callable(pipeline):
+            pipeline = pipeline()
         return _conclude(shown, candidates, observed, chain_sims, notes, (margin, none_factor, named_factor,
                                                                           strong_margin), pipeline)
 

@@ -87,11 +87,11 @@ def _multichannel(specs: list[str]) -> bool:
 
 def load_records(specs: list[str]) -> tuple[list[Record], float | None]:
     """Read and condition every capture; returns the records and the mass found in metadata."""
-    records, mass, _, _ = load_measurements(specs)
+    records, mass, _, _, _ = load_measurements(specs)
     return records, mass
 
 
-def load_measurements(specs: list[str]) -> tuple[list[Record], float | None, list[Any], str | None]:
+def load_measurements(specs: list[str]) -> tuple[list[Record], float | None, list[Any], str | None, list[Any]]:
     """Read and condition (:class:`eddi.fit_record.Pipeline`) every capture.
 
     Returns
@@ -102,6 +102,9 @@ def load_measurements(specs: list[str]) -> tuple[list[Record], float | None, lis
     measurements : list of station.readers.Measurement
     resampled : str or None
         What was resampled onto one grid (clocks differing by up to 200 ppm), None if nothing.
+    conditioned : list of eddi.conditioning.ConditionedSignal
+        The measurements conditioned (without the resampling note), for
+        :func:`pipeline_baseline` (not conditioned twice).
     """
     from eddi.diagnosis import Record
     from station.readers import read_measurement
@@ -118,32 +121,36 @@ def load_measurements(specs: list[str]) -> tuple[list[Record], float | None, lis
                                  f"{', '.join(ch) or 'none'})")
     meas, note = on_one_grid(read)  # clocks differing by up to 200 ppm: one grid (said below)
     records: list[Record] = []
+    conditioned = []
     mass: float | None = None
     for spec, m in zip(specs, meas):
         c = condition_measurement(m)
+        conditioned.append(c)
         if note:
             c = replace(c, notes=c.notes + (note,))
         records.append(Record.from_conditioned(c, label=Path(spec).name,
                                                pretrigger_samples=getattr(m, "pretrigger_samples", None)))
         if mass is None and getattr(m, "mass", None):
             mass = float(m.mass)
-    return records, mass, meas, note
+    return records, mass, meas, note, conditioned
 
 
 def pipeline_baseline(measurements: list[Any], mass: float, damping: str, stiffness: str,
-                      refine: bool) -> tuple[dict[str, Any], PipelineBaseline]:
+                      refine: bool, conditioned: list[Any] | None = None) -> tuple[dict[str, Any], PipelineBaseline]:
     """The baseline every other command gives (:func:`station.session.run_session`).
 
     The same model and held-out error as ``station identify`` / ``report`` / ``replay`` on
     these records: identified on the middle force level, validated on the others. Returns
     the JSON object (as ``replay``) and the :class:`~eddi.diagnosis.PipelineBaseline` the
-    diagnosis takes as its baseline.
+    diagnosis takes as its baseline. ``conditioned``: the measurements already conditioned
+    (:func:`load_measurements`), not conditioned again.
     """
     from eddi.diagnosis import PipelineBaseline
     from station.commands.replay import session_object
     from station.session import run_session
 
-    session = run_session(measurements, mass, damping=damping, stiffness=stiffness, refine=refine)
+    session = run_session(measurements, mass, damping=damping, stiffness=stiffness, refine=refine,
+                          conditioned=conditioned)
     obj = session_object(session)
     obj["model"] = session.fit.model.eom.to_dict()
     k = session.fit_index
@@ -186,17 +193,34 @@ def handle(args: argparse.Namespace) -> int:
     mechanisms = None
     if args.mechanisms:
         mechanisms = [s.strip() for s in args.mechanisms.split(",") if s.strip()]
-    records, meta_mass, measurements, resampled = load_measurements(list(args.captures))
+    records, meta_mass, measurements, resampled, conditioned = load_measurements(list(args.captures))
     mass = args.mass if args.mass is not None else (base.mass if base is not None else meta_mass)
     if mass is None:
         raise InputFileError("no mass: give --mass KG (or --model, or captures with a mass in their metadata)")
     if base is not None and args.mass is not None and abs(args.mass - base.mass) > 1e-9 * base.mass:
         raise ModelError(f"--mass {args.mass} differs from the model's mass {base.mass}")
-    pipe_obj, pipe = None, None
-    if base is None:  # the baseline is the pipeline's (the same model and error as identify)
-        pipe_obj, pipe = pipeline_baseline(measurements, float(mass), args.damping, args.stiffness, args.refine)
-    diag = diagnose(records, mass, damping=args.damping, stiffness=args.stiffness, base=base,
-                    mechanisms=mechanisms, margin=args.margin, fit=args.fit, pipeline=pipe)
+    pipe_obj, baseline = None, None
+    if base is None:  # the baseline is the pipeline's (the same model and error as identify), computed
+        # in a second process while the candidates are fitted here (station/background.py)
+        from station.background import Background
+
+        baseline = Background(pipeline_baseline, measurements, float(mass), args.damping, args.stiffness,
+                              args.refine, conditioned)
+    try:
+        diag = diagnose(records, mass, damping=args.damping, stiffness=args.stiffness, base=base,
+                        mechanisms=mechanisms, margin=args.margin, fit=args.fit,
+                        pipeline=(lambda: baseline()[1]) if baseline is not None else None)
+    except Exception:
+        failed = baseline.failed() if baseline is not None else None
+        if failed is not None:  # the baseline's error comes first, as when it ran before the diagnosis
+            raise failed from None
+        raise
+    except BaseException:  # Ctrl-C: stop the worker too
+        if baseline is not None:
+            baseline.close()
+        raise
+    if baseline is not None:
+        pipe_obj = baseline()[0]
     obj = diag.to_dict()
     obj["captures"] = [r.label for r in records]
     obj["resampled"] = resampled

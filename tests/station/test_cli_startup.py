@@ -63,7 +63,8 @@ def test_identify_on_a_csv_imports_only_what_it_uses() -> None:
     csv = REPO / "station" / "examples" / "duffing-impact.csv"
     rc, heavy, out = _modules_after(["identify", str(csv), "--mass", "0.815", "--no-refine", "--json"])
     assert rc == 0 and json.loads(out)["validation"]["nrmse"] < 0.1
-    assert {"numpy", "scipy", "numba"} <= heavy  # it did identify and simulate
+    assert {"numpy", "scipy"} <= heavy  # it did identify and simulate (numba: unless the kernels are
+    # built ahead of time, tests/eddi/test_kernels.py)
     assert not heavy & {"matplotlib", "pysindy", "dask", "distributed", "h5py", "pyarrow", "scipy.signal"}, heavy
 
 

@@ -62,3 +62,18 @@ def test_a_bad_record_is_refused_before_any_identification(csvs: list[Path], tmp
     bad.write_text("t,acc\n0,1\n0.001,x\n")
     with pytest.raises(InputFileError, match="bad.csv"):
         read_all([str(csvs[0]), str(bad)])
+
+
+def test_a_session_given_its_records_conditioned_gives_the_same_result(csvs: list[Path]) -> None:
+    from station.errors import ConfigError
+    from station.session import condition_measurement
+
+    meas = tuple(read_all([str(p) for p in csvs]))
+    conds = [condition_measurement(m) for m in meas]
+    given = run_session(meas, 1.0, damping="v", stiffness="x,x^3", refine=False, conditioned=conds)
+    own = run_session(meas, 1.0, damping="v", stiffness="x,x^3", refine=False)
+    assert given.fit_index == own.fit_index
+    assert given.fit.model.eom.stiffness == own.fit.model.eom.stiffness
+    assert [c.nrmse for c in given.held_out] == [c.nrmse for c in own.held_out]
+    with pytest.raises(ConfigError, match="4 conditioned records for 5"):
+        run_session(meas, 1.0, damping="v", stiffness="x,x^3", refine=False, conditioned=conds[:4])

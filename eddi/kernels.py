@@ -1,0 +1,259 @@
+"""The compiled kernels of the simulator: built ahead of time, or compiled by numba when used.
+
+The RK4 kernels of :mod:`eddi.simulate` and :mod:`eddi.sensitivity` are plain Python source
+compiled by numba. Compiled at first use (JIT) they cost every process numba's import and
+set-up (~0.5 s of CPU even when its on-disk cache holds them) and the first run after an
+installation ~2.5 s of compilation. Built ahead of time (``python -m eddi.kernels``: the same
+source through ``numba.pycc`` into one extension module, ``eddi/_aot_kernels*.so``) they load
+like any extension, with no numba at run time, and give the same numbers bit for bit (same
+source, same LLVM, no fast-math; tested in ``tests/eddi/test_kernels.py``).
+
+:class:`Kernels` picks, at the first call of a kernel:
+
+* the ahead-of-time module when it exists, was built for this Python, and its fingerprint
+  (a hash of the kernels' source and of the module constants they read) equals that of the
+  source in use: an edited kernel never runs stale compiled code;
+* else numba's JIT, exactly as before (``cache=True``), also for a call whose argument types
+  the built signatures do not cover.
+
+``EDDI_JIT=1`` in the environment forces the JIT; ``EDDI_AOT_DIR`` looks for the built
+module in another directory (tests, read-only installations).
+
+``numba.pycc`` is deprecated by numba (no removal date yet, 0.68 has it); when it goes, the
+JIT path is what remains, with no change of results.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.machinery
+import importlib.util
+import inspect
+import os
+import sys
+import types
+from pathlib import Path
+from typing import Any, Callable
+
+AOT_NAME = "_aot_kernels"
+#: The modules whose kernels go into the built module.
+KERNEL_MODULES = ("eddi.simulate", "eddi.sensitivity")
+
+
+def _aot_dir() -> Path:
+    return Path(os.environ.get("EDDI_AOT_DIR") or Path(__file__).resolve().parent)
+
+
+def _load_aot_module() -> types.ModuleType | None:
+    """The built extension module (None when absent or not built for this Python)."""
+    name = f"eddi.{AOT_NAME}"
+    if name in sys.modules:
+        return sys.modules[name]
+    for suffix in importlib.machinery.EXTENSION_SUFFIXES:
+        path = _aot_dir() / (AOT_NAME + suffix)
+        if path.is_file():
+            spec = importlib.util.spec_from_file_location(name, path)
+            if spec is None or spec.loader is None:  # pragma: no cover - defensive
+                return None
+            try:
+                mod = importlib.util.module_from_spec(spec)
+                spec.loader.exec_module(mod)
+            except ImportError:
+                return None
+            sys.modules[name] = mod
+            return mod
+    return None
+
+
+class Kernels:
+    """The compiled kernels of one module, resolved at first use (see the module notes).
+
+    Parameters
+    ----------
+    namespace : dict
+        The module's globals (the kernels' source functions and the constants they read).
+    signatures : dict of str to list of str
+        Entry kernels (called from Python) and the numba signatures built ahead of time.
+    callees : tuple of str
+        Kernels called only by other kernels (compiled into them).
+    """
+
+    def __init__(self, namespace: dict[str, Any], signatures: dict[str, list[str]],
+                 callees: tuple[str, ...] = ()) -> None:
+        self._ns = namespace
+        self._signatures = signatures
+        self._callees = callees
+        self._prefix = namespace["__name__"].rsplit(".", 1)[-1]
+        self._loaded: dict[str, Callable[..., Any]] | None = None
+        self._jit: dict[str, Any] | None = None
+        self.source = "not loaded"
+
+    # -- identity of the source -------------------------------------------------------------
+    def fingerprint(self) -> int:
+        """A 60-bit hash of the kernels' source and of the module constants they read."""
+        h = hashlib.sha256()
+        for name in sorted((*self._signatures, *self._callees)):
+            fn = self._ns[name]
+            h.update(inspect.getsource(fn).encode())
+            for g in sorted(fn.__code__.co_names):
+                val = self._ns.get(g)
+                if isinstance(val, (int, float)) and not isinstance(val, bool):
+                    h.update(f"{g}={val!r};".encode())
+        for name, sigs in sorted(self._signatures.items()):
+            h.update(f"{name}:{'|'.join(sigs)};".encode())
+        return int(h.hexdigest()[:15], 16)
+
+    def exported_name(self, name: str, i: int) -> str:
+        return f"{self._prefix}__{name.lstrip('_')}__{i}"
+
+    # -- the two ways ----------------------------------------------------------------------
+    def jit_functions(self) -> dict[str, Any]:
+        """numba dispatchers of every kernel (compiled lazily, cached on disk), sharing one
+        namespace in which each kernel sees the others' dispatchers."""
+        if self._jit is None:
+            import numba
+
+            ns = dict(self._ns)
+            out = {}
+            for name in (*self._callees, *self._signatures):
+                fn = self._ns[name]
+                clone = types.FunctionType(fn.__code__, ns, fn.__name__, fn.__defaults__, fn.__closure__)
+                clone.__qualname__, clone.__module__, clone.__doc__ = fn.__qualname__, fn.__module__, fn.__doc__
+                out[name] = ns[name] = numba.njit(cache=True)(clone)
+            self._jit = out
+        return self._jit
+
+    def _aot_functions(self) -> dict[str, Callable[..., Any]] | None:
+        if os.environ.get("EDDI_JIT", "") not in ("", "0"):
+            return None
+        mod = _load_aot_module()
+        if mod is None:
+            return None
+        stamp = getattr(mod, f"{self._prefix}__fingerprint", None)
+        try:
+            mine = self.fingerprint()
+        except (OSError, TypeError):  # no source to compare (a frozen or stripped installation)
+            return None
+        if stamp is None or stamp() != mine:
+            return None  # built from other source: never run it
+        out = {}
+        for name, sigs in self._signatures.items():
+            built = [getattr(mod, self.exported_name(name, i)) for i in range(len(sigs))]
+            out[name] = self._with_fallback(name, built)
+        return out
+
+    def _with_fallback(self, name: str, built: list[Callable[..., Any]]) -> Callable[..., Any]:
+        checks = [_arg_checks(sig) for sig in self._signatures[name]]
+
+        def call(*args: Any) -> Any:
+            for fn, check in zip(built, checks):
+                # the built wrappers do not check an array's layout (a strided array would be
+                # read as if contiguous): every argument is checked here first
+                if len(args) == len(check) and all(ok(a) for ok, a in zip(check, args)):
+                    return fn(*args)
+            return self.jit_functions()[name](*args)
+
+        call.__name__ = name
+        return call
+
+    def _load(self) -> dict[str, Callable[..., Any]]:
+        if self._loaded is None:
+            aot = self._aot_functions()
+            if aot is not None:
+                self._loaded, self.source = aot, "ahead of time"
+            else:
+                self._loaded, self.source = dict(self.jit_functions()), "numba JIT"
+        return self._loaded
+
+    def __getattr__(self, name: str) -> Callable[..., Any]:
+        if name.startswith("__") or name not in self.__dict__.get("_signatures", {}):
+            raise AttributeError(name)
+        return self._load()[name]
+
+
+_DTYPES = {"f8": "float64", "i8": "int64"}
+
+
+def _arg_checks(sig: str) -> list[Callable[[Any], bool]]:
+    """Per argument of a signature such as ``"i8(f8[::1], f8, i8[:, ::1])"``, a test that a
+    value has exactly that type (arrays: dtype, dimensions, C order when ``::1``)."""
+    import numpy as np
+
+    inner = sig[sig.index("(") + 1: sig.rindex(")")]
+    parts, depth, cur = [], 0, ""
+    for ch in inner:
+        depth += ch == "["
+        depth -= ch == "]"
+        if ch == "," and depth == 0:
+            parts.append(cur.strip())
+            cur = ""
+        else:
+            cur += ch
+    if cur.strip():
+        parts.append(cur.strip())
+    checks: list[Callable[[Any], bool]] = []
+    for p in parts:
+        base = p.split("[")[0].strip()
+        if "[" in p:
+            dims = p[p.index("[") + 1: p.rindex("]")].count(",") + 1
+            dtype, c_order = np.dtype(_DTYPES[base]), "::1" in p
+
+            def ok(a: Any, dtype: Any = dtype, dims: int = dims, c_order: bool = c_order) -> bool:
+                return (isinstance(a, np.ndarray) and a.dtype == dtype and a.ndim == dims
+                        and (a.flags.c_contiguous or not c_order) and a.flags.aligned)
+        elif base == "f8":
+            def ok(a: Any) -> bool:
+                return isinstance(a, (float, int, np.floating, np.integer)) and not isinstance(a, bool)
+        else:
+            def ok(a: Any) -> bool:
+                return isinstance(a, (int, np.integer)) and not isinstance(a, bool)
+        checks.append(ok)
+    return checks
+
+
+def build(output_dir: str | Path | None = None) -> Path:
+    """Compile every kernel of :data:`KERNEL_MODULES` ahead of time into one extension module.
+
+    Returns
+    -------
+    Path
+        The built module (``eddi/_aot_kernels.<python tag>.so`` unless ``output_dir``).
+    """
+    import warnings
+
+    import numba
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # numba.pycc's deprecation notice
+        from numba.pycc import CC
+
+    cc = CC(AOT_NAME)
+    cc.output_dir = str(output_dir or Path(__file__).resolve().parent)
+    cc.verbose = False
+    for modname in KERNEL_MODULES:
+        mod = importlib.import_module(modname)
+        k: Kernels = mod._KERNELS
+        stamp = k.fingerprint()
+        ns = dict(k._ns)
+        for name in k._callees:
+            fn = k._ns[name]
+            ns[name] = numba.njit(types.FunctionType(fn.__code__, ns, fn.__name__, fn.__defaults__, fn.__closure__))
+        for name, sigs in k._signatures.items():
+            fn = k._ns[name]
+            for i, sig in enumerate(sigs):
+                clone = types.FunctionType(fn.__code__, ns, fn.__name__, fn.__defaults__, fn.__closure__)
+                cc.export(k.exported_name(name, i), sig)(clone)
+        cc.export(f"{k._prefix}__fingerprint", "i8()")(eval(f"lambda: {stamp}"))  # noqa: S307 - an int literal
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cc.compile()
+    built = [p for p in Path(cc.output_dir).glob(AOT_NAME + "*") if p.suffix in (".so", ".pyd")]
+    return max(built, key=lambda p: p.stat().st_mtime)
+
+
+if __name__ == "__main__":  # pragma: no cover - the build command
+    import argparse
+
+    ap = argparse.ArgumentParser(description="Build the simulator's kernels ahead of time (numba.pycc).")
+    ap.add_argument("--output-dir", default=None, help="where to write the module (default: the eddi package)")
+    print(build(ap.parse_args().output_dir))

@@ -1,0 +1,136 @@
+"""eddi.kernels: the kernels built ahead of time give the JIT's numbers bit for bit, load
+without numba, and are never used when the source changed."""
+
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from eddi.kernels import Kernels, build
+from eddi.model import EquationOfMotion
+
+REPO = Path(__file__).resolve().parents[2]
+simulate_mod = importlib.import_module("eddi.simulate")
+sensitivity_mod = importlib.import_module("eddi.sensitivity")
+
+DUFFING = EquationOfMotion.create(mass=0.815, damping={"v": 0.9, "x^2*v": 40.0, "v^3": 0.05},
+                                  stiffness={"x": 2.1e4, "x^2": -3e5, "x^3": 4.0e7})
+WITH_EFFECTS = EquationOfMotion.create(
+    mass=0.815, damping=dict(DUFFING.damping), stiffness=dict(DUFFING.stiffness), effects=[
+        {"name": "clearance", "params": {"gap_m": 1e-3, "stiffness_n_per_m": 5e3}},
+        {"name": "coulomb_friction", "params": {"force_n": 0.3, "velocity_scale": 1e-3}},
+        {"name": "second_mode", "params": {"mass_kg": 0.1, "stiffness_n_per_m": 4e4,
+                                           "damping_n_s_per_m": 0.5, "coupling_n_per_m": 2e3}}])
+
+
+@pytest.fixture(scope="module")
+def aot_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    d = tmp_path_factory.mktemp("aot")
+    build(d)
+    return d
+
+
+def _fresh(module: str, aot_dir: Path | None) -> Kernels:
+    """The module's kernels resolved anew: ahead of time from ``aot_dir``, or the JIT (None)."""
+    mod = importlib.import_module(module)
+    k = Kernels(mod.__dict__, mod._KERNELS._signatures, mod._KERNELS._callees)
+    sys.modules.pop("eddi._aot_kernels", None)
+    env = {"EDDI_AOT_DIR": str(aot_dir)} if aot_dir else {"EDDI_JIT": "1"}
+    saved = {key: os.environ.get(key) for key in ("EDDI_AOT_DIR", "EDDI_JIT")}
+    os.environ.pop("EDDI_AOT_DIR", None)
+    os.environ.pop("EDDI_JIT", None)
+    os.environ.update(env)
+    try:
+        k._load()
+    finally:
+        for key, val in saved.items():
+            if val is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = val
+        sys.modules.pop("eddi._aot_kernels", None)
+    return k
+
+
+def _simulations(k_sim: Kernels, k_sens: Kernels, monkeypatch: pytest.MonkeyPatch) -> list[np.ndarray]:
+    monkeypatch.setattr(simulate_mod, "_KERNELS", k_sim)
+    monkeypatch.setattr(sensitivity_mod, "_KERNELS", k_sens)
+    t = np.arange(6000) / 5000.0
+    force = np.where(t < 2e-3, 200.0 * np.sin(np.pi * t / 2e-3), 0.0)
+    out = []
+    for eom in (DUFFING, WITH_EFFECTS):
+        s = simulate_mod.simulate(eom, t, force=force)
+        out += [s.x, s.v, s.a]
+        out.append(simulate_mod.internal_force(eom, s.x, s.v))
+    dense = simulate_mod.simulate_dense(DUFFING, t, force=force, x_scale=2e-3, v_scale=0.5)
+    out += [dense.x, dense.v]
+    resp, jac, _ = sensitivity_mod.free_response_sensitivities(DUFFING, 2e-4, 6000, 1e-3, 0.0,
+                                                               np.full(5999, 2), jacobian=True)
+    out += [resp, np.nan_to_num(jac)]
+    return out
+
+
+def test_ahead_of_time_kernels_give_the_jits_numbers_bit_for_bit(aot_dir: Path,
+                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    aot_sim, aot_sens = _fresh("eddi.simulate", aot_dir), _fresh("eddi.sensitivity", aot_dir)
+    assert (aot_sim.source, aot_sens.source) == ("ahead of time", "ahead of time")
+    jit_sim, jit_sens = _fresh("eddi.simulate", None), _fresh("eddi.sensitivity", None)
+    assert jit_sim.source == "numba JIT"
+    built = _simulations(aot_sim, aot_sens, monkeypatch)
+    jitted = _simulations(jit_sim, jit_sens, monkeypatch)
+    assert len(built) == len(jitted) == 12
+    for a, b in zip(built, jitted):
+        assert np.array_equal(a, b)
+    assert np.ptp(built[0]) > 1e-4  # the response moved (the comparison is of something)
+
+
+def test_kernels_edited_since_the_build_are_compiled_by_numba(aot_dir: Path) -> None:
+    mod = importlib.import_module("eddi.simulate")
+    ns = dict(mod.__dict__)
+    ns["_E_QUAD"] = 99  # a constant the kernels read, changed after the build
+    sys.modules.pop("eddi._aot_kernels", None)
+    os.environ["EDDI_AOT_DIR"] = str(aot_dir)
+    try:
+        stale = Kernels(ns, mod._KERNELS._signatures, mod._KERNELS._callees)
+        assert stale.fingerprint() != mod._KERNELS.fingerprint()
+        stale._load()
+        assert stale.source == "numba JIT"
+    finally:
+        os.environ.pop("EDDI_AOT_DIR")
+        sys.modules.pop("eddi._aot_kernels", None)
+
+
+def test_arguments_outside_the_built_signatures_fall_back_to_the_jit(aot_dir: Path) -> None:
+    k = _fresh("eddi.simulate", aot_dir)
+    assert k.source == "ahead of time"
+    x = np.linspace(-1e-3, 1e-3, 40)[::2]  # not contiguous: the built signature wants C order
+    v = np.linspace(-0.1, 0.1, 40)[::2]
+    from eddi.terms import exponent_table
+
+    exps = exponent_table(DUFFING.damping_terms() + DUFFING.stiffness_terms())
+    coefs = np.array(list(DUFFING.damping.values()) + list(DUFFING.stiffness.values()))
+    out = np.empty(x.size)
+    k._internal_many(x, v, exps, coefs, simulate_mod._effect_vector(DUFFING), out)
+    assert np.allclose(out, DUFFING.restoring_force(x, v), rtol=1e-12, atol=0)
+
+
+def test_identify_with_built_kernels_imports_no_numba(aot_dir: Path) -> None:
+    csv = REPO / "station" / "examples" / "duffing-impact.csv"
+    code = ("import sys, runpy\n"
+            "sys.argv = ['station', 'identify', sys.argv[1], '--mass', '0.815', '--json']\n"
+            "try:\n    runpy.run_module('station.cli', run_name='__main__')\n"
+            "except SystemExit:\n    pass\n"
+            "print('NUMBA' if 'numba' in sys.modules else 'NO-NUMBA', file=sys.stderr)\n")
+    env = {**os.environ, "PYTHONPATH": str(REPO), "EDDI_AOT_DIR": str(aot_dir)}
+    env.pop("EDDI_JIT", None)
+    done = subprocess.run([sys.executable, "-c", code, str(csv)], capture_output=True, text=True, env=env)
+    assert done.returncode == 0, done.stderr[-500:]
+    assert done.stderr.strip().endswith("NO-NUMBA"), done.stderr[-500:]
+    assert json.loads(done.stdout)["validation"]["nrmse"] < 0.1
