@@ -59,8 +59,6 @@ def _training_error(fit_eom, recs: Sequence[Record], masks: Sequence[np.ndarray]
             continue
         idx = np.flatnonzero(m)
         p = Part(0, int(idx[0]), int(idx[-1]) + 1, r.force is not None and r.free_start > 0, r.label)
-        if p.from_rest:
-            p = Part(0, 0, p.stop, True, r.label)
         errs.append(nrmse(simulate_part(fit_eom, r, p), r.x[p.start:p.stop]))
     return float(np.mean(errs)) if errs else NRMSE_CAP
 

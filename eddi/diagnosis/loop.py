@@ -110,12 +110,14 @@ def diagnose(
     """
     with one_blas_thread():
         records = _check_records(records)
+        damping, stiffness = selected_terms(pipeline, base, damping, stiffness)
         setup, chosen = _setup(records, mass, damping, stiffness, base, mechanisms, fit)
         cat = [m for m in catalogue() if m.name in chosen]
         effects = tuple(e.name for e in base.effects) if base is not None else ()
         skipped = {m.name: m.skip_reason(setup.damping, setup.stiffness, effects) for m in cat}
         check_trainable(records)
-        shown = _show(records, setup, n_bands, none_factor, strong_margin)
+        refine = pipeline is not None and pipeline.choices.get("refinement") == "kept"
+        shown = _show(records, setup, n_bands, none_factor, strong_margin, refine)
         if shown.quiet:
             # nothing to explain: no candidate can change the verdict, none is fitted
             why = f"not tried: the baseline is within {none_factor:g}x the noise floor"
@@ -146,10 +148,11 @@ class _Shown:
 
 
 def _show(records: list[Record], setup: Setup, n_bands: int, none_factor: float,
-          strong_margin: float | None) -> _Shown:
-    """Show and measure: per fold, the baseline judged on the held-out part; the floor."""
+          strong_margin: float | None, refine: bool = False) -> _Shown:
+    """Show and measure: per fold, the baseline judged on the held-out part (refined as the
+    pipeline refines when ``refine``); the floor (by the same procedure)."""
     scheme, parts, fold_masks = split(records, n_bands)
-    fitter = Fitter([r.signal() for r in records], setup)
+    fitter = Fitter([r.signal() for r in records], setup, records, refine)
     res, fold_fits = judge_baseline(records, setup, parts, fold_masks, fitter)
     fit_all = fitter(all_masks(records))
     bfit_all = fit_all(None, None)
@@ -157,7 +160,7 @@ def _show(records: list[Record], setup: Setup, n_bands: int, none_factor: float,
         raise ModelError("the baseline could not be fitted on all the data")
     baseline = Score(model=bfit_all.eom, nrmse=float(np.mean(res.base_fold)),
                      fold_nrmse=tuple(res.base_fold), nmte=float(np.mean(res.base_nmte)))
-    floor = noise_floor(records, setup, parts, fold_masks, res.base_sims)
+    floor = noise_floor(records, setup, parts, fold_masks, res.base_sims, refine=refine)
     return _Shown(records, setup, scheme, parts, fold_masks, fitter, res, fold_fits, fit_all, bfit_all,
                   baseline, floor, strong_margin is None and within_floor(res.base_fold, floor, none_factor))
 
@@ -279,6 +282,21 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
                      baseline_spread=b_spread, notes=tuple(notes), noise_floor=floor,
                      symptoms=tuple(symptoms), partial=dec.partial.name if dec.partial else "",
                      judged=judged, pipeline=pipeline)
+
+
+def selected_terms(pipeline: PipelineBaseline | None, base: EquationOfMotion | None,
+                   damping: str | Sequence[str], stiffness: str | Sequence[str]
+                   ) -> tuple[str | Sequence[str], str | Sequence[str]]:
+    """The libraries the per-fold baseline is fitted with: the pipeline's terms when it selected
+    some (its term selection, so the per-fold baseline is the fit the pipeline would make on
+    the training records, not the full library's), else the given ones."""
+    if pipeline is None or base is not None:
+        return damping, stiffness
+    d = tuple(pipeline.choices.get("damping_terms") or ())
+    k = tuple(pipeline.choices.get("stiffness_terms") or ())
+    if not d or not k:
+        return damping, stiffness
+    return d, k
 
 
 def _frequency(eom: EquationOfMotion) -> float:

@@ -31,12 +31,17 @@ class Fitter:
 
     ``Fitter(sigs, setup)(masks)`` returns a :class:`FoldFitter`: ``fit(mech, base_fit)``
     fits the baseline (``mech`` None) or the baseline plus ``mech`` on the samples ``masks``.
+    With ``records`` and ``refine`` (the pipeline kept its refinement), the baseline a fold
+    judges with is refined as the pipeline refines (:func:`refined_baseline`).
     """
 
-    def __init__(self, sigs: Sequence, setup: Setup) -> None:
+    def __init__(self, sigs: Sequence, setup: Setup, records: Sequence[Record] = (),
+                 refine: bool = False) -> None:
         self.sigs = list(sigs)
         self.setup = setup
         self.cache: dict = {}
+        self.records = list(records)
+        self.refine = bool(refine) and bool(self.records) and setup.base is None
 
     def __call__(self, masks: Sequence[np.ndarray]) -> "FoldFitter":
         return FoldFitter(self, masks)
@@ -47,6 +52,7 @@ class FoldFitter:
 
     def __init__(self, fitter: Fitter, masks: Sequence[np.ndarray]) -> None:
         self.sigs, self.setup, self.masks = fitter.sigs, fitter.setup, masks
+        self.records, self.refine = fitter.records, fitter.refine
         self.fold = EddiFold(self.sigs, masks, self.setup, fitter.cache) if self.setup.fit == "eddi" else None
         self._ee: list[Fit | None] = []
 
@@ -59,11 +65,59 @@ class FoldFitter:
             self._ee.append(fit_ee(self.sigs, self.masks, ee, None))
         return self._ee[0]
 
+    def judged_baseline(self) -> Fit | None:
+        """The baseline a fold is judged with: EDDI's fit, refined as the pipeline refines
+        when the pipeline kept its refinement (:func:`refined_baseline`)."""
+        fit = self(None, None)
+        if fit is None or not self.refine:
+            return fit
+        return refined_baseline(fit, self.records, self.masks, self.setup)
+
     def __call__(self, mech: Mechanism | None, base_fit: Fit | None = None) -> Fit | None:
         if self.fold is None:
             return fit_ee(self.sigs, self.masks, self.setup, mech, base_fit=base_fit)
         return fit_eddi(self.fold, self.sigs, self.masks, self.setup, mech, base_fit=base_fit,
                         ee_base=self.ee_base)
+
+
+def refined_baseline(fit: Fit, records: Sequence[Record], masks: Sequence[np.ndarray], setup: Setup) -> Fit:
+    """The pipeline's refinement policy on a fold's training records.
+
+    :class:`eddi.fit_record.Pipeline` refines EDDI's model by output error on its fit record
+    (the median blow) and keeps the refinement only when it lowers the displacement nrmse of
+    the records it did not fit. Here: the training record of the median peak force (the
+    largest training run of a record split into bands) is the fit record, the other training
+    records judge (the fit record itself, simulated over its training run, when it is the
+    only one); the refined model is kept only when it lowers that error.
+    """
+    from eddi.fit_record import REFINE_CHANNEL
+    from eddi.refine import refine_output_error
+
+    from eddi.diagnosis.extend import runs
+
+    train = [(i, max(runs(m), key=lambda ab: ab[1] - ab[0])) for i, m in enumerate(masks) if np.any(m)]
+    if not train:
+        return fit
+    forces = [float(np.max(np.abs(records[i].force))) if records[i].force is not None else 0.0 for i, _ in train]
+    order = sorted(range(len(train)), key=lambda j: forces[j])
+    k, (a, b) = train[order[(len(order) - 1) // 2]]
+    rec = records[k]
+    try:
+        eom, _ = refine_output_error(fit.eom, rec.t[a:b], rec.x[a:b], rec.v[a:b], rec.a[a:b],
+                                     channel=REFINE_CHANNEL.get(rec.response, "x"))
+    except (IdentificationError, SignalError, ModelError, ValueError):
+        return fit
+    judges = [(i, ab) for i, ab in train if i != k] or [(k, (a, b))]
+
+    def error(model) -> float:
+        errs = []
+        for i, (s0, s1) in judges:
+            r = records[i]
+            part = Part(i, s0, s1, r.force is not None and r.free_start > 0 and s0 == r.free_start, r.label)
+            errs.append(nrmse(simulate_part(model, r, part), r.x[s0:s1]))
+        return float(np.mean(errs))
+
+    return Fit(eom=eom, mech=None, residual=fit.residual) if error(eom) < error(fit.eom) else fit
 
 
 def all_masks(records: Sequence[Record]) -> list[np.ndarray]:
@@ -104,7 +158,7 @@ def judge_baseline(records: Sequence[Record], setup: Setup, parts: Sequence[Part
         rec = records[part.record]
         try:
             fit_fold = fitter(masks)
-            bfit = fit_fold(None, None)
+            bfit = fit_fold.judged_baseline()
         except IdentificationError as exc:
             raise SignalError(f"held out {part.label}, the other records hold too little to fit the baseline "
                               f"({exc}): give fewer terms (e.g. --damping v --stiffness x,x^3) or longer "
