@@ -295,8 +295,15 @@ class Diagnosis:
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (no arrays)."""
         def score(s: Score) -> dict[str, Any]:
-            return {"nrmse": s.nrmse, "fold_nrmse": list(s.fold_nrmse), "nmte": s.nmte,
-                    "model": s.model.to_dict(), "equation": s.model.equation_text()}
+            out = {"nrmse": s.nrmse if np.isfinite(s.nrmse) else None,
+                   "fold_nrmse": [v if np.isfinite(v) else None for v in s.fold_nrmse], "nmte": s.nmte,
+                   "model": s.model.to_dict(), "equation": s.model.equation_text()}
+            if not np.isfinite(s.nrmse):  # never a null without the reason
+                out["nrmse_reason"] = (
+                    "the model's simulation diverged (grew without bound) on a held-out record"
+                    if s.nrmse == np.inf or any(v == np.inf for v in s.fold_nrmse) else
+                    "no held-out record could be simulated with this model")
+            return out
         return {
             "cause": self.cause,
             "verdict": self.verdict,

@@ -68,3 +68,15 @@ def test_verdict_baseline_and_reported_baseline_agree(records) -> None:
     assert f"{d.baseline.nrmse:.3g}" in d.verdict and f"{d.judging.nrmse:.3g}" in d.verdict
     obj = d.to_dict()
     assert obj["baseline"]["nrmse"] == pipe.nrmse and np.isfinite(obj["judged_baseline"]["nrmse"])
+
+
+def test_a_null_baseline_error_always_carries_its_reason(records) -> None:
+    import dataclasses
+
+    d = diagnose(records, M, mechanisms=["clearance"])
+    diverged = dataclasses.replace(d, baseline=dataclasses.replace(
+        d.baseline, nrmse=math.inf, fold_nrmse=(0.01, math.inf, 0.02)))
+    obj = diverged.to_dict()["baseline"]
+    assert obj["nrmse"] is None and obj["fold_nrmse"][1] is None
+    assert "diverged" in obj["nrmse_reason"]
+    assert "nrmse_reason" not in d.to_dict()["baseline"]
