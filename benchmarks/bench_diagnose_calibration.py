@@ -118,7 +118,7 @@ def _verdicts(d, factors) -> dict[str, str]:
     for f in factors:
         for strong in STRONG:
             dec = decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, f, NAMED_FACTOR,
-                         strong_margin=strong)
+                         strong_margin=strong, eddi_fold=d.reference_fold or None)
             cause = dec.cause
             # the loop's pipeline check: `none` needs the pipeline's model within the factor too
             if cause == "none" and pipe is not None and pipe.held_out and not pipe.nrmse <= f * d.noise_floor.nrmse:

@@ -26,7 +26,7 @@ from eddi.diagnosis.chain import inspect, sensor_highpass
 from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.measure import noise_floor
 from eddi.diagnosis.name import (
-    Decision, Fitter, FoldFitter, FoldResults, all_masks, build_candidates, check_trainable, decide, judge_baseline, judge_candidates,
+    UNREFINED, Decision, Fitter, FoldFitter, FoldResults, all_masks, build_candidates, check_trainable, decide, judge_baseline, judge_candidates,
     rank, spread_of, within_floor,
 )
 from eddi.diagnosis.observed import Observed, observed_second_mode
@@ -185,7 +185,7 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
             candidates.append(Candidate("sensor_highpass", float("nan"), (), float("nan"), False, False,
                                         {}, {}, None, "", skipped["sensor_highpass"]))
         else:
-            hp, chain_sims = sensor_highpass(records, sh.setup, sh.parts, sh.fold_masks, res.base_fold,
+            hp, chain_sims = sensor_highpass(records, sh.setup, sh.parts, sh.fold_masks, res.ref_fold,
                                              consistency)
             candidates.append(hp)
     return rank(candidates), observed, chain_sims, notes
@@ -235,7 +235,7 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     symptoms = baseline_symptoms(records, sh.parts, res.base_sims, res.base_vsims, sh.setup.mass)
     symptoms += inspect(records, sh.setup.mass, _frequency(sh.bfit_all.eom))
     dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor,
-                 strong_margin=strong_margin)
+                 strong_margin=strong_margin, eddi_fold=res.ref_fold)
     off = _pipeline_check(pipeline, sh, none_factor) if dec.cause == "none" else ""
     if off:
         dec = Decision("unexplained", None, None, False, off)
@@ -281,7 +281,7 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
                      margin=float(margin), verdict=verdict, symptom=symptom, held_out=held,
                      baseline_spread=b_spread, notes=tuple(notes), noise_floor=floor,
                      symptoms=tuple(symptoms), partial=dec.partial.name if dec.partial else "",
-                     judged=judged, pipeline=pipeline)
+                     judged=judged, pipeline=pipeline, reference_fold=tuple(res.ref_fold))
 
 
 def selected_terms(pipeline: PipelineBaseline | None, base: EquationOfMotion | None,
@@ -367,10 +367,13 @@ def _texts(dec: Decision, baseline: Score, floor: NoiseFloor, candidates: Sequen
                 if w.form == "observed" else
                 "the inverse of the sensor's high-pass in conditioning" if w.name == "sensor_highpass"
                 else "it")
-        cut = 1.0 - w.nrmse / b if b > 0 else 0.0
+        r = w.reference_nrmse if w.reference == UNREFINED else b
+        cut = 1.0 - w.nrmse / r if r > 0 else 0.0
         verdict = (f"Cause: {w.name}. Adding {what} cuts the held-out error (displacement nrmse) from "
-                   f"{b:.3g} to {w.nrmse:.3g} ({100 * cut:.0f} % less), better than its reference on every "
+                   f"{r:.3g} to {w.nrmse:.3g} ({100 * cut:.0f} % less), better than its reference on every "
                    f"held-out part, within {named_factor:g}x the noise floor ({f:.3g}).")
+        if r != b:
+            verdict += f" The baseline refined as the pipeline refines reaches {b:.3g} per fold."
         if w.reference != "baseline":
             verdict += (f" Against the {w.reference} ({w.reference_nrmse:.3g}) the cut is "
                         f"{100 * w.gain:.0f} %.")

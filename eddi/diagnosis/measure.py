@@ -85,7 +85,7 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
         den = float(np.linalg.norm(xm)) or 1.0
         d_cond = float(np.linalg.norm(q.x[part.start:part.stop] - xm)) / den
         try:
-            fit = fitter(masks).judged_baseline()
+            fit = fitter(masks).judged_baseline()[1]
         except EddiError:
             fit = None
         xs = simulate_part(fit.eom, q, part) if fit is not None else None

@@ -265,6 +265,10 @@ class Diagnosis:
     judged : Score or None
         With a pipeline baseline: the same terms fitted per fold (:data:`JUDGED_WHAT`).
     pipeline : PipelineBaseline or None
+    reference_fold : tuple of float
+        Per part, the held-out nrmse of EDDI's per-fold baseline before the pipeline's
+        refinement policy (the fit the candidates extend and their cut is measured against);
+        the same as the judged baseline's when nothing was refined.
     """
 
     cause: str
@@ -285,6 +289,7 @@ class Diagnosis:
     partial: str = ""
     judged: Score | None = None
     pipeline: PipelineBaseline | None = None
+    reference_fold: tuple[float, ...] = ()
 
     @property
     def judging(self) -> Score:
@@ -324,7 +329,10 @@ class Diagnosis:
                              "held_out": {str(k): v for k, v in self.pipeline.held_out.items()},  # type: ignore[union-attr]
                              "pipeline": dict(self.pipeline.choices)})},  # type: ignore[union-attr]
             "judged_baseline": ({**score(self.judged), "spread": self.baseline_spread,
-                                 "what": JUDGED_WHAT} if self.judged is not None else None),
+                                 "what": JUDGED_WHAT,
+                                 "unrefined_fold_nrmse": list(self.reference_fold),
+                                 "refined": list(self.reference_fold) != list(self.judged.fold_nrmse)}
+                                if self.judged is not None else None),
             "extended": score(self.extended),
             "candidates": [{
                 "name": c.name, "nrmse": c.nrmse, "fold_nrmse": list(c.fold_nrmse),
