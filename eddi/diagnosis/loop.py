@@ -245,8 +245,8 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     if pipeline is not None:
         how = "held-out nrmse" if pipeline.held_out else "nrmse on its own fit record (nothing held out)"
         verdict += (f" The pipeline's model (as station identify gives it) has {how} "
-                    f"{pipeline.nrmse:.3g}; the candidates are judged against the same terms fitted per "
-                    f"fold (nrmse {baseline.nrmse:.3g}).")
+                    f"{pipeline.nrmse:.3g}; per fold, fitted the pipeline's way on the training records, "
+                    f"the baseline has {baseline.nrmse:.3g}: the verdict needs both within the factor.")
     winner = dec.winner
     extended, ext_sims, modal = baseline, res.base_sims, None
     if winner is not None:

@@ -93,10 +93,14 @@ class Score:
 
 
 #: What the judging baseline is, and why it is not the pipeline's model (JSON and docs).
-JUDGED_WHAT = ("the same terms fitted by EDDI on the training records of each fold, the fit the "
-               "candidates get: a held-out judgement needs a model that has not seen the part it is "
-               "judged on (the pipeline's model saw its fit record), and a mechanism's gain must come "
-               "from the mechanism, not from a different fit (one record vs several, refined vs not)")
+JUDGED_WHAT = ("the pipeline's procedure on the training records of each fold: its selected terms fitted by "
+               "EDDI, refined by output error when the pipeline kept its refinement (and kept only when "
+               "that lowers the error of the other training records), simulated as the pipeline "
+               "validates (from the impact, driven by the fused impact force, compared over the free "
+               "response). A held-out judgement needs a model that has not seen the part it is judged "
+               "on (the pipeline's model saw its fit record). Candidates extend EDDI's per-fold fit and "
+               "their cut is measured against it (unrefined_fold_nrmse) and against this baseline: the "
+               "gain must come from the mechanism, not from refined vs not")
 
 
 @dataclass(frozen=True)
