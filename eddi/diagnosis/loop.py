@@ -54,11 +54,9 @@ def diagnose(
     mechanisms: Sequence[str] | None = None,
     margin: float = DEFAULT_MARGIN, consistency: float = DEFAULT_CONSISTENCY,
     n_bands: int = 3, fit: str = "eddi",
-    modal_damping: Sequence[str] = MODAL_DAMPING,
-    modal_stiffness: Sequence[str] = MODAL_DIAGNOSE_STIFFNESS,
+    modal_damping: Sequence[str] = MODAL_DAMPING, modal_stiffness: Sequence[str] = MODAL_DIAGNOSE_STIFFNESS,
     none_factor: float = NONE_FACTOR, named_factor: float = NAMED_FACTOR,
-    strong_margin: float | None = STRONG_MARGIN,
-    pipeline: PipelineBaseline | None = None,
+    strong_margin: float | None = STRONG_MARGIN, pipeline: PipelineBaseline | None = None,
 ) -> Diagnosis:
     """Find what the baseline model gets wrong, name the mechanism, extend and measure the gain.
 
@@ -93,7 +91,7 @@ def diagnose(
         Within ``none_factor`` a mechanism is named only if it cuts the error this much.
     pipeline : PipelineBaseline, optional
         ``station identify``'s model and held-out error: it becomes ``baseline`` (``none``
-        needs it within the factor too); candidates are judged against ``judged``.
+        needs it within the factor too); ``judged`` is its procedure run per fold.
 
     Returns
     -------
@@ -116,8 +114,8 @@ def diagnose(
         effects = tuple(e.name for e in base.effects) if base is not None else ()
         skipped = {m.name: m.skip_reason(setup.damping, setup.stiffness, effects) for m in cat}
         check_trainable(records)
-        refine = pipeline is not None and pipeline.choices.get("refinement") == "kept"
-        shown = _show(records, setup, n_bands, none_factor, strong_margin, refine)
+        shown = _show(records, setup, n_bands, none_factor, strong_margin,
+                      pipeline is not None and pipeline.choices.get("refinement") == "kept")
         if shown.quiet:
             # nothing to explain: no candidate can change the verdict, none is fitted
             why = f"not tried: the baseline is within {none_factor:g}x the noise floor"
