@@ -143,6 +143,7 @@ class _Shown:
     baseline: Score
     floor: NoiseFloor
     quiet: bool
+    refine: bool = False  # the per-fold baseline refined as the pipeline refines
 
 
 def _show(records: list[Record], setup: Setup, n_bands: int, none_factor: float,
@@ -160,7 +161,8 @@ def _show(records: list[Record], setup: Setup, n_bands: int, none_factor: float,
                      fold_nrmse=tuple(res.base_fold), nmte=float(np.mean(res.base_nmte)))
     floor = noise_floor(records, setup, parts, fold_masks, res.base_sims, refine=refine)
     return _Shown(records, setup, scheme, parts, fold_masks, fitter, res, fold_fits, fit_all, bfit_all,
-                  baseline, floor, strong_margin is None and within_floor(res.base_fold, floor, none_factor))
+                  baseline, floor, strong_margin is None and within_floor(res.base_fold, floor, none_factor),
+                  refine)
 
 
 def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skipped: dict[str, str | None],
@@ -183,8 +185,9 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
             candidates.append(Candidate("sensor_highpass", float("nan"), (), float("nan"), False, False,
                                         {}, {}, None, "", skipped["sensor_highpass"]))
         else:
-            hp, chain_sims = sensor_highpass(records, sh.setup, sh.parts, sh.fold_masks, res.ref_fold,
-                                             consistency)
+            hp, chain_sims = sensor_highpass(records, sh.setup, sh.parts, sh.fold_masks,
+                                             res.base_fold if sh.refine else res.ref_fold, consistency, sh.refine,
+                                             res.ref_fold)
             candidates.append(hp)
     return rank(candidates), observed, chain_sims, notes
 
