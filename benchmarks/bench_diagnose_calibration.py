@@ -115,15 +115,17 @@ def _verdicts(d, factors) -> dict[str, str]:
 
     out = {}
     pipe = d.pipeline
+    floor = d.noise_floor.nrmse
+    if pipe is not None and pipe.held_out:  # as the loop: the floor over the records it did not fit
+        floors = [fl for p, fl in zip(d.parts, d.noise_floor.fold_nrmse) if p.record in pipe.held_out]
+        floor = float(np.mean(floors)) if floors else floor
     for f in factors:
         for strong in STRONG:
-            dec = decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, f, NAMED_FACTOR,
-                         strong_margin=strong, eddi_fold=d.reference_fold or None)
-            cause = dec.cause
             # the loop's pipeline check: `none` needs the pipeline's model within the factor too
-            if cause == "none" and pipe is not None and pipe.held_out and not pipe.nrmse <= f * d.noise_floor.nrmse:
-                cause = "unexplained"
-            out[f"{f:g}|{strong}"] = cause
+            departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= f * floor) else ""
+            dec = decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, f, NAMED_FACTOR,
+                         strong_margin=strong, eddi_fold=d.reference_fold or None, departs=departs)
+            out[f"{f:g}|{strong}"] = dec.cause
     return out
 
 

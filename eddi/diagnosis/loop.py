@@ -202,8 +202,10 @@ def _pipeline_check(pipeline: PipelineBaseline | None, sh: _Shown, none_factor: 
         return ""
     return (f"the pipeline's model (as station identify gives it, fitted on {sh.records[pipeline.fit_record].label or 'one record'}) "
             f"departs from the records it did not fit (held-out nrmse {pipeline.nrmse:.3g}, "
-            f"{pipeline.nrmse / floor:.1f}x the floor {floor:.3g}) although the same terms fitted on the "
-            "other records of each fold stay within it: the pipeline's fit, not a missing mechanism")
+            f"{pipeline.nrmse / floor:.1f}x the floor {floor:.3g})"
+            + (" although the baseline fitted the pipeline's way on the other records of each fold stays "
+               "within it: the pipeline's fit, not a missing mechanism"
+               if within_floor(sh.res.base_fold, sh.floor, none_factor) else ""))
 
 
 def _floor_note(dec: Decision, candidates: Sequence[Candidate], floor: NoiseFloor, base: float,
@@ -235,11 +237,8 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     records, res, baseline, floor = sh.records, sh.res, sh.baseline, sh.floor
     symptoms = baseline_symptoms(records, sh.parts, res.base_sims, res.base_vsims, sh.setup.mass)
     symptoms += inspect(records, sh.setup.mass, _frequency(sh.bfit_all.eom))
-    dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor,
-                 strong_margin=strong_margin, eddi_fold=res.ref_fold)
-    off = _pipeline_check(pipeline, sh, none_factor) if dec.cause == "none" else ""
-    if off:
-        dec = Decision("unexplained", None, None, False, off)
+    dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor, strong_margin=strong_margin,
+                 eddi_fold=res.ref_fold, departs=_pipeline_check(pipeline, sh, none_factor))
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
     notes = notes + _floor_note(dec, candidates, floor, baseline.nrmse, margin)

@@ -312,7 +312,7 @@ class Decision:
 def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: NoiseFloor,
            margin: float, none_factor: float, named_factor: float,
            reference_margin: float = REFERENCE_MARGIN, strong_margin: float | None = None,
-           eddi_fold: Sequence[float] | None = None) -> Decision:
+           eddi_fold: Sequence[float] | None = None, departs: str = "") -> Decision:
     """``none`` when the baseline's mean held-out nrmse is within ``none_factor`` of the
     floor's (the mean: one noise realisation per part makes a per-part floor noisy); a mechanism when it beats its reference on every part by more than ``margin``
     (halves the error at 0.5), its strength agrees over folds, and its held-out nrmse is
@@ -326,10 +326,12 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
     ``base_fold`` is the baseline judged as the pipeline fits it (refined when the pipeline
     kept its refinement); ``eddi_fold`` the EDDI fit the candidates extend (default: the
     same). The cut is measured against the latter (same fitter), and a named mechanism must
-    also beat the former."""
+    also beat the former. ``departs``: why the pipeline's own model is not within the factor
+    ('' when it is); then the baseline is not within the floor either (``none`` impossible,
+    the ordinary margin applies), and it is the reason of an ``unexplained``."""
     base = float(np.mean(base_fold))
     eddi = float(np.mean(eddi_fold)) if eddi_fold is not None and len(eddi_fold) else base
-    within = within_floor(base_fold, floor, none_factor)
+    within = within_floor(base_fold, floor, none_factor) and not departs
     tried = [c for c in candidates if not c.skipped and c.model is not None]
     helpful = [c for c in tried if c.wins_every_part and c.gain > 0]
     partial = helpful[0] if helpful else None
@@ -358,7 +360,7 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
         why.append(f"{c.name}: " + ", ".join(fails))
     if within:
         return Decision("none", None, None, True, "within the noise floor")
-    return Decision("unexplained", None, partial, False, "; ".join(why[:2]))
+    return Decision("unexplained", None, partial, False, departs or "; ".join(why[:2]))
 
 
 def check_trainable(records: Sequence[Record]) -> None:
