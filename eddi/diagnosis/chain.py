@@ -23,7 +23,7 @@ from typing import Sequence
 import numpy as np
 
 from eddi.diagnosis.extend import Setup
-from eddi.diagnosis.name import Fitter, refined_baseline, spread_of
+from eddi.diagnosis.name import Fitter, spread_of
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.results import Candidate, Symptom
 from eddi.diagnosis.settings import NRMSE_CAP
@@ -108,18 +108,8 @@ class _CornerSearch:
 
 def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
                     fold_masks: Sequence[Sequence[np.ndarray]], base_fold: Sequence[float],
-                    consistency: float, refine: bool = False, wins_against: Sequence[float] | None = None
-                    ) -> tuple[Candidate, list[np.ndarray]]:
-    """The ``sensor_highpass`` candidate (module notes) and its held-out simulations.
-
-    The candidate is the baseline refitted on the corrected records, so it is fitted the way
-    the judged baseline is: with ``refine`` (the pipeline kept its refinement) the chosen
-    corner's per-fold EDDI fit is refined by the pipeline's policy (:func:`refined_baseline`;
-    the corner itself is chosen on EDDI fits), and ``base_fold`` is the refined baseline.
-    ``wins_against`` (default ``base_fold``): the per-part errors it must beat on every part
-    (the unrefined EDDI baseline's: the refined one can be better on a late, low part of a
-    ring-down judged from its measured state, where the corrected and the as-conditioned
-    records differ)."""
+                    consistency: float) -> tuple[Candidate, list[np.ndarray]]:
+    """The ``sensor_highpass`` candidate (module notes) and its held-out simulations."""
     n = len(parts)
     if not all(r.response == "acc" for r in records):
         return (Candidate("sensor_highpass", float("nan"), (), float("nan"), False, False, {}, {}, None,
@@ -148,8 +138,6 @@ def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Par
             folds.append(NRMSE_CAP)
             sims.append(np.full(part.stop - part.start, np.nan))
             continue
-        if refine:
-            fit = refined_baseline(fit, search.variants[fc], masks, setup)  # type: ignore[arg-type]
         rec = search.variants[fc][part.record]  # type: ignore[index]
         xs, _ = simulate_part_xv(fit.eom, rec, part)
         folds.append(nrmse(xs, rec.x[part.start:part.stop]))
@@ -159,15 +147,12 @@ def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Par
     params = {"corner_hz": float(fc_all)}
     spread = spread_of([{"corner_hz": c} for c in corners], ["corner_hz"])
     consistent = fc_all > 0 and bool(spread["corner_hz"] < consistency * fc_all) if n > 1 else fc_all > 0
-    if refine and fit_all is not None:
-        fit_all = refined_baseline(fit_all, search.variants[fc_all], all_m, setup)  # type: ignore[arg-type]
     model = fit_all.eom if (fit_all is not None and fc_all > 0) else None
     symptom = (f"is fitted to an acceleration that a first-order high-pass near {fc_all:.3g} Hz has "
                "distorted (an AC-coupled IEPE sensor or conditioner): the phase lead reads as wrong "
                "damping; inverting the coupling in conditioning fixes it") if fc_all > 0 else ""
     return (Candidate("sensor_highpass", mean, tuple(folds), 1.0 - mean / ref if ref > 0 else 0.0,
-                      all(c < b for c, b in zip(folds, base_fold if wins_against is None else wins_against)),
-                      consistent, params, spread, model,
+                      all(c < b for c, b in zip(folds, base_fold)), consistent, params, spread, model,
                       symptom, "", ref, "baseline"), sims)
 
 
