@@ -114,12 +114,24 @@ def _verdicts(d, factors) -> dict[str, str]:
     from eddi.diagnosis.settings import NAMED_FACTOR
 
     out = {}
+    pipe = d.pipeline
+    floor = d.noise_floor.nrmse
+    if pipe is not None and pipe.held_out:  # as the loop: the floor over the records it did not fit
+        floors = [fl for p, fl in zip(d.parts, d.noise_floor.fold_nrmse) if p.record in pipe.held_out]
+        floor = float(np.mean(floors)) if floors else floor
     for f in factors:
         for strong in STRONG:
+            # the loop's pipeline check: `none` needs the pipeline's model within the factor too
+            departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= f * floor) else ""
             dec = decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, f, NAMED_FACTOR,
-                         strong_margin=strong)
+                         strong_margin=strong, eddi_fold=d.reference_fold or None, departs=departs)
             out[f"{f:g}|{strong}"] = dec.cause
     return out
+
+
+#: Give the loop the pipeline's baseline, as ``station diagnose`` does (``--no-pipeline``: the
+#: library call without it, as before session 4).
+PIPELINE = {"on": True}
 
 
 def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple[dict, float]:
@@ -127,9 +139,15 @@ def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple
     from eddi.terms import DEFAULT_STIFFNESS
 
     t0 = time.process_time()
+    pipe = None
+    if PIPELINE["on"]:
+        from eddi.diagnosis.pipeline_base import pipeline_baseline
+
+        pipe = pipeline_baseline(recs, mass, stiffness=stiffness or DEFAULT_STIFFNESS)
     d = diagnose(recs, mass, none_factor=0.0,  # every candidate fitted; the verdicts come after
-                 stiffness=stiffness or DEFAULT_STIFFNESS)
+                 stiffness=stiffness or DEFAULT_STIFFNESS, pipeline=pipe)
     return {"ratio": d.judging.nrmse / d.noise_floor.nrmse, "baseline_nrmse": d.judging.nrmse,
+            "pipeline_nrmse": d.pipeline.nrmse if d.pipeline is not None else None,
             "floor": d.noise_floor.nrmse, "partial": d.partial, "causes": _verdicts(d, factors),
             "candidates": [[c.name, round(c.nrmse, 5), round(c.gain, 4), c.wins_every_part, c.consistent]
                            for c in d.candidates if not c.skipped and c.model is not None]}, \
@@ -173,14 +191,15 @@ def ladder_case(args: tuple) -> dict:
             "f1_hz": math.sqrt(eom.linear_stiffness() / eom.mass) / (2 * math.pi), **row, "cpu_s": cpu}
 
 
-def run(set_name: str, out: str | None, jobs: int, factors, nulls: bool, ladders: bool, names) -> None:
+def run(set_name: str, out: str | None, jobs: int, factors, nulls: bool, ladders: bool, names,
+        max_nulls: int | None = None, ladder_seeds: int | None = None) -> None:
     cfg = SETS[set_name]
     tasks = []
     if nulls:
-        tasks += [(null_case, (set_name, s, factors)) for s in cfg["null_seeds"]]
+        tasks += [(null_case, (set_name, s, factors)) for s in list(cfg["null_seeds"])[:max_nulls]]
     if ladders:
         tasks += [(ladder_case, (set_name, n, m, s, factors)) for n in names for m in RUNGS[n]
-                  for s in cfg["ladder_seeds"]]
+                  for s in cfg["ladder_seeds"][:ladder_seeds]]
     with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
         futures = [pool.submit(fn, a) for fn, a in tasks]
         for fut in futures:
@@ -249,6 +268,12 @@ def main() -> None:
                     help="none factors to evaluate (default: %(default)s)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default: %(default)s)")
     ap.add_argument("--out", metavar="FILE", help="append JSON lines here")
+    ap.add_argument("--no-pipeline", action="store_true",
+                    help="diagnose without the pipeline's baseline (the library call as before session 4)")
+    ap.add_argument("--max-nulls", type=int, default=None, metavar="N",
+                    help="a reduced run: only the first N nulls of the set (default: all)")
+    ap.add_argument("--ladder-seeds", type=int, default=None, metavar="N",
+                    help="a reduced run: only the first N seeds of each rung (default: all)")
     ap.add_argument("--summary", metavar="FILE", help="print the rates of earlier runs")
     ap.add_argument("--factor", type=float, default=None,
                     help="none factor of the ladder table (default: eddi.diagnosis.NONE_FACTOR)")
@@ -267,8 +292,9 @@ def main() -> None:
     if not args.set:
         ap.error("give --set tuning|heldout, or --summary FILE")
     factors = tuple(float(f) for f in args.factors.split(","))
+    PIPELINE["on"] = not args.no_pipeline
     run(args.set, args.out, args.jobs, factors, args.only != "ladders", args.only != "nulls",
-        args.mechanisms.split(","))
+        args.mechanisms.split(","), args.max_nulls, args.ladder_seeds)
 
 
 if __name__ == "__main__":

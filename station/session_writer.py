@@ -390,7 +390,11 @@ def import_measurement(writer: CaptureWriter, measurement: Any, notes: str = "",
         source=str(measurement.source),
         notes=notes,
         session_index=session_index,
-        extra={"t0_s": float(t[0]) if t.size else 0.0, "import_metadata": json.dumps(meta, default=str)},
+        # a CSV says nothing of its pre-trigger: 0 is stored (the schema's integer) with
+        # pretrigger_known 0, so the reader gives None (unknown) as the CSV reader does, and
+        # the conditioning looks for the rest itself either way (same floor, same verdict)
+        extra={"t0_s": float(t[0]) if t.size else 0.0, "import_metadata": json.dumps(meta, default=str),
+               "pretrigger_known": int(measurement.pretrigger_samples is not None)},
     )
 
 

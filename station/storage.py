@@ -449,12 +449,22 @@ def measurement_of(cap: StoredCapture, path: str | os.PathLike[str]) -> Any:
         t=t0 + cap.t,
         channels=chans,
         rate_hz=cap.rate_hz,
-        pretrigger_samples=cap.pretrigger_samples,
+        pretrigger_samples=cap.pretrigger_samples if pretrigger_known(cap.attrs, cap.pretrigger_samples) else None,
         mass=cap.mass_kg,
         source=f"{path}:{cap.index}",
         metadata=meta,
     )
 
+
+
+def pretrigger_known(attrs: Any, pretrigger_samples: int) -> bool:
+    """Whether a capture's ``pretrigger_samples`` is known: ``pretrigger_known`` when stored;
+    captures imported before that attribute existed (``import_metadata`` present) stored 0
+    for "unknown" (a CSV does not say), so their 0 is unknown too."""
+    known = attrs.get("pretrigger_known")
+    if known is not None:
+        return bool(int(known))
+    return not ("import_metadata" in attrs and int(pretrigger_samples) == 0)
 
 
 def _check_values(x: np.ndarray, what: str) -> None:

@@ -60,7 +60,8 @@ def condition(
     force : ndarray, shape (n,), [N], optional
         Measured hammer force; used to find the impact and its end.
     pretrigger_samples : int, optional
-        Samples of rest before the trigger (default: detected).
+        Samples of rest before the trigger (default: detected; 0 is detected too, see
+        ``_onset_and_rest``).
     ac_coupling_s : float, optional
         Time constant [s] of a first-order AC coupling (IEPE) on ``acc``; when given, the
         coupling is inverted before integration.
@@ -158,6 +159,13 @@ def _inputs(t: np.ndarray, acc: np.ndarray | None, vel: np.ndarray | None, disp:
 def _onset_and_rest(w: _Work, pretrigger_samples: int | None) -> None:
     """Onset of the motion, whether a rest was seen before it, and the response's noise RMS."""
     n, resp = w.n, w.resp
+    if pretrigger_samples == 0:
+        # "no row before the trigger" and "unknown" (a file format that stores 0 for it) both
+        # leave the rest to be found in the data: a quiet head before the force's onset is a
+        # rest either way, and a real 0 puts the onset near sample 0 (no rest found). Before,
+        # 0 meant "no rest" outright: the same CSV captures imported to HDF5 (0 stored) got
+        # another noise estimate and window than read as CSV (None), and another verdict
+        pretrigger_samples = None
     head = max(8, min(pretrigger_samples or n // 20, n // 5))
     if w.force is not None and np.ptp(w.force) > 0:
         onset, _ = _onset(w.force - np.median(w.force[:head]), head)

@@ -59,8 +59,6 @@ def _training_error(fit_eom, recs: Sequence[Record], masks: Sequence[np.ndarray]
             continue
         idx = np.flatnonzero(m)
         p = Part(0, int(idx[0]), int(idx[-1]) + 1, r.force is not None and r.free_start > 0, r.label)
-        if p.from_rest:
-            p = Part(0, 0, p.stop, True, r.label)
         errs.append(nrmse(simulate_part(fit_eom, r, p), r.x[p.start:p.stop]))
     return float(np.mean(errs)) if errs else NRMSE_CAP
 
@@ -252,9 +250,33 @@ def _base_motion(r: Record, f1: float) -> Symptom | None:
                    {"frequency_hz": fb, "amplitude_m": disp, "share_pct": 100 * disp / xpk})
 
 
+def measured_frequency(records: Sequence[Record]) -> float:
+    """The structure's resonance [Hz] as the records show it: the median over records of the
+    spectral peak of the measured channel over the free response (acceleration weights the
+    resonance over slow motions; 0 when none can be found)."""
+    peaks = []
+    for r in records:
+        s, e = r.free_start, r.free_stop
+        y = r.a[s:e] if r.response in ("acc", "") else r.x[s:e]
+        if y.size < 64:
+            continue
+        f, amp = spectrum(y - np.mean(y), r.rate_hz)
+        ok = f >= 3.0 * r.rate_hz / y.size
+        if np.any(ok):
+            peaks.append(float(f[ok][np.argmax(amp[ok])]))
+    return float(np.median(peaks)) if peaks else 0.0
+
+
 def inspect(records: Sequence[Record], mass: float, f1: float) -> list[Symptom]:
-    """Measurement-chain findings (module notes), one symptom per finding."""
+    """Measurement-chain findings (module notes), one symptom per finding.
+
+    ``f1`` is the baseline's frequency [Hz]; base motion is looked for below the measured
+    resonance (:func:`measured_frequency`) when there is one: a baseline fitted to records
+    with a moving base can have any frequency (0.3 f1 in a case of my own, where the slow
+    motion then fell outside the band searched and was never said)."""
     out: list[Symptom] = []
+    f_meas = measured_frequency(records)
+    f1 = f_meas if f_meas > 0 else f1
     for i, r in enumerate(records):
         for check in (_clipping, _double_hit):
             s = check(r)

@@ -63,7 +63,7 @@ def perturbed_record(rec: Record, seed: int) -> Record:
 
 def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
                 fold_masks: Sequence[Sequence[np.ndarray]], base_sims: Sequence[np.ndarray],
-                seed: int = 1) -> NoiseFloor:
+                seed: int = 1, refine: bool = False) -> NoiseFloor:
     """The floor of the module notes, per held-out part (``base_sims``: the baseline's
     held-out simulations on the records as measured).
 
@@ -76,7 +76,7 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
     for r, q in zip(records, pert):
         s, e = r.free_start, r.free_stop
         cond.append(float(np.linalg.norm(q.x[s:e] - r.x[s:e]) / (np.linalg.norm(r.x[s:e]) or 1.0)))
-    fitter = Fitter([r.signal() for r in pert], setup)
+    fitter = Fitter([r.signal() for r in pert], setup, pert, refine)  # the same procedure as judged
     fold: list[float] = []
     preds: list[float] = []
     for part, masks, xb in zip(parts, fold_masks, base_sims):
@@ -85,7 +85,7 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
         den = float(np.linalg.norm(xm)) or 1.0
         d_cond = float(np.linalg.norm(q.x[part.start:part.stop] - xm)) / den
         try:
-            fit = fitter(masks)(None, None)
+            fit = fitter(masks).judged_baseline()[1]
         except EddiError:
             fit = None
         xs = simulate_part(fit.eom, q, part) if fit is not None else None

@@ -31,12 +31,17 @@ class Fitter:
 
     ``Fitter(sigs, setup)(masks)`` returns a :class:`FoldFitter`: ``fit(mech, base_fit)``
     fits the baseline (``mech`` None) or the baseline plus ``mech`` on the samples ``masks``.
+    With ``records`` and ``refine`` (the pipeline kept its refinement), the baseline a fold
+    judges with is refined as the pipeline refines (:func:`refined_baseline`).
     """
 
-    def __init__(self, sigs: Sequence, setup: Setup) -> None:
+    def __init__(self, sigs: Sequence, setup: Setup, records: Sequence[Record] = (),
+                 refine: bool = False) -> None:
         self.sigs = list(sigs)
         self.setup = setup
         self.cache: dict = {}
+        self.records = list(records)
+        self.refine = bool(refine) and bool(self.records) and setup.base is None
 
     def __call__(self, masks: Sequence[np.ndarray]) -> "FoldFitter":
         return FoldFitter(self, masks)
@@ -47,6 +52,7 @@ class FoldFitter:
 
     def __init__(self, fitter: Fitter, masks: Sequence[np.ndarray]) -> None:
         self.sigs, self.setup, self.masks = fitter.sigs, fitter.setup, masks
+        self.records, self.refine = fitter.records, fitter.refine
         self.fold = EddiFold(self.sigs, masks, self.setup, fitter.cache) if self.setup.fit == "eddi" else None
         self._ee: list[Fit | None] = []
 
@@ -59,11 +65,60 @@ class FoldFitter:
             self._ee.append(fit_ee(self.sigs, self.masks, ee, None))
         return self._ee[0]
 
+    def judged_baseline(self) -> tuple[Fit | None, Fit | None]:
+        """EDDI's fit of the baseline (what the candidates extend and are measured against)
+        and the baseline the fold is judged with: the same, refined as the pipeline refines
+        when the pipeline kept its refinement (:func:`refined_baseline`)."""
+        fit = self(None, None)
+        if fit is None or not self.refine:
+            return fit, fit
+        return fit, refined_baseline(fit, self.records, self.masks, self.setup)
+
     def __call__(self, mech: Mechanism | None, base_fit: Fit | None = None) -> Fit | None:
         if self.fold is None:
             return fit_ee(self.sigs, self.masks, self.setup, mech, base_fit=base_fit)
         return fit_eddi(self.fold, self.sigs, self.masks, self.setup, mech, base_fit=base_fit,
                         ee_base=self.ee_base)
+
+
+def refined_baseline(fit: Fit, records: Sequence[Record], masks: Sequence[np.ndarray], setup: Setup) -> Fit:
+    """The pipeline's refinement policy on a fold's training records.
+
+    :class:`eddi.fit_record.Pipeline` refines EDDI's model by output error on its fit record
+    (the median blow) and keeps the refinement only when it lowers the displacement nrmse of
+    the records it did not fit. Here: the training record of the median peak force (the
+    largest training run of a record split into bands) is the fit record, the other training
+    records judge (the fit record itself, simulated over its training run, when it is the
+    only one); the refined model is kept only when it lowers that error.
+    """
+    from eddi.fit_record import REFINE_CHANNEL
+    from eddi.refine import refine_output_error
+
+    from eddi.diagnosis.extend import runs
+
+    train = [(i, max(runs(m), key=lambda ab: ab[1] - ab[0])) for i, m in enumerate(masks) if np.any(m)]
+    if not train:
+        return fit
+    forces = [float(np.max(np.abs(records[i].force))) if records[i].force is not None else 0.0 for i, _ in train]
+    order = sorted(range(len(train)), key=lambda j: forces[j])
+    k, (a, b) = train[order[(len(order) - 1) // 2]]
+    rec = records[k]
+    try:
+        eom, _ = refine_output_error(fit.eom, rec.t[a:b], rec.x[a:b], rec.v[a:b], rec.a[a:b],
+                                     channel=REFINE_CHANNEL.get(rec.response, "x"))
+    except (IdentificationError, SignalError, ModelError, ValueError):
+        return fit
+    judges = [(i, ab) for i, ab in train if i != k] or [(k, (a, b))]
+
+    def error(model) -> float:
+        errs = []
+        for i, (s0, s1) in judges:
+            r = records[i]
+            part = Part(i, s0, s1, r.force is not None and r.free_start > 0 and s0 == r.free_start, r.label)
+            errs.append(nrmse(simulate_part(model, r, part), r.x[s0:s1]))
+        return float(np.mean(errs))
+
+    return Fit(eom=eom, mech=None, residual=fit.residual) if error(eom) < error(fit.eom) else fit
 
 
 def all_masks(records: Sequence[Record]) -> list[np.ndarray]:
@@ -81,6 +136,7 @@ class FoldResults:
     """What the folds measured (one entry per held-out part in every list)."""
 
     base_fold: list[float] = field(default_factory=list)
+    ref_fold: list[float] = field(default_factory=list)  # EDDI's baseline (unrefined) per fold
     base_nmte: list[float] = field(default_factory=list)
     base_sims: list[np.ndarray] = field(default_factory=list)
     base_vsims: list[np.ndarray] = field(default_factory=list)
@@ -104,21 +160,23 @@ def judge_baseline(records: Sequence[Record], setup: Setup, parts: Sequence[Part
         rec = records[part.record]
         try:
             fit_fold = fitter(masks)
-            bfit = fit_fold(None, None)
+            efit, bfit = fit_fold.judged_baseline()
         except IdentificationError as exc:
             raise SignalError(f"held out {part.label}, the other records hold too little to fit the baseline "
                               f"({exc}): give fewer terms (e.g. --damping v --stiffness x,x^3) or longer "
                               "records") from None
-        if bfit is None:
+        if bfit is None or efit is None:
             raise ModelError("the baseline could not be fitted on the training parts")
         xb, vb = simulate_part_xv(bfit.eom, rec, part)
         res.base_fold.append(nrmse(xb, rec.x[part.start:part.stop]))
+        res.ref_fold.append(res.base_fold[-1] if efit is bfit else
+                            nrmse(simulate_part(efit.eom, rec, part), rec.x[part.start:part.stop]))
         res.base_nmte.append(nmte(vb, rec.v[part.start:part.stop]))
         res.base_sims.append(xb)
         res.base_vsims.append(vb)
         res.base_coefs.append({**{f"b[{k}]": v for k, v in bfit.eom.damping.items()},
                                **{f"k[{k}]": v for k, v in bfit.eom.stiffness.items()}})
-        fits.append((fit_fold, bfit))
+        fits.append((fit_fold, efit))
     return res, fits
 
 
@@ -179,7 +237,7 @@ def build_candidates(cat: Sequence[Mechanism], skipped: dict[str, str | None], r
                                         {}, None, "", skipped[mech.name]))
             continue
         folds = res.cand_fold[mech.name]
-        ref_fold = res.ee_ref if (res.ee_ref and not mech.native) else res.base_fold
+        ref_fold = res.ee_ref if (res.ee_ref and not mech.native) else res.ref_fold
         ref_nrmse = float(np.mean(ref_fold))
         mean = float(np.mean(folds))
         fit = fit_all(mech, bfit_all)
@@ -198,7 +256,8 @@ def build_candidates(cat: Sequence[Mechanism], skipped: dict[str, str | None], r
         cand = Candidate(mech.name, mean, tuple(folds), 1.0 - mean / ref_nrmse if ref_nrmse > 0 else 0.0,
                          all(c < b for c, b in zip(folds, ref_fold)), consistent, params, spread,
                          model, symptom, "", ref_nrmse,
-                         "baseline" if ref_fold is res.base_fold else "equation-error baseline",
+                         (("baseline" if res.ref_fold == res.base_fold else UNREFINED)
+                          if ref_fold is res.ref_fold else "equation-error baseline"),
                          "hidden" if mech.name == "second_mode" else "")
         if obs_cand is not None and mech.name == "second_mode":
             kept, other = (obs_cand, cand) if obs_cand.nrmse < cand.nrmse else (cand, obs_cand)
@@ -234,6 +293,11 @@ def rank(candidates: Sequence[Candidate]) -> list[Candidate]:
     return sorted(candidates, key=lambda c: (bool(c.skipped), -c.gain if math.isfinite(c.gain) else math.inf))
 
 
+#: A candidate's reference when the judged baseline was refined (the pipeline's policy): the
+#: same EDDI fit it extends, so a gain comes from the mechanism, not from refined vs not.
+UNREFINED = "unrefined baseline"
+
+
 @dataclass(frozen=True)
 class Decision:
     """The verdict: ``cause``, the winner (if named) and the best partial explanation."""
@@ -247,7 +311,8 @@ class Decision:
 
 def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: NoiseFloor,
            margin: float, none_factor: float, named_factor: float,
-           reference_margin: float = REFERENCE_MARGIN, strong_margin: float | None = None) -> Decision:
+           reference_margin: float = REFERENCE_MARGIN, strong_margin: float | None = None,
+           eddi_fold: Sequence[float] | None = None, departs: str = "") -> Decision:
     """``none`` when the baseline's mean held-out nrmse is within ``none_factor`` of the
     floor's (the mean: one noise realisation per part makes a per-part floor noisy); a mechanism when it beats its reference on every part by more than ``margin``
     (halves the error at 0.5), its strength agrees over folds, and its held-out nrmse is
@@ -256,9 +321,17 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
     equation error, a modal sum) must also beat that reference by ``reference_margin``, so it
     cannot win by its fitter. A baseline lost on any part (nrmse at the cap) is never
     ``none``. With ``strong_margin``, a candidate passing every test with a cut of at least
-    that much is named even within ``none_factor`` (``none`` otherwise there)."""
+    that much is named even within ``none_factor`` (``none`` otherwise there).
+
+    ``base_fold`` is the baseline judged as the pipeline fits it (refined when the pipeline
+    kept its refinement); ``eddi_fold`` the EDDI fit the candidates extend (default: the
+    same). The cut is measured against the latter (same fitter), and a named mechanism must
+    also beat the former. ``departs``: why the pipeline's own model is not within the factor
+    ('' when it is); then the baseline is not within the floor either (``none`` impossible,
+    the ordinary margin applies), and it is the reason of an ``unexplained``."""
     base = float(np.mean(base_fold))
-    within = within_floor(base_fold, floor, none_factor)
+    eddi = float(np.mean(eddi_fold)) if eddi_fold is not None and len(eddi_fold) else base
+    within = within_floor(base_fold, floor, none_factor) and not departs
     tried = [c for c in candidates if not c.skipped and c.model is not None]
     helpful = [c for c in tried if c.wins_every_part and c.gain > 0]
     partial = helpful[0] if helpful else None
@@ -268,10 +341,13 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
     need = strong_margin if within else margin  # within the floor only a strong cut names
     for c in tried:
         fails = []
-        cut = 1.0 - c.nrmse / base if base > 0 else 0.0
+        # the cut against the baseline as judged (the pipeline's procedure) and against the
+        # EDDI fit the mechanism extends (same fitter): the gain is the mechanism's, and it
+        # stands against the best baseline the pipeline gives
+        cut = min(1.0 - c.nrmse / base if base > 0 else 0.0, 1.0 - c.nrmse / eddi if eddi > 0 else 0.0)
         if not cut >= need:
             fails.append(f"cuts the error by {100 * cut:.0f} % (needs {100 * need:.0f} %)")
-        if c.reference != "baseline" and not c.gain >= reference_margin:
+        if c.reference not in ("baseline", UNREFINED) and not c.gain >= reference_margin:
             fails.append(f"beats its {c.reference} by {100 * c.gain:.0f} % (needs {100 * reference_margin:.0f} %)")
         if not c.wins_every_part:
             fails.append("does not win on every held-out part")
@@ -284,7 +360,7 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
         why.append(f"{c.name}: " + ", ".join(fails))
     if within:
         return Decision("none", None, None, True, "within the noise floor")
-    return Decision("unexplained", None, partial, False, "; ".join(why[:2]))
+    return Decision("unexplained", None, partial, False, departs or "; ".join(why[:2]))
 
 
 def check_trainable(records: Sequence[Record]) -> None:

@@ -48,6 +48,16 @@ class Record:
         Noise RMS of that channel measured at rest (SI units; 0 when unknown).
     pretrigger_samples : int or None
         Samples of rest before the trigger, as given to the conditioning.
+    impact_start, impact_end : int
+        ``[impact_start, impact_end)``: the impact as the conditioning found it (both 0 when
+        unknown). With them a held-out record is simulated as the pipeline validates it
+        (:func:`eddi.fit_record.validate_conditioned`): from rest at ``impact_start``,
+        driven by the force during the impact only (the sensor's noise after it drives
+        nothing), fused with ``m a + R(x, v)`` when the acceleration was measured.
+    force_noise_rms : float
+        Noise RMS of the force channel [N] (0 when unknown).
+    acc_measured : bool
+        True when ``a`` is the measured acceleration.
     """
 
     t: np.ndarray
@@ -61,6 +71,10 @@ class Record:
     response: str = ""
     noise_rms: float = 0.0
     pretrigger_samples: int | None = None
+    impact_start: int = 0
+    impact_end: int = 0
+    force_noise_rms: float = 0.0
+    acc_measured: bool = False
 
     @property
     def rate_hz(self) -> float:
@@ -121,16 +135,23 @@ class Record:
     def from_conditioned(cls, sig: Any, label: str = "",
                          pretrigger_samples: int | None = None) -> "Record":
         """Build from any object with ``t, x, v, a, force`` (and optionally ``free_start``,
-        ``free_stop``, ``response``, ``noise_rms``), such as
+        ``free_stop``, ``response``, ``noise_rms``, ``impact_start``, ``impact_end``,
+        ``force_noise_rms``, ``acc_measured``), such as
         :class:`eddi.conditioning.ConditionedSignal`; ``pretrigger_samples`` as given to the
         conditioning (so the loop can re-run it)."""
-        return cls.create(sig.t, sig.x, sig.v, getattr(sig, "a", None),
-                          force=getattr(sig, "force", None),
-                          free_start=getattr(sig, "free_start", None),
-                          free_stop=getattr(sig, "free_stop", None), label=label,
-                          response=str(getattr(sig, "response", "") or ""),
-                          noise_rms=float(getattr(sig, "noise_rms", 0.0) or 0.0),
-                          pretrigger_samples=pretrigger_samples)
+        rec = cls.create(sig.t, sig.x, sig.v, getattr(sig, "a", None),
+                         force=getattr(sig, "force", None),
+                         free_start=getattr(sig, "free_start", None),
+                         free_stop=getattr(sig, "free_stop", None), label=label,
+                         response=str(getattr(sig, "response", "") or ""),
+                         noise_rms=float(getattr(sig, "noise_rms", 0.0) or 0.0),
+                         pretrigger_samples=pretrigger_samples)
+        i0, i1 = int(getattr(sig, "impact_start", 0) or 0), int(getattr(sig, "impact_end", 0) or 0)
+        if rec.force is None or not 0 <= i0 < i1 <= rec.free_start:
+            return rec
+        fn = float(getattr(sig, "force_noise_rms", 0.0) or 0.0)
+        return rec.replace(impact_start=i0, impact_end=i1, force_noise_rms=fn if math.isfinite(fn) else 0.0,
+                           acc_measured=bool(getattr(sig, "acc_measured", False)))
 
     def replace(self, **changes: Any) -> "Record":
         """A copy with some fields changed (arrays are not copied)."""
@@ -215,7 +236,9 @@ def split(records: Sequence[Record], n_bands: int) -> tuple[str, list[Part], lis
                 raise SignalError(f"record {r.label!r} has {nz} zero crossings in its free response: "
                                   f"nothing to fit or judge (need at least {MIN_PART_CROSSINGS})")
             from_rest = r.force is not None and r.free_start > 0
-            start = 0 if from_rest else r.free_start
+            # compared over the free response, as the pipeline validates (simulated from rest
+            # before it when driven by the force: show.simulate_part_xv)
+            start = r.free_start
             # no extrapolation: a capture larger than every training one is judged only from
             # where its ring-down has decayed into the training amplitude range, starting
             # from its measured state there (a polynomial stiffness fitted below that range

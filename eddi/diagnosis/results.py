@@ -93,10 +93,14 @@ class Score:
 
 
 #: What the judging baseline is, and why it is not the pipeline's model (JSON and docs).
-JUDGED_WHAT = ("the same terms fitted by EDDI on the training records of each fold, the fit the "
-               "candidates get: a held-out judgement needs a model that has not seen the part it is "
-               "judged on (the pipeline's model saw its fit record), and a mechanism's gain must come "
-               "from the mechanism, not from a different fit (one record vs several, refined vs not)")
+JUDGED_WHAT = ("the pipeline's procedure on the training records of each fold: its selected terms fitted by "
+               "EDDI, refined by output error when the pipeline kept its refinement (and kept only when "
+               "that lowers the error of the other training records), simulated as the pipeline "
+               "validates (from the impact, driven by the fused impact force, compared over the free "
+               "response). A held-out judgement needs a model that has not seen the part it is judged "
+               "on (the pipeline's model saw its fit record). Candidates extend EDDI's per-fold fit and "
+               "their cut is measured against it (unrefined_fold_nrmse) and against this baseline: the "
+               "gain must come from the mechanism, not from refined vs not")
 
 
 @dataclass(frozen=True)
@@ -265,6 +269,10 @@ class Diagnosis:
     judged : Score or None
         With a pipeline baseline: the same terms fitted per fold (:data:`JUDGED_WHAT`).
     pipeline : PipelineBaseline or None
+    reference_fold : tuple of float
+        Per part, the held-out nrmse of EDDI's per-fold baseline before the pipeline's
+        refinement policy (the fit the candidates extend and their cut is measured against);
+        the same as the judged baseline's when nothing was refined.
     """
 
     cause: str
@@ -285,6 +293,7 @@ class Diagnosis:
     partial: str = ""
     judged: Score | None = None
     pipeline: PipelineBaseline | None = None
+    reference_fold: tuple[float, ...] = ()
 
     @property
     def judging(self) -> Score:
@@ -295,8 +304,15 @@ class Diagnosis:
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (no arrays)."""
         def score(s: Score) -> dict[str, Any]:
-            return {"nrmse": s.nrmse, "fold_nrmse": list(s.fold_nrmse), "nmte": s.nmte,
-                    "model": s.model.to_dict(), "equation": s.model.equation_text()}
+            out = {"nrmse": s.nrmse if np.isfinite(s.nrmse) else None,
+                   "fold_nrmse": [v if np.isfinite(v) else None for v in s.fold_nrmse], "nmte": s.nmte,
+                   "model": s.model.to_dict(), "equation": s.model.equation_text()}
+            if not np.isfinite(s.nrmse):  # never a null without the reason
+                out["nrmse_reason"] = (
+                    "the model's simulation diverged (grew without bound) on a held-out record"
+                    if s.nrmse == np.inf or any(v == np.inf for v in s.fold_nrmse) else
+                    "no held-out record could be simulated with this model")
+            return out
         return {
             "cause": self.cause,
             "verdict": self.verdict,
@@ -317,7 +333,10 @@ class Diagnosis:
                              "held_out": {str(k): v for k, v in self.pipeline.held_out.items()},  # type: ignore[union-attr]
                              "pipeline": dict(self.pipeline.choices)})},  # type: ignore[union-attr]
             "judged_baseline": ({**score(self.judged), "spread": self.baseline_spread,
-                                 "what": JUDGED_WHAT} if self.judged is not None else None),
+                                 "what": JUDGED_WHAT,
+                                 "unrefined_fold_nrmse": list(self.reference_fold),
+                                 "refined": list(self.reference_fold) != list(self.judged.fold_nrmse)}
+                                if self.judged is not None else None),
             "extended": score(self.extended),
             "candidates": [{
                 "name": c.name, "nrmse": c.nrmse, "fold_nrmse": list(c.fold_nrmse),

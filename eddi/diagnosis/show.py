@@ -23,20 +23,48 @@ def simulate_part(eom: EquationOfMotion, rec: Record, part: Part) -> np.ndarray:
 
 
 def simulate_part_xv(eom: EquationOfMotion, rec: Record, part: Part) -> tuple[np.ndarray, np.ndarray]:
-    """Simulated coordinate and rate over the part, shape (k,) each."""
+    """Simulated coordinate and rate over the part, shape (k,) each.
+
+    A part ``from_rest`` is simulated as the pipeline validates a record
+    (:func:`eddi.fit_record.validate_conditioned`): from rest at the impact's start, driven by
+    the force during the impact only, fused with ``m a + R(x, v)`` when the acceleration was
+    measured (:func:`drive_force`), and returned over ``[part.start, part.stop)``. A record
+    without the impact's indices is driven by its whole force from sample 0. Other parts are
+    free responses from the measured state at ``part.start``.
+    """
     s, e = part.start, part.stop
-    t = rec.t[s:e] - rec.t[s]
-    xm = rec.x[s:e]
-    xs = float(np.max(np.abs(xm))) or None
-    vs = float(np.max(np.abs(rec.v[s:e]))) or None
     if part.from_rest and rec.force is not None:
-        sim = simulate(eom, t, force=rec.force[s:e], x0=float(rec.x[s]), v0=float(rec.v[s]),
-                       x_scale=xs, v_scale=vs)
-    else:
-        f = rec.force[s:e] if rec.force is not None else None
-        sim = simulate(eom, t, force=f, x0=float(rec.x[s]), v0=float(rec.v[s]),
-                       x_scale=xs, v_scale=vs)
+        s0 = rec.impact_start if rec.impact_end > rec.impact_start else 0
+        s0 = min(s0, s)
+        t = rec.t[s0:e] - rec.t[s0]
+        sim = simulate(eom, t, force=drive_force(eom, rec)[s0:e], x0=float(rec.x[s0]), v0=float(rec.v[s0]),
+                       x_scale=float(np.max(np.abs(rec.x[s0:e]))) or None,
+                       v_scale=float(np.max(np.abs(rec.v[s0:e]))) or None)
+        return sim.x[s - s0:], sim.v[s - s0:]
+    t = rec.t[s:e] - rec.t[s]
+    xs = float(np.max(np.abs(rec.x[s:e]))) or None
+    vs = float(np.max(np.abs(rec.v[s:e]))) or None
+    f = rec.force[s:e] if rec.force is not None else None
+    sim = simulate(eom, t, force=f, x0=float(rec.x[s]), v0=float(rec.v[s]), x_scale=xs, v_scale=vs)
     return sim.x, sim.v
+
+
+def drive_force(eom: EquationOfMotion, rec: Record) -> np.ndarray:
+    """The force a from-rest simulation of ``rec`` is driven with [N] (see
+    :func:`simulate_part_xv`; :func:`eddi.fit_record.fused_impact_force` on a record)."""
+    assert rec.force is not None
+    i0, i1 = rec.impact_start, rec.impact_end
+    if not i1 > i0:
+        return rec.force
+    out = np.zeros_like(rec.force)
+    f = rec.force[i0:i1]
+    if rec.acc_measured:
+        f_acc = eom.mass * rec.a[i0:i1] + eom.restoring_force(rec.x[i0:i1], rec.v[i0:i1])
+        var_f, var_a = rec.force_noise_rms ** 2, (eom.mass * rec.noise_rms) ** 2
+        w = var_a / (var_f + var_a) if var_f + var_a > 0 else 0.5
+        f = w * f + (1.0 - w) * f_acc
+    out[i0:i1] = f
+    return out
 
 
 def nmte(v_sim: np.ndarray, v_meas: np.ndarray) -> float:

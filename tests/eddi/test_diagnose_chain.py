@@ -7,6 +7,7 @@ from __future__ import annotations
 import pytest
 
 from eddi.diagnosis.chain import inspect
+from eddi.model import EquationOfMotion
 from tests.eddi.diagnose_cases import SYSTEM, rig_records
 
 
@@ -50,3 +51,27 @@ def test_mass_that_disagrees_with_the_hammer_impulse() -> None:
     assert len(found) == 1
     assert found[0].values["impulse_mass_kg"] == pytest.approx(SYSTEM.mass, rel=0.08)
     assert found[0].values["mismatch_pct"] == pytest.approx(-33.3, abs=6.0)
+
+
+def test_heavy_base_near_a_quarter_of_f1_is_reported_by_the_whole_loop() -> None:
+    """A base of twice the oscillator's mass on a suspension at 0.25 f1 (my own case: 0.1 kg,
+    14 Hz, 45 dB). The baseline fitted to these records has a wrong frequency, and the base
+    motion used to be looked for below that one: only ``growth`` was said."""
+    import math
+
+    from eddi.diagnosis import diagnose
+
+    m, f1 = 0.1, 14.0
+    k1 = m * (2 * math.pi * f1) ** 2
+    truth = EquationOfMotion.create(mass=m, damping={"v": 2 * 0.005 * math.sqrt(k1 * m)}, stiffness={"x": k1})
+    recs = rig_records(36, system=truth, forces=(20.0, 30.0), record_s=2.0, snr_db=45.0,
+                       base_motion={"mass_kg": 2 * m, "frequency_hz": 0.25 * f1, "damping_ratio": 0.05})
+    d = diagnose(recs, m, damping="v", stiffness="x,x^3", mechanisms=["coulomb_friction"])
+    assert d.cause != "none" and d.cause != "coulomb_friction", d.verdict
+    found = [s for s in d.symptoms if s.kind == "base_motion"]
+    assert len(found) == 2  # one per record, with numbers
+    for s in found:
+        assert s.values["frequency_hz"] == pytest.approx(0.25 * f1, rel=0.2)
+        assert s.values["share_pct"] > 2.0
+    obj = d.to_dict()
+    assert obj["baseline"]["nrmse"] is not None or obj["baseline"]["nrmse_reason"]

@@ -61,8 +61,12 @@ def test_hysteretic_spring_is_unexplained_never_drag() -> None:
     contract(d)
     assert d.cause == "unexplained", d.verdict
     assert d.partial != "quadratic_damping"
-    kinds = {s.kind for s in d.symptoms}
-    assert {"frequency_bias", "energy_mismatch", "growth"} <= kinds
+    # the held-out simulation starts at the impact and is compared over the free response (as
+    # the pipeline validates): this baseline grows from there and never passes through the
+    # measured amplitudes, so the symptoms at matched amplitude are absent; the growth is said
+    kinds = {s.kind: s for s in d.symptoms}
+    assert {"growth", "residual_peak"} <= set(kinds)
+    assert kinds["growth"].values["ratio"] > 1.5
 
 
 def test_smooth_abs_stiffness_is_not_called_clearance() -> None:

@@ -34,9 +34,11 @@ class SecondMode(Mechanism):
         if freqs.size == 0:
             return []
         keep = (freqs > 0.3 * f1) & (freqs < 0.45 * fs)
-        # away from the baseline's own frequency and its first harmonics
-        for h in (1, 2, 3):
-            keep &= np.abs(freqs - h * f1) > 0.15 * f1
+        # away from the baseline's own frequency, and close by its harmonics only (a band of
+        # +-0.15 f1 around 2 f1 and 3 f1 hid a real mode at 3.1 f1: its grid then sat on noise)
+        keep &= np.abs(freqs - f1) > 0.15 * f1
+        for h in (2, 3):
+            keep &= np.abs(freqs - h * f1) > 0.03 * f1
         if not np.any(keep):
             return []
         idx = np.flatnonzero(keep)
@@ -46,7 +48,7 @@ class SecondMode(Mechanism):
             f = float(freqs[i])
             if all(abs(f - p) > 0.1 * p for p in peaks):
                 peaks.append(f)
-            if len(peaks) == 1:
+            if len(peaks) == 2:  # the strongest two: one of them may be a harmonic
                 break
         grid = []
         for fp in peaks:
