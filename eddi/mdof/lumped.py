@@ -203,7 +203,7 @@ def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: in
     """
     elements = list(candidate_elements(n) if elements is None else elements)
     lengths = [r[4][1] - r[4][0] for r in records]
-    for _round in range(8):
+    for _round in range(len(elements) + 1):  # one element dropped per round; the last round drops none
         a_mat, b, eq_of = _stack(records, elements, n, d, prefilter)
         p, _ = scaled_lstsq(a_mat, b)
         ne = len(elements)
