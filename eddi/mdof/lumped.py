@@ -237,7 +237,6 @@ def driven_mass(impacts: Sequence[tuple], masses: np.ndarray, consts: dict, d: i
     1 without force.
     """
     num = den = 0.0
-    n = masses.size
     for x, v, a, f in impacts:
         r = masses[d] * a[d]
         for e, c in consts.items():
@@ -246,5 +245,4 @@ def driven_mass(impacts: Sequence[tuple], masses: np.ndarray, consts: dict, d: i
                 r = r + sign * c * element_column(e, x, v)
         num += float(f @ r)
         den += float(r @ r)
-    del n
     return num / den if den > 0 and num > 0 else 1.0

@@ -172,6 +172,17 @@ def handle(args: argparse.Namespace) -> int:
             lines.append(f"capture {c.capture}: {c.samples} samples through {c.transport_url}: "
                          + ("bit-exact" if c.bit_exact else f"{c.mismatched_samples} samples differ")
                          + f" (dropped {c.dropped_samples}, CRC errors {c.crc_errors})")
+    from station.mdof_data import is_multichannel
+    from station.readers import read_measurement
+
+    first = read_measurement(specs[0])
+    if is_multichannel(first):  # several sensors: the coupled multi-DOF model, every channel predicted
+        from station.mdof_replay import replay_mdof_object, replay_mdof_text
+
+        obj.update(replay_mdof_object([first] + [read_measurement(s) for s in specs[1:]]))
+        lines.append(replay_mdof_text(obj))
+        emit(args.json, "\n".join(lines), obj)
+        return 1 if args.through_device and not obj["bit_exact"] else 0
     session = run_session(read_all(specs, command="replay"), args.mass,
                           damping=terms_or_default(args.damping, DEFAULT_DAMPING),
                           stiffness=terms_or_default(args.stiffness, DEFAULT_STIFFNESS), fit_index=args.fit,
