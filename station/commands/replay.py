@@ -7,6 +7,11 @@ The pipeline is :func:`station.session.run_session` (as ``station report``, with
 figures). With ``--through-device`` each stored capture's raw counts are served by a
 :class:`simulated_rig.replay.ReplaySource` inside the emulated DAQ firmware, on a pseudo-terminal, read back with the
 serial driver, and compared with the file: they must arrive bit-exact.
+
+Captures with several response sensors (``acc1, acc2, ...``) take the multi-DOF path
+(:mod:`station.mdof_replay`): the coupled model is identified on every capture but the last
+(no mass needed; ``--mass``, ``--damping``, ``--stiffness``, ``--fit`` do not apply) and every
+channel of every capture is predicted, per-channel nrmse, the last one held out.
 """
 
 from __future__ import annotations
