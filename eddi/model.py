@@ -173,15 +173,24 @@ class EquationOfMotion(BaseModel):
     def from_json(cls, text: str) -> "EquationOfMotion":
         """Load from JSON text.
 
+        A model file holds a restoring force: at least one stiffness term or effect (a file
+        with only a mass, or only damping, is truncated or incomplete, and simulating it
+        would report a meaningless nrmse).
+
         Raises
         ------
         ModelError
-            If the text is not JSON or not a valid equation of motion.
+            If the text is not JSON or not a valid equation of motion, or holds no stiffness
+            term and no effect.
         """
         data = json_object(text)
         if "equation_of_motion" in data and isinstance(data["equation_of_motion"], dict):
             data = data["equation_of_motion"]
-        return cls.create(**data)
+        eom = cls.create(**data)
+        if not eom.stiffness and not eom.effects:
+            raise ModelError("invalid model: no stiffness terms and no effects (an incomplete model file?); "
+                             "expected e.g. \"stiffness\": {\"x\": 1000.0} next to \"mass\" and \"damping\"")
+        return eom
 
     def to_json(self, indent: int | None = 2) -> str:
         """Serialise to JSON text."""

@@ -60,6 +60,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from eddi.energy import noise_level
 from eddi.errors import IdentificationError, SignalError
 from eddi.model import EquationOfMotion
 from eddi.simulate import local_angular_frequency, simulate
@@ -228,6 +229,7 @@ class _OutputError:
         peak = (np.max(np.abs(evaluate(d_terms + k_terms, x[::step], v[::step])), axis=0) if self.names
                 else np.zeros(0))
         floor = 1e-3 * f_scale / np.where(peak > 0, peak, 1.0)
+        self.floor = floor
         # nuisance parameters after the coefficients: the initial state (x0, v0) and a constant
         # offset of the measured signal (what is left of the sensor's bias after the rest's
         # mean was removed: unmodelled, it biases every coefficient a little, all the same way)
@@ -244,6 +246,7 @@ class _OutputError:
                                     else np.abs(x), block_means(np.abs(v), self.block) if self.block > 1
                                     else np.abs(v), self.substeps)
         self.count = 0
+        self.diverged = False
 
     @property
     def n(self) -> int:
@@ -279,7 +282,8 @@ class _OutputError:
             resp, _, diverged = free_response_sensitivities(eom, float(self.t[1] - self.t[0]), stop, x0, v0,
                                                             self.steps, jacobian=False)
             out = resp[:, "xva".index(self.channel)]
-        if diverged or not np.all(np.isfinite(out)):
+        self.diverged = bool(diverged or not np.all(np.isfinite(out)))
+        if self.diverged:
             return np.full(stop, 1e6 * float(np.max(np.abs(self.y))))
         if self.block > 1 and stop >= 3:  # the block mean of a smooth signal: centre + curvature
             d2 = np.empty_like(out)
@@ -352,16 +356,23 @@ class _OutputError:
         return jac
 
     def ci95(self, p: np.ndarray, jac: np.ndarray | None = None) -> tuple[np.ndarray, float]:
-        """95 % half widths of the active coefficients (their units) and the RSS at ``p``."""
+        """95 % half widths of the active coefficients (their units) and the RSS at ``p``.
+
+        ``inf`` where the data say nothing: a simulation that blows up at ``p``, or a
+        coefficient the simulated signal does not depend on (a zero Jacobian column).
+        """
         n = self.n
         r = self.residual(p, n)
+        rss = float(r @ r)
+        if self.diverged:
+            return np.full(len(self.active), math.inf), rss
         if jac is None:
             jac = self.jacobian(p)
-        rss = float(r @ r)
         dof = max(1, n - p.size)
         jtj = jac.T @ jac
         cov = (rss / dof) * np.linalg.pinv(jtj)
         se = np.sqrt(np.clip(np.diag(cov)[:-NUISANCE], 0.0, None)) * self.scale[self.active]
+        se[~(np.diag(jtj)[:-NUISANCE] > 0)] = math.inf
         return 1.959964 * se, rss
 
     def jacobian(self, p: np.ndarray, stop: int | None = None) -> np.ndarray:
@@ -477,7 +488,7 @@ def refine_output_error(
     unselected_ci = prob.ci_dict(half)
     dropped: dict[str, str] = {}
     if select:
-        p, half, dropped = _select(prob, p, half, rss, max_nfev)
+        p, half, dropped = select_terms(prob, p, half, rss, max_nfev, core_start(prob, t, x, v, y))
         after = min(after, float(np.linalg.norm(prob.residual(p, n))) / norm)
     refined = prob.model_of(p)
     refined = refined.model_copy(update={"notes": (eom.notes + "; " if eom.notes else "")
@@ -488,6 +499,130 @@ def refine_output_error(
                                dropped=dropped, block=prob.block,
                                unselected={"damping": dict(unselected.damping), "stiffness": dict(unselected.stiffness)},
                                unselected_ci95=unselected_ci)
+
+
+#: Two BIC values closer than this tie: the model with fewer terms is preferred.
+BIC_TIE = 2.0
+#: A fit whose mean squared residual exceeds this multiple of the measured signal's white-noise
+#: variance (:func:`eddi.energy.noise_level`) missed the record (a local minimum, or terms that
+#: trade off): the forward path is tried (:func:`select_terms`).
+MISFIT = 4.0
+
+
+def core_terms(prob: _OutputError) -> list[int]:
+    """Indices (into ``prob.names``) of the terms every model keeps: ``x`` (else the first
+    stiffness term) and ``v`` (else the first damping term)."""
+    core = []
+    for group, first in (("stiffness", "x"), ("damping", "v")):
+        idx = [i for i, (g, _) in enumerate(prob.names) if g == group]
+        pick = [i for i in idx if prob.names[i][1] == first] or idx[:1]
+        core += pick
+    return sorted(core)
+
+
+def core_start(prob: _OutputError, t: np.ndarray, x: np.ndarray, v: np.ndarray,
+               y: np.ndarray) -> np.ndarray:
+    """Coefficients of the core terms (:func:`core_terms`) by equation error:
+    ``m a = -sum c_i term_i(x, v)`` in least squares over the window (``a`` measured, or
+    the derivative of ``v``). A start that does not depend on the rest of the library."""
+    from eddi.terms import parse_terms
+
+    core = core_terms(prob)
+    a = y if prob.channel == "a" else np.gradient(v, t)
+    step = max(1, t.size // 20000)
+    cols = evaluate(parse_terms([prob.names[i][1] for i in core]), x[::step], v[::step])
+    sol, *_ = np.linalg.lstsq(cols, -prob.eom.mass * a[::step], rcond=None)
+    return sol
+
+
+def select_terms(prob: _OutputError, p: np.ndarray, half: np.ndarray, rss: float, max_nfev: int,
+                 core_coef: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[str, str]]:
+    """Backward elimination from the full fit, and forward selection from the core when needed.
+
+    The backward path (:func:`_select`) can stall on an ill-conditioned library (a short or
+    heavily damped record: few cycles over a small amplitude range, where ``x^3`` and ``x^5``
+    or ``x^2 v`` and ``v^3`` trade off against each other): every term's interval is wide,
+    yet removing any one of them alone raises the BIC; or the full model's simulation blows
+    up and no term can be judged; or the fit lands in a local minimum (residual well above
+    the sensor noise, a negative linear stiffness or damping). Then (some kept term's
+    interval spans zero, the fit diverges, misses the record by more than
+    ``sqrt(MISFIT)`` times the noise, or its ``x`` or ``v`` coefficient is negative) a forward path starts from the core (:func:`core_terms`, coefficients from
+    :func:`core_start`) and adds, one at a time, the term that lowers the BIC most; the
+    path with the lower BIC wins (within :data:`BIC_TIE`: the one with fewer terms).
+    """
+    prob.residual(p, prob.n)
+    if prob.diverged:  # nothing to judge the terms by: the forward path alone
+        pb, hb, dropped, div_b, rss_b = p, half, {}, True, math.inf
+    else:
+        pb, hb, dropped = _select(prob, p, half, rss, max_nfev)
+        rss_b = float(np.sum(prob.residual(pb, prob.n) ** 2))
+        div_b = prob.diverged
+    coef = np.abs(pb[:-NUISANCE] * prob.scale[prob.active])
+    core = core_terms(prob)
+    weak = [k for k, i in enumerate(prob.active) if i not in core and not hb[k] < coef[k]]
+    signs = pb[:-NUISANCE] * prob.scale[prob.active]
+    negative = any(signs[k] < 0 for k, i in enumerate(prob.active) if i in core)
+    misfit = rss_b > MISFIT * prob.n * noise_level(prob.y) ** 2
+    if not (div_b or weak or negative or misfit or not np.all(np.isfinite(hb))):
+        return pb, hb, dropped
+    saved = (list(prob.active), prob.scale.copy())
+    fwd = _forward(prob, pb[-NUISANCE:] * saved[1][-NUISANCE:], core, core_coef, max_nfev)
+    if fwd is None:
+        prob.active, prob.scale = saved
+        return pb, hb, dropped
+    pf, hf, rss_f, why = fwd
+    bic_b = math.inf if div_b else prob.bic(rss_b, pb.size)
+    bic_f = prob.bic(rss_f, pf.size)
+    if bic_f < bic_b + (BIC_TIE if pf.size < pb.size else -BIC_TIE):
+        return pf, hf, why
+    prob.active, prob.scale = saved
+    return pb, hb, dropped
+
+
+def _forward(prob: _OutputError, nuisance: np.ndarray, core: list[int], core_coef: np.ndarray,
+             max_nfev: int) -> tuple[np.ndarray, np.ndarray, float, dict[str, str]] | None:
+    """Forward selection by BIC from the core terms (see :func:`select_terms`).
+
+    Returns the parameters, their half widths, the RSS and, per term left out, why; None
+    when the core itself does not fit (its simulation blows up).
+    """
+    from eddi.terms import coefficient_unit
+
+    n = prob.n
+    prob.scale[core] = np.maximum(np.abs(core_coef), prob.floor[core])
+    others = [i for i in range(len(prob.names)) if i not in core]
+    prob.scale[others] = prob.floor[others]
+    prob.active = list(core)
+    p = np.concatenate((core_coef / prob.scale[core], nuisance / prob.scale[-NUISANCE:]))
+    for frac in STAGES:
+        p = prob.fit(p, max(64, int(round(frac * n))), max_nfev).x
+    r = prob.residual(p, n)
+    if prob.diverged:
+        return None
+    bic = prob.bic(float(r @ r), p.size)
+    best_of: dict[int, float] = {}
+    while others:
+        trials = {}
+        for j in others:
+            active = sorted(prob.active + [j])
+            q = np.insert(p, active.index(j), 0.0)
+            prob.active = active
+            sol = prob.fit(q, n, max(10, max_nfev // 3))
+            rr = prob.residual(sol.x, n)
+            trials[j] = (math.inf if prob.diverged else prob.bic(float(rr @ rr), q.size), sol.x, active)
+            prob.active = [i for i in active if i != j]
+            best_of[j] = trials[j][0]
+        j = min(trials, key=lambda i: trials[i][0])
+        if not trials[j][0] < bic - BIC_TIE:  # a tie: the smaller model
+            break
+        bic, p, prob.active = trials[j]
+        others.remove(j)
+    half, rss = prob.ci95(p)
+    why = {prob.names[j][1]: (f"{prob.names[j][0]} term ({coefficient_unit(prob.names[j][1])}) not added: "
+                              f"the model without it has BIC {bic:.1f}, with it {best_of.get(j, math.inf):.1f} "
+                              f"(forward selection from x and v: not supported by the data)")
+           for j in others}
+    return p, half, rss, why
 
 
 def _select(prob: _OutputError, p: np.ndarray, half: np.ndarray, rss: float,
@@ -520,7 +655,7 @@ def _select(prob: _OutputError, p: np.ndarray, half: np.ndarray, rss: float,
         sol = prob.fit(p[keep], n, max(10, max_nfev // 3))
         trial = sol.x
         half_new, rss_new = prob.ci95(trial, sol.jac if sol.jac.shape == (n, trial.size) else None)
-        bic_new = prob.bic(rss_new, trial.size)
+        bic_new = math.inf if prob.diverged else prob.bic(rss_new, trial.size)
         if not bic_new < bic_old:
             prob.active = old_active
             break

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 from scipy.interpolate import BSpline
+from scipy.linalg import solveh_banded
 
 from eddi.calculus import spline_cumulative_integral
 from eddi.conditioning.checks import check_time
@@ -77,17 +78,45 @@ def _spectral_peaks(y: np.ndarray, rate: float, power: int, rel: float,
 def _lsq_spline(tp: np.ndarray, y: np.ndarray, t0: float, t1: float, knot_s: float) -> BSpline:
     """Least-squares cubic spline on ``[t0, t1]``, uniform knots ``knot_s`` apart.
 
-    A light second-difference penalty keeps intervals with few samples well posed.
+    A light second-difference penalty keeps intervals with few samples well posed. The
+    normal equations are banded (a cubic B-spline overlaps its three neighbours; the
+    penalty its two): solved by a banded Cholesky in O(knots) (a dense solve of the same
+    system took 0.2 s per call for 379 knots on a 3 s record under load).
     """
     n_int = max(1, int(math.ceil((t1 - t0) / knot_s)))
     knots = np.concatenate(([t0] * 3, np.linspace(t0, t1, n_int + 1), [t1] * 3))
     b = BSpline.design_matrix(np.clip(tp, t0, t1), knots, 3).tocsc()
     m = b.shape[1]
-    btb = (b.T @ b).toarray()
-    d2 = np.diff(np.eye(m), 2, axis=0)
-    lam = 1e-3 * float(np.mean(np.diag(btb)))
-    coef = np.linalg.solve(btb + lam * d2.T @ d2 + 1e-12 * np.eye(m), np.asarray(b.T @ y).ravel())
+    btb = (b.T @ b).todia()
+    lam = 1e-3 * float(np.mean(btb.diagonal()))
+    # upper banded storage (scipy.linalg.solveh_banded): row 3 - k holds diagonal k
+    ab = np.zeros((4, m))
+    for k in range(4):
+        if k < m:
+            ab[3 - k, k:] = btb.diagonal(k)
+    ab[3] += lam * _second_difference_gram(m, 0) + 1e-12
+    ab[2, 1:] += lam * _second_difference_gram(m, 1)
+    ab[1, 2:] += lam * _second_difference_gram(m, 2)
+    rhs = np.asarray(b.T @ y).ravel()
+    try:
+        coef = solveh_banded(ab, rhs, check_finite=False)
+    except np.linalg.LinAlgError:  # not positive definite (rounding): the general solver
+        dense = np.diag(ab[3]) + sum(np.diag(ab[3 - k, k:], k) + np.diag(ab[3 - k, k:], -k)
+                                     for k in range(1, min(4, m)))
+        coef = np.linalg.solve(dense, rhs)
     return BSpline(knots, coef, 3)
+
+
+def _second_difference_gram(m: int, k: int) -> np.ndarray:
+    """Diagonal ``k`` (0, 1 or 2) of ``D.T @ D`` for the (m-2, m) second-difference ``D``."""
+    if m < 3:
+        return np.zeros(m - k)
+    d = np.zeros(m - k)
+    for r, row in enumerate((1.0, -2.0, 1.0)):  # row i of D: 1, -2, 1 at columns i, i+1, i+2
+        if r + k <= 2:
+            # (D.T D)[j, j+k] = sum_i D[i, j] D[i, j+k] over the m-2 rows
+            d[np.arange(m - 2) + r] += row * (1.0, -2.0, 1.0)[r + k]
+    return d
 
 
 

@@ -101,6 +101,13 @@ def test_equation_of_motion_on_a_record_without_force_starts_from_its_state(caps
     ('{"mass": -1, "damping": {}, "stiffness": {"x": 1}}', "{demo}/session.h5:0", "m.json"),
     ('[1, 2]', "{demo}/session.h5:0", "must be an object"),
     ("MISSING", "{demo}/session.h5:0", "no such model file"),
+    # incomplete model files: no restoring force (these exited 0 with a meaningless nrmse)
+    ('{"mass": 1}', "{demo}/session.h5:0", "no stiffness terms and no effects"),
+    ('{"mass": 1, "damping": {}, "stiffness": {}}', "{demo}/session.h5:0", "no stiffness terms"),
+    ('{"mass": 1, "damping": {"v": 0.1}}', "{demo}/session.h5:0", "no stiffness terms"),
+    ('{"equation_of_motion": {"mass": 0.8}}', "{demo}/session.h5:0", "no stiffness terms"),
+    ('{"mass": 1, "stiffness": {"x": "abc"}}', "{demo}/session.h5:0", "stiffness.x"),
+    ('{"mass": 1, "stiffness": {"q^2": 1}}', "{demo}/session.h5:0", "m.json"),
 ])
 def test_validate_faults_are_one_line_exit_2(model_text: str | None, record: str, expect: str,
                                             capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
