@@ -25,6 +25,9 @@ from station.mdof_data import condition_all
 def replay_mdof_object(measurements: Sequence[Any], driving_point: str | None = None) -> dict[str, Any]:
     """The ``--json`` object of ``station replay`` for multi-channel captures.
 
+    Its ``_validations`` entry (one :class:`eddi.mdof.validate.MdofValidation` per capture, with
+    the measured and simulated displacement) is for the report; drop it before printing JSON.
+
     Raises
     ------
     InputFileError
@@ -35,10 +38,11 @@ def replay_mdof_object(measurements: Sequence[Any], driving_point: str | None = 
     try:
         ident = identify_mdof(train, names, dp)
     except IdentificationError as exc:
-        raise InputFileError(f"replay: {exc}") from None
-    out = []
+        raise InputFileError(f"multi-DOF identification: {exc}") from None
+    out, validations = [], []
     for k, r in enumerate(records):
         v = validate_mdof(ident.model, r)
+        validations.append(v)
         out.append({"source": r.label, "role": "train" if k < len(train) else "held out",
                     "nrmse": v.nrmse, "channel_nrmse": v.channel_nrmse, "diverged": v.diverged})
     if len(records) == 1:
@@ -51,7 +55,8 @@ def replay_mdof_object(measurements: Sequence[Any], driving_point: str | None = 
             "masses_kg": list(model.mass), "natural_frequencies_hz": model.natural_frequencies_hz().tolist(),
             "equation": model.equation_text(), "model": model.model_dump(mode="json"),
             "records": out,
-            "held_out_nrmse": float(np.mean([o["nrmse"] for o in held])) if held else None}
+            "held_out_nrmse": float(np.mean([o["nrmse"] for o in held])) if held else None,
+            "_validations": validations}
 
 
 def replay_mdof_text(obj: dict[str, Any]) -> str:

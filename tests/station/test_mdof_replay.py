@@ -29,6 +29,13 @@ def test_replay_of_a_multichannel_session_predicts_every_channel_held_out(tmp_pa
     assert main(["replay", str(out)]) == 0  # the people's text says held out, per channel
     text = capsys.readouterr().out
     assert "held out" in text and "acc2" in text and "no mass given" in text
+    rep = tmp_path / "rep"
+    assert main(["report", str(out), "--out", str(rep), "--json"]) == 0  # one panel per channel
+    robj = json.loads(capsys.readouterr().out)
+    assert len(robj["figures"]) == 4 and all((rep / f"capture-{k}.png").stat().st_size > 5000 for k in range(4))
+    page = (rep / "index.html").read_text()
+    assert page.count("<tr>") == 5 and "held out" in page and "acc2" in page
+    assert robj["records"][3]["channel_nrmse"] == held["channel_nrmse"]  # the same model as replay
 
 
 def test_replay_of_one_multichannel_capture_says_it_validated_on_itself(tmp_path, capsys):
