@@ -28,7 +28,7 @@ def capture_figure(validation: Any, channels: list[str], title: str):
         if not validation.diverged:
             t, y = envelope(validation.t, 1e3 * validation.simulated[k])
             ax.plot(t, y, color="#c0392b", lw=0.8, ls="--", label="model")
-        ax.set_ylabel(f"{name} [mm]")
+        ax.set_ylabel(f"x at {name} [mm]")
         ax.set_title(f"{name}: nrmse {validation.channel_nrmse[name]:.3g}", fontsize=9)
     axes[0].legend(loc="upper right", fontsize=8)
     axes[-1].set_xlabel(TIME_LABEL)
