@@ -12,8 +12,10 @@ and the impact force at the driving point). Steps:
    describes (a nonlinear energy sink has no linear stiffness, hence no linear mode). With
    ``coordinates="auto"`` the modal choice is also fitted in physical coordinates and
    dropped when the physical equations close (force balance) twice as well; with coupling
-   terms the identification is then also run in physical coordinates and the coordinates whose
-   model reproduces the training records better (mean simulated nrmse) are kept.
+   terms the identification is then also run in physical coordinates, in physical coordinates
+   with drift-filtered equations (:func:`_design`) and, with a force, as lumped masses,
+   springs and dashpots (:mod:`eddi.mdof.lumped`); the candidate whose model reproduces the
+   training records best (mean simulated nrmse) is kept.
 3. **Per coordinate, EDDI with coupling terms** (per unit mass). Library of equation ``i``:
    damping ``v_1..v_n``; own stiffness ``x_i, x_i^3``; coupling stiffness ``x_j`` and every cubic
    monomial but ``x_i^3``. *Phase one* (paper Eq. 7) at the zero crossings ``gamma_k`` of
