@@ -5,8 +5,10 @@ a fourth (70 % of the largest, another noise seed) is held out; accelerometers o
 SNR on every channel, no mass given. Both methods get the same conditioned multi-channel
 states (:func:`station.mdof_data.condition_multichannel`):
 
-* **EDDI** (:func:`eddi.mdof.identify.identify_mdof`): coordinates from the data, energy
-  balance per coordinate with coupling terms, masses from the driving-point force;
+* **EDDI** (:func:`eddi.mdof.identify.identify_mdof`): candidates (modal / physical
+  coordinates with the per-coordinate library, physical with drift-filtered equations, lumped
+  springs and dashpots :mod:`eddi.mdof.lumped`), the one that reproduces the training records
+  best kept (printed as ``model:``); masses from the driving-point force;
   ``--refine`` adds the output-error polish (:func:`eddi.mdof.refine.refine_mdof`).
 * **pysindy**: STLSQ (``pysindy.STLSQ``, threshold ``--sindy-threshold``) regressing each
   physical channel's measured acceleration on the same library (linear rates, every monomial
@@ -170,6 +172,7 @@ def run(name: str, refine: bool, threshold: float) -> None:
             "true model": validate_mdof(truth, recs[3])}
     print(f"{name}: EDDI in {ident.coordinates} coordinates ({t_eddi:.1f} s), pysindy ({t_sindy:.1f} s); "
           f"tail modes {', '.join(f'{f:.4g}' for f in ident.modes.frequencies_hz)} Hz")
+    print(f"  model: {ident.notes[-1]}")
     for c in truth.channels:
         e = held["EDDI"].channel_nrmse[c]
         print(f"  held-out nrmse {c}: EDDI {e:.4f} ({'met' if e <= 0.05 else 'NOT met'} vs floor 0.05), "

@@ -12,8 +12,10 @@ and the impact force at the driving point). Steps:
    describes (a nonlinear energy sink has no linear stiffness, hence no linear mode). With
    ``coordinates="auto"`` the modal choice is also fitted in physical coordinates and
    dropped when the physical equations close (force balance) twice as well; with coupling
-   terms the identification is then also run in physical coordinates and the coordinates whose
-   model reproduces the training records better (mean simulated nrmse) are kept.
+   terms the identification is then also run in physical coordinates, in physical coordinates
+   with drift-filtered equations (:func:`_design`) and, with a force, as lumped masses,
+   springs and dashpots (:mod:`eddi.mdof.lumped`); the candidate whose model reproduces the
+   training records best (mean simulated nrmse) is kept.
 3. **Per coordinate, EDDI with coupling terms** (per unit mass). Library of equation ``i``:
    damping ``v_1..v_n``; own stiffness ``x_i, x_i^3``; coupling stiffness ``x_j`` and every cubic
    monomial but ``x_i^3``. *Phase one* (paper Eq. 7) at the zero crossings ``gamma_k`` of
@@ -57,9 +59,17 @@ from eddi.mdof.modal import LinearModes, era, tail_segments
 from eddi.mdof.intervals import JACKKNIFE_BLOCKS, block_jackknife_ci95
 from eddi.mdof.masses import masses_and_inputs
 from eddi.mdof.model import MdofModel
-from eddi.mdof.signals import HIGHPASS_HZ, quasi_static
+from eddi.mdof.signals import HIGHPASS_HZ, highpass, quasi_static
 from eddi.mdof.terms import MultiTerm, monomial, parse_multi_term
 from eddi.phase_one import scaled_lstsq
+
+
+#: Passes of the drift high-pass over phase two's columns when ``prefilter`` (:func:`_design`).
+#: Not always on: measured (``bench_mdof_error_budget.py``) it lowers the two-mass chain's
+#: worst coefficient in physical coordinates from 6.3 to 3.6 % but raises the 1:3 system's in
+#: modal ones from 12 to 36 %; ``coordinates="auto"`` fits both and keeps the better predictor.
+PREFILTER_PASSES = 1
+FILTERED_NOTE = "phase two on drift-filtered equations (columns and force through the drift high-pass)"
 
 
 @dataclass(frozen=True)
@@ -241,14 +251,44 @@ def _phase_one_rows(i: int, rec_q: tuple, terms: list[MultiTerm], hysteresis: fl
     return np.diff(anti, axis=0), -np.diff(kin), kin[:-1]
 
 
+def _design(i: int, data: list[tuple], full: list[tuple] | None, d_terms: list[MultiTerm],
+            s_terms: list[MultiTerm]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Phase two's regression ``(D, S, -q_i'', F)`` over the free windows of every record.
+
+    Without ``full``: the columns as measured (``F`` empty). With ``full`` (per record
+    ``(q, qd, qdd, force, window, rate_hz, cutoff_hz)`` over the whole record): every column,
+    the force among them, passes through the drift high-pass before the windows are cut. The
+    conditioned ``x, v`` lack their slow part (below the cut-off), where the nonlinear forces
+    put components (``2 f1 - f2``) that the linear terms of the true motion balance; filtered
+    alike, both sides of ``q'' + B + K = g F`` lose that band and the equation holds again
+    above it (the filtered force is a nuisance column: inside the window it is the filter's
+    tail of the impact, not negligible at ``f_c / f_1 = 1/4``).
+    """
+    if full is None:
+        q = np.hstack([r[1] for r in data])
+        qd = np.hstack([r[2] for r in data])
+        qdd = np.hstack([r[3] for r in data])
+        return _matrix(d_terms, q, qd), _matrix(s_terms, q, qd), -qdd[i], np.zeros((qdd.shape[1], 0))
+    parts = []
+    for q, qd, qdd, force, (s, e), rate, fc in full:
+        cols = [_matrix(d_terms, q, qd), _matrix(s_terms, q, qd), -qdd[i][:, None],
+                (force if force is not None else np.zeros(q.shape[1]))[:, None]]
+        big = highpass(np.hstack(cols).T, rate, fc, PREFILTER_PASSES).T[s:e]
+        parts.append(big)
+    big = np.vstack(parts)
+    nd, ns = len(d_terms), len(s_terms)
+    return big[:, :nd], big[:, nd:nd + ns], big[:, nd + ns], big[:, nd + ns + 1:]
+
+
 def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, noise: float,
-                 prune: float = 3e-3, max_exchange: float = 1.0) -> EquationFit:
+                 prune: float = 3e-3, max_exchange: float = 1.0, full: list[tuple] | None = None) -> EquationFit:
     """EDDI phases one and two for coordinate ``i`` with coupling terms, then the input gain.
 
     ``data``: per record ``(t, q, qd, qdd)`` over the free window; ``impacts``: per record
     ``(q, qd, qdd, force)`` over the impact (may be empty). When the energy exchanged through
     the coupling terms exceeds ``max_exchange`` times the energy dissipated, damping and
     stiffness are fitted together on the force balance (phase one cannot separate them).
+    ``full``: the whole records, for phase two on drift-filtered columns (:func:`_design`).
     """
     n = data[0][1].shape[0]
     damp, own, cpl = list(lib.damping), list(lib.own), list(lib.coupling)
@@ -273,22 +313,19 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
         b = coef1[: len(d_terms)]
         theta = coef1[len(d_terms):]
         # phase two: conservative force sample by sample
-        q = np.hstack([r[1] for r in data])
-        qd = np.hstack([r[2] for r in data])
-        qdd = np.hstack([r[3] for r in data])
-        dmat = _matrix(d_terms, q, qd)
-        smat = _matrix(s_terms, q, qd)
-        k_force = -qdd[i] - dmat @ b
-        k, _ = scaled_lstsq(smat, k_force)
+        dmat, smat, target, fcol = _design(i, data, full, d_terms, s_terms)
+        nf = fcol.shape[1]
+        k_force = target - dmat @ b
+        k = scaled_lstsq(np.hstack([smat, fcol]), k_force)[0][: smat.shape[1]]
         exchanged = float(np.sum(np.abs(dq[:, len(d_terms):] @ theta))) if theta.size else 0.0
         joint = exchanged > max_exchange * float(np.sum(np.abs(dq[:, : len(d_terms)] @ b)))
         if joint:
             # the coordinate's energy is mostly exchanged, not dissipated (physical coordinates
             # joined by springs): the half-cycle balance cannot resolve the damping; fit damping
             # and stiffness together on the force balance instead
-            both, _ = scaled_lstsq(np.hstack([dmat, smat]), -qdd[i])
-            b, k = both[: len(d_terms)], both[len(d_terms):]
-        scale = float(np.sqrt(np.mean(qdd[i] ** 2))) or 1.0
+            both, _ = scaled_lstsq(np.hstack([dmat, smat, fcol]), target)
+            b, k = both[: len(d_terms)], both[len(d_terms): len(both) - nf]
+        scale = float(np.sqrt(np.mean(target ** 2))) or 1.0
         small_d = [t for t, c, col in zip(damp, b, dmat.T) if t != monomial({i: 1}, n, True)
                    and np.sqrt(np.mean((c * col) ** 2)) < prune * scale]
         small_s = [t for t, c, col in zip(own + cpl, k, smat.T) if t != monomial({i: 1}, n)
@@ -299,9 +336,10 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
         own = [t for t in own if t not in small_s]
         cpl = [t for t in cpl if t not in small_s]
     nd = len(d_terms)
+    ns = smat.shape[1]
     k_ci = block_jackknife_ci95(  # of the final fit
-        (lambda rows: scaled_lstsq(np.hstack([dmat, smat])[rows], -qdd[i][rows])[0][nd:]) if joint
-        else (lambda rows: scaled_lstsq(smat[rows], k_force[rows])[0]), blocks)
+        (lambda rows: scaled_lstsq(np.hstack([dmat, smat, fcol])[rows], target[rows])[0][nd:nd + ns]) if joint
+        else (lambda rows: scaled_lstsq(np.hstack([smat, fcol])[rows], k_force[rows])[0][:ns]), blocks)
     dissipated = float(np.sum(np.abs(dq[:, : len(d_terms)] @ b)))
     exchanged = float(np.sum(np.abs(dq[:, len(d_terms):] @ theta))) if theta.size else 0.0
     residual = float(np.sqrt(np.mean(((dq @ coef1 - dr) * w) ** 2)))
@@ -309,8 +347,11 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
     stiffness = {t: float(c) for t, c in zip(own + cpl, k)}
     ci95 = {t: float(h) for t, h in zip(own + cpl, k_ci)}
     gain = _input_gain(i, impacts, d_terms, s_terms, b, k)
+    q, qd = np.hstack([r[1] for r in data]), np.hstack([r[2] for r in data])
+    qdd_i = np.concatenate([r[3][i] for r in data])
     dmat, smat = _matrix(_terms(damp, n), q, qd), _matrix(_terms(own + cpl, n), q, qd)
-    force_res = float(np.sqrt(np.mean((qdd[i] + dmat @ b + smat @ k) ** 2)) / scale)
+    force_res = float(np.sqrt(np.mean((qdd_i + dmat @ b + smat @ k) ** 2))
+                      / (float(np.sqrt(np.mean(qdd_i ** 2))) or 1.0))
     return EquationFit(damping, stiffness, gain, residual, exchanged / max(dissipated, 1e-300), int(dr.size),
                        force_res, ci95)
 
@@ -339,7 +380,10 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
         Response channel names, in the order of the rows of ``x``.
     driving_point : str
         The channel at the hammer.
-    coordinates : {"auto", "modal", "physical"}
+    coordinates : {"auto", "modal", "physical", "lumped"}
+        ``"lumped"``: masses joined by springs and dashpots (:mod:`eddi.mdof.lumped`); ``"auto"``
+        (with coupling and a force) also fits that and keeps the candidate whose model
+        reproduces the training records best.
     coupling : bool or "linear"
         Include coupling terms (False: uncoupled modes, the baseline of diagnosis in modal
         coordinates; ``"linear"``: linear coupling only, its baseline in physical ones).
@@ -366,36 +410,67 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
     d = channels.index(driving_point)
     args = (channels, driving_point, d)
     opts = (coupling, tail_fraction, max_freq_hz, prune, highpass_hz)
+    if coordinates == "lumped":
+        from eddi.mdof.physical import identify_lumped  # it builds on this module
+
+        return identify_lumped(records, channels, driving_point, prune=prune, tail_fraction=tail_fraction)
     chosen = _identify_twice(records, *args, coordinates, *opts)
-    if coordinates != "auto" or coupling is not True or chosen.coordinates != "modal" or len(channels) < 2:
+    if coordinates != "auto" or coupling is not True or len(channels) < 2:
         return chosen
     # both coordinate systems describe a coupled structure exactly with a complete library; they
     # differ in conditioning. Keep the one whose model reproduces the training records better.
-    try:
-        other = _identify_twice(records, *args, "physical", *opts)
+    candidates = [chosen]
+    if chosen.coordinates == "modal":
+        try:
+            candidates.append(_identify_twice(records, *args, "physical", *opts))
+        except IdentificationError:
+            pass
+    try:  # the same with phase two on drift-filtered equations (:func:`_design`)
+        candidates.append(_identify_twice(records, *args, "physical", *opts, prefilter=True))
     except IdentificationError:
-        return chosen
-    e_modal, e_phys = _training_error(chosen, records), _training_error(other, records)
-    if e_phys < e_modal:
-        note = (f"physical coordinates reproduce the training records better than modal ones (mean nrmse "
-                f"{e_phys:.3g} vs {e_modal:.3g}): physical kept")
-        return replace(other, notes=tuple(dict.fromkeys(other.notes + (note,))))
-    note = f"modal coordinates kept (training nrmse {e_modal:.3g}; physical {e_phys:.3g})"
-    return replace(chosen, notes=tuple(dict.fromkeys(chosen.notes + (note,))))
+        pass
+    if any(r.force is not None for r in records):
+        from eddi.mdof.physical import identify_lumped  # it builds on this module
+
+        try:  # masses joined by springs and dashpots (the channels at the masses)
+            candidates.append(identify_lumped(records, channels, driving_point, prune=prune,
+                                              tail_fraction=tail_fraction))
+        except (IdentificationError, np.linalg.LinAlgError, ValueError):
+            pass
+    errors = [_training_error(c, records) for c in candidates]
+    best = int(np.argmin(errors))
+    names = [_candidate_name(c) for c in candidates]
+    note = (f"{names[best]} kept: training nrmse {errors[best]:.3g}"
+            + "".join(f"; {nm} {e:.3g}" for k, (nm, e) in enumerate(zip(names, errors)) if k != best))
+    keep = candidates[best]
+    return replace(keep, notes=tuple(dict.fromkeys(keep.notes + (note,))))
+
+
+def _candidate_name(ident: MdofIdentification) -> str:
+    """``modal coordinates``, ``physical coordinates`` or ``lumped elements`` (for notes)."""
+    if ident.model.notes.startswith("identified by eddi.mdof.lumped"):
+        return "lumped elements"
+    return f"{ident.coordinates} coordinates" + (", filtered equations" if FILTERED_NOTE in ident.notes else "")
 
 
 def _identify_twice(records: Sequence[ChannelRecord], channels: tuple[str, ...], driving_point: str, d: int,
                     coordinates: str, coupling: bool | str, tail_fraction: float, max_freq_hz: float | None,
-                    prune: float, highpass_hz: float | None) -> MdofIdentification:
-    """One identification, then (with a force and ``highpass_hz``) a second on restored records."""
+                    prune: float, highpass_hz: float | None, *, prefilter: bool = False) -> MdofIdentification:
+    """One identification, then (with a force and ``highpass_hz``) a second on restored records.
+
+    ``prefilter``: phase two on drift-filtered columns (:func:`_design`), said in the notes.
+    """
     first = _identify_once(records, channels, driving_point, d, coordinates, coupling, tail_fraction,
-                           max_freq_hz, prune)
+                           max_freq_hz, prune, prefilter=prefilter)
     if highpass_hz is None or all(r.force is None for r in records):
-        return first
-    fixed = [restore_quasi_static(r, first.model) for r in records]
-    second = _identify_once(fixed, channels, driving_point, d, first.coordinates, coupling, tail_fraction,
-                            max_freq_hz, prune)
-    return replace(second, notes=tuple(dict.fromkeys(first.notes + second.notes)), modal_basis=first.modal_basis)
+        second = first
+    else:
+        fixed = [restore_quasi_static(r, first.model) for r in records]
+        second = _identify_once(fixed, channels, driving_point, d, first.coordinates, coupling, tail_fraction,
+                                max_freq_hz, prune, prefilter=prefilter)
+    extra = (FILTERED_NOTE,) if prefilter else ()
+    return replace(second, notes=tuple(dict.fromkeys(first.notes + second.notes + extra)),
+                   modal_basis=first.modal_basis)
 
 
 def _training_error(ident: MdofIdentification, records: Sequence[ChannelRecord]) -> float:
@@ -436,10 +511,10 @@ def restore_quasi_static(r: ChannelRecord, model: MdofModel) -> ChannelRecord:
 
 def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], driving_point: str, d: int,
                    coordinates: str, coupling: bool | str, tail_fraction: float, max_freq_hz: float | None,
-                   prune: float) -> MdofIdentification:
+                   prune: float, *, prefilter: bool = False) -> MdofIdentification:
     modes = linear_modes(records, tail_fraction=tail_fraction, max_freq_hz=max_freq_hz, driving_point=d)
     kind, tmat, span = choose_coordinates(records, modes, coordinates=coordinates)
-    fits = _fit_all(records, tmat, coupling, prune)
+    fits = _fit_all(records, tmat, coupling, prune, prefilter)
     notes_pre: list[str] = []
     basis = not (coordinates == "auto" and kind == "physical")
     if not basis:
@@ -448,7 +523,7 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
     if coordinates == "auto" and kind == "modal":
         # the tail's modes may not be the structure's (a nonlinear attachment has none):
         # keep the modal coordinates only when their equations close as well as the physical
-        phys = _fit_all(records, np.eye(tmat.shape[0]), coupling, prune)
+        phys = _fit_all(records, np.eye(tmat.shape[0]), coupling, prune, prefilter)
         r_modal = float(np.mean([f.force_residual for f in fits]))
         r_phys = float(np.mean([f.force_residual for f in phys]))
         if r_phys < 0.5 * r_modal:
@@ -487,8 +562,8 @@ def _linear_growth_rate(model: MdofModel) -> float:
         return math.nan
 
 
-def _fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool | str, prune: float
-             ) -> tuple[EquationFit, ...]:
+def _fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool | str, prune: float,
+             prefilter: bool = False) -> tuple[EquationFit, ...]:
     """EDDI per coordinate ``q = pinv(T) y`` over every record."""
     proj = np.linalg.pinv(tmat)
     n = tmat.shape[1]
@@ -500,5 +575,9 @@ def _fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool 
             i0, i1 = r.impact[0], max(r.impact[1], r.window[0]) + 3
             impacts.append((proj @ r.x[:, i0:i1], proj @ r.v[:, i0:i1], proj @ r.a[:, i0:i1], r.force[i0:i1]))
     noise = np.abs(proj) @ np.max([r.noise for r in records], axis=0)
-    return tuple(fit_equation(i, data, impacts, default_library(i, n, coupling), float(noise[i]), prune)
-                 for i in range(n))
+    full = None
+    if prefilter:
+        full = [(proj @ r.x, proj @ r.v, proj @ r.a, r.force, r.window, 1.0 / float(r.t[1] - r.t[0]),
+                 r.highpass_hz) for r in records]
+    return tuple(fit_equation(i, data, impacts, default_library(i, n, coupling), float(noise[i]), prune,
+                              full=full) for i in range(n))

@@ -7,6 +7,11 @@ The pipeline is :func:`station.session.run_session` (as ``station report``, with
 figures). With ``--through-device`` each stored capture's raw counts are served by a
 :class:`simulated_rig.replay.ReplaySource` inside the emulated DAQ firmware, on a pseudo-terminal, read back with the
 serial driver, and compared with the file: they must arrive bit-exact.
+
+Captures with several response sensors (``acc1, acc2, ...``) take the multi-DOF path
+(:mod:`station.mdof_replay`): the coupled model is identified on every capture but the last
+(no mass needed; ``--mass``, ``--damping``, ``--stiffness``, ``--fit`` do not apply) and every
+channel of every capture is predicted, per-channel nrmse, the last one held out.
 """
 
 from __future__ import annotations
@@ -172,6 +177,18 @@ def handle(args: argparse.Namespace) -> int:
             lines.append(f"capture {c.capture}: {c.samples} samples through {c.transport_url}: "
                          + ("bit-exact" if c.bit_exact else f"{c.mismatched_samples} samples differ")
                          + f" (dropped {c.dropped_samples}, CRC errors {c.crc_errors})")
+    from station.mdof_data import is_multichannel
+    from station.readers import read_measurement
+
+    first = read_measurement(specs[0])
+    if is_multichannel(first):  # several sensors: the coupled multi-DOF model, every channel predicted
+        from station.mdof_replay import replay_mdof_object, replay_mdof_text
+
+        obj.update(replay_mdof_object([first] + [read_measurement(s) for s in specs[1:]]))
+        obj.pop("_validations")
+        lines.append(replay_mdof_text(obj))
+        emit(args.json, "\n".join(lines), obj)
+        return 1 if args.through_device and not obj["bit_exact"] else 0
     session = run_session(read_all(specs, command="replay"), args.mass,
                           damping=terms_or_default(args.damping, DEFAULT_DAMPING),
                           stiffness=terms_or_default(args.stiffness, DEFAULT_STIFFNESS), fit_index=args.fit,

@@ -9,11 +9,16 @@ displacement with its CWT and Fourier spectrum; kinetic energy with T at the zer
 measured versus modelled dissipated energy; mechanical energy; restoring force (or
 potential); validation overlays on the records not used for the fit; the coefficient table.
 ``FILE.h5`` without ``:CAPTURE`` means every capture in it. See docs/report.md.
+
+Captures with several response sensors take the multi-DOF path (:mod:`station.mdof_report`):
+the coupled model identified on every capture but the last (no mass), one panel per channel
+per capture, measured beside simulated, and the per-channel nrmse table.
 """
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 from station.argtypes import damping_terms, finite_positive, nonnegative_int, stiffness_terms
@@ -53,6 +58,14 @@ def handle(args: argparse.Namespace) -> int:
 
     check_output(args.out, "dir", args.records, option="--out")
     t0 = time.perf_counter()
+    from station.mdof_data import is_multichannel
+    from station.readers import read_measurement
+    from station.session import expand_specs
+
+    specs = expand_specs(list(args.records))
+    first = read_measurement(specs[0])
+    if is_multichannel(first):  # several sensors: the coupled model, one panel per channel
+        return _mdof_report(args, [first] + [read_measurement(s) for s in specs[1:]], t0)
     recs = read_all(args.records, command="report")
     session = run_session(recs, args.mass, damping=terms_or_default(args.damping, DEFAULT_DAMPING),
                           stiffness=terms_or_default(args.stiffness, DEFAULT_STIFFNESS), route=args.route,
@@ -70,4 +83,22 @@ def handle(args: argparse.Namespace) -> int:
     obj["elapsed_s"] = {"identify_validate": t1 - t0, "report": t2 - t1}
     text = session_text(obj) + f"\nreport: {rep.index} ({len(rep.figures)} figures, {t2 - t1:.1f} s)"
     emit(args.json, text, obj)
+    return 0
+
+
+def _mdof_report(args: argparse.Namespace, measurements: list, t0: float) -> int:
+    """``station report`` on multi-channel captures (:mod:`station.mdof_report`)."""
+    import time
+
+    from station.mdof_replay import replay_mdof_object, replay_mdof_text
+    from station.mdof_report import write_mdof_report
+
+    obj = replay_mdof_object(measurements)
+    t1 = time.perf_counter()
+    figures = write_mdof_report(obj, args.out)
+    obj.pop("_validations")
+    obj["report"] = str(Path(args.out) / "index.html")
+    obj["figures"] = [str(p) for p in figures]
+    obj["elapsed_s"] = {"identify_validate": t1 - t0, "report": time.perf_counter() - t1}
+    emit(args.json, replay_mdof_text(obj) + f"\nreport: {obj['report']} ({len(figures)} figures)", obj)
     return 0

@@ -1,9 +1,11 @@
 """One-coordinate commands refuse multi-sensor captures with one line that names the way on.
 
-``station identify`` / ``replay`` / ``report`` identify a single coordinate. Given captures with
+``station identify`` identifies a single coordinate. Given captures with
 several response sensors (``acc1, acc2``) they used to ask for a mass, or complain that the record
 has no ``acc``: now they say what the record holds and which commands take it (exit 2). A record
-with ``acc`` and ``vel`` of the same point stays a one-coordinate record.
+with ``acc`` and ``vel`` of the same point stays a one-coordinate record. ``station replay``
+and ``station report`` take such captures on their multi-DOF path
+(``tests/station/test_mdof_replay.py``).
 """
 
 from __future__ import annotations
@@ -31,8 +33,7 @@ def _signals() -> dict[str, np.ndarray]:
     return {"force": f, "acc1": a1, "acc2": a2}
 
 
-@pytest.mark.parametrize("command", [["identify"], ["identify", "--mass", "1"], ["replay", "--mass", "1"],
-                                     ["report", "--out", "REPORT"]])
+@pytest.mark.parametrize("command", [["identify"], ["identify", "--mass", "1"]])
 def test_multi_sensor_capture_refused_with_the_way_on(tmp_path, capsys, command):
     csv = tmp_path / "two.csv"
     _write(csv, _signals())
@@ -45,6 +46,20 @@ def test_multi_sensor_capture_refused_with_the_way_on(tmp_path, capsys, command)
     assert "2 response sensors (acc1, acc2)" in err[0]
     assert f"station {command[0]}" in err[0] and "station diagnose" in err[0]
     assert not (tmp_path / "rep").exists()
+
+
+@pytest.mark.parametrize("command", [["replay", "--mass", "1"], ["report", "--out", "REPORT"]])
+def test_replay_and_report_take_the_multi_dof_path_and_say_in_one_line_why_a_toy_record_fails(
+        tmp_path, capsys, command):
+    csv = tmp_path / "two.csv"
+    _write(csv, _signals())  # one second of two made-up decays: too short a tail for the modal analysis
+    argv = [a if a != "REPORT" else str(tmp_path / "rep") for a in command]
+    argv.insert(1, str(csv))
+    code = main(argv)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert err[0].startswith("station: error: multi-DOF identification:") and "mass" not in err[0]
+    assert not (tmp_path / "rep").exists()  # no half-written report
 
 
 def test_acc_and_vel_of_one_point_is_one_coordinate(tmp_path):

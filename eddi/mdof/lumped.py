@@ -1,0 +1,248 @@
+"""Lumped masses joined by springs and dashpots: identification in physical coordinates.
+
+When every response channel sits on a mass (a chain, an oscillator with an attachment), the
+equations of motion are those of elements between the masses and the ground (node 0)::
+
+    m_i x_i'' + sum_e (c_e dV_e/dv_i + k_e dU_e/dx_i + k3_e dW_e/dx_i) = u_i F(t)
+
+with, for an element between nodes ``a`` and ``b`` (``d = x_a - x_b``, ``x_0 = 0``), a dashpot
+``c_e d'``, a linear spring ``k_e d`` and a cubic spring ``k3_e d^3`` acting with opposite signs
+on its two ends (Newton's third law). Every unknown (the masses and the element constants)
+enters linearly, so one least-squares fit over all equations at once determines them, each
+element constant shared by the two equations it appears in. That sharing is what the
+per-coordinate library (:mod:`eddi.mdof.identify`) lacks: there a cubic spring between two
+masses is four free monomials per equation (their marginal intervals are +-15-35 % on the
+two-mass chain), here it is one number. It also suits a coordinate with no linear mode (a
+nonlinear energy sink: ``k = 0``, only ``k3``), where the per-coordinate energy balance has
+no zero crossings to stand on.
+
+Scale: the equations in the free window are homogeneous, so the driven mass is set to 1 for
+the fit and its value comes from the hammer pulse (``m_d x_d'' + B_d + K_d = F``,
+:func:`driven_mass`): no mass needs to be given. During the pulse the conditioned
+displacement lacks its quasi-static part (the drift filter is zero-phase, so it acts before
+and during the blow too); :func:`eddi.mdof.physical.identify_lumped` restores it from the
+fitted model's receptance and takes the scale again (measured on the two-mass chain: driven
+mass 0.92-0.98 kg without, 1.005-1.008 kg with, true 1).
+
+Rows: the free window from ``settle`` s after its start (the column filter's response to the
+blow, where the conditioned and the true displacement differ most, is left out: on the
+two-mass chain at 45 dB, starting at the impact gave frequencies 0.12 / 0.22 % high and a
+worst cubic coefficient of 1.8 %; half a period of the filter's cut-off later, 0.01 / 0.03 %
+and 0.4 %).
+
+Conditioning: the columns (and the force) pass through the drift high-pass of the
+conditioning before the windows are cut (:func:`eddi.mdof.identify._design`): the conditioned
+displacement lacks its slow part, where a cubic spring puts ``2 f_1 - f_2`` and other
+combination tones; filtered alike, both sides of the equation lose that band.
+
+Elements whose force is below ``prune`` of the equations' inertia force are dropped and the fit
+repeated. Intervals: delete-one-block jackknife of the joint fit
+(:func:`eddi.mdof.intervals.block_jackknife_ci95`), carried to the monomials.
+
+No I/O: arrays in, frozen results out.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from eddi.mdof.intervals import JACKKNIFE_BLOCKS, block_jackknife_ci95
+from eddi.mdof.signals import highpass
+from eddi.phase_one import scaled_lstsq
+
+#: Cut-off of the column filter relative to the conditioning's drift high-pass: measured on
+#: the two-mass chain (45 dB; ratio 1, 1.5, 2, 3: worst cubic coefficient 3.3, 2.0, 1.8, 1.7 %,
+#: held-out nrmse 0.09-0.10, 0.09-0.10, 0.08, 0.07): the conditioned displacement deviates from
+#: the true one in the filter's transition band, not only below the cut-off.
+PREFILTER_RATIO = 2.0
+
+
+@dataclass(frozen=True)
+class Element:
+    """One element constant: ``kind`` in ``{"c", "k", "k3"}`` between nodes ``a < b`` (0 = ground)."""
+
+    kind: str
+    a: int
+    b: int
+
+    @property
+    def label(self) -> str:
+        return f"{self.kind}({self.a}-{self.b})"
+
+
+def candidate_elements(n: int) -> list[Element]:
+    """Dashpot, linear and cubic spring between every pair of nodes (ground included)."""
+    return [Element(kind, a, b) for a, b in itertools.combinations(range(n + 1), 2) for kind in ("c", "k", "k3")]
+
+
+def _stretch(e: Element, x: np.ndarray) -> np.ndarray:
+    """``x_a - x_b`` with ``x_0 = 0``, per sample."""
+    xa = x[e.a - 1] if e.a else 0.0
+    return xa - x[e.b - 1]
+
+
+def element_column(e: Element, x: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The element's force on its end ``a`` per unit constant (``-`` of it acts on ``b``)."""
+    d = _stretch(e, v if e.kind == "c" else x)
+    d = np.broadcast_to(d, x.shape[1:]) if np.ndim(d) == 0 else d
+    return d**3 if e.kind == "k3" else d
+
+
+def element_terms(e: Element, n: int) -> dict[int, dict[str, float]]:
+    """Monomials (model text -> factor) the element adds to each equation ``i`` (0-based)."""
+    from eddi.mdof.terms import monomial
+
+    out: dict[int, dict[str, float]] = {}
+    ends = [(e.a - 1, 1.0), (e.b - 1, -1.0)] if e.a else [(e.b - 1, -1.0)]
+    # stretch d = x_a - x_b (x_0 = 0) as {coord: sign}
+    lin = {k: s for k, s in ends}
+    for eq, sign in ends:
+        terms: dict[str, float] = {}
+        if e.kind in ("c", "k"):
+            for k, s in lin.items():
+                terms[monomial({k: 1}, n, rate=e.kind == "c")] = sign * s
+        else:
+            for combo in itertools.product(lin.items(), repeat=3):
+                powers: dict[int, int] = {}
+                fac = 1.0
+                for k, s in combo:
+                    powers[k] = powers.get(k, 0) + 1
+                    fac *= s
+                t = monomial(powers, n)
+                terms[t] = terms.get(t, 0.0) + sign * fac
+        out[eq] = terms
+    return out
+
+
+@dataclass(frozen=True)
+class LumpedFit:
+    """Result of :func:`fit_lumped`.
+
+    Attributes
+    ----------
+    masses : ndarray, shape (n,), [kg] (per unit driven mass when no force)
+    constants : dict of Element to float
+        Element constants kept [N s/m, N/m, N/m^3].
+    ci95 : dict of Element to float
+        95 % half-widths, same units.
+    residual : ndarray, shape (n,)
+        RMS force-balance residual of each equation relative to its inertia force.
+    """
+
+    masses: np.ndarray
+    constants: dict[Element, float]
+    ci95: dict[Element, float]
+    residual: np.ndarray
+
+
+def _columns(x, v, a, force, elements, n, d):
+    """Per equation ``i``: (inertia column, element columns, force column), whole record."""
+    cols = {e: element_column(e, x, v) for e in elements}
+    out = []
+    for i in range(n):
+        el = np.column_stack([cols[e] * (1.0 if e.a - 1 == i else -1.0 if e.b - 1 == i else 0.0)
+                              for e in elements]) if elements else np.zeros((x.shape[1], 0))
+        f = force if (force is not None and i == d) else np.zeros(x.shape[1])
+        out.append(np.column_stack([a[i], el, f]))
+    return out
+
+
+def _stack(records: Sequence[tuple], elements: list[Element], n: int, d: int, prefilter: bool):
+    """Rows of all equations over the free windows, each equation scaled by its inertia RMS.
+
+    Unknowns: ``m_i`` (``i != d``), the element constants, ``g`` (the filtered force's nuisance
+    coefficient, equation ``d``); ``m_d = 1`` moves to the right-hand side.
+    """
+    per_eq = [[] for _ in range(n)]
+    for x, v, a, force, (s, e), rate, fc in records:
+        cols = _columns(x, v, a, force, elements, n, d)
+        for i in range(n):
+            c = highpass(cols[i].T, rate, PREFILTER_RATIO * fc, 1).T if prefilter else cols[i]
+            per_eq[i].append(c[s:e])
+    ne = len(elements)
+    rows, rhs, eq_of = [], [], []
+    for i in range(n):
+        c = np.vstack(per_eq[i])
+        scale = float(np.sqrt(np.mean(c[:, 0] ** 2))) or 1.0
+        mcols = np.zeros((c.shape[0], n))
+        mcols[:, i] = c[:, 0]
+        big = np.hstack([np.delete(mcols, d, axis=1), c[:, 1:1 + ne], -c[:, 1 + ne:]])
+        target = -c[:, 0] if i == d else np.zeros(c.shape[0])
+        rows.append(big / scale)
+        rhs.append(target / scale)
+        eq_of.append(np.full(c.shape[0], i))
+    return np.vstack(rows), np.concatenate(rhs), np.concatenate(eq_of)
+
+
+def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: int, *,
+               elements: list[Element] | None = None, prune: float = 3e-3, prefilter: bool = True) -> LumpedFit:
+    """Masses and element constants from the records (module docstring).
+
+    Parameters
+    ----------
+    records : sequence of tuple
+        Per record ``(x, v, a, force, window, rate_hz, cutoff_hz)``: whole-record states of
+        shape (n, n_samples) [m, m/s, m/s^2], the force [N] or None, the free window
+        ``(start, stop)``, the sample rate and the drift high-pass cut-off [Hz].
+    impacts : sequence of tuple
+        Per record ``(x, v, a, force)`` over the hammer pulse (unfiltered), for the scale.
+    n : int
+        Masses (= channels).
+    d : int
+        Driving-point mass (0-based).
+    elements : list of Element, optional
+        Candidates; default every dashpot, linear and cubic spring (:func:`candidate_elements`).
+    prune : float
+        An element whose force (RMS) is below this fraction of the inertia force is dropped.
+    prefilter : bool
+        Filter the columns through the drift high-pass (module docstring).
+    """
+    elements = list(candidate_elements(n) if elements is None else elements)
+    lengths = [r[4][1] - r[4][0] for r in records]
+    for _round in range(len(elements) + 1):  # one element dropped per round; the last round drops none
+        a_mat, b, eq_of = _stack(records, elements, n, d, prefilter)
+        p, _ = scaled_lstsq(a_mat, b)
+        ne = len(elements)
+        ecoef = p[n - 1: n - 1 + ne]
+        force_rms = np.sqrt(np.mean((a_mat[:, n - 1: n - 1 + ne] * ecoef) ** 2, axis=0))
+        # rows are scaled by their equation's inertia RMS: a force of 1 is the inertia force
+        small = [e for e, f in zip(elements, force_rms * np.sqrt(n)) if f < prune]
+        if not small:
+            break
+        weakest = min(small, key=lambda e: force_rms[elements.index(e)])
+        elements.remove(weakest)
+    masses = np.ones(n)
+    masses[[i for i in range(n) if i != d]] = p[: n - 1]
+    consts = dict(zip(elements, ecoef))
+    # jackknife: five contiguous blocks per record, the same blocks in every equation
+    blocks_one = np.concatenate([np.minimum(np.arange(m) * JACKKNIFE_BLOCKS // m, JACKKNIFE_BLOCKS - 1)
+                                 + JACKKNIFE_BLOCKS * j for j, m in enumerate(lengths)])
+    blocks = np.tile(blocks_one, n)
+    ci = block_jackknife_ci95(lambda rows: scaled_lstsq(a_mat[rows], b[rows])[0][n - 1: n - 1 + ne], blocks)
+    resid = a_mat @ p - b
+    residual = np.array([float(np.sqrt(np.mean(resid[eq_of == i] ** 2))) for i in range(n)])
+    scale = driven_mass(impacts, masses, consts, d)
+    return LumpedFit(masses * scale, {e: c * scale for e, c in consts.items()},
+                     {e: float(h) * scale for e, h in zip(elements, ci)}, residual)
+
+
+def driven_mass(impacts: Sequence[tuple], masses: np.ndarray, consts: dict, d: int) -> float:
+    """Scale [kg per unit of ``masses[d]``] from ``m_d x_d'' + B_d + K_d = F`` over the hammer pulses.
+
+    ``masses`` and ``consts`` per unit driven mass (or any scale: the result multiplies them);
+    1 without force.
+    """
+    num = den = 0.0
+    for x, v, a, f in impacts:
+        r = masses[d] * a[d]
+        for e, c in consts.items():
+            sign = 1.0 if e.a - 1 == d else -1.0 if e.b - 1 == d else 0.0
+            if sign:
+                r = r + sign * c * element_column(e, x, v)
+        num += float(f @ r)
+        den += float(r @ r)
+    return num / den if den > 0 and num > 0 else 1.0
