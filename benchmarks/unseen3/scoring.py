@@ -228,12 +228,14 @@ def score_diagnose(case, run, via="csv"):
         row["verdict"] = judge.run_failure(r)
         return row
     base = (out.get("baseline") or {}).get("nrmse")
-    row.update({"cause": out.get("cause"), "baseline": base,
+    judged = (out.get("judged_baseline") or {}).get("nrmse")
+    row.update({"cause": out.get("cause"), "baseline": base, "judged_baseline": judged,
+                "baseline_fold_nrmse": (out.get("baseline") or {}).get("fold_nrmse"),
                 "floor": (out.get("noise_floor") or {}).get("nrmse"),
                 "extended": (out.get("extended") or {}).get("nrmse"),
                 "symptoms": [s.get("kind") for s in out.get("symptoms") or [] if isinstance(s, dict)],
                 "symptom_needed": case.get("symptom"), "symptom_found": judge.symptom_found(case, out)})
-    row["verdict"] = judge.diagnose_verdict(case, out, base)
+    row["verdict"] = judge.diagnose_verdict(case, out, base if base is not None else judged)
     return row
 
 

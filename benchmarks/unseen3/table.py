@@ -65,10 +65,10 @@ def scorecard(results, meta):
                         _f(r.get("default_nrmse")), sum(c.get("wall_s") or 0 for c in r["cmds"]))
                        for r in kinds.get("quirk", [])])
     lines += _section("(d) diagnosis: nulls and hidden effects",
-                      ["case", "hidden", "in catalogue", "verdict", "cause", "baseline", "floor", "extended",
+                      ["case", "hidden", "in catalogue", "verdict", "cause", "baseline (pipeline / per fold)", "floor", "extended",
                        "symptoms", "s"],
                       [(r["id"], r.get("hidden") or "null", "yes" if r.get("catalogued") else "no", r["verdict"],
-                        r.get("cause", "-"), _f(r.get("baseline")), _f(r.get("floor")), _f(r.get("extended")),
+                        r.get("cause", "-"), f"{_f(r.get('baseline'))} / {_f(r.get('judged_baseline'))}", _f(r.get("floor")), _f(r.get("extended")),
                         _symptoms(r), sum(c.get("wall_s") or 0 for c in r["cmds"])) for r in kinds.get("diagnose", [])])
     lines += _section("(e) bad inputs", ["case", "verdict", "exit", "stderr lines", "first line"],
                       [(r["id"], r["verdict"], r["cmds"][0]["rc"], r["stderr_lines"],
