@@ -11,7 +11,7 @@ import numpy as np
 import physics
 import records
 import sensors
-from design import amp, law_terms, ring_periods, w, write
+from design import amp, ring_periods, w, write
 
 CATALOGUE = ("coulomb_friction", "quadratic_damping", "cubic_damping", "clearance", "smooth_stiffening",
              "asymmetric_stiffness", "second_mode", "sensor_highpass")

@@ -50,18 +50,19 @@ def _brief(r):
 
 
 def _import(run, files, h5, mass=None, sessions=None):
-    """``station import`` of ``files`` into a fresh ``h5`` (``--new-session`` where the session changes)."""
+    """``station import`` of ``files`` into a fresh ``h5`` (``--new-session`` where the session changes).
+    Returns the last command's result, with every import command in ``all``."""
     if os.path.exists(run.path(h5)):
         os.remove(run.path(h5))
     sessions = sessions or [0] * len(files)
-    res = None
+    done = []
     for s in sorted(set(sessions)):
         group = [f for f, g in zip(files, sessions) if g == s]
         argv = ["import", *group, "--out", h5, "--json"] + (["--mass", repr(mass)] if mass else [])
-        res = run(argv + (["--new-session"] if s else []), "import")
-        if res["rc"] != 0:
-            return res
-    return res
+        done.append(run(argv + (["--new-session"] if s else []), "import"))
+        if done[-1]["rc"] != 0:
+            break
+    return dict(done[-1], all=[_brief(r) for r in done])
 
 
 # ---- (a) consistency ------------------------------------------------------------------------------
@@ -73,7 +74,8 @@ def score_consistency(case, run):
     ref = run(["identify", *files, "--mass", m, "--json"], "identify")
     rows = []
     if ref["rc"] != 0 or not ref.get("json"):
-        return [{"id": f"{cid}/identify", "kind": "consistency", "verdict": judge.run_failure(ref), "cmds": [_brief(ref)]}]
+        return [{"id": f"{cid}/identify", "kind": "consistency", "verdict": judge.run_failure(ref),
+                 "cmds": [_brief(ref)]}]
     rj = ref["json"]
     ref_c, ref_n = judge.coeffs_of(rj), (rj.get("held_out") or {}).get("nrmse")
     truth_err = {k: judge.rel((rj.get(k.split(':')[0] == 'd' and 'damping' or 'stiffness') or {}).get(k[2:]), v)
@@ -90,11 +92,13 @@ def score_consistency(case, run):
                    ("report-h5", ["report", h5, "--out", f"_rep-{cid}", "--json"], "report", None)]
     else:
         rows.append({"id": f"{cid}/import", "kind": "consistency", "verdict": judge.run_failure(imp),
-                     "cmds": [_brief(imp)]})
+                     "cmds": imp["all"]})
     others += [("diagnose-baseline", ["diagnose", *files, "--mass", m, "--json"], "diagnose", None)]
     for tag, argv, kind, _ in others:         # replay takes one FILE: it is run on the HDF5 session
         r = run(argv, kind)
         rows.append(_compare(cid, tag, r, ref_c, ref_n))
+        if tag.endswith("-h5"):
+            rows[-1]["cmds"] = imp["all"] + rows[-1]["cmds"]
     model = f"_model-{cid}.json"
     with open(run.path(model), "w") as fh:
         json.dump(rj.get("model"), fh)
@@ -135,9 +139,11 @@ def score_mdof(case, run):
         imp = _import(run, case["files"], h5)
         if imp["rc"] != 0:
             rows.append({"id": case["id"] + "@h5", "kind": "mdof", "verdict": judge.run_failure(imp),
-                         "cmds": [_brief(imp)]})
+                         "cmds": imp["all"]})
         else:
-            rows.append(_mdof_once(case, run, [h5], "h5"))
+            row = _mdof_once(case, run, [h5], "h5")
+            row["cmds"] = imp["all"] + row["cmds"]
+            rows.append(row)
     return rows
 
 
@@ -218,9 +224,9 @@ def score_diagnose(case, run, via="csv"):
                       [c["session"] for c in case["captures"]])
         if imp["rc"] != 0:
             return {"id": case["id"] + "@h5", "kind": "diagnose", "verdict": judge.run_failure(imp),
-                    "cmds": [_brief(imp)], "hidden": case["hidden"]}
+                    "cmds": imp["all"], "hidden": case["hidden"]}
         r = run(["diagnose", h5, "--json"], "diagnose")
-        cmds = [_brief(imp), _brief(r)]
+        cmds = [*imp["all"], _brief(r)]
     row = {"id": case["id"] + ("" if via == "csv" else "@h5"), "kind": "diagnose", "hidden": case["hidden"],
            "catalogued": case["catalogued"], "expect": case["expect"], "note": case["note"], "cmds": cmds}
     out = r.get("json")

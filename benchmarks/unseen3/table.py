@@ -47,7 +47,7 @@ def scorecard(results, meta):
     lines += _section("(a) one capture, every command (#9)", ["row", "verdict", "model diff", "held-out nrmse",
                                                              "nrmse diff", "s"],
                       [(r["id"], r["verdict"], _f(r.get("model_diff")), _f(r.get("heldout_nrmse")),
-                        _f(r.get("nrmse_diff")), sum(c.get("wall_s") or 0 for c in r["cmds"]))
+                        _f(r.get("nrmse_diff")), _wall(r))
                        for r in kinds.get("consistency", [])])
     lines += _section("(b) several sensors (#14)", ["case", "system", "verdict", "cause", "coords", "freq err",
                                                     "worst coupling err", "held-out nrmse per channel", "s"],
@@ -56,20 +56,20 @@ def scorecard(results, meta):
                         (lambda ce: f"{ce[0]} {_pct(ce[1])}" if ce else "-")(
                             max(r.get("coupling_err") or [], key=lambda t: t[1], default=None)),
                         ", ".join(f"{k} {_f(v)}" for k, v in (r.get("channel_nrmse") or {}).items()) or "-",
-                        sum(c.get("wall_s") or 0 for c in r["cmds"])) for r in kinds.get("mdof", [])])
+                        _wall(r)) for r in kinds.get("mdof", [])])
     lines += _section("(c) record quirks (true library; default library)",
                       ["case", "what", "samples/cycle", "verdict", "worst scored coefficient", "ci95 covers",
                        "held-out nrmse", "default lib", "default nrmse", "s"],
                       [(r["id"], r["what"], r["samples_per_cycle"], r["verdict"], _worst(r.get("coeffs")),
                         _covers(r.get("coeffs")), _f(r.get("heldout_nrmse")), r.get("default_verdict", "-"),
-                        _f(r.get("default_nrmse")), sum(c.get("wall_s") or 0 for c in r["cmds"]))
+                        _f(r.get("default_nrmse")), _wall(r))
                        for r in kinds.get("quirk", [])])
     lines += _section("(d) diagnosis: nulls and hidden effects",
                       ["case", "hidden", "in catalogue", "verdict", "cause", "baseline (pipeline / per fold)", "floor", "extended",
                        "symptoms", "s"],
                       [(r["id"], r.get("hidden") or "null", "yes" if r.get("catalogued") else "no", r["verdict"],
                         r.get("cause", "-"), f"{_f(r.get('baseline'))} / {_f(r.get('judged_baseline'))}", _f(r.get("floor")), _f(r.get("extended")),
-                        _symptoms(r), sum(c.get("wall_s") or 0 for c in r["cmds"])) for r in kinds.get("diagnose", [])])
+                        _symptoms(r), _wall(r)) for r in kinds.get("diagnose", [])])
     lines += _section("(e) bad inputs", ["case", "verdict", "exit", "stderr lines", "first line"],
                       [(r["id"], r["verdict"], r["cmds"][0]["rc"], r["stderr_lines"],
                         (r["cmds"][0].get("stderr") or "").splitlines()[0][:110].replace("|", "/")
@@ -106,3 +106,7 @@ def _symptoms(r):
     if r.get("symptom_needed"):
         s += f" (needed {r['symptom_needed']}: {'found' if r.get('symptom_found') else 'MISSING'})"
     return s or "-"
+
+
+def _wall(r):
+    return f"{sum(c.get('wall_s') or 0 for c in r['cmds']):.0f}"
