@@ -49,15 +49,15 @@ def test_import_keeps_an_unknown_pretrigger_unknown(files) -> None:
         caps = f["captures"]
         attrs = caps[sorted(caps)[0]].attrs
         assert int(attrs["pretrigger_known"]) == 0 and int(attrs["pretrigger_samples"]) == 0
-    _, _, m_csv, _ = load_measurements(csvs)
-    _, _, m_h5, _ = load_measurements([h5])
+    _, _, m_csv, _, _ = load_measurements(csvs)
+    _, _, m_h5, _, _ = load_measurements([h5])
     assert [m.pretrigger_samples for m in m_csv] == [None] * 3
     assert [m.pretrigger_samples for m in m_h5] == [None] * 3
 
 
 def test_zero_pretrigger_is_looked_for_like_an_unknown_one(files) -> None:
     csvs, _ = files
-    _, _, (m, *_), _ = load_measurements(csvs)
+    _, _, (m, *_), _, _ = load_measurements(csvs)
     a = condition(m.t, acc=m.channels["acc"], force=m.channels["force"], pretrigger_samples=None)
     b = condition(m.t, acc=m.channels["acc"], force=m.channels["force"], pretrigger_samples=0)
     assert a.impact_start > 32  # the rest before the blow is found
@@ -69,7 +69,7 @@ def test_same_floor_and_verdict_from_csv_and_from_hdf5(files) -> None:
     csvs, h5 = files
     out = []
     for spec in (csvs, [h5]):
-        recs, _, _, _ = load_measurements(spec)
+        recs, _, _, _, _ = load_measurements(spec)
         out.append(diagnose(recs, M, mechanisms=["coulomb_friction", "clearance"]))
     a, b = out
     assert a.noise_floor.nrmse == pytest.approx(b.noise_floor.nrmse, rel=1e-3)
