@@ -186,7 +186,12 @@ class EquationOfMotion(BaseModel):
         data = json_object(text)
         if "equation_of_motion" in data and isinstance(data["equation_of_motion"], dict):
             data = data["equation_of_motion"]
-        eom = cls.create(**data)
+        try:
+            # strict JSON: a number written as a string ("mass": "0.7") is a damaged file, not a
+            # value to guess at; integers are numbers
+            eom = cls.model_validate_json(json.dumps(data), strict=True)
+        except ValidationError as exc:
+            raise ModelError(_first_error(exc)) from None
         if not eom.stiffness and not eom.effects:
             raise ModelError("invalid model: no stiffness terms and no effects (an incomplete model file?); "
                              "expected e.g. \"stiffness\": {\"x\": 1000.0} next to \"mass\" and \"damping\"")

@@ -108,6 +108,9 @@ def test_equation_of_motion_on_a_record_without_force_starts_from_its_state(caps
     ('{"equation_of_motion": {"mass": 0.8}}', "{demo}/session.h5:0", "no stiffness terms"),
     ('{"mass": 1, "stiffness": {"x": "abc"}}', "{demo}/session.h5:0", "stiffness.x"),
     ('{"mass": 1, "stiffness": {"q^2": 1}}', "{demo}/session.h5:0", "m.json"),
+    # numbers written as strings: a damaged file, not a value to guess at (these were converted)
+    ('{"mass": "0.7", "stiffness": {"x": 100}}', "{demo}/session.h5:0", "mass: Input should be a valid number"),
+    ('{"mass": 1, "stiffness": {"x": "100"}}', "{demo}/session.h5:0", "stiffness.x"),
 ])
 def test_validate_faults_are_one_line_exit_2(model_text: str | None, record: str, expect: str,
                                             capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
