@@ -84,6 +84,16 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
         xm = rec.x[part.start:part.stop]
         den = float(np.linalg.norm(xm)) or 1.0
         d_cond = float(np.linalg.norm(q.x[part.start:part.stop] - xm)) / den
+        if not np.all(np.isfinite(xb)):
+            fold.append(float("nan"))
+            preds.append(float("nan"))
+            continue
+        if float(np.linalg.norm(xb - xm)) / den >= LOST:
+            # the baseline is lost on this part: d_pred counts 0 whatever the perturbed refit
+            # gives (below), so that refit (and its refinement) is not run
+            fold.append(d_cond)
+            preds.append(0.0)
+            continue
         try:
             fit = fitter(masks).judged_baseline()[1]
         except EddiError:
