@@ -19,10 +19,7 @@ Targets (issue 13): ``three`` <= 3 s, ``beam`` <= 8 s on a quiet 2-core machine.
     python benchmarks/bench_diagnose_speed.py --case cli --runs 3    # whole processes, wall + CPU
 
 ``--case cli``: whole ``station diagnose`` processes (imports, reading, conditioning, the
-pipeline baseline, the diagnosis): by default the pipeline baseline runs in a second process
-while the candidates are fitted (``station/background.py``); ``serial`` lines set
-``STATION_SERIAL=1`` (one process, as on a one-core machine). CPU is the process's and its
-worker's.
+pipeline baseline, the diagnosis), one process. CPU is the process's (and its children's).
 """
 
 from __future__ import annotations
@@ -140,17 +137,15 @@ def _child_run(cmd: list[str], env: dict[str, str]) -> tuple[float, float]:
 
 def run_cli(runs: int, cases: tuple[str, ...] = ("three", "beam")) -> None:
     """``station diagnose`` as a whole process: the ``three`` captures written as CSV (with and
-    without the pipeline baseline's refinement) and the nine double-beam ring-downs, each with
-    the pipeline baseline in a second process (the default on >= 2 cores) and serial
-    (``STATION_SERIAL=1``); floor: ``python -c "import numpy"``. Wall and CPU (the process
-    and its worker), min and median over ``--runs``, runs interleaved."""
+    without the pipeline baseline's refinement) and the nine double-beam ring-downs; floor:
+    ``python -c "import numpy"``. Wall and CPU (the process and its children), min and median
+    over ``--runs``, runs interleaved."""
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:
         env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
         cmds: dict[str, tuple[list[str], dict[str, str]]] = {
             "import numpy (floor)": ([sys.executable, "-c", "import numpy"], env)}
-        serial = {**env, "STATION_SERIAL": "1"}
         if "three" in cases:
             files = []
             for i, r in enumerate(_three_raw()):
@@ -161,11 +156,9 @@ def run_cli(runs: int, cases: tuple[str, ...] = ("three", "beam")) -> None:
             three = [sys.executable, "-m", "station.cli", "diagnose", *files, "--mass", "0.1", "--json"]
             cmds["three: station diagnose --no-refine"] = (three + ["--no-refine"], env)
             cmds["three: station diagnose"] = (three, env)
-            cmds["three: station diagnose, serial"] = (three, serial)
         if "beam" in cases:
             beam = [sys.executable, "-m", "station.cli", "diagnose", *_beam_files(), "--mass", "1", "--json"]
             cmds["beam: station diagnose"] = (beam, env)
-            cmds["beam: station diagnose, serial"] = (beam, serial)
         load0 = os.getloadavg()[0]
         walls: dict[str, list[float]] = {}
         cpus: dict[str, list[float]] = {}

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -57,7 +57,7 @@ def diagnose(
     modal_damping: Sequence[str] = MODAL_DAMPING, modal_stiffness: Sequence[str] = MODAL_DIAGNOSE_STIFFNESS,
     none_factor: float = NONE_FACTOR, named_factor: float = NAMED_FACTOR,
     strong_margin: float | None = STRONG_MARGIN,
-    pipeline: PipelineBaseline | Callable[[], PipelineBaseline | None] | None = None,
+    pipeline: PipelineBaseline | None = None,
 ) -> Diagnosis:
     """Find what the baseline model gets wrong, name the mechanism, extend and measure the gain.
 
@@ -93,8 +93,7 @@ def diagnose(
     pipeline : PipelineBaseline, optional
         ``station identify``'s model and held-out error: it becomes ``baseline`` (``none``
         needs it within the factor too); ``judged`` is its procedure run per fold (its
-        selected terms, its refinement rule). May be a function returning it (called first:
-        the per-fold baseline needs the pipeline's choices).
+        selected terms, its refinement rule).
 
     Returns
     -------
@@ -109,8 +108,6 @@ def diagnose(
     TermError
         Bad terms or unknown mechanism.
     """
-    if callable(pipeline):
-        pipeline = pipeline()
     with one_blas_thread():
         records = _check_records(records)
         damping, stiffness = selected_terms(pipeline, base, damping, stiffness)

@@ -200,27 +200,12 @@ def handle(args: argparse.Namespace) -> int:
     if base is not None and args.mass is not None and abs(args.mass - base.mass) > 1e-9 * base.mass:
         raise ModelError(f"--mass {args.mass} differs from the model's mass {base.mass}")
     pipe_obj, baseline = None, None
-    if base is None:  # the baseline is the pipeline's (the same model and error as identify), computed
-        # in a second process while the candidates are fitted here (station/background.py)
-        from station.background import Background
-
-        baseline = Background(pipeline_baseline, measurements, float(mass), args.damping, args.stiffness,
-                              args.refine, conditioned)
-    try:
-        diag = diagnose(records, mass, damping=args.damping, stiffness=args.stiffness, base=base,
-                        mechanisms=mechanisms, margin=args.margin, fit=args.fit,
-                        pipeline=(lambda: baseline()[1]) if baseline is not None else None)
-    except Exception:
-        failed = baseline.failed() if baseline is not None else None
-        if failed is not None:  # the baseline's error comes first, as when it ran before the diagnosis
-            raise failed from None
-        raise
-    except BaseException:  # Ctrl-C: stop the worker too
-        if baseline is not None:
-            baseline.close()
-        raise
-    if baseline is not None:
-        pipe_obj = baseline()[0]
+    if base is None:  # the baseline is the pipeline's (the same model and error as identify); the
+        # diagnosis judges its folds with the pipeline's choices, so it comes first
+        pipe_obj, baseline = pipeline_baseline(measurements, float(mass), args.damping, args.stiffness,
+                                               args.refine, conditioned)
+    diag = diagnose(records, mass, damping=args.damping, stiffness=args.stiffness, base=base,
+                    mechanisms=mechanisms, margin=args.margin, fit=args.fit, pipeline=baseline)
     obj = diag.to_dict()
     obj["captures"] = [r.label for r in records]
     obj["resampled"] = resampled
