@@ -20,8 +20,8 @@ def check_time(t: np.ndarray) -> float:
     t = np.asarray(t, dtype=float)
     if t.ndim != 1 or t.size < 16:
         raise SignalError(f"time must be a 1-D array of at least 16 samples, got shape {t.shape}")
-    bad = np.nonzero(~np.isfinite(t))[0]
-    if bad.size:
+    if not np.isfinite(t).all():
+        bad = np.nonzero(~np.isfinite(t))[0]
         raise SignalError(f"time is NaN or infinite at sample {int(bad[0])}")
     dt = np.diff(t)
     if np.any(dt <= 0):
