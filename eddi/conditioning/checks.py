@@ -29,7 +29,11 @@ def check_time(t: np.ndarray) -> float:
         raise SignalError(f"time must increase; t[{i + 1}] = {t[i + 1]:g} after t[{i}] = {t[i]:g}")
     step = (t[-1] - t[0]) / (t.size - 1)
     # each sample within 1 % of a step of the uniform grid (allows times printed with few digits)
-    dev = np.abs(t - (t[0] + step * np.arange(t.size)))
+    dev = np.arange(t.size, dtype=float)  # |t - (t[0] + step i)|, in place in one buffer
+    dev *= step
+    dev += t[0]
+    dev -= t
+    np.abs(dev, out=dev)
     if np.max(dev) > 0.01 * step:
         i = int(np.argmax(dev))
         raise SignalError(
