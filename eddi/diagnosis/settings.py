@@ -56,3 +56,7 @@ MIN_FLOOR = 0.02
 #: floor); None: never. 0.6 on the tuning set: 27 of 45 rungs found against 26 without it, no
 #: null named at any factor (docs/diagnosis.md, "Calibration").
 STRONG_MARGIN: float | None = 0.6
+#: Judge the EDDI-fitted candidates refined as the baseline is, when the pipeline kept its
+#: refinement (:func:`eddi.diagnosis.name.refine_candidates`). A switch for same-run
+#: comparisons in ``benchmarks/`` (``{"on": False}``: the session-4 rule), not a user option.
+REFINE_CANDIDATES = {"on": True}
