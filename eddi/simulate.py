@@ -180,6 +180,8 @@ def _effect_vector(eom: EquationOfMotion) -> np.ndarray:
         elif e.name == "asymmetric_stiffness":
             eff[_E_K2] = p["k2"]
             eff[_E_K4] = p["k4"]
+        elif e.name == "hysteresis":  # its own state: eddi.hysteresis integrates it
+            continue
         elif e.name == "second_mode":
             eff[_E_M2] = p["mass_kg"]
             eff[_E_K2M] = p["stiffness_n_per_m"]
@@ -225,6 +227,8 @@ def max_angular_frequency(eom: EquationOfMotion, x_scale: float = 0.0, v_scale: 
             c_tan = max(c_tan, 0.0)
         elif e.name == "quadratic_damping":
             c_tan += abs(p["coefficient"]) * 2 * vs
+        elif e.name == "hysteresis":
+            k_tan += abs(p["yield_force_n"]) / p["yield_displacement_m"]
         elif e.name == "coulomb_friction":
             c_tan += abs(p["force_n"]) / p["velocity_scale"] * 0.0  # smoothed; not a rate limit
     omega = math.sqrt(k_tan / eom.mass) if k_tan > 0 else 0.0
@@ -312,9 +316,14 @@ def simulate(
     exps = exponent_table(eom.damping_terms() + eom.stiffness_terms())
     coefs = np.array(list(eom.damping.values()) + list(eom.stiffness.values()), dtype=float)
     eff = _effect_vector(eom)
-    out = np.empty((n, 4))
-    state0 = np.array([float(x0), float(v0), 0.0, 0.0])
-    div = _KERNELS._rk4(f, dt, substeps, state0, 1.0 / eom.mass, exps, coefs, eff, out)
+    if eom.effect("hysteresis") is not None:
+        from eddi.hysteresis import simulate_hysteretic
+
+        out, div = simulate_hysteretic(eom, f, dt, n, x0, v0, substeps, exps, coefs, eff)
+    else:
+        out = np.empty((n, 4))
+        state0 = np.array([float(x0), float(v0), 0.0, 0.0])
+        div = _KERNELS._rk4(f, dt, substeps, state0, 1.0 / eom.mass, exps, coefs, eff, out)
     has_mode = eom.effect("second_mode") is not None
     return SimulationResult(
         t=t,

@@ -20,7 +20,7 @@ from eddi.diagnosis.extend import EddiFold, Fit, Setup, fit_ee, fit_eddi
 from eddi.diagnosis.observed import Observed
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.results import Candidate, NoiseFloor
-from eddi.diagnosis.settings import NRMSE_CAP, REFERENCE_MARGIN
+from eddi.diagnosis.settings import FULL_REFERENCE_MARGIN, NRMSE_CAP, REFERENCE_MARGIN
 from eddi.diagnosis.show import nmte, nrmse, simulate_part, simulate_part_xv
 from eddi.errors import IdentificationError, ModelError, SignalError
 
@@ -347,8 +347,9 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
         cut = min(1.0 - c.nrmse / base if base > 0 else 0.0, 1.0 - c.nrmse / eddi if eddi > 0 else 0.0)
         if not cut >= need:
             fails.append(f"cuts the error by {100 * cut:.0f} % (needs {100 * need:.0f} %)")
-        if c.reference not in ("baseline", UNREFINED) and not c.gain >= reference_margin:
-            fails.append(f"beats its {c.reference} by {100 * c.gain:.0f} % (needs {100 * reference_margin:.0f} %)")
+        ref_need = max(margin, reference_margin) if c.name in FULL_REFERENCE_MARGIN else reference_margin
+        if c.reference not in ("baseline", UNREFINED) and not c.gain >= ref_need:
+            fails.append(f"beats its {c.reference} by {100 * c.gain:.0f} % (needs {100 * ref_need:.0f} %)")
         if not c.wins_every_part:
             fails.append("does not win on every held-out part")
         if not c.consistent:
