@@ -76,8 +76,8 @@ def test_an_offset_too_large_to_be_a_conditioning_error_leaves_the_fit_alone(har
 
 def test_lagrangian_rows_weighted_by_the_acceleration_noise() -> None:
     # 4 Hz, 5 kg at 1 kHz, 45 dB (bench_vs_sindy's soft_heavy, seed 8): with 1/sqrt(E) weights
-    # the noisy low-amplitude rows dominated (x^3 0.57 % off); weighted by the measured noise
-    # of a they count evenly (0.05 %)
+    # the noisy low-amplitude rows dominated (x^3 2.6 % off on the old code, 0.57 % with the
+    # slow-error columns alone); weighted by the measured noise of a they count evenly (0.05 %)
     spec = dict(mass=5.0, damping={"v": 4.0}, stiffness={"x": 3200.0, "x^3": 2.0e6}, peak_n=900.0)
     r = impact_record(spec, rate_hz=1000.0, duration_s=12.0, pretrigger_s=1.0, pulse_s=4e-3, snr_db=45.0, seed=8)
     cond = condition(r.t, acc=r.acc, force=r.force)
