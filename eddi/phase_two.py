@@ -287,7 +287,7 @@ def lagrangian_route(
     if basis is not None:
         xk = x[keep]
         dmat = _dk_dx(terms, xk)
-        coef = refit_with_offset(cols, fc[keep], w, coef, basis[keep], lambda c: dmat @ c, None, normal_lstsq, xk)
+        coef = refit_with_offset(cols, fc[keep], w, coef, basis[np.flatnonzero(keep)], lambda c: dmat @ c, None, normal_lstsq, xk)
     fit = cols @ coef
     rms = float(np.sqrt(np.mean((fc[keep] * w) ** 2))) or 1.0
     resid = float(np.sqrt(np.mean(((fit - fc[keep]) * w) ** 2)) / rms)

@@ -30,6 +30,7 @@ what limits the routes at low SNR.
 from __future__ import annotations
 
 import numpy as np
+from scipy import sparse
 
 #: Knot spacing of the nuisance splines, in periods of the response: that of the
 #: conditioner's drift spline (``eddi.conditioning.conditioner.KNOT_PERIODS``).
@@ -61,8 +62,8 @@ def drift_basis(t: np.ndarray, gamma: np.ndarray, knot_periods: float = DRIFT_KN
 
     Returns
     -------
-    ndarray, shape (k, p)
-        Basis functions at ``t`` (``p >= 4``).
+    scipy.sparse.csr_matrix, shape (k, p)
+        Basis functions at ``t`` (``p >= 4``; four non-zeros a row).
     """
     from scipy.interpolate import BSpline  # local: keeps `import eddi` light
 
@@ -71,7 +72,7 @@ def drift_basis(t: np.ndarray, gamma: np.ndarray, knot_periods: float = DRIFT_KN
     period = 2.0 * float(np.median(np.diff(gamma))) if gamma.size > 1 else t1 - t0
     n_int = max(1, int(np.ceil((t1 - t0) / max(knot_periods * period, 1e-300))))
     knots = np.concatenate(([t0] * 3, np.linspace(t0, t1, n_int + 1), [t1] * 3))
-    return BSpline.design_matrix(np.clip(t, t0, t1), knots, 3).toarray()
+    return sparse.csr_matrix(BSpline.design_matrix(np.clip(t, t0, t1), knots, 3))
 
 
 def rate_error_columns(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.ndarray, v: np.ndarray,
@@ -90,22 +91,24 @@ def rate_error_columns(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.nd
     kinetic_at_gamma : ndarray, shape (N+1,), [J]
     v : ndarray, shape (k,), [m/s]
     mass : float, [kg]
-    basis : ndarray, shape (k, p)
+    basis : scipy.sparse matrix, shape (k, p)
         :func:`drift_basis` at ``t``.
     knot_periods : float
         As for ``basis``.
 
     Returns
     -------
-    ndarray, shape (k, p), [J per m/s]
+    scipy.sparse.csr_matrix, shape (k, p), [J per m/s]
     """
     v = np.asarray(v, dtype=float)
+    # the basis at the crossings, on the knots of ``basis`` (the same t[0], t[-1] and period)
     bg = drift_basis(np.concatenate((t, np.clip(gamma, t[0], t[-1]))), gamma, knot_periods)[t.size:]
     vg = np.sign(np.interp(gamma, t, v)) * np.sqrt(2.0 * np.maximum(kinetic_at_gamma, 0.0) / mass)
     i = np.clip(np.searchsorted(gamma, t, side="right") - 1, 0, gamma.size - 2)
     lam = np.clip((t - gamma[i]) / np.maximum(gamma[i + 1] - gamma[i], 1e-300), 0.0, 1.0)
-    eg = mass * vg[:, None] * bg
-    return (1.0 - lam)[:, None] * eg[i] + lam[:, None] * eg[i + 1] - mass * v[:, None] * basis
+    eg = sparse.diags(mass * vg) @ bg
+    blend = sparse.diags(1.0 - lam) @ eg[i] + sparse.diags(lam) @ eg[i + 1]
+    return sparse.csr_matrix(blend - sparse.diags(mass * v) @ basis)
 
 
 def refit_with_offset(cols: np.ndarray, rhs: np.ndarray, w: np.ndarray, coef: np.ndarray, basis: np.ndarray,
@@ -125,12 +128,12 @@ def refit_with_offset(cols: np.ndarray, rhs: np.ndarray, w: np.ndarray, coef: np
         Row weights.
     coef : ndarray, shape (m,)
         First estimate (without nuisance columns).
-    basis : ndarray, shape (k, p)
+    basis : scipy.sparse matrix, shape (k, p)
         :func:`drift_basis`.
     offset_gain : callable
         ``coef -> ndarray (k,)``: how the row responds to a unit offset of ``x`` for the
         stiffness ``coef`` (potential: ``-K(x)``; Lagrangian: ``K'(x)``).
-    extra : ndarray, shape (k, q) or None
+    extra : scipy.sparse matrix, shape (k, q), or None
         Further nuisance columns that do not depend on ``coef``.
     solve : callable
         ``(a, b) -> (coef, cond)``, e.g. :func:`normal_lstsq`.
@@ -146,11 +149,11 @@ def refit_with_offset(cols: np.ndarray, rhs: np.ndarray, w: np.ndarray, coef: np
     m, p = cols.shape[1], basis.shape[1]
     offset = np.zeros(basis.shape[0])
     for _ in range(PASSES):
-        blocks = [cols, basis * offset_gain(coef)[:, None]]
+        blocks = [sparse.csr_matrix(cols), sparse.diags(offset_gain(coef)) @ basis]
         if extra is not None:
             blocks.append(extra)
-        full = np.column_stack(blocks)
-        sol, cond = solve(full * w[:, None], rhs * w)
+        full = sparse.diags(w) @ sparse.hstack(blocks, format="csr")
+        sol, _cond = solve(full, rhs * w)
         coef = sol[:m]
         offset = basis @ sol[m:m + p]
     if not np.all(np.isfinite(coef)) or np.sqrt(np.mean(offset**2)) > MAX_OFFSET * np.sqrt(np.mean(x**2)):
@@ -161,34 +164,44 @@ def refit_with_offset(cols: np.ndarray, rhs: np.ndarray, w: np.ndarray, coef: np
 def normal_lstsq(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
     """Least squares by the column-scaled normal equations with two steps of refinement.
 
-    For the tall systems of :func:`refit_with_offset` (up to ~1e5 rows, ~40 columns) an SVD
-    solver (``numpy.linalg.lstsq``) took 0.2-0.5 s of CPU a call; the normal equations take a
-    tenth of it. Each refinement step solves them again for the residual's correction (the
+    For the tall systems of :func:`refit_with_offset` (up to ~1e5 rows, a few stiffness columns
+    and up to a few hundred sparse nuisance columns, four non-zeros a row each) an SVD solver
+    (``numpy.linalg.lstsq``) on the dense matrix took 0.2-0.5 s of CPU a call with ~40 columns
+    and seconds with hundreds; the sparse normal equations take a few ms. Each refinement step solves them again for the residual's correction (the
     corrected semi-normal equations), which brings the error back to that of a QR solution
     for condition numbers up to ~1e7 of the scaled matrix.
 
     Parameters
     ----------
-    a : ndarray, shape (n, m)
+    a : ndarray or scipy.sparse matrix, shape (n, m)
     b : ndarray, shape (n,)
 
     Returns
     -------
     coef : ndarray, shape (m,)
     cond : float
-        Condition number of the scaled matrix (square root of that of the normal matrix).
+        A cheap lower bound of the condition number of the scaled matrix (ratio of the
+        extreme diagonal entries of the Cholesky factor).
     """
-    norms = np.linalg.norm(a, axis=0)
-    norms = np.where(norms > 0, norms, 1.0)
-    a_s = a / norms
-    gram = a_s.T @ a_s
-    ev = np.linalg.eigvalsh(gram)
-    cond = float(np.sqrt(ev[-1] / ev[0])) if ev[0] > 0 else float("inf")
-    factor = np.linalg.cholesky(gram + ev[-1] * 1e-15 * np.eye(gram.shape[0]))
+    if sparse.issparse(a):
+        norms = np.sqrt(np.asarray(a.multiply(a).sum(axis=0)).ravel())
+        norms = np.where(norms > 0, norms, 1.0)
+        a_s = a @ sparse.diags(1.0 / norms)
+        gram = (a_s.T @ a_s).toarray()
+    else:
+        norms = np.linalg.norm(a, axis=0)
+        norms = np.where(norms > 0, norms, 1.0)
+        a_s = a / norms
+        gram = a_s.T @ a_s
+    from scipy.linalg import cho_factor, cho_solve  # local: keeps `import eddi` light
+
+    # the scaled columns have unit norm: the Gram matrix has a unit diagonal
+    factor = cho_factor(gram + 1e-14 * np.eye(gram.shape[0]), lower=True)
+    diag = np.abs(np.diag(factor[0]))
+    cond = float(np.max(diag) / max(float(np.min(diag)), 1e-300))
 
     def normal_solve(rhs: np.ndarray) -> np.ndarray:
-        y = np.linalg.solve(factor, a_s.T @ rhs)
-        return np.linalg.solve(factor.T, y)
+        return cho_solve(factor, np.asarray(a_s.T @ rhs).ravel())
 
     sol = normal_solve(b)
     for _ in range(2):
