@@ -119,7 +119,7 @@ def _dk_dx(terms: tuple[Term, ...], x: np.ndarray) -> np.ndarray:
     return (term_matrix(terms, x + h, zero) - term_matrix(terms, x - h, zero)) / (2.0 * h)
 
 
-def _nuisance_basis(p1: PhaseOneResult, n_terms: int) -> np.ndarray | None:
+def _nuisance_basis(p1: PhaseOneResult, n_terms: int):  # -> scipy.sparse.csr_matrix | None
     """:func:`eddi.slow_errors.drift_basis` over phase one's samples, or None when too few rows.
 
     The nuisance columns (two per basis function) must leave at least ten rows per unknown.
@@ -252,9 +252,9 @@ def lagrangian_route(
         ``1 / sqrt((relative_accuracy F0)^2 E / E0 + (mass noise_a)^2)`` (``F0``: the largest
         ``|mass a|``, ``E0``: the first energy): by the relative energy on clean data (as
         ``1 / sqrt(E)``), evenly where the noise dominates. Measured on
-        ``benchmarks/bench_vs_sindy.py``'s records at 45 dB: the ``1 / sqrt(E)`` weights
-        gave the noisy low-amplitude rows the most weight, ``x^3`` 0.6-13 % off where
-        the even weights give 0.05-0.15 %.
+        ``benchmarks/bench_vs_sindy.py``'s ``soft_heavy`` at 45 dB, seed 8: the
+        ``1 / sqrt(E)`` weights gave the noisy low-amplitude rows the most weight, ``x^3``
+        2.6 % off; the even weights 0.05 % (``tests/eddi/test_slow_errors.py``).
     relative_accuracy : float
         Relative accuracy of the force on clean data.
     slow_errors : bool
@@ -287,7 +287,8 @@ def lagrangian_route(
     if basis is not None:
         xk = x[keep]
         dmat = _dk_dx(terms, xk)
-        coef = refit_with_offset(cols, fc[keep], w, coef, basis[np.flatnonzero(keep)], lambda c: dmat @ c, None, normal_lstsq, xk)
+        coef = refit_with_offset(cols, fc[keep], w, coef, basis[np.flatnonzero(keep)], lambda c: dmat @ c,
+                                 None, normal_lstsq, xk)
     fit = cols @ coef
     rms = float(np.sqrt(np.mean((fc[keep] * w) ** 2))) or 1.0
     resid = float(np.sqrt(np.mean(((fit - fc[keep]) * w) ** 2)) / rms)
