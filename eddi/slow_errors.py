@@ -44,7 +44,9 @@ DRIFT_KNOT_PERIODS = 2.0
 #: the library, not a conditioning error).
 MAX_OFFSET = 0.1
 
-#: Refits of the stiffness with the nuisance columns built on the previous estimate of ``K``.
+#: Refits of the stiffness with the nuisance columns built on the previous estimate of ``K``
+#: (one refit: plain EDDI 0.33x / 0.74x STLSQ's median at 45 / 30 dB on bench_vs_sindy's
+#: seeds 3-10; two: 0.32x / 0.72x).
 PASSES = 2
 
 
