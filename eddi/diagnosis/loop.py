@@ -27,8 +27,9 @@ from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.measure import noise_floor
 from eddi.diagnosis.name import (
     UNREFINED, Decision, Fitter, FoldFitter, FoldResults, all_masks, build_candidates, check_trainable, decide, judge_baseline, judge_candidates,
-    rank, spread_of, within_floor,
+    rank, refine_candidates, spread_of, within_floor,
 )
+from eddi.diagnosis.settings import REFINE_CANDIDATES
 from eddi.diagnosis.observed import Observed, observed_second_mode
 from eddi.diagnosis.records import Part, Record, split
 from eddi.diagnosis.results import Candidate, Diagnosis, HeldOut, NoiseFloor, PipelineBaseline, Score, Symptom
@@ -174,6 +175,8 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
     sh = shown
     records, res = sh.records, sh.res
     judge_candidates(res, sh.fold_fits, records, sh.setup, cat, skipped, sh.parts, sh.fold_masks, sh.fitter)
+    if sh.fitter.refine and REFINE_CANDIDATES["on"]:
+        refine_candidates(res, records, sh.setup, [m for m in cat if not skipped[m.name]], sh.parts, sh.fold_masks)
     observed: Observed | None = None
     if not sh.quiet and any(m.name == "second_mode" for m in cat) and all(r.force is None for r in records):
         observed = observed_second_mode(records, sh.parts, sh.fold_masks, res.base_sims,
