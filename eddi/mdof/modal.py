@@ -293,7 +293,22 @@ def _merge_gliding(modes: list[tuple[float, float, np.ndarray, float]]) -> list[
             kept[same[0]] = (k[0], k[1], k[2], k[3] + m[3])
         else:
             kept.append(m)
-    return sorted(kept, key=lambda r: r[0])
+    return _drop_combination_tones(sorted(kept, key=lambda r: r[0]))
+
+
+def _drop_combination_tones(modes: list[tuple[float, float, np.ndarray, float]], weak: float = 0.01, tol: float = 0.01
+                            ) -> list[tuple[float, float, np.ndarray, float]]:
+    """Without the weak columns (share below ``weak``) within ``tol`` of ``3 f_i`` or ``2 f_i +- f_j``
+    of stronger modes: the tones a cubic force puts in the tail, not linear modes."""
+    out = []
+    for m in modes:
+        strong = [k[0] for k in modes if k[3] > m[3] and k[3] >= weak]
+        tones = [3 * a for a in strong] + [abs(2 * a + sgn * b) for a in strong for b in strong if a != b
+                                           for sgn in (1, -1)]
+        if m[3] < weak and any(abs(m[0] - t) <= tol * m[0] for t in tones):
+            continue
+        out.append(m)
+    return out
 
 
 def _mac(a: np.ndarray, b: np.ndarray) -> float:
