@@ -234,7 +234,7 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
     tried = [m for m in cat if not skipped[m.name]]
     need_ee = setup.fit == "eddi" and any(not m.native for m in tried)
 
-    def fold(k: int) -> tuple[float | None, list[tuple[str, float, np.ndarray, dict[str, float] | None]]]:
+    def fold(k: int) -> tuple[float | None, list[tuple[str, float, np.ndarray, dict[str, float] | None, Fit | None]]]:
         part, (fit_fold, bfit) = parts[k], fits[k]
         rec = records[part.record]
         xm = rec.x[part.start:part.stop]
@@ -246,13 +246,14 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
             ee_ref = nrmse(simulate_part(ee_fit.eom, rec, part), xm) if ee_fit else NRMSE_CAP
         out = []
         for mech in tried:
+            # (the fit goes back with the results: a forked fold cannot fill ``res`` itself)
             fit = fit_fold(mech, bfit)
-            res.cand_fits[mech.name].append(fit if mech.native else None)
+            kept = fit if mech.native else None
             if fit is None or fit.mech is None:
-                out.append((mech.name, NRMSE_CAP, np.full_like(xm, np.nan), None))
+                out.append((mech.name, NRMSE_CAP, np.full_like(xm, np.nan), None, kept))
                 continue
             xe = simulate_part(fit.eom, rec, part)
-            out.append((mech.name, nrmse(xe, xm), xe, fit.mech.params))
+            out.append((mech.name, nrmse(xe, xm), xe, fit.mech.params, kept))
         return ee_ref, out
 
     n = len(fits)
@@ -269,7 +270,8 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
     for ee_ref, out in out_all[:n]:
         if ee_ref is not None:
             res.ee_ref.append(ee_ref)
-        for name, value, sim, params in out:
+        for name, value, sim, params, kept in out:
+            res.cand_fits[name].append(kept)
             res.cand_fold[name].append(value)
             res.cand_sims[name].append(sim)
             if params is not None:
