@@ -50,12 +50,16 @@ FACTORS = (2.0, 2.5, 3.0, 3.5, 4.0, 5.0)
 #: Cuts that name a mechanism even within the ``none`` factor (None: never).
 STRONG = (None, 0.6, 0.75, 0.9)
 MECHANISMS = ("coulomb_friction", "quadratic_damping", "clearance", "asymmetric_stiffness", "second_mode",
-              "sensor_highpass")
+              "sensor_highpass", "hysteresis")
+#: Factors of the noise floor within which a named mechanism's extended model must land
+#: (``NAMED_FACTOR``); every case is judged at each (at the default none factor and strong cut).
+NAMED_FACTORS = (2.0, 3.0, 5.0, 10.0, 20.0, math.inf)
 #: Rungs per mechanism: force at the typical amplitude as a fraction of k1 A
 #: (simulated_rig.systems.hide_effect), or the AC-coupling corner [Hz] for sensor_highpass.
 RUNGS = {"coulomb_friction": (0.003, 0.01, 0.03), "quadratic_damping": (0.02, 0.06, 0.2),
          "clearance": (0.02, 0.06, 0.2), "asymmetric_stiffness": (0.02, 0.06, 0.2),
-         "second_mode": (0.02, 0.06, 0.2), "sensor_highpass": (0.3, 0.8, 2.0)}
+         "second_mode": (0.02, 0.06, 0.2), "sensor_highpass": (0.3, 0.8, 2.0),
+         "hysteresis": (0.01, 0.03, 0.1)}
 SETS = {
     "tuning": {"null_seeds": range(1000, 1060), "ladder_seeds": (0, 1, 2), "mass": 0.1, "k1": 600.0,
                "k3": 2e7, "zeta": 0.004, "rate": 5000.0, "snr": 40.0, "record_s": 4.0, "mode_ratio": 2.7},
@@ -129,6 +133,22 @@ def _verdicts(d, factors) -> dict[str, str]:
     return out
 
 
+def _named_verdicts(d) -> dict[str, str]:
+    """The cause at each factor of :data:`NAMED_FACTORS` (default none factor and strong cut)."""
+    from eddi.diagnosis.name import decide
+    from eddi.diagnosis.settings import NONE_FACTOR, STRONG_MARGIN
+
+    pipe = d.pipeline
+    floor = d.noise_floor.nrmse
+    if pipe is not None and pipe.held_out:
+        floors = [fl for p, fl in zip(d.parts, d.noise_floor.fold_nrmse) if p.record in pipe.held_out]
+        floor = float(np.mean(floors)) if floors else floor
+    departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= NONE_FACTOR * floor) else ""
+    return {f"{nf:g}": decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, NONE_FACTOR, nf,
+                              strong_margin=STRONG_MARGIN, eddi_fold=d.reference_fold or None,
+                              departs=departs).cause for nf in NAMED_FACTORS}
+
+
 #: Give the loop the pipeline's baseline, as ``station diagnose`` does (``--no-pipeline``: the
 #: library call without it, as before session 4).
 PIPELINE = {"on": True}
@@ -149,6 +169,7 @@ def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple
     return {"ratio": d.judging.nrmse / d.noise_floor.nrmse, "baseline_nrmse": d.judging.nrmse,
             "pipeline_nrmse": d.pipeline.nrmse if d.pipeline is not None else None,
             "floor": d.noise_floor.nrmse, "partial": d.partial, "causes": _verdicts(d, factors),
+            "named_causes": _named_verdicts(d),
             "candidates": [[c.name, round(c.nrmse, 5), round(c.gain, 4), c.wins_every_part, c.consistent]
                            for c in d.candidates if not c.skipped and c.model is not None]}, \
         time.process_time() - t0
@@ -253,9 +274,36 @@ def summary(path: str, factor: float, strong: float | None) -> None:
             print(f"   {name:<21} {mag:<6g} found {found}/{n}  unexplained {unex}/{n}  none {none}/{n}  "
                   f"wrong {len(wrong)}/{n}{' ' + ','.join(wrong) if wrong else ''}  refused {n - len(ok)}/{n}  "
                   f"ratio {ratio:.2f}")
+        _named_table(nulls, lad)
         cpu = [r["cpu_s"] for r in rows if r.get("set") == set_name and "cpu_s" in r]
         if cpu:
             print(f"[{set_name}] CPU per case median {np.median(cpu):.1f} s, max {max(cpu):.1f} s")
+
+
+def _named_table(nulls: list, lad: list) -> None:
+    """Per named factor: nulls named, ladder rungs found / unexplained / wrong, and the largest
+    extended/floor ratio of a correctly named case."""
+    have = [r for r in lad if "named_causes" in r]
+    if not have:
+        return
+    print("   named factor (extended model within F x floor): rungs found / unexplained / none / wrong; "
+          "nulls named")
+    for nf in sorted({k for r in have for k in r["named_causes"]}, key=float):
+        c = [(r["named_causes"][nf], r["mechanism"]) for r in have]
+        found = sum(x == m for x, m in c)
+        wrong = [f"{m}->{x}" for x, m in c if x not in (m, "unexplained", "none")]
+        named_nulls = sum(r.get("named_causes", {}).get(nf, "none") not in ("none", "unexplained") for r in nulls)
+        print(f"     F {nf:>4}: {found} / {sum(x == 'unexplained' for x, _ in c)} / {sum(x == 'none' for x, _ in c)}"
+              f" / {len(wrong)}{' (' + ', '.join(wrong) + ')' if wrong else ''} of {len(c)}; "
+              f"nulls named {named_nulls}/{len(nulls)}")
+    ok = []
+    for r in have:
+        cand = {c[0]: c[1] for c in r["candidates"]}
+        if r["named_causes"].get("inf") == r["mechanism"] and r["mechanism"] in cand:
+            ok.append(cand[r["mechanism"]] / r["floor"])
+    if ok:
+        print(f"     right cause named with no factor: extended/floor median {np.median(ok):.2f}, "
+              f"max {max(ok):.2f} ({len(ok)} cases)")
 
 
 def main() -> None:

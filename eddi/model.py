@@ -47,6 +47,13 @@ EFFECTS: dict[str, dict[str, tuple[str, float | None]]] = {
         "damping_n_s_per_m": ("N s/m", 0.0),
         "coupling_n_per_m": ("N/m", None),
     },
+    # F = yield_force_n * z, a Bouc-Wen element (beta = gamma = 1/2, eddi/hysteresis.py):
+    #   dz = (dx / yield_displacement_m) (1 - |z|^exponent (sign(dx z) + 1) / 2)
+    "hysteresis": {
+        "yield_force_n": ("N", None),
+        "yield_displacement_m": ("m", None),
+        "exponent": ("1", 2.0),
+    },
 }
 
 
@@ -92,6 +99,8 @@ class Effect(BaseModel):
             raise ValueError("effect 'second_mode' needs mass_kg > 0")
         if self.name == "clearance" and full["gap_m"] < 0:
             raise ValueError("effect 'clearance' needs gap_m >= 0")
+        if self.name == "hysteresis" and not (full["yield_displacement_m"] > 0 and full["exponent"] > 0):
+            raise ValueError("effect 'hysteresis' needs yield_displacement_m > 0 and exponent > 0")
         if self.name == "coulomb_friction" and full["velocity_scale"] <= 0:
             raise ValueError("effect 'coulomb_friction' needs velocity_scale > 0")
         object.__setattr__(self, "params", full)
@@ -287,6 +296,12 @@ def effect_force(effect: Effect, x: np.ndarray, v: np.ndarray, y: np.ndarray | N
     if effect.name == "second_mode":
         yy = np.zeros_like(x) if y is None else np.asarray(y, float)
         return p["coupling_n_per_m"] * (x - yy)
+    if effect.name == "hysteresis":  # history dependent: x is taken as a path from z = 0
+        from eddi.hysteresis import bouc_wen_z
+
+        flat = np.ravel(x)
+        z = bouc_wen_z(flat, p["yield_displacement_m"], p["exponent"]) if flat.size else flat
+        return p["yield_force_n"] * z.reshape(np.shape(x))
     raise ModelError(f"unknown effect {effect.name!r}")  # pragma: no cover - validated earlier
 
 

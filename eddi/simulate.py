@@ -180,6 +180,8 @@ def _effect_vector(eom: EquationOfMotion) -> np.ndarray:
         elif e.name == "asymmetric_stiffness":
             eff[_E_K2] = p["k2"]
             eff[_E_K4] = p["k4"]
+        elif e.name == "hysteresis":  # its own state: eddi.hysteresis integrates it
+            continue
         elif e.name == "second_mode":
             eff[_E_M2] = p["mass_kg"]
             eff[_E_K2M] = p["stiffness_n_per_m"]
@@ -225,6 +227,8 @@ def max_angular_frequency(eom: EquationOfMotion, x_scale: float = 0.0, v_scale: 
             c_tan = max(c_tan, 0.0)
         elif e.name == "quadratic_damping":
             c_tan += abs(p["coefficient"]) * 2 * vs
+        elif e.name == "hysteresis":
+            k_tan += abs(p["yield_force_n"]) / p["yield_displacement_m"]
         elif e.name == "coulomb_friction":
             c_tan += abs(p["force_n"]) / p["velocity_scale"] * 0.0  # smoothed; not a rate limit
     omega = math.sqrt(k_tan / eom.mass) if k_tan > 0 else 0.0
@@ -312,9 +316,14 @@ def simulate(
     exps = exponent_table(eom.damping_terms() + eom.stiffness_terms())
     coefs = np.array(list(eom.damping.values()) + list(eom.stiffness.values()), dtype=float)
     eff = _effect_vector(eom)
-    out = np.empty((n, 4))
-    state0 = np.array([float(x0), float(v0), 0.0, 0.0])
-    div = _KERNELS._rk4(f, dt, substeps, state0, 1.0 / eom.mass, exps, coefs, eff, out)
+    if eom.effect("hysteresis") is not None:
+        from eddi.hysteresis import simulate_hysteretic
+
+        out, div = simulate_hysteretic(eom, f, dt, n, x0, v0, substeps, exps, coefs, eff)
+    else:
+        out = np.empty((n, 4))
+        state0 = np.array([float(x0), float(v0), 0.0, 0.0])
+        div = _KERNELS._rk4(f, dt, substeps, state0, 1.0 / eom.mass, exps, coefs, eff, out)
     has_mode = eom.effect("second_mode") is not None
     return SimulationResult(
         t=t,
@@ -339,13 +348,14 @@ def local_angular_frequency(eom: EquationOfMotion, x_amp: float, v_amp: float) -
         return max_angular_frequency(eom, x_amp, v_amp)
     xs = np.linspace(-x_amp, x_amp, 257)
     vs = np.linspace(-v_amp, v_amp, 257)
-    k_tan = 0.0
-    c_tan = 0.0
-    for xv in (0.0, x_amp, -x_amp):  # damping terms may depend on x
-        f_x = eom.restoring_force(xs, np.full_like(xs, xv * v_amp / x_amp))
-        f_v = eom.restoring_force(np.full_like(vs, xv), vs)
-        k_tan = max(k_tan, float(np.max(np.abs(np.gradient(f_x, xs)))))
-        c_tan = max(c_tan, float(np.max(np.abs(np.gradient(f_v, vs)))))
+    at = (0.0, x_amp, -x_amp)  # damping terms may depend on x
+    # the six lines (K along x at three v, B along v at three x) in one evaluation (this runs
+    # ~100 times per identification: a sum of small array operations)
+    xx = np.concatenate((np.tile(xs, 3), np.repeat(at, xs.size)))
+    vv = np.concatenate((np.repeat([xv * v_amp / x_amp for xv in at], xs.size), np.tile(vs, 3)))
+    f = eom.restoring_force(xx, vv).reshape(6, xs.size)
+    k_tan = float(np.max(np.abs(np.gradient(f[:3], xs, axis=1))))
+    c_tan = float(np.max(np.abs(np.gradient(f[3:], vs, axis=1))))
     return max(math.sqrt(k_tan / eom.mass), c_tan / eom.mass)
 
 

@@ -223,6 +223,9 @@ def hide_effect(system: str | EquationOfMotion, name: str, magnitude: float, see
     - ``asymmetric_stiffness``: ``k2 = mag k1 / A``, ``k4 = 0``.
     - ``second_mode``: ``mass_kg = 0.1 m``, coupling ``mag k1``, own stiffness so that its
       frequency is 2.7 times the first linear one, 2 % damping.
+    - ``hysteresis``: a Bouc-Wen element in parallel, ``yield_force_n = mag k1 A``,
+      ``yield_displacement_m = A / 3``, ``exponent`` 1.5 (its initial stiffness ``3 mag k1``
+      adds to the spring's).
 
     Parameters
     ----------
@@ -267,6 +270,8 @@ def hide_effect(system: str | EquationOfMotion, name: str, magnitude: float, see
         params = {"gap_m": 0.5 * a, "stiffness_n_per_m": 2.0 * mag * k1}
     elif name == "asymmetric_stiffness":
         params = {"k2": mag * k1 / a, "k4": 0.0}
+    elif name == "hysteresis":
+        params = {"yield_force_n": mag * k1 * a, "yield_displacement_m": a / 3.0, "exponent": 1.5}
     else:  # second_mode
         m2 = SECOND_MODE_MASS_RATIO * eom.mass
         kc = mag * k1

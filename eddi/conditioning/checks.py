@@ -20,8 +20,8 @@ def check_time(t: np.ndarray) -> float:
     t = np.asarray(t, dtype=float)
     if t.ndim != 1 or t.size < 16:
         raise SignalError(f"time must be a 1-D array of at least 16 samples, got shape {t.shape}")
-    bad = np.nonzero(~np.isfinite(t))[0]
-    if bad.size:
+    if not np.isfinite(t).all():
+        bad = np.nonzero(~np.isfinite(t))[0]
         raise SignalError(f"time is NaN or infinite at sample {int(bad[0])}")
     dt = np.diff(t)
     if np.any(dt <= 0):
@@ -29,7 +29,11 @@ def check_time(t: np.ndarray) -> float:
         raise SignalError(f"time must increase; t[{i + 1}] = {t[i + 1]:g} after t[{i}] = {t[i]:g}")
     step = (t[-1] - t[0]) / (t.size - 1)
     # each sample within 1 % of a step of the uniform grid (allows times printed with few digits)
-    dev = np.abs(t - (t[0] + step * np.arange(t.size)))
+    dev = np.arange(t.size, dtype=float)  # |t - (t[0] + step i)|, in place in one buffer
+    dev *= step
+    dev += t[0]
+    dev -= t
+    np.abs(dev, out=dev)
     if np.max(dev) > 0.01 * step:
         i = int(np.argmax(dev))
         raise SignalError(

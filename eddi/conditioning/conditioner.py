@@ -9,9 +9,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import cumulative_trapezoid
 
-from eddi.calculus import integrate, spline_cumulative_integral
+from eddi.calculus import cumulative_trapezoid, integrate, spline_cumulative_integral
 from eddi.conditioning.checks import check_channel, check_time
 from eddi.conditioning.conditioned import ConditionedSignal
 from eddi.conditioning.equilibrium import EquilibriumIntegral, _equilibrium_note, integrate_about_equilibrium
@@ -138,7 +137,10 @@ def _inputs(t: np.ndarray, acc: np.ndarray | None, vel: np.ndarray | None, disp:
     t = np.asarray(t, dtype=float)
     n = t.size
     # the exact uniform grid (times in files are often printed with few digits)
-    t = t[0] + np.arange(n) * ((t[-1] - t[0]) / (n - 1))
+    grid = np.arange(n, dtype=float)  # t[0] + i step, in one buffer
+    grid *= (t[-1] - t[0]) / (n - 1)
+    grid += t[0]
+    t = grid
     if acc is None and vel is None and disp is None:
         raise SignalError("need at least one of acc, vel, disp; got none")
     acc = None if acc is None else check_channel("acc", acc, n)
@@ -201,7 +203,7 @@ def _remove_rest_offsets(w: _Work, ac_coupling_s: float | None) -> None:
     if w.acc is not None and ac_coupling_s is not None:
         if not ac_coupling_s > 0:
             raise SignalError(f"ac_coupling_s must be > 0, got {ac_coupling_s}")
-        w.acc = w.acc + cumulative_trapezoid(w.acc, w.t, initial=0.0) / ac_coupling_s
+        w.acc = w.acc + cumulative_trapezoid(w.acc, w.t) / ac_coupling_s
         w.notes.append(f"AC coupling ({ac_coupling_s:g} s) inverted")
 
 
@@ -277,7 +279,10 @@ def _anchored_drift(w: _Work, x_int: np.ndarray, v_int: np.ndarray, a_for_anchor
     near = near[(near > max(first, w.start)) & (near < stop)]
     step = max(1, int(round(w.period_s * w.rate / (2 * half_w + 1) / 2.0)))
     tail = np.arange(stop, w.n, step)
-    pts = np.unique(np.concatenate((near, tail)))
+    mark = np.zeros(w.n, dtype=bool)  # sorted and unique, as np.unique gives, in one O(n) pass
+    mark[near] = True
+    mark[tail] = True
+    pts = np.flatnonzero(mark)
     local = -np.column_stack((a_for_anchor[pts], v_int[pts]))
     spl = _drift_spline(w.t, x_int, pts, KNOT_PERIODS * w.period_s, w.start, clamped=w.rest, local=local,
                         free_slope=w.free_slope)

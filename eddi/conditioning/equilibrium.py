@@ -7,11 +7,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import cumulative_trapezoid
 from scipy.interpolate import BSpline
 from scipy.linalg import solveh_banded
 
-from eddi.calculus import spline_cumulative_integral
+from eddi.calculus import cumulative_trapezoid, spline_cumulative_integral
 from eddi.conditioning.checks import check_time
 from eddi.conditioning.levels import crossings
 from eddi.errors import SignalError
@@ -126,7 +125,7 @@ def _cycle_means(t: np.ndarray, y: np.ndarray, width_s: np.ndarray) -> tuple[np.
     ``width_s`` may vary with ``t`` (one local period). The integral is the trapezoid
     cumulative integral interpolated at the window ends (fractional samples).
     """
-    cum = cumulative_trapezoid(y, t, initial=0.0)
+    cum = cumulative_trapezoid(y, t)
     ok = (t - width_s / 2 >= t[0]) & (t + width_s / 2 <= t[-1])
     tc, w = t[ok], width_s[ok]
     return tc, (np.interp(tc + w / 2, t, cum) - np.interp(tc - w / 2, t, cum)) / w

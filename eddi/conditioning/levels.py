@@ -39,13 +39,13 @@ def crossings(y: np.ndarray, hysteresis: float, start: int = 0, stop: int | None
     seg = np.asarray(y[start:stop], float)
     if seg.size < 3:
         return np.zeros(0)
-    state = np.where(seg > hysteresis, 1, np.where(seg < -hysteresis, -1, 0))
-    nz = np.nonzero(state)[0]
+    nz = np.flatnonzero((seg > hysteresis) | (seg < -hysteresis))  # beyond the threshold
     if nz.size < 2:
         return np.zeros(0)
-    s = state[nz]
+    s = seg[nz] > hysteresis  # on the positive side
     flips = nz[1:][s[1:] != s[:-1]]  # first sample beyond threshold on the new side
-    sign_change = np.nonzero(np.signbit(seg[:-1]) != np.signbit(seg[1:]))[0]
+    neg = np.signbit(seg)
+    sign_change = np.flatnonzero(neg[:-1] != neg[1:])
     if flips.size == 0 or sign_change.size == 0:
         return np.zeros(0)
     pos = np.searchsorted(sign_change, flips, side="left") - 1

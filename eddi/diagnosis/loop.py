@@ -28,8 +28,9 @@ from eddi.diagnosis.mapping import Mapper
 from eddi.diagnosis.measure import noise_floor
 from eddi.diagnosis.name import (
     UNREFINED, Decision, Fitter, FoldFitter, FoldResults, all_masks, build_candidates, check_trainable, decide,
-    final_fits, judge_baseline, judge_candidates, rank, spread_of, within_floor,
+    final_fits, judge_baseline, judge_candidates, rank, refine_candidates, spread_of, within_floor,
 )
+from eddi.diagnosis.settings import REFINE_CANDIDATES
 from eddi.diagnosis.observed import Observed, observed_second_mode
 from eddi.diagnosis.records import Part, Record, split
 from eddi.diagnosis.results import Candidate, Diagnosis, HeldOut, NoiseFloor, PipelineBaseline, Score, Symptom
@@ -194,6 +195,9 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
                                              consistency))
     finals, done = judge_candidates(res, sh.fold_fits, records, sh.setup, cat, skipped, sh.parts, sh.fold_masks,
                                     sh.fitter, (sh.fit_all, sh.bfit_all), extra)
+    if sh.fitter.refine and REFINE_CANDIDATES["on"]:
+        refine_candidates(res, records, sh.setup, [m for m in cat if not skipped[m.name]], sh.parts, sh.fold_masks,
+                          sh.fitter.map)
     observed: Observed | None = done.pop(0) if want_observed else None
     candidates, _finals, notes = build_candidates(cat, skipped, res, final_fits(finals, sh.fit_all), sh.bfit_all,
                                                   len(sh.parts), consistency, sh.setup.stiffness, observed)

@@ -21,7 +21,7 @@ from eddi.diagnosis.mapping import Mapper, serial_map
 from eddi.diagnosis.observed import Observed
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.results import Candidate, NoiseFloor
-from eddi.diagnosis.settings import NRMSE_CAP, REFERENCE_MARGIN
+from eddi.diagnosis.settings import FULL_REFERENCE_MARGIN, NRMSE_CAP, REFERENCE_MARGIN
 from eddi.diagnosis.show import nmte, nrmse, simulate_part, simulate_part_xv
 from eddi.errors import IdentificationError, ModelError, SignalError
 
@@ -153,6 +153,8 @@ class FoldResults:
     cand_fold: dict[str, list[float]] = field(default_factory=dict)
     cand_params: dict[str, list[dict[str, float]]] = field(default_factory=dict)
     cand_sims: dict[str, list[np.ndarray]] = field(default_factory=dict)
+    cand_fits: dict[str, list[Fit | None]] = field(default_factory=dict)  # per fold (native ones)
+    cand_refined: dict[str, bool] = field(default_factory=dict)  # judged refined, as the baseline
 
 
 def judge_baseline(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
@@ -228,10 +230,12 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
     res.cand_fold = {m.name: [] for m in cat}
     res.cand_params = {m.name: [] for m in cat}
     res.cand_sims = {m.name: [] for m in cat}
+    res.cand_fits = {m.name: [] for m in cat}
     tried = [m for m in cat if not skipped[m.name]]
     need_ee = setup.fit == "eddi" and any(not m.native for m in tried)
 
-    def fold(k: int) -> tuple[float | None, list[tuple[str, float, np.ndarray, dict[str, float] | None]]]:
+    def fold(k: int) -> tuple[float | None, list[tuple[str, float, np.ndarray, dict[str, float] | None,
+                                                      Fit | None]]]:
         part, (fit_fold, bfit) = parts[k], fits[k]
         rec = records[part.record]
         xm = rec.x[part.start:part.stop]
@@ -244,11 +248,12 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
         out = []
         for mech in tried:
             fit = fit_fold(mech, bfit)
+            kept = fit if mech.native else None  # (res.cand_fits, filled below)
             if fit is None or fit.mech is None:
-                out.append((mech.name, NRMSE_CAP, np.full_like(xm, np.nan), None))
+                out.append((mech.name, NRMSE_CAP, np.full_like(xm, np.nan), None, kept))
                 continue
             xe = simulate_part(fit.eom, rec, part)
-            out.append((mech.name, nrmse(xe, xm), xe, fit.mech.params))
+            out.append((mech.name, nrmse(xe, xm), xe, fit.mech.params, kept))
         return ee_ref, out
 
     n = len(fits)
@@ -265,7 +270,8 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
     for ee_ref, out in out_all[:n]:
         if ee_ref is not None:
             res.ee_ref.append(ee_ref)
-        for name, value, sim, params in out:
+        for name, value, sim, params, kept in out:
+            res.cand_fits[name].append(kept)
             res.cand_fold[name].append(value)
             res.cand_sims[name].append(sim)
             if params is not None:
@@ -279,6 +285,55 @@ def final_fits(fits: dict[str, Fit | None], fit_all: FoldFitter) -> Callable[[Me
     def fit(mech: Mechanism, base_fit: Fit | None) -> Fit | None:
         return fits[mech.name] if mech.name in fits else fit_all(mech, base_fit)
     return fit
+
+
+def refine_candidates(res: FoldResults, records: Sequence[Record], setup: Setup, cat: Sequence[Mechanism],
+                      parts: Sequence[Part], fold_masks: Sequence[Sequence[np.ndarray]],
+                      mapper: Mapper | None = None) -> None:
+    """Judge candidates refined as the baseline is (the pipeline kept its refinement).
+
+    The judged baseline is refined by output error per fold (:func:`refined_baseline`); a
+    weak mechanism that refinement absorbs is then compared with an unrefined extension and
+    loses by the fitter. Every EDDI-fitted (native) candidate that beats EDDI's unrefined
+    baseline on every held-out part is refined per fold by the same procedure (the fold's
+    median-blow training record, kept only when it lowers the other training records'
+    error) and judged again; its reference becomes the refined baseline. Candidates refitted
+    by equation error (hidden second mode, hysteresis) keep their equation-error reference,
+    ``sensor_highpass`` its unrefined one (refining it alone named it for a strong drag:
+    docs/diagnosis.md). A candidate that does not help the unrefined fit is not refined (cost).
+    """
+    chosen = []
+    for mech in cat:
+        fits = res.cand_fits.get(mech.name) or []
+        folds = res.cand_fold.get(mech.name) or []
+        if (not mech.native or len(fits) != len(parts) or len(folds) != len(parts)
+                or not all(c < r for c, r in zip(folds, res.ref_fold))):
+            continue
+        chosen.append(mech)
+    work = [(mech, k) for mech in chosen for k in range(len(parts))]
+
+    def one(item: tuple[Mechanism, int]) -> np.ndarray | None:
+        mech, k = item
+        part, masks, fit = parts[k], fold_masks[k], res.cand_fits[mech.name][k]
+        rfit = refined_baseline(fit, records, masks, setup) if fit is not None else None
+        return simulate_part(rfit.eom, records[part.record], part) if rfit is not None else None
+
+    # the (candidate, fold) refinements are independent: through ``mapper``
+    sims = (mapper or serial_map)(one, work)
+    for j, mech in enumerate(chosen):
+        new_fold, new_sims = [], []
+        for k, part in enumerate(parts):
+            xm = records[part.record].x[part.start:part.stop]
+            xe = sims[j * len(parts) + k]
+            if xe is None:
+                new_fold.append(NRMSE_CAP)
+                new_sims.append(np.full_like(xm, np.nan))
+                continue
+            new_fold.append(nrmse(xe, xm))
+            new_sims.append(xe)
+        res.cand_fold[mech.name] = new_fold
+        res.cand_sims[mech.name] = new_sims
+        res.cand_refined[mech.name] = True
 
 
 def within_floor(base_fold: Sequence[float], floor: NoiseFloor, none_factor: float) -> bool:
@@ -307,7 +362,8 @@ def build_candidates(cat: Sequence[Mechanism], skipped: dict[str, str | None], r
                                         {}, None, "", skipped[mech.name]))
             continue
         folds = res.cand_fold[mech.name]
-        ref_fold = res.ee_ref if (res.ee_ref and not mech.native) else res.ref_fold
+        ref_fold = res.ee_ref if (res.ee_ref and not mech.native) else (
+            res.base_fold if res.cand_refined.get(mech.name) else res.ref_fold)
         ref_nrmse = float(np.mean(ref_fold))
         mean = float(np.mean(folds))
         fit = fit_all(mech, bfit_all)
@@ -326,7 +382,8 @@ def build_candidates(cat: Sequence[Mechanism], skipped: dict[str, str | None], r
         cand = Candidate(mech.name, mean, tuple(folds), 1.0 - mean / ref_nrmse if ref_nrmse > 0 else 0.0,
                          all(c < b for c, b in zip(folds, ref_fold)), consistent, params, spread,
                          model, symptom, "", ref_nrmse,
-                         (("baseline" if res.ref_fold == res.base_fold else UNREFINED)
+                         ("baseline" if ref_fold is res.base_fold else
+                          ("baseline" if res.ref_fold == res.base_fold else UNREFINED)
                           if ref_fold is res.ref_fold else "equation-error baseline"),
                          "hidden" if mech.name == "second_mode" else "")
         if obs_cand is not None and mech.name == "second_mode":
@@ -417,8 +474,9 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
         cut = min(1.0 - c.nrmse / base if base > 0 else 0.0, 1.0 - c.nrmse / eddi if eddi > 0 else 0.0)
         if not cut >= need:
             fails.append(f"cuts the error by {100 * cut:.0f} % (needs {100 * need:.0f} %)")
-        if c.reference not in ("baseline", UNREFINED) and not c.gain >= reference_margin:
-            fails.append(f"beats its {c.reference} by {100 * c.gain:.0f} % (needs {100 * reference_margin:.0f} %)")
+        ref_need = max(margin, reference_margin) if c.name in FULL_REFERENCE_MARGIN else reference_margin
+        if c.reference not in ("baseline", UNREFINED) and not c.gain >= ref_need:
+            fails.append(f"beats its {c.reference} by {100 * c.gain:.0f} % (needs {100 * ref_need:.0f} %)")
         if not c.wins_every_part:
             fails.append("does not win on every held-out part")
         if not c.consistent:

@@ -8,6 +8,7 @@ Bouc-Wen hysteretic spring) is integrated here (RK4) and measured with the same 
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 
@@ -58,7 +59,15 @@ def rig_records(seed: int, *, system: EquationOfMotion = SYSTEM, effects=(), for
 def bouc_wen_records(seed: int, *, forces=(20.0, 25.0, 30.0), record_s: float = 3.0,
                      snr_db: float = 40.0) -> list[Record]:
     """A hysteretic (Bouc-Wen) spring: ``m a + c v + alpha k x + (1 - alpha) k z = F`` with
-    ``z' = v (1 - (beta sign(v z) + gamma) |z|^n)`` scaled by the yield displacement."""
+    ``z' = v (1 - (beta sign(v z) + gamma) |z|^n)`` scaled by the yield displacement.
+
+    Integrated here in plain Python (independent of ``eddi.hysteresis``), about 20 s: the
+    records of a seed are made once per test process."""
+    return list(_bouc_wen_records(seed, tuple(forces), record_s, snr_db))
+
+
+@functools.lru_cache(maxsize=4)
+def _bouc_wen_records(seed: int, forces: tuple, record_s: float, snr_db: float) -> tuple[Record, ...]:
     m, c, k, alpha = 0.1, 0.06, 600.0, 0.6
     dy, beta, gamma, n_exp = 0.6e-3, 0.5, 0.5, 1.5
     rng = np.random.default_rng(seed)
@@ -98,4 +107,4 @@ def bouc_wen_records(seed: int, *, forces=(20.0, 25.0, 30.0), record_s: float = 
         acc_m = acc + sigma * rng.standard_normal(n)
         force_m = force + 0.01 * rng.standard_normal(n)
         out.append(to_record(t, acc_m, force_m, n_pre, f"bouc-wen {i + 1}"))
-    return out
+    return tuple(out)

@@ -237,3 +237,21 @@ def test_measured_double_beam_displacement_has_no_drift(name: str) -> None:
         assert abs(np.mean(c.x[part])) < 5e-3 * np.max(np.abs(c.x[part]))
     plain = spline_cumulative_integral(c.t, raw[:, 1])
     assert abs(np.mean(plain[-half:] - plain[:half])) > 1.0 * np.max(np.abs(c.x[-half:]))
+
+
+def test_drift_spline_evaluated_piecewise_equals_the_bspline() -> None:
+    """The drift spline's Horner evaluation per knot interval equals scipy's B-spline (value and
+    slope) on a long uniform record, knots off the sample grid, clamped ends; 0 before ``start``."""
+    from scipy.interpolate import BSpline
+
+    from eddi.conditioning.kinematics import _drift_spline_eval
+
+    t = np.arange(200_003) / 19200.0
+    start = 1234
+    inner = np.linspace(t[start], t[-1], 38)
+    knots = np.concatenate(([t[start]] * 3, inner, [t[-1]] * 3))
+    spl = BSpline(knots, np.random.default_rng(3).normal(size=knots.size - 4), 3, extrapolate=False)
+    d, dd = _drift_spline_eval(spl, t, start)
+    np.testing.assert_allclose(d[start:], spl(t[start:]), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(dd[start:], spl.derivative()(t[start:]), rtol=0, atol=1e-11)
+    assert not d[:start].any() and not dd[:start].any()

@@ -109,6 +109,13 @@ def test_hide_effect_sizes_every_effect_by_magnitude(name: str) -> None:
     k1a = 390.0 * a  # paper Sec. 3.3.1: k1 = 390 N/m
     if name == "second_mode":
         assert eff.params["coupling_n_per_m"] / 390.0 == pytest.approx(0.1, rel=0.21)
+    elif name == "hysteresis":  # history dependent: the yield force is the size; loading to A nears it
+        from eddi.model import effect_force
+
+        fy = eff.params["yield_force_n"]
+        assert 0.08 * k1a <= fy <= 0.12 * k1a
+        path = np.linspace(0.0, a, 400)
+        assert 0.9 * fy <= float(effect_force(eff, path, np.full_like(path, v))[-1]) <= fy
     else:
         from eddi.model import effect_force
 
