@@ -304,14 +304,18 @@ def residual_figure(diag: Diagnosis, records: Sequence[Record], max_points: int 
         _modal_residual(ax[0, len(models) + k], diag, modal, k, max_points, cache)
     xs = np.concatenate([r.x[r.free_start:r.free_stop] for r in records])
     vs = np.concatenate([r.v[r.free_start:r.free_stop] for r in records])
-    a_ = np.concatenate([r.a[r.free_start:r.free_stop] for r in records])
-    fs = np.concatenate([(r.force if r.force is not None else np.zeros_like(r.x))[r.free_start:r.free_stop]
-                         for r in records])
     step = max(1, xs.size // max_points)
-    res0 = residual_force(models[0][1], xs, vs, a_, fs)
+
+    def per_record(eom) -> np.ndarray:  # record by record: a hysteretic force follows each path
+        return np.concatenate([residual_force(eom, r.x[r.free_start:r.free_stop], r.v[r.free_start:r.free_stop],
+                                              r.a[r.free_start:r.free_stop],
+                                              None if r.force is None else r.force[r.free_start:r.free_stop])
+                               for r in records])
+
+    res0 = per_record(models[0][1])
     lim = float(np.nanpercentile(np.abs(res0), 99)) or 1.0
     for k, (name, eom) in enumerate(models):
-        res = residual_force(eom, xs, vs, a_, fs)
+        res = per_record(eom)
         sc = ax[0, k].scatter(xs[::step], vs[::step], c=res[::step], s=1, cmap="coolwarm",
                               vmin=-lim, vmax=lim, rasterized=True)
         ax[0, k].set_xlabel("x [m]")
