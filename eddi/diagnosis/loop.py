@@ -196,7 +196,8 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
     finals, done = judge_candidates(res, sh.fold_fits, records, sh.setup, cat, skipped, sh.parts, sh.fold_masks,
                                     sh.fitter, (sh.fit_all, sh.bfit_all), extra)
     if sh.fitter.refine and REFINE_CANDIDATES["on"]:
-        refine_candidates(res, records, sh.setup, [m for m in cat if not skipped[m.name]], sh.parts, sh.fold_masks)
+        refine_candidates(res, records, sh.setup, [m for m in cat if not skipped[m.name]], sh.parts, sh.fold_masks,
+                          sh.fitter.map)
     observed: Observed | None = done.pop(0) if want_observed else None
     candidates, _finals, notes = build_candidates(cat, skipped, res, final_fits(finals, sh.fit_all), sh.bfit_all,
                                                   len(sh.parts), consistency, sh.setup.stiffness, observed)

@@ -234,7 +234,8 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
     tried = [m for m in cat if not skipped[m.name]]
     need_ee = setup.fit == "eddi" and any(not m.native for m in tried)
 
-    def fold(k: int) -> tuple[float | None, list[tuple[str, float, np.ndarray, dict[str, float] | None, Fit | None]]]:
+    def fold(k: int) -> tuple[float | None, list[tuple[str, float, np.ndarray, dict[str, float] | None,
+                                                      Fit | None]]]:
         part, (fit_fold, bfit) = parts[k], fits[k]
         rec = records[part.record]
         xm = rec.x[part.start:part.stop]
@@ -246,9 +247,8 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
             ee_ref = nrmse(simulate_part(ee_fit.eom, rec, part), xm) if ee_fit else NRMSE_CAP
         out = []
         for mech in tried:
-            # (the fit goes back with the results: a forked fold cannot fill ``res`` itself)
             fit = fit_fold(mech, bfit)
-            kept = fit if mech.native else None
+            kept = fit if mech.native else None  # (res.cand_fits, filled below)
             if fit is None or fit.mech is None:
                 out.append((mech.name, NRMSE_CAP, np.full_like(xm, np.nan), None, kept))
                 continue
@@ -288,7 +288,8 @@ def final_fits(fits: dict[str, Fit | None], fit_all: FoldFitter) -> Callable[[Me
 
 
 def refine_candidates(res: FoldResults, records: Sequence[Record], setup: Setup, cat: Sequence[Mechanism],
-                      parts: Sequence[Part], fold_masks: Sequence[Sequence[np.ndarray]]) -> None:
+                      parts: Sequence[Part], fold_masks: Sequence[Sequence[np.ndarray]],
+                      mapper: Mapper | None = None) -> None:
     """Judge candidates refined as the baseline is (the pipeline kept its refinement).
 
     The judged baseline is refined by output error per fold (:func:`refined_baseline`); a
@@ -301,22 +302,33 @@ def refine_candidates(res: FoldResults, records: Sequence[Record], setup: Setup,
     ``sensor_highpass`` its unrefined one (refining it alone named it for a strong drag:
     docs/diagnosis.md). A candidate that does not help the unrefined fit is not refined (cost).
     """
+    chosen = []
     for mech in cat:
         fits = res.cand_fits.get(mech.name) or []
         folds = res.cand_fold.get(mech.name) or []
         if (not mech.native or len(fits) != len(parts) or len(folds) != len(parts)
                 or not all(c < r for c, r in zip(folds, res.ref_fold))):
             continue
+        chosen.append(mech)
+    work = [(mech, k) for mech in chosen for k in range(len(parts))]
+
+    def one(item: tuple[Mechanism, int]) -> np.ndarray | None:
+        mech, k = item
+        part, masks, fit = parts[k], fold_masks[k], res.cand_fits[mech.name][k]
+        rfit = refined_baseline(fit, records, masks, setup) if fit is not None else None
+        return simulate_part(rfit.eom, records[part.record], part) if rfit is not None else None
+
+    # the (candidate, fold) refinements are independent: through ``mapper``
+    sims = (mapper or serial_map)(one, work)
+    for j, mech in enumerate(chosen):
         new_fold, new_sims = [], []
-        for part, masks, fit in zip(parts, fold_masks, fits):
-            rec = records[part.record]
-            xm = rec.x[part.start:part.stop]
-            rfit = refined_baseline(fit, records, masks, setup) if fit is not None else None
-            if rfit is None:
+        for k, part in enumerate(parts):
+            xm = records[part.record].x[part.start:part.stop]
+            xe = sims[j * len(parts) + k]
+            if xe is None:
                 new_fold.append(NRMSE_CAP)
                 new_sims.append(np.full_like(xm, np.nan))
                 continue
-            xe = simulate_part(rfit.eom, rec, part)
             new_fold.append(nrmse(xe, xm))
             new_sims.append(xe)
         res.cand_fold[mech.name] = new_fold
