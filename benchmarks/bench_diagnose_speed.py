@@ -19,7 +19,10 @@ Targets (issue 13): ``three`` <= 3 s, ``beam`` <= 8 s on a quiet 2-core machine.
     python benchmarks/bench_diagnose_speed.py --case cli --runs 3    # whole processes, wall + CPU
 
 ``--case cli``: whole ``station diagnose`` processes (imports, reading, conditioning, the
-pipeline baseline, the diagnosis), one process. CPU is the process's (and its children's).
+pipeline baseline, the diagnosis). CPU is the process's and its forked workers'. Each case
+runs twice per round: in one process (``STATION_SERIAL=1``) and with the folds in ``--jobs``
+processes (``STATION_JOBS``, :mod:`station.forkmap`; the same JSON bit for bit, checked here).
+``--jobs`` also gives the library call a :class:`station.forkmap.ForkMap` (default 1: in turn).
 """
 
 from __future__ import annotations
@@ -88,8 +91,12 @@ def _time(fn, runs: int) -> tuple[list[float], float, object]:
     return walls, (time.process_time() - c0) / runs, out
 
 
-def run_case(case: str, runs: int, profile: int) -> None:
-    from eddi.diagnosis import diagnose
+def run_case(case: str, runs: int, profile: int, jobs: int = 1) -> None:
+    from eddi.diagnosis import diagnose as _diagnose
+    from station.forkmap import ForkMap
+
+    def diagnose(records, **kw):  # type: ignore[no-untyped-def]
+        return _diagnose(records, mapper=ForkMap(jobs), **kw)
 
     if case == "three":
         raw = _three_raw()
@@ -119,31 +126,36 @@ def run_case(case: str, runs: int, profile: int) -> None:
     print(f"{case}: diagnose min {dmin:.2f} s median {statistics.median(dwall):.2f} s (CPU {dcpu:.2f} s "
           f"per run) = {dmin / fmin:.1f}x the floor; target {target:g} s "
           f"({'met' if dmin <= target else 'NOT met'} at this load); cause {d.cause}")  # type: ignore[attr-defined]
-    print(f"{case}: load average (1 min) {load0:.2f} before, {load1:.2f} after; {os.cpu_count()} CPUs")
+    print(f"{case}: load average (1 min) {load0:.2f} before, {load1:.2f} after; {os.cpu_count()} CPUs; "
+          f"folds in {jobs} process(es) (CPU of this process only)")
 
 
-def _child_run(cmd: list[str], env: dict[str, str]) -> tuple[float, float]:
-    """Wall and CPU time (user + sys of the process and its own children) of one command."""
+def _child_run(cmd: list[str], env: dict[str, str]) -> tuple[float, float, bytes]:
+    """Wall and CPU time (user + sys of the process and its own children) of one command, and
+    its output."""
     import resource
     import subprocess
 
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    subprocess.run(cmd, env=env, check=True, stdout=subprocess.DEVNULL)
+    out = subprocess.run(cmd, env=env, check=True, stdout=subprocess.PIPE).stdout
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), out
 
 
-def run_cli(runs: int, cases: tuple[str, ...] = ("three", "beam")) -> None:
+def run_cli(runs: int, cases: tuple[str, ...] = ("three", "beam"), jobs: int = 2) -> None:
     """``station diagnose`` as a whole process: the ``three`` captures written as CSV (with and
     without the pipeline baseline's refinement) and the nine double-beam ring-downs; floor:
     ``python -c "import numpy"``. Wall and CPU (the process and its children), min and median
-    over ``--runs``, runs interleaved."""
+    over ``--runs``, runs interleaved; each diagnosis in one process and in ``jobs``."""
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:
         env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+        env.pop("STATION_JOBS", None)
+        serial = {**env, "STATION_SERIAL": "1"}
+        forked = {**{k: v for k, v in env.items() if k != "STATION_SERIAL"}, "STATION_JOBS": str(jobs)}
         cmds: dict[str, tuple[list[str], dict[str, str]]] = {
             "import numpy (floor)": ([sys.executable, "-c", "import numpy"], env)}
         if "three" in cases:
@@ -154,19 +166,28 @@ def run_cli(runs: int, cases: tuple[str, ...] = ("three", "beam")) -> None:
                            header="t,force,acc", comments="", fmt="%.10g")
                 files.append(str(path))
             three = [sys.executable, "-m", "station.cli", "diagnose", *files, "--mass", "0.1", "--json"]
-            cmds["three: station diagnose --no-refine"] = (three + ["--no-refine"], env)
-            cmds["three: station diagnose"] = (three, env)
+            cmds["three: station diagnose --no-refine"] = (three + ["--no-refine"], serial)
+            cmds["three: station diagnose"] = (three, serial)
+            cmds[f"three: station diagnose, {jobs} jobs"] = (three, forked)
         if "beam" in cases:
             beam = [sys.executable, "-m", "station.cli", "diagnose", *_beam_files(), "--mass", "1", "--json"]
-            cmds["beam: station diagnose"] = (beam, env)
+            cmds["beam: station diagnose"] = (beam, serial)
+            cmds[f"beam: station diagnose, {jobs} jobs"] = (beam, forked)
         load0 = os.getloadavg()[0]
         walls: dict[str, list[float]] = {}
         cpus: dict[str, list[float]] = {}
+        outs: dict[str, bytes] = {}
         for _ in range(runs):
             for name, (cmd, e) in cmds.items():
-                w, c = _child_run(cmd, e)
+                w, c, out = _child_run(cmd, e)
                 walls.setdefault(name, []).append(w)
                 cpus.setdefault(name, []).append(c)
+                outs[name] = out
+        for case in cases:
+            one, many = outs.get(f"{case}: station diagnose"), outs.get(f"{case}: station diagnose, {jobs} jobs")
+            if one is not None and many is not None:
+                print(f"cli: {case}: JSON in one process and in {jobs} jobs "
+                      f"{'identical' if one == many else 'DIFFERENT'}")
         fw, fc = min(walls["import numpy (floor)"]), min(cpus["import numpy (floor)"])
         for name in cmds:
             w, c = walls[name], cpus[name]
@@ -186,15 +207,19 @@ def main() -> None:
                     help="cli: whole station diagnose processes (the three captures as CSV and the "
                          "nine ring-downs; cli-three / cli-beam: one of them)")
     ap.add_argument("--runs", type=int, default=3, help="timed runs per case (default: %(default)s)")
+    ap.add_argument("--jobs", type=int, default=None, metavar="N",
+                    help="processes for the folds (station.forkmap): the library call's (default 1) and "
+                         "the cli case's second row per case (default 2)")
     ap.add_argument("--profile", type=int, default=0, metavar="N",
                     help="print the N top cProfile lines of one extra run (default: off)")
     args = ap.parse_args()
     np.seterr(all="ignore")
     if args.case.startswith("cli"):
-        run_cli(max(1, args.runs), ("three", "beam") if args.case == "cli" else (args.case[4:],))
+        run_cli(max(1, args.runs), ("three", "beam") if args.case == "cli" else (args.case[4:],),
+                args.jobs or 2)
         return
     for case in (("three", "beam") if args.case == "both" else (args.case,)):
-        run_case(case, max(1, args.runs), args.profile)
+        run_case(case, max(1, args.runs), args.profile, args.jobs or 1)
 
 
 if __name__ == "__main__":

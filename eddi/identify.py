@@ -135,7 +135,8 @@ def identify(
         differences (:func:`eddi.energy.noise_level`; on clean data this changes the
         paper-case coefficients by < 1e-8 relative); ``None`` assumes clean signals; or
         give the standard deviations. It sets a 4-sigma dead band on the zero crossings and
-        inverse-variance row weights in phase one and the potential route.
+        inverse-variance row weights in phase one and the potential route; unless ``None``,
+        the white noise of ``a`` (third differences) weights the Lagrangian route's rows.
     refine : bool or {"a", "v", "x"}
         After EDDI, refine the coefficients by an output-error fit (:mod:`eddi.refine`):
         the model's free response from a fitted initial state is fitted to the measured
@@ -193,6 +194,8 @@ def identify(
             raise SignalError(f"noise must be None, 'auto' or (sigma_x, sigma_v); got {noise!r}") from None
         if not (sx >= 0 and sv >= 0 and math.isfinite(sx) and math.isfinite(sv)):
             raise SignalError(f"noise standard deviations must be finite and >= 0; got {noise!r}")
+    # white noise of the measured acceleration (weights of the Lagrangian route's rows)
+    sa = noise_level(aw) if (noise is not None and aw is not None) else 0.0
     p1 = phase_one(tw, xw, vw, mass_f, d_terms, a=aw, weighting=weighting, offset=w0,
                    noise_x=sx, noise_v=sv)
     i0, i1 = p1.sample_slice[0] - w0, p1.sample_slice[1] - w0
@@ -213,7 +216,7 @@ def identify(
     if route in ("auto", "lagrangian"):
         results["lagrangian"] = lagrangian_route(p1, xs, vs, mass_f, k_terms, a=a_s,
                                                  v_fraction=v_fraction, energy_floor=energy_floor,
-                                                 anchored=anchored)
+                                                 anchored=anchored, noise_a=sa)
     scores: dict[str, float] = {}
     if route == "auto":
         for name, p2 in results.items():

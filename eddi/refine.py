@@ -245,6 +245,8 @@ class _OutputError:
                                     else np.abs(v), self.substeps)
         self.count = 0
         self.diverged = False
+        # the sensitivity pass of the last simulation (see :meth:`simulated`)
+        self._last: tuple[bytes, int, np.ndarray, bool] | None = None
 
     @property
     def n(self) -> int:
@@ -277,8 +279,14 @@ class _OutputError:
         else:  # the same RK4, a kernel without the effects' branches
             from eddi.sensitivity import free_response_sensitivities
 
-            resp, _, diverged = free_response_sensitivities(eom, float(self.t[1] - self.t[0]), stop, x0, v0,
-                                                            self.steps, jacobian=False)
+            # Levenberg-Marquardt asks for the Jacobian at the last point it evaluated whenever it
+            # accepts a step (most steps): the sensitivities are integrated with the response
+            # (the response is the same bit for bit with or without them) and kept for
+            # :meth:`sensitivities`, one pass instead of two
+            smooth = smooth_model(eom)
+            resp, jac, diverged = free_response_sensitivities(eom, float(self.t[1] - self.t[0]), stop, x0, v0,
+                                                              self.steps, jacobian=smooth)
+            self._last = (self._key(p), stop, jac, bool(diverged)) if smooth else None
             out = resp[:, "xva".index(self.channel)]
         self.diverged = bool(diverged or not np.all(np.isfinite(out)))
         if self.diverged:
@@ -289,6 +297,11 @@ class _OutputError:
             d2[0], d2[-1] = d2[1], d2[-2]
             out = out + self.curvature * d2
         return out + float(p[-1] * self.scale[-1])
+
+    def _key(self, p: np.ndarray) -> bytes:
+        """What a simulation depends on: the scaled parameters, the active terms and their scales."""
+        return (np.ascontiguousarray(p, dtype=float).tobytes() + np.asarray(self.active, dtype=np.int64).tobytes()
+                + self.scale.tobytes())
 
     def residual(self, p: np.ndarray, stop: int) -> np.ndarray:
         return self.simulated(p, stop) - self.y[:stop]
@@ -306,8 +319,12 @@ class _OutputError:
         from eddi.sensitivity import free_response_sensitivities
 
         self.count += 1
-        x0, v0 = self.state(p)
-        _, jac, div = free_response_sensitivities(eom, float(self.t[1] - self.t[0]), stop, x0, v0, self.steps)
+        last = self._last
+        if last is not None and last[1] == stop and last[0] == self._key(p):
+            jac, div = last[2], last[3]
+        else:
+            x0, v0 = self.state(p)
+            _, jac, div = free_response_sensitivities(eom, float(self.t[1] - self.t[0]), stop, x0, v0, self.steps)
         j = jac["xva".index(self.channel)]
         if div or not np.all(np.isfinite(j)):
             return None

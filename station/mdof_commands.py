@@ -5,8 +5,10 @@ per-channel nrmse and their mean as ``nrmse``. :func:`diagnose_mdof_object` iden
 uncoupled baseline (each coordinate's own terms) and the coupled model (coupling terms found
 from the energy exchanged between coordinates, :mod:`eddi.mdof.identify`), judges both on
 held-out captures (each capture held out in turn) and names ``modal_coupling`` when the
-coupled model wins by more than ``margin``, ``missing_mode`` when the linear mode shapes do
-not span the measured motion (then the coordinates are the physical channels).
+coupled model wins by more than ``margin``, ``missing_mode`` when the tail holds positive
+evidence of a motion no linear mode describes (:func:`eddi.mdof.identify.modal_evidence`;
+then the coordinates are the physical channels), ``unexplained`` when the tail resolves fewer
+modes than channels and no coupling wins (a mode the records cannot resolve is not named).
 """
 
 from __future__ import annotations
@@ -81,6 +83,11 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         cause = "missing_mode"
         notes.append("missing mode: the linear modes of the low-amplitude tail do not describe the motion - "
                      "a coordinate with no linear mode (e.g. an essentially nonlinear attachment)")
+    elif final.unresolved and gain <= margin:
+        cause = "unexplained"
+        notes.append(f"unexplained: the tail resolves {final.modes.frequencies_hz.size} linear mode(s) for "
+                     f"{len(names)} channels and no coupling earns its place held out; a mode these records "
+                     "do not resolve is not evidence of a missing one (record quieter or longer ring-downs)")
     else:
         cause = "modal_coupling" if gain > margin else "none"
     model = final.model

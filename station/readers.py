@@ -205,9 +205,9 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
     cols = {name: np.ascontiguousarray(data[:, j]) for j, name in enumerate(names)}
     for name, col in cols.items():
         limit = MAX_TIME_S if name == "t" else MAX_VALUE
-        bad = np.nonzero(~(np.abs(col) <= limit))[0]
-        if bad.size:
-            i = int(bad[0])
+        ok = np.abs(col) <= limit
+        if not ok.all():
+            i = int(np.flatnonzero(~ok)[0])
             what = "not a finite number" if not np.isfinite(col[i]) else f"{col[i]:g}, beyond +-{limit:g} {CSV_COLUMNS[name]}"
             raise InputFileError(f"{path}: column {name!r} is {what} at line {i + 2} (data row {i + 1})")
     rate, t = time_grid(cols.pop("t"), str(path))

@@ -137,7 +137,10 @@ def _inputs(t: np.ndarray, acc: np.ndarray | None, vel: np.ndarray | None, disp:
     t = np.asarray(t, dtype=float)
     n = t.size
     # the exact uniform grid (times in files are often printed with few digits)
-    t = t[0] + np.arange(n) * ((t[-1] - t[0]) / (n - 1))
+    grid = np.arange(n, dtype=float)  # t[0] + i step, in one buffer
+    grid *= (t[-1] - t[0]) / (n - 1)
+    grid += t[0]
+    t = grid
     if acc is None and vel is None and disp is None:
         raise SignalError("need at least one of acc, vel, disp; got none")
     acc = None if acc is None else check_channel("acc", acc, n)

@@ -24,10 +24,11 @@ import numpy as np
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
 from eddi.diagnosis.chain import inspect, sensor_highpass
 from eddi.diagnosis.extend import Fit, Setup
+from eddi.diagnosis.mapping import Mapper
 from eddi.diagnosis.measure import noise_floor
 from eddi.diagnosis.name import (
-    UNREFINED, Decision, Fitter, FoldFitter, FoldResults, all_masks, build_candidates, check_trainable, decide, judge_baseline, judge_candidates,
-    rank, refine_candidates, spread_of, within_floor,
+    UNREFINED, Decision, Fitter, FoldFitter, FoldResults, all_masks, build_candidates, check_trainable, decide,
+    final_fits, judge_baseline, judge_candidates, rank, refine_candidates, spread_of, within_floor,
 )
 from eddi.diagnosis.settings import REFINE_CANDIDATES
 from eddi.diagnosis.observed import Observed, observed_second_mode
@@ -59,6 +60,7 @@ def diagnose(
     none_factor: float = NONE_FACTOR, named_factor: float = NAMED_FACTOR,
     strong_margin: float | None = STRONG_MARGIN,
     pipeline: PipelineBaseline | None = None,
+    mapper: Mapper | None = None,
 ) -> Diagnosis:
     """Find what the baseline model gets wrong, name the mechanism, extend and measure the gain.
 
@@ -95,6 +97,10 @@ def diagnose(
         ``station identify``'s model and held-out error: it becomes ``baseline`` (``none``
         needs it within the factor too); ``judged`` is its procedure run per fold (its
         selected terms, its refinement rule).
+    mapper : callable, optional
+        ``mapper(fn, items) -> [fn(item) for item in items]``: how the independent per-fold
+        fits run (:mod:`eddi.diagnosis.mapping`; default in this process, in turn). The
+        result does not depend on it.
 
     Returns
     -------
@@ -118,7 +124,7 @@ def diagnose(
         skipped = {m.name: m.skip_reason(setup.damping, setup.stiffness, effects) for m in cat}
         check_trainable(records)
         shown = _show(records, setup, n_bands, none_factor, strong_margin,
-                      pipeline is not None and pipeline.choices.get("refinement") == "kept")
+                      pipeline is not None and pipeline.choices.get("refinement") == "kept", mapper)
         if shown.quiet:
             # nothing to explain: no candidate can change the verdict, none is fitted
             why = f"not tried: the baseline is within {none_factor:g}x the noise floor"
@@ -150,11 +156,11 @@ class _Shown:
 
 
 def _show(records: list[Record], setup: Setup, n_bands: int, none_factor: float,
-          strong_margin: float | None, refine: bool = False) -> _Shown:
+          strong_margin: float | None, refine: bool = False, mapper: Mapper | None = None) -> _Shown:
     """Show and measure: per fold, the baseline judged on the held-out part (refined as the
     pipeline refines when ``refine``); the floor (by the same procedure)."""
     scheme, parts, fold_masks = split(records, n_bands)
-    fitter = Fitter([r.signal() for r in records], setup, records, refine)
+    fitter = Fitter([r.signal() for r in records], setup, records, refine, mapper)
     res, fold_fits = judge_baseline(records, setup, parts, fold_masks, fitter)
     fit_all = fitter(all_masks(records))
     bfit_all = fit_all(None, None)
@@ -162,7 +168,7 @@ def _show(records: list[Record], setup: Setup, n_bands: int, none_factor: float,
         raise ModelError("the baseline could not be fitted on all the data")
     baseline = Score(model=bfit_all.eom, nrmse=float(np.mean(res.base_fold)),
                      fold_nrmse=tuple(res.base_fold), nmte=float(np.mean(res.base_nmte)))
-    floor = noise_floor(records, setup, parts, fold_masks, res.base_sims, refine=refine)
+    floor = noise_floor(records, setup, parts, fold_masks, res.base_sims, refine=refine, mapper=fitter.map)
     return _Shown(records, setup, scheme, parts, fold_masks, fitter, res, fold_fits, fit_all, bfit_all,
                   baseline, floor, strong_margin is None and within_floor(res.base_fold, floor, none_factor),
                   refine)
@@ -174,26 +180,33 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
     """Name: per fold, every mechanism added, refitted on the training parts, judged held out."""
     sh = shown
     records, res = sh.records, sh.res
-    judge_candidates(res, sh.fold_fits, records, sh.setup, cat, skipped, sh.parts, sh.fold_masks, sh.fitter)
+    want_observed = (not sh.quiet and any(m.name == "second_mode" for m in cat)
+                     and all(r.force is None for r in records))
+    want_hp = "sensor_highpass" in chosen and not sh.quiet
+    extra = []  # independent of the folds' candidate fits: in the same map
+    if want_observed:
+        extra.append(lambda: observed_second_mode(records, sh.parts, sh.fold_masks, res.base_sims,
+                                                  _frequency(sh.bfit_all.eom), tuple(modal_damping),
+                                                  tuple(modal_stiffness)))
+    if want_hp:
+        # judged against EDDI's per-fold fit, as the other candidates (refining the corrected
+        # records' fit alone named sensor_highpass for a strong drag, 0.2 k1 A: docs)
+        extra.append(lambda: sensor_highpass(records, sh.setup, sh.parts, sh.fold_masks, res.ref_fold,
+                                             consistency))
+    finals, done = judge_candidates(res, sh.fold_fits, records, sh.setup, cat, skipped, sh.parts, sh.fold_masks,
+                                    sh.fitter, (sh.fit_all, sh.bfit_all), extra)
     if sh.fitter.refine and REFINE_CANDIDATES["on"]:
         refine_candidates(res, records, sh.setup, [m for m in cat if not skipped[m.name]], sh.parts, sh.fold_masks)
-    observed: Observed | None = None
-    if not sh.quiet and any(m.name == "second_mode" for m in cat) and all(r.force is None for r in records):
-        observed = observed_second_mode(records, sh.parts, sh.fold_masks, res.base_sims,
-                                        _frequency(sh.bfit_all.eom), tuple(modal_damping),
-                                        tuple(modal_stiffness))
-    candidates, _finals, notes = build_candidates(cat, skipped, res, sh.fit_all, sh.bfit_all, len(sh.parts),
-                                                  consistency, sh.setup.stiffness, observed)
+    observed: Observed | None = done.pop(0) if want_observed else None
+    candidates, _finals, notes = build_candidates(cat, skipped, res, final_fits(finals, sh.fit_all), sh.bfit_all,
+                                                  len(sh.parts), consistency, sh.setup.stiffness, observed)
     chain_sims: list[np.ndarray] = []
     if "sensor_highpass" in chosen:
         if sh.quiet:
             candidates.append(Candidate("sensor_highpass", float("nan"), (), float("nan"), False, False,
                                         {}, {}, None, "", skipped["sensor_highpass"]))
         else:
-            # judged against EDDI's per-fold fit, as the other candidates (refining the corrected
-            # records' fit alone named sensor_highpass for a strong drag, 0.2 k1 A: docs)
-            hp, chain_sims = sensor_highpass(records, sh.setup, sh.parts, sh.fold_masks, res.ref_fold,
-                                             consistency)
+            hp, chain_sims = done.pop(0)
             candidates.append(hp)
     return rank(candidates), observed, chain_sims, notes
 

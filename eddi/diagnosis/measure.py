@@ -23,6 +23,7 @@ from typing import Sequence
 import numpy as np
 
 from eddi.diagnosis.extend import Setup
+from eddi.diagnosis.mapping import Mapper, serial_map
 from eddi.diagnosis.name import Fitter
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.results import NoiseFloor
@@ -63,13 +64,14 @@ def perturbed_record(rec: Record, seed: int) -> Record:
 
 def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
                 fold_masks: Sequence[Sequence[np.ndarray]], base_sims: Sequence[np.ndarray],
-                seed: int = 1, refine: bool = False) -> NoiseFloor:
+                seed: int = 1, refine: bool = False, mapper: Mapper | None = None) -> NoiseFloor:
     """The floor of the module notes, per held-out part (``base_sims``: the baseline's
     held-out simulations on the records as measured).
 
     On a part where the baseline (or its perturbed refit) is lost (nrmse >= :data:`LOST`)
     only ``d_cond`` counts. A part whose perturbed fit fails or diverges gets the smallest floor of the others (or
-    :data:`MIN_FLOOR`); floors below :data:`MIN_FLOOR` are raised to it.
+    :data:`MIN_FLOOR`); floors below :data:`MIN_FLOOR` are raised to it. The parts' refits
+    run through ``mapper`` (:mod:`eddi.diagnosis.mapping`).
     """
     pert = [perturbed_record(r, seed + i) for i, r in enumerate(records)]
     cond = []
@@ -77,39 +79,37 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
         s, e = r.free_start, r.free_stop
         cond.append(float(np.linalg.norm(q.x[s:e] - r.x[s:e]) / (np.linalg.norm(r.x[s:e]) or 1.0)))
     fitter = Fitter([r.signal() for r in pert], setup, pert, refine)  # the same procedure as judged
-    fold: list[float] = []
-    preds: list[float] = []
-    for part, masks, xb in zip(parts, fold_masks, base_sims):
+
+    def one(k: int) -> tuple[float, float]:
+        part, masks, xb = parts[k], fold_masks[k], base_sims[k]
         rec, q = records[part.record], pert[part.record]
         xm = rec.x[part.start:part.stop]
         den = float(np.linalg.norm(xm)) or 1.0
         d_cond = float(np.linalg.norm(q.x[part.start:part.stop] - xm)) / den
         if not np.all(np.isfinite(xb)):
-            fold.append(float("nan"))
-            preds.append(float("nan"))
-            continue
+            return float("nan"), float("nan")
         if float(np.linalg.norm(xb - xm)) / den >= LOST:
             # the baseline is lost on this part: d_pred counts 0 whatever the perturbed refit
             # gives (below), so that refit (and its refinement) is not run
-            fold.append(d_cond)
-            preds.append(0.0)
-            continue
+            return d_cond, 0.0
         try:
             fit = fitter(masks).judged_baseline()[1]
         except EddiError:
             fit = None
         xs = simulate_part(fit.eom, q, part) if fit is not None else None
         if xs is None or not (np.all(np.isfinite(xs)) and np.all(np.isfinite(xb))):
-            fold.append(float("nan"))
-            preds.append(float("nan"))
-            continue
+            return float("nan"), float("nan")
         d_pred = float(np.linalg.norm(xs - xb)) / den
         if max(float(np.linalg.norm(xb - xm)), float(np.linalg.norm(xs - xm))) / den >= LOST:
             # a baseline that is lost on this part (diverges, or misses by the whole signal)
             # moves wildly with any perturbation: that says nothing of the noise
             d_pred = 0.0
-        fold.append(float(np.hypot(d_cond, d_pred)))
-        preds.append(d_pred)
+        return float(np.hypot(d_cond, d_pred)), d_pred
+
+    # the parts are independent: through ``mapper`` (other processes when the caller has cores)
+    out = (mapper or serial_map)(one, range(len(parts)))
+    fold = [f for f, _ in out]
+    preds = [p for _, p in out]
     known = [f for f in fold if np.isfinite(f) and f < NRMSE_CAP]
     fill = min(known) if known else MIN_FLOOR
     fold = [max(MIN_FLOOR, f if (np.isfinite(f) and f < NRMSE_CAP) else fill) for f in fold]

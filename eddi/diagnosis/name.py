@@ -11,12 +11,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
 from eddi.diagnosis.catalogue import Mechanism
 from eddi.diagnosis.extend import EddiFold, Fit, Setup, fit_ee, fit_eddi
+from eddi.diagnosis.mapping import Mapper, serial_map
 from eddi.diagnosis.observed import Observed
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.results import Candidate, NoiseFloor
@@ -32,16 +33,18 @@ class Fitter:
     ``Fitter(sigs, setup)(masks)`` returns a :class:`FoldFitter`: ``fit(mech, base_fit)``
     fits the baseline (``mech`` None) or the baseline plus ``mech`` on the samples ``masks``.
     With ``records`` and ``refine`` (the pipeline kept its refinement), the baseline a fold
-    judges with is refined as the pipeline refines (:func:`refined_baseline`).
+    judges with is refined as the pipeline refines (:func:`refined_baseline`). ``mapper``
+    runs the independent per-fold work (:mod:`eddi.diagnosis.mapping`; default: here, in turn).
     """
 
     def __init__(self, sigs: Sequence, setup: Setup, records: Sequence[Record] = (),
-                 refine: bool = False) -> None:
+                 refine: bool = False, mapper: Mapper | None = None) -> None:
         self.sigs = list(sigs)
         self.setup = setup
         self.cache: dict = {}
         self.records = list(records)
         self.refine = bool(refine) and bool(self.records) and setup.base is None
+        self.map: Mapper = mapper or serial_map
 
     def __call__(self, masks: Sequence[np.ndarray]) -> "FoldFitter":
         return FoldFitter(self, masks)
@@ -70,9 +73,14 @@ class FoldFitter:
         and the baseline the fold is judged with: the same, refined as the pipeline refines
         when the pipeline kept its refinement (:func:`refined_baseline`)."""
         fit = self(None, None)
+        return fit, self.refined(fit)
+
+    def refined(self, fit: Fit | None) -> Fit | None:
+        """``fit`` (EDDI's fit of the baseline) as the fold judges it: refined as the pipeline
+        refines when the pipeline kept its refinement, else ``fit`` itself."""
         if fit is None or not self.refine:
-            return fit, fit
-        return fit, refined_baseline(fit, self.records, self.masks, self.setup)
+            return fit
+        return refined_baseline(fit, self.records, self.masks, self.setup)
 
     def __call__(self, mech: Mechanism | None, base_fit: Fit | None = None) -> Fit | None:
         if self.fold is None:
@@ -154,65 +162,127 @@ def judge_baseline(records: Sequence[Record], setup: Setup, parts: Sequence[Part
                    ) -> tuple[FoldResults, list[tuple[FoldFitter, Fit]]]:
     """Per fold: the baseline fitted on the training parts, simulated on the held-out one.
 
-    Returns the results and, per fold, the fitting function and the baseline fit (reused by
-    :func:`judge_candidates`)."""
+    EDDI's fits run here, in turn; their refinements and simulations (independent per fold)
+    through ``fitter.map``. Returns the results and, per fold, the fitting function and the
+    baseline fit (reused by :func:`judge_candidates`)."""
     res = FoldResults()
     fits = []
     for part, masks in zip(parts, fold_masks):
-        rec = records[part.record]
         try:
             fit_fold = fitter(masks)
-            efit, bfit = fit_fold.judged_baseline()
+            efit = fit_fold(None, None)
         except IdentificationError as exc:
-            raise SignalError(f"held out {part.label}, the other records hold too little to fit the baseline "
-                              f"({exc}): give fewer terms (e.g. --damping v --stiffness x,x^3) or longer "
-                              "records") from None
-        if bfit is None or efit is None:
+            raise _untrainable(part, exc) from None
+        if efit is None:
             raise ModelError("the baseline could not be fitted on the training parts")
+        fits.append((fit_fold, efit))
+
+    def judged(k: int) -> tuple | IdentificationError:
+        (fit_fold, efit), part = fits[k], parts[k]
+        rec = records[part.record]
+        try:
+            bfit = fit_fold.refined(efit)
+        except IdentificationError as exc:
+            return exc
+        if bfit is None:
+            return None, None, None, None
         xb, vb = simulate_part_xv(bfit.eom, rec, part)
+        xe = None if efit is bfit else simulate_part(efit.eom, rec, part)
+        return bfit, xb, vb, xe
+
+    for i, out in enumerate(fitter.map(judged, range(len(fits)))):
+        part = parts[i]
+        if isinstance(out, IdentificationError):
+            raise _untrainable(part, out) from None
+        bfit, xb, vb, xe = out
+        if bfit is None:
+            raise ModelError("the baseline could not be fitted on the training parts")
+        rec = records[part.record]
         res.base_fold.append(nrmse(xb, rec.x[part.start:part.stop]))
-        res.ref_fold.append(res.base_fold[-1] if efit is bfit else
-                            nrmse(simulate_part(efit.eom, rec, part), rec.x[part.start:part.stop]))
+        res.ref_fold.append(res.base_fold[-1] if xe is None else nrmse(xe, rec.x[part.start:part.stop]))
         res.base_nmte.append(nmte(vb, rec.v[part.start:part.stop]))
         res.base_sims.append(xb)
         res.base_vsims.append(vb)
         res.base_coefs.append({**{f"b[{k}]": v for k, v in bfit.eom.damping.items()},
                                **{f"k[{k}]": v for k, v in bfit.eom.stiffness.items()}})
-        fits.append((fit_fold, efit))
     return res, fits
+
+
+def _untrainable(part: Part, exc: IdentificationError) -> SignalError:
+    return SignalError(f"held out {part.label}, the other records hold too little to fit the baseline "
+                       f"({exc}): give fewer terms (e.g. --damping v --stiffness x,x^3) or longer "
+                       "records")
 
 
 def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], records: Sequence[Record],
                      setup: Setup, cat: Sequence[Mechanism], skipped: dict[str, str | None],
                      parts: Sequence[Part], fold_masks: Sequence[Sequence[np.ndarray]],
-                     fitter: Fitter) -> None:
+                     fitter: Fitter, final: tuple[FoldFitter, Fit] | None = None,
+                     extra: Sequence[Callable[[], Any]] = ()) -> tuple[dict[str, Fit | None], list]:
     """Per fold: every mechanism added to the fold's baseline, fitted on the training parts
-    and simulated on the held-out one (filled into ``res``)."""
+    and simulated on the held-out one (filled into ``res``).
+
+    The folds, every mechanism's fit on all the data (``final``: the all-data fitter and
+    baseline fit; for :func:`build_candidates`, see :func:`final_fits`) and the ``extra``
+    calls (independent work of the caller's) run through ``fitter.map``. Returns the final
+    fits by mechanism name (empty without ``final``) and the ``extra`` calls' results.
+    """
     res.cand_fold = {m.name: [] for m in cat}
     res.cand_params = {m.name: [] for m in cat}
     res.cand_sims = {m.name: [] for m in cat}
     res.cand_fits = {m.name: [] for m in cat}
     tried = [m for m in cat if not skipped[m.name]]
     need_ee = setup.fit == "eddi" and any(not m.native for m in tried)
-    for part, masks, (fit_fold, bfit) in zip(parts, fold_masks, fits):
+
+    def fold(k: int) -> tuple[float | None, list[tuple[str, float, np.ndarray, dict[str, float] | None]]]:
+        part, (fit_fold, bfit) = parts[k], fits[k]
         rec = records[part.record]
         xm = rec.x[part.start:part.stop]
+        ee_ref = None
         if need_ee:
             # a mechanism refitted by equation error is judged against the baseline fitted
             # the same way, so it cannot win by its fitter rather than by its physics
             ee_fit = fit_fold.ee_base()
-            res.ee_ref.append(nrmse(simulate_part(ee_fit.eom, rec, part), xm) if ee_fit else NRMSE_CAP)
+            ee_ref = nrmse(simulate_part(ee_fit.eom, rec, part), xm) if ee_fit else NRMSE_CAP
+        out = []
         for mech in tried:
             fit = fit_fold(mech, bfit)
             res.cand_fits[mech.name].append(fit if mech.native else None)
             if fit is None or fit.mech is None:
-                res.cand_fold[mech.name].append(NRMSE_CAP)
-                res.cand_sims[mech.name].append(np.full_like(xm, np.nan))
+                out.append((mech.name, NRMSE_CAP, np.full_like(xm, np.nan), None))
                 continue
             xe = simulate_part(fit.eom, rec, part)
-            res.cand_fold[mech.name].append(nrmse(xe, xm))
-            res.cand_sims[mech.name].append(xe)
-            res.cand_params[mech.name].append(fit.mech.params)
+            out.append((mech.name, nrmse(xe, xm), xe, fit.mech.params))
+        return ee_ref, out
+
+    n = len(fits)
+
+    def item(k: int) -> Any:
+        if k < n:
+            return fold(k)
+        if k == n and final is not None:
+            return {m.name: final[0](m, final[1]) for m in tried}
+        return extra[k - n - (final is not None)]()
+
+    # all independent: through ``fitter.map`` (other processes when the caller has cores)
+    out_all = fitter.map(item, range(n + (final is not None) + len(extra)))
+    for ee_ref, out in out_all[:n]:
+        if ee_ref is not None:
+            res.ee_ref.append(ee_ref)
+        for name, value, sim, params in out:
+            res.cand_fold[name].append(value)
+            res.cand_sims[name].append(sim)
+            if params is not None:
+                res.cand_params[name].append(params)
+    return (out_all[n] if final is not None else {}), out_all[n + (final is not None):]
+
+
+def final_fits(fits: dict[str, Fit | None], fit_all: FoldFitter) -> Callable[[Mechanism, Fit | None], Fit | None]:
+    """``fit_all`` for :func:`build_candidates`, answering from ``fits`` (the fits
+    :func:`judge_candidates` made on all the data) and fitting the others."""
+    def fit(mech: Mechanism, base_fit: Fit | None) -> Fit | None:
+        return fits[mech.name] if mech.name in fits else fit_all(mech, base_fit)
+    return fit
 
 
 def refine_candidates(res: FoldResults, records: Sequence[Record], setup: Setup, cat: Sequence[Mechanism],
@@ -264,7 +334,7 @@ def spread_of(plist: Sequence[dict[str, float]], keys: Sequence[str]) -> dict[st
 
 
 def build_candidates(cat: Sequence[Mechanism], skipped: dict[str, str | None], res: FoldResults,
-                     fit_all: FoldFitter, bfit_all: Fit, n_parts: int, consistency: float,
+                     fit_all: FoldFitter | Callable[[Mechanism, Fit | None], Fit | None], bfit_all: Fit, n_parts: int, consistency: float,
                      k_terms: tuple[str, ...], observed: Observed | None
                      ) -> tuple[list[Candidate], dict[str, Fit], list[str]]:
     """One :class:`Candidate` per mechanism (the kept form of the second mode), and notes."""

@@ -189,7 +189,12 @@ class MdofIdentification:
     modal_basis : bool
         False when the tail's linear modes are no modal basis of the motion (more oscillating
         poles than channels, shapes that do not span it or are ill-conditioned): a motion no
-        linear mode describes, the ``missing_mode`` of diagnosis.
+        linear mode describes, the ``missing_mode`` of diagnosis (positive evidence only:
+        :func:`modal_evidence`).
+    unresolved : bool
+        True when the coordinates are physical because the tail resolves fewer modes than
+        channels (or shapes too alike) with no evidence of a missing one: diagnosis then says
+        ``unexplained`` rather than naming a cause the modes cannot support.
     """
 
     model: MdofModel
@@ -199,6 +204,34 @@ class MdofIdentification:
     span_residual: float
     notes: tuple[str, ...] = field(default_factory=tuple)
     modal_basis: bool = True
+    unresolved: bool = False
+
+
+#: A mode beyond the channels counts (evidence of a motion no linear mode basis holds) when it
+#: carries at least this share of the tails' modal energy.
+EXTRA_MODE_SHARE = 0.02
+#: A channel whose tail is at least this much unexplained by the linear modes (noise taken
+#: off) moves in a way no linear mode describes.
+UNEXPLAINED_TAIL = 0.5
+
+
+def modal_evidence(modes: LinearModes, n_ch: int) -> str:
+    """``"basis"``, ``"missing_mode"`` or ``"unresolved"``: what the tail's modes say.
+
+    ``missing_mode`` needs positive evidence: more modes than channels that each carry at least
+    :data:`EXTRA_MODE_SHARE` of the tails' energy, or a channel whose tail is at least
+    :data:`UNEXPLAINED_TAIL` unexplained. Fewer modes than channels otherwise is
+    ``unresolved`` (a mode the records do not resolve above their noise, not a missing one).
+    """
+    share = modes.energy_share if modes.energy_share.size == modes.frequencies_hz.size else \
+        np.ones(modes.frequencies_hz.size)
+    strong = int(np.sum(share >= EXTRA_MODE_SHARE))
+    unexplained = float(np.max(modes.unexplained)) if modes.unexplained.size else 0.0
+    if strong > n_ch or unexplained >= UNEXPLAINED_TAIL:
+        return "missing_mode"
+    if modes.frequencies_hz.size < n_ch:
+        return "unresolved"
+    return "basis"
 
 
 def linear_modes(records: Sequence[ChannelRecord], *, tail_fraction: float = 0.2,
@@ -223,7 +256,7 @@ def choose_coordinates(records: Sequence[ChannelRecord], modes: LinearModes, *, 
     if coordinates == "physical":
         return "physical", np.eye(n_ch), span
     cond = float(np.linalg.cond(psi))
-    too_many = modes.shapes.shape[1] > n_ch  # more oscillating poles than the channels can separate
+    too_many = modal_evidence(modes, n_ch) == "missing_mode"  # motion no n-mode linear basis holds
     if coordinates == "modal" or (cond <= max_shape_condition and span <= span_tolerance and not too_many):
         return "modal", psi, span
     return "physical", np.eye(n_ch), span
@@ -443,7 +476,8 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
     note = (f"{names[best]} kept: training nrmse {errors[best]:.3g}"
             + "".join(f"; {nm} {e:.3g}" for k, (nm, e) in enumerate(zip(names, errors)) if k != best))
     keep = candidates[best]
-    return replace(keep, notes=tuple(dict.fromkeys(keep.notes + (note,))))
+    return replace(keep, notes=tuple(dict.fromkeys(keep.notes + (note,))), modal_basis=chosen.modal_basis,
+                   unresolved=chosen.unresolved)
 
 
 def _candidate_name(ident: MdofIdentification) -> str:
@@ -470,7 +504,7 @@ def _identify_twice(records: Sequence[ChannelRecord], channels: tuple[str, ...],
                                 max_freq_hz, prune, prefilter=prefilter)
     extra = (FILTERED_NOTE,) if prefilter else ()
     return replace(second, notes=tuple(dict.fromkeys(first.notes + second.notes + extra)),
-                   modal_basis=first.modal_basis)
+                   modal_basis=first.modal_basis, unresolved=first.unresolved)
 
 
 def _training_error(ident: MdofIdentification, records: Sequence[ChannelRecord]) -> float:
@@ -516,10 +550,17 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
     kind, tmat, span = choose_coordinates(records, modes, coordinates=coordinates)
     fits = _fit_all(records, tmat, coupling, prune, prefilter)
     notes_pre: list[str] = []
-    basis = not (coordinates == "auto" and kind == "physical")
+    evidence = modal_evidence(modes, tmat.shape[0])
+    basis = not (coordinates == "auto" and kind == "physical" and evidence == "missing_mode")
+    unresolved = coordinates == "auto" and kind == "physical" and basis
     if not basis:
         notes_pre.append(f"the tail's {modes.shapes.shape[1]} linear mode(s) for {tmat.shape[0]} channels are not a "
-                         f"modal basis of the motion (span residual {100 * span:.1f} %): physical coordinates kept")
+                         f"modal basis of the motion (span residual {100 * span:.1f} %, unexplained tail "
+                         f"{100 * float(np.max(modes.unexplained, initial=0.0)):.0f} %): physical coordinates kept")
+    elif unresolved:
+        notes_pre.append(f"the tail resolves {modes.shapes.shape[1]} linear mode(s) for {tmat.shape[0]} channels "
+                         f"(shape condition {np.linalg.cond(modes.shapes):.3g}, span residual {100 * span:.1f} %): "
+                         "physical coordinates; a mode the records do not resolve is not a missing mode")
     if coordinates == "auto" and kind == "modal":
         # the tail's modes may not be the structure's (a nonlinear attachment has none):
         # keep the modal coordinates only when their equations close as well as the physical
@@ -548,7 +589,7 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
     if growth > 0:
         notes.append(f"warning: the identified linear part is unstable (a mode grows at {growth:.3g} 1/s): "
                      "the damping is not determined by these records")
-    return MdofIdentification(model, modes, kind, fits, span, tuple(notes), basis)
+    return MdofIdentification(model, modes, kind, fits, span, tuple(notes), basis, unresolved)
 
 
 def _linear_growth_rate(model: MdofModel) -> float:

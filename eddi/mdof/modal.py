@@ -7,22 +7,33 @@ real mode shapes, not FRF curve fitting. ERA is a block-Hankel SVD and an eigenv
 so neither fits a handful of ring-downs without first building FRFs from a nonlinear record.
 
 Method: the low-amplitude tail of every record (where the response is below ``tail_fraction``
-of its peak, so the nonlinear terms are small) is decimated, stacked as columns of block
-Hankel matrices ``H0 = [y_{k+i+j}]`` and ``H1`` (shifted by one sample); the SVD of ``H0``
-truncated at the model order gives ``A = S^-1/2 U^T H1 V S^-1/2`` and ``C = U S^1/2``; the
-eigenvalues of ``A`` are the discrete poles ``mu = exp(lambda dt)``, ``C`` times the
-eigenvectors the complex mode shapes. The order is the number of singular values standing
-out of the noise (``order_threshold`` times the median of the trailing ones). Complex pairs
-with a damping ratio below ``max_zeta`` are modes; real poles (a mass that is held by no
-linear spring, as a nonlinear energy sink) are reported as ``n_real``. Real mode shapes are
-the complex ones rotated to their largest component, scaled to a largest entry of 1.
+of its peak, so the nonlinear terms are small) is low-passed and decimated to about 5 times the
+top of its band (the part of the spectrum 10 times above the noise floor), stacked as columns
+of block Hankel matrices ``H0 = [y_{k+i+j}]`` and ``H1`` (shifted by one sample); the SVD of
+``H0`` truncated at order ``n`` gives ``A = S^-1/2 U^T H1 V S^-1/2`` and ``C = U S^1/2``; the
+eigenvalues of ``A`` are the discrete poles ``mu = exp(lambda dt)``.
+
+**Order: a stabilisation diagram** (orders 2, 4, ..., ``max_order``), not a singular-value
+threshold: the threshold (30 times the median of the trailing singular values) cut the order
+to 3 at 30 dB and found one mode of three or four (measured on chains of 2-4 masses,
+``benchmarks/bench_mdof_modal.py``). A pole is stable when the next lower order has one
+within 1 % in frequency, 30 % in damping and MAC >= 0.9; a mode is a column of stable poles
+present at half the orders or more, carrying at least ``min_energy`` of the tails' modal fit
+(least squares of every mode's free decay); columns within 8 % whose shapes agree are one mode
+gliding with amplitude (a nonlinear tail). Shapes are then re-estimated from the data (poles
+fixed, one complex residue per channel, mode and segment; the leading singular vector of a
+mode's residues), rotated to real, largest entry 1. The fit's residual gives each channel's
+``unexplained`` part of the tail (noise floor taken off), the evidence of a motion no linear
+mode describes. Why not sdypy-EMA / pyoma2: EMA fits FRFs of one reference and pyoma2 targets
+operational (output-only, stationary) data; free decays sharing poles are what ERA is for,
+and the diagram is a few dozen small eigenproblems in numpy.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import signal
@@ -51,6 +62,12 @@ class LinearModes:
         Model order used (twice the oscillating modes plus real poles).
     n_real : int
         Real (non-oscillating) poles in the realisation.
+    unexplained : ndarray, shape (n_channels,)
+        Part of each channel's tail energy (in the analysed band, the noise floor taken off)
+        that the modes' free decays do not reproduce: near 0 when the modes describe the tail,
+        large when some motion has no linear mode (an essentially nonlinear attachment).
+    energy_share : ndarray, shape (r,)
+        Each mode's share of the energy of the tails' modal fit.
     """
 
     frequencies_hz: np.ndarray
@@ -60,6 +77,8 @@ class LinearModes:
     singular_values: np.ndarray
     order: int
     n_real: int
+    unexplained: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    energy_share: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def tail_segments(y: np.ndarray, start: int, stop: int, fraction: float) -> np.ndarray:
@@ -80,10 +99,12 @@ def era(
     *,
     max_freq_hz: float | None = None,
     block_rows: int | None = None,
-    max_order: int = 20,
+    max_order: int = 40,
     order_threshold: float = 30.0,
     max_zeta: float = 0.2,
     driving_point: int = 0,
+    min_stable: int = 4,
+    min_energy: float = 0.001,
 ) -> LinearModes:
     """Poles and real mode shapes of free decays (see the module docstring).
 
@@ -94,72 +115,246 @@ def era(
     rate_hz : float
         Sample rate [Hz].
     max_freq_hz : float, optional
-        Highest frequency of interest; the segments are low-passed and decimated to 5 times
-        it (default: no decimation).
+        Highest frequency of interest [Hz]; the band actually used is the part of the tails'
+        spectrum above the noise floor, at most this (:func:`response_band`). The segments are
+        low-passed and decimated to about 5 times the band's top.
     block_rows : int, optional
-        Block rows of the Hankel matrix (default: enough for 4 cycles of the lowest mode at
-        most, at least ``max_order``).
+        Block rows of the Hankel matrix (default: about one period of the lowest spectral
+        peak, at least enough rows for ``max_order``).
     max_order : int
-        Largest model order tried.
+        Largest model order of the stabilisation diagram.
     order_threshold : float
-        A singular value counts when above this many times the noise level (median of the
-        second half of the singular values).
+        Only for ``n_real``: real poles counted at the order whose singular values stand
+        this many times above the median of the trailing ones.
     max_zeta : float
         Poles more damped than this are not modes.
     driving_point : int
         Channel whose shape entry is made positive.
+    min_stable : int
+        A pole is a mode when it is stable (frequency within 1 %, damping ratio within 30 % or
+        0.3 points, shape MAC >= 0.9 against the next lower order) at this many orders.
+    min_energy : float
+        ... and when its part of the tails (least-squares fit of every stable mode's free decay
+        to the segments) carries at least this fraction of the fitted signal's energy.
 
     Raises
     ------
     IdentificationError
-        No segment long enough, or no mode found.
+        No segment long enough, or no mode stable in the stabilisation diagram.
     """
-    q = 1
-    if max_freq_hz is not None and rate_hz > 10 * max_freq_hz:
-        q = int(rate_hz // (5 * max_freq_hz))
-    dt = q / rate_hz
-    segs = []
-    for s in segments:
-        s = np.asarray(s, float)
-        if q > 1 and s.shape[1] > 30 * q:
-            s = signal.decimate(s, q, ftype="fir", axis=1, zero_phase=True)
-        segs.append(s)
-    segs = [s for s in segs if s.shape[1] > 0]
+    segs = [np.asarray(s, float) for s in segments]
+    segs = [s for s in segs if s.ndim == 2 and s.shape[1] > 8]
     if not segs:
         raise IdentificationError("no low-amplitude tail for ERA: every record ends before its envelope "
                                   "decays; record longer ring-downs")
+    f_lo, f_hi, floor = response_band(segs, rate_hz)
+    if f_hi <= 0:
+        raise IdentificationError("ERA found no oscillating mode: the tails' spectrum has no peak 10 times "
+                                  "above its noise floor")
+    top = min(f_hi, max_freq_hz) if max_freq_hz else f_hi
+    q = int(rate_hz // (5 * top)) if rate_hz > 10 * top else 1
+    dt = q / rate_hz
+    if q > 1:
+        segs = [signal.decimate(s, q, ftype="fir", axis=1, zero_phase=True) for s in segs if s.shape[1] > 30 * q]
+    if not segs:
+        raise IdentificationError("free decays too short for ERA after decimation; record longer ring-downs")
     longest = max(s.shape[1] for s in segs)
     n_ch = segs[0].shape[0]
-    p = block_rows or max(max_order, 40 // n_ch + 2)
+    p = block_rows or int(np.clip(math.ceil(1.0 / (max(f_lo, 1e-3) * dt)), max_order // n_ch + 2, 400 // n_ch))
     h0, h1 = _hankel(segs, p)
     u, sv, vt = np.linalg.svd(h0, full_matrices=False)
     svn = sv / sv[0]
+    f_min, f_max = 0.5 / (dt * longest), 1.2 * top
+    diagram = [(n, _poles(u, sv, vt, h1, n, n_ch, dt)) for n in range(2, min(max_order, len(sv)) + 1, 2)]
+    modes = _stable_modes(diagram, f_min, f_max, max_zeta, min_stable)
+    modes = _merge_gliding(_significant(modes, segs, dt, min_energy))
+    modes, unexplained = _shapes_from_residues(modes, segs, dt, floor * 0.5 / dt)
+    if not modes:
+        raise IdentificationError(
+            f"ERA found no oscillating mode stable over {min_stable} model orders in the free decays "
+            f"({f_min:.3g}-{f_max:.3g} Hz): too noisy or too short a ring-down")
     noise = float(np.median(svn[len(svn) // 2:])) if len(svn) > 4 else 0.0
-    order = int(np.sum(svn > order_threshold * max(noise, 1e-12)))
-    order = max(1, min(order, max_order, len(sv)))
+    order = max(1, min(int(np.sum(svn > order_threshold * max(noise, 1e-12))), len(sv)))
+    lam_t = _poles(u, sv, vt, h1, order, n_ch, dt)[0]
+    n_real = int(np.sum(np.abs(lam_t.imag) < 1e-9 * np.maximum(np.abs(lam_t), 1.0)))
+    freqs, zetas, shapes, cplx = _real_modes([m[:3] for m in modes], driving_point)
+    return LinearModes(freqs, zetas, shapes, cplx, svn, max(n for n, _ in diagram), n_real, unexplained,
+                       np.array([m[3] for m in modes]))
+
+
+def response_band(segs: Sequence[np.ndarray], rate_hz: float) -> tuple[float, float, np.ndarray]:
+    """``(f_lo, f_hi, floor)``: the lowest and highest frequency [Hz] where the tails' summed
+    spectrum stands 10 times above its noise floor (median of the upper half of the spectrum),
+    and each channel's noise floor (one-sided PSD, units^2/Hz, weighted by segment length).
+    ``f_hi`` is 0 when nothing stands above the floor."""
+    nper = int(min(1024, min(s.shape[1] for s in segs)))
+    psd, chan, total = None, None, 0
+    for s in segs:
+        f, p = signal.welch(s, fs=rate_hz, nperseg=nper, axis=1)
+        chan = p * s.shape[1] if chan is None else chan + p * s.shape[1]
+        total += s.shape[1]
+        p = p.sum(axis=0) * s.shape[1]
+        psd = p if psd is None else psd + p
+    chan_floor = np.median(chan[:, chan.shape[1] // 2:], axis=1) / total
+    floor = float(np.median(psd[len(psd) // 2:]))
+    above = np.flatnonzero(psd > 10 * max(floor, 1e-300 * psd.max()))
+    above = above[above > 0]
+    if above.size == 0:
+        return float(f[1]), 0.0, chan_floor
+    lo = float(f[int(np.argmax(psd[1:])) + 1]) if above.size < 2 else float(f[above[0]])
+    hi = float(f[min(above[-1] + 1, len(f) - 1)])
+    return max(lo, float(f[1])), max(hi, lo * 1.5), chan_floor
+
+
+def _poles(u: np.ndarray, sv: np.ndarray, vt: np.ndarray, h1: np.ndarray, order: int, n_ch: int, dt: float
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Continuous poles [1/s] and complex shapes (n_ch, order) of the order-``order`` realisation."""
     ur, sr, vr = u[:, :order], sv[:order], vt[:order].T
     s_inv = 1.0 / np.sqrt(sr)
     a = (s_inv[:, None] * (ur.T @ h1 @ vr)) * s_inv[None, :]
     c = (ur * np.sqrt(sr)[None, :])[:n_ch]
     mu, vec = np.linalg.eig(a)
-    lam = np.log(mu.astype(complex)) / dt
-    shapes_c = c @ vec
-    keep = []
-    n_real = 0
-    for k, l in enumerate(lam):
-        if abs(l.imag) < 1e-9 * max(abs(l), 1.0) or l.imag < 0:
-            n_real += int(abs(l.imag) < 1e-9 * max(abs(l), 1.0))
+    return np.log(mu.astype(complex)) / dt, c @ vec
+
+
+def _significant(modes: list[tuple[float, float, np.ndarray]], segs: Sequence[np.ndarray], dt: float,
+                 min_energy: float) -> list[tuple[float, float, np.ndarray]]:
+    """The modes whose share of the tails (free decays fitted jointly by least squares, one complex
+    amplitude per mode and segment) is at least ``min_energy`` of the fitted energy."""
+    if len(modes) < 2:
+        return [m + (1.0,) for m in modes]
+    energy = np.zeros(len(modes))
+    for s in segs:
+        t = np.arange(s.shape[1]) * dt
+        cols = []
+        for fd, zeta, psi in modes:
+            wn = 2 * math.pi * fd / math.sqrt(max(1 - zeta**2, 1e-12))
+            z = np.exp((-zeta * wn + 2j * math.pi * fd) * t)
+            w = psi[:, None] * z[None, :]
+            cols += [w.real.ravel(), -w.imag.ravel()]
+        basis = np.column_stack(cols)
+        coef = np.linalg.lstsq(basis, s.ravel(), rcond=None)[0]
+        for k in range(len(modes)):
+            energy[k] += float(np.sum((basis[:, 2 * k:2 * k + 2] @ coef[2 * k:2 * k + 2]) ** 2))
+    share = energy / max(energy.sum(), 1e-300)
+    return [m + (float(e),) for m, e in zip(modes, share) if e >= min_energy]
+
+
+def _decays(modes: list[tuple[float, float, np.ndarray]], n: int, dt: float) -> np.ndarray:
+    """``exp(lambda_k t)`` of every mode over ``n`` samples, shape (n, n_modes)."""
+    t = np.arange(n) * dt
+    out = np.empty((n, len(modes)), complex)
+    for k, (fd, zeta, *_rest) in enumerate(modes):
+        wn = 2 * math.pi * fd / math.sqrt(max(1 - zeta**2, 1e-12))
+        out[:, k] = np.exp((-zeta * wn + 2j * math.pi * fd) * t)
+    return out
+
+
+def _shapes_from_residues(modes: list[tuple[float, float, np.ndarray, float]], segs: Sequence[np.ndarray], dt: float,
+                          noise_var: np.ndarray) -> tuple[list[tuple[float, float, np.ndarray, float]], np.ndarray]:
+    """The modes with shapes re-estimated from the data: with the poles fixed, every channel of
+    every segment is fitted by least squares (one complex residue per mode); a mode's shape is
+    the leading singular vector of its residues over the segments (the realisation's ``C`` at
+    one order is noisier on the weak channels). Also each channel's unexplained part (see
+    :class:`LinearModes`), ``noise_var`` being the noise variance of the decimated segments."""
+    n_ch = segs[0].shape[0]
+    if not modes:
+        return modes, np.ones(n_ch)
+    res = [[] for _ in modes]
+    resid, energy, count = np.zeros(n_ch), np.zeros(n_ch), 0
+    for s in segs:
+        z = _decays(modes, s.shape[1], dt)
+        basis = np.hstack([z.real, -z.imag])
+        coef = np.linalg.lstsq(basis, s.T, rcond=None)[0]  # (2 n_modes, n_ch)
+        resid += np.sum((s.T - basis @ coef) ** 2, axis=0)
+        energy += np.sum(s**2, axis=1)
+        count += s.shape[1]
+        r = coef[:len(modes)] + 1j * coef[len(modes):]
+        for k in range(len(modes)):
+            res[k].append(r[k])
+    out = []
+    for (fd, zeta, _psi, share), rk in zip(modes, res):
+        u, _s, _vt = np.linalg.svd(np.array(rk).T, full_matrices=False)
+        out.append((fd, zeta, u[:, 0], share))
+    noise = noise_var * count
+    unexplained = np.maximum(resid - noise, 0.0) / np.maximum(energy - noise, 1e-300)
+    return out, np.clip(unexplained, 0.0, 1.0)
+
+
+def _merge_gliding(modes: list[tuple[float, float, np.ndarray, float]]) -> list[tuple[float, float, np.ndarray, float]]:
+    """One mode per column group: columns within 8 % in frequency whose shapes agree (MAC >= 0.9)
+    are one mode whose frequency glides with amplitude (a nonlinear tail); the most energetic
+    column represents it, with the group's summed share. ``(f_d, zeta, shape, energy share)``."""
+    kept: list[tuple[float, float, np.ndarray, float]] = []
+    for m in sorted(modes, key=lambda r: -r[3]):
+        same = [j for j, k in enumerate(kept) if abs(m[0] - k[0]) <= 0.08 * k[0] and _mac(m[2], k[2]) >= 0.9]
+        if same:
+            k = kept[same[0]]
+            kept[same[0]] = (k[0], k[1], k[2], k[3] + m[3])
+        else:
+            kept.append(m)
+    return _drop_combination_tones(sorted(kept, key=lambda r: r[0]))
+
+
+def _drop_combination_tones(modes: list[tuple[float, float, np.ndarray, float]], weak: float = 0.01, tol: float = 0.01
+                            ) -> list[tuple[float, float, np.ndarray, float]]:
+    """Without the weak columns (share below ``weak``) within ``tol`` of ``3 f_i`` or ``2 f_i +- f_j``
+    of stronger modes: the tones a cubic force puts in the tail, not linear modes."""
+    out = []
+    for m in modes:
+        strong = [k[0] for k in modes if k[3] > m[3] and k[3] >= weak]
+        tones = [3 * a for a in strong] + [abs(2 * a + sgn * b) for a in strong for b in strong if a != b
+                                           for sgn in (1, -1)]
+        if m[3] < weak and any(abs(m[0] - t) <= tol * m[0] for t in tones):
             continue
-        wn = abs(l)
-        zeta = -l.real / wn
-        fd = l.imag / (2 * math.pi)
-        if 0 <= zeta < max_zeta and fd > 0.5 / (dt * longest) and (max_freq_hz is None or fd < 1.2 * max_freq_hz):
-            keep.append((fd, zeta, k))
-    if not keep:
-        raise IdentificationError("ERA found no oscillating mode in the free decays")
-    keep.sort()
-    freqs, zetas, shapes, cplx = _real_modes(keep, shapes_c, driving_point)
-    return LinearModes(freqs, zetas, shapes, cplx, svn, order, n_real)
+        out.append(m)
+    return out
+
+
+def _mac(a: np.ndarray, b: np.ndarray) -> float:
+    return float(abs(np.vdot(a, b)) ** 2 / max(np.vdot(a, a).real * np.vdot(b, b).real, 1e-300))
+
+
+def _stable_modes(diagram: list[tuple[int, tuple[np.ndarray, np.ndarray]]], f_min: float, f_max: float,
+                  max_zeta: float, min_stable: int) -> list[tuple[float, float, np.ndarray]]:
+    """Modes of the stabilisation diagram: ``(f_d, zeta, complex shape)`` per mode, ascending.
+
+    A pole is stable when the next lower order has one within 1 % in frequency, 30 % (or 0.003)
+    in damping ratio and MAC >= 0.9; stable poles within 1 % of each other form a column; a
+    column with stable poles at ``min_stable`` or more orders is a mode, represented by its
+    pole at the median frequency.
+    """
+    per_order = []
+    for _n, (lam, shp) in diagram:
+        rows = []
+        for k, lm in enumerate(lam):
+            if lm.imag <= 1e-9 * max(abs(lm), 1.0):
+                continue
+            wn = abs(lm)
+            zeta, fd = -lm.real / wn, lm.imag / (2 * math.pi)
+            if 0 <= zeta < max_zeta and f_min < fd < f_max:
+                rows.append((fd, zeta, shp[:, k]))
+        per_order.append(rows)
+    stable = []
+    for j in range(1, len(per_order)):
+        for fd, zeta, psi in per_order[j]:
+            if any(abs(f0 - fd) <= 0.01 * fd and abs(z0 - zeta) <= max(0.3 * zeta, 0.003) and _mac(p0, psi) >= 0.9
+                   for f0, z0, p0 in per_order[j - 1]):
+                stable.append((fd, zeta, psi, j))
+    stable.sort(key=lambda r: r[0])
+    columns: list[list] = []
+    for row in stable:
+        if columns and row[0] - columns[-1][-1][0] <= 0.01 * row[0]:
+            columns[-1].append(row)
+        else:
+            columns.append([row])
+    modes = []
+    for col in columns:
+        if len({r[3] for r in col}) < max(min_stable, 0.5 * (len(diagram) - 1)):
+            continue
+        mid = col[len(col) // 2]
+        modes.append((mid[0], float(np.median([r[1] for r in col])), mid[2]))
+    return modes
 
 
 def _hankel(segs: list[np.ndarray], p: int) -> tuple[np.ndarray, np.ndarray]:
@@ -177,12 +372,11 @@ def _hankel(segs: list[np.ndarray], p: int) -> tuple[np.ndarray, np.ndarray]:
     return np.hstack(cols0), np.hstack(cols1)
 
 
-def _real_modes(keep: list[tuple[float, float, int]], shapes_c: np.ndarray, driving_point: int
+def _real_modes(modes: list[tuple[float, float, np.ndarray]], driving_point: int
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Frequencies, damping ratios, real shapes (largest entry 1, positive at the driving point), complexity."""
     freqs, zetas, shapes, cplx = [], [], [], []
-    for fd, zeta, k in keep:
-        psi = shapes_c[:, k]
+    for fd, zeta, psi in modes:
         big = int(np.argmax(np.abs(psi)))
         psi = psi * np.exp(-1j * np.angle(psi[big]))
         re = psi.real / np.max(np.abs(psi.real))

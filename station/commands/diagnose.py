@@ -204,8 +204,12 @@ def handle(args: argparse.Namespace) -> int:
         # diagnosis judges its folds with the pipeline's choices, so it comes first
         pipe_obj, baseline = pipeline_baseline(measurements, float(mass), args.damping, args.stiffness,
                                                args.refine, conditioned)
+    from station.forkmap import ForkMap, jobs_wanted
+
+    # the folds' fits are independent: in forked workers when cores are free (same result)
     diag = diagnose(records, mass, damping=args.damping, stiffness=args.stiffness, base=base,
-                    mechanisms=mechanisms, margin=args.margin, fit=args.fit, pipeline=baseline)
+                    mechanisms=mechanisms, margin=args.margin, fit=args.fit, pipeline=baseline,
+                    mapper=ForkMap(jobs_wanted()))
     obj = diag.to_dict()
     obj["captures"] = [r.label for r in records]
     obj["resampled"] = resampled

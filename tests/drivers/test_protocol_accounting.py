@@ -4,7 +4,7 @@ duplicated and reordered frames, sequence wrap, and u64 sample counters beyond 2
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from drivers.protocol import DataFrame, FrameType, ReplyStatus, StreamDecoder, encode_data, encode_reply
@@ -119,6 +119,7 @@ def test_a_start_reply_with_a_counter_outside_u64_is_malformed() -> None:
     seq0=st.sampled_from([0, (1 << 32) - 5]),
     edits=st.lists(st.tuples(st.sampled_from(["dup", "swap", "drop", "start"]), st.integers(0, 29)), max_size=8),
 )
+@example(n_frames=1, start=0, seq0=(1 << 32) - 5, edits=[("start", 0)])  # found by hypothesis
 def test_any_duplication_reorder_or_loss_keeps_every_count_exact(n_frames, start, seq0, edits) -> None:
     frames = [(seq0 + k) & 0xFFFFFFFF for k in range(n_frames)]
     order: list[object] = list(range(n_frames))
@@ -134,7 +135,8 @@ def test_any_duplication_reorder_or_loss_keeps_every_count_exact(n_frames, start
             order.insert(i, "start")
     stream = _reply(seq0 - 1 & 0xFFFFFFFF, FrameType.START, {"first_sample": start})
     for k in order:
-        stream += (_reply(0, FrameType.START, {"first_sample": start}) if k == "start"
+        # a repeated START reply is the device's reply again: its own sequence number
+        stream += (_reply(seq0 - 1 & 0xFFFFFFFF, FrameType.START, {"first_sample": start}) if k == "start"
                    else _data(frames[k], start + k * N))  # type: ignore[operator]
     stream += _reply(seq0 + n_frames & 0xFFFFFFFF, FrameType.STOP, {"next_sample": start + n_frames * N})
     dec = StreamDecoder()

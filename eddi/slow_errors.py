@@ -1,0 +1,213 @@
+"""Nuisance columns for the slow errors a conditioner leaves in ``x`` and ``v``.
+
+A coordinate integrated from a measured acceleration is known only up to the drift its
+conditioner removed: a smooth curve (``eddi.conditioning``'s cubic drift spline, knots every
+:data:`DRIFT_KNOT_PERIODS` periods). Whatever part of the true motion lies in that space is
+taken out with the drift, and whatever part of the integrated noise lies in it is left in.
+Measured on an asymmetric oscillator (``x^2`` stiffness, clean record,
+``benchmarks/bench_vs_sindy.py``'s ``heavy_asym``): the conditioned ``x`` is off by a slow
+curve that follows the squared amplitude (the mean shift a quadratic stiffness causes, which
+the anchoring at ``a = 0`` cannot tell from drift), 0.4 % of the RMS of ``x``, and lies in the
+drift spline's space to 5e-6 of it. Fed to phase two as is, that offset moves ``x^2`` by 2-4 %
+and ``x^3`` by 1-3 %.
+
+Phase two therefore treats the offset ``delta(t)`` of ``x`` and the slow error ``dv(t)`` of
+``v`` as unknowns in the same spline space (errors in variables, to first order):
+
+* potential route, ``E - T = V(x_true)`` with ``x_true = x - delta``, ``T = m (v_true + dv)^2 / 2``
+  and ``E`` anchored on ``T(gamma_i)``::
+
+      E - T = V(x) - K(x) delta(t) + [blend of m v(gamma_i) dv(gamma_i)] - m v dv(t)
+
+* Lagrangian route, ``F_c = -K(x_true) = -K(x) + K'(x) delta(t)``.
+
+``K`` is the route's own estimate (a first pass without these columns, then refitted), and
+``delta, dv`` are B-spline series; their coefficients are fitted and discarded. The part of
+the error faster than the knots (the integrated noise between knots) is not removed; it is
+what limits the routes at low SNR.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import sparse
+
+#: Knot spacing of the nuisance splines, in periods of the response: that of the
+#: conditioner's drift spline (``eddi.conditioning.conditioner.KNOT_PERIODS``).
+DRIFT_KNOT_PERIODS = 2.0
+
+#: Largest RMS of the fitted offset of ``x``, relative to the RMS of ``x``, for which the
+#: correction is used. The expansion ``V(x - delta) = V(x) - K(x) delta`` drops
+#: ``K'(x) delta^2 / 2``, about ``delta / (2 x)`` of the correction: 5 % at this bound. The
+#: conditioner's own errors measured 0.4-3 % (``benchmarks/bench_vs_sindy.py``, 30-45 dB); a
+#: record with dry friction fitted by a smooth library asked for 25-110 % (a mechanism outside
+#: the library, not a conditioning error).
+MAX_OFFSET = 0.1
+
+#: Refits of the stiffness with the nuisance columns built on the previous estimate of ``K``
+#: (one refit: plain EDDI 0.33x / 0.74x STLSQ's median at 45 / 30 dB on bench_vs_sindy's
+#: seeds 3-10; two: 0.32x / 0.72x).
+PASSES = 2
+
+
+def drift_basis(t: np.ndarray, gamma: np.ndarray, knot_periods: float = DRIFT_KNOT_PERIODS) -> np.ndarray:
+    """Cubic B-spline basis over ``t`` with knots every ``knot_periods`` periods.
+
+    Parameters
+    ----------
+    t : ndarray, shape (k,), [s]
+        Increasing sample times.
+    gamma : ndarray, shape (N+1,), [s]
+        Zero crossings of ``x`` (two per period; the period is twice their median spacing).
+    knot_periods : float
+        Knot spacing in periods.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix, shape (k, p)
+        Basis functions at ``t`` (``p >= 4``; four non-zeros a row).
+    """
+    from scipy.interpolate import BSpline  # local: keeps `import eddi` light
+
+    t = np.asarray(t, dtype=float)
+    t0, t1 = float(t[0]), float(t[-1])
+    period = 2.0 * float(np.median(np.diff(gamma))) if gamma.size > 1 else t1 - t0
+    n_int = max(1, int(np.ceil((t1 - t0) / max(knot_periods * period, 1e-300))))
+    knots = np.concatenate(([t0] * 3, np.linspace(t0, t1, n_int + 1), [t1] * 3))
+    return sparse.csr_matrix(BSpline.design_matrix(np.clip(t, t0, t1), knots, 3))
+
+
+def rate_error_columns(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.ndarray, v: np.ndarray,
+                       mass: float, basis: np.ndarray,
+                       knot_periods: float = DRIFT_KNOT_PERIODS) -> np.ndarray:
+    """Columns of ``E - T`` for a slow rate error ``dv = basis @ c`` (potential route).
+
+    ``T`` at the samples is off by ``m v dv``; the energy anchored on ``T(gamma_i)``
+    (:func:`eddi.phase_one._anchored_energy`, a linear blend in time between crossings) by
+    the same blend of ``m v(gamma_i) dv(gamma_i)``.
+
+    Parameters
+    ----------
+    t : ndarray, shape (k,), [s]
+    gamma : ndarray, shape (N+1,), [s]
+    kinetic_at_gamma : ndarray, shape (N+1,), [J]
+    v : ndarray, shape (k,), [m/s]
+    mass : float, [kg]
+    basis : scipy.sparse matrix, shape (k, p)
+        :func:`drift_basis` at ``t``.
+    knot_periods : float
+        As for ``basis``.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix, shape (k, p), [J per m/s]
+    """
+    v = np.asarray(v, dtype=float)
+    # the basis at the crossings, on the knots of ``basis`` (the same t[0], t[-1] and period)
+    bg = drift_basis(np.concatenate((t, np.clip(gamma, t[0], t[-1]))), gamma, knot_periods)[t.size:]
+    vg = np.sign(np.interp(gamma, t, v)) * np.sqrt(2.0 * np.maximum(kinetic_at_gamma, 0.0) / mass)
+    i = np.clip(np.searchsorted(gamma, t, side="right") - 1, 0, gamma.size - 2)
+    lam = np.clip((t - gamma[i]) / np.maximum(gamma[i + 1] - gamma[i], 1e-300), 0.0, 1.0)
+    eg = sparse.diags(mass * vg) @ bg
+    blend = sparse.diags(1.0 - lam) @ eg[i] + sparse.diags(lam) @ eg[i + 1]
+    return sparse.csr_matrix(blend - sparse.diags(mass * v) @ basis)
+
+
+def refit_with_offset(cols: np.ndarray, rhs: np.ndarray, w: np.ndarray, coef: np.ndarray, basis: np.ndarray,
+                      offset_gain, extra: np.ndarray | None, solve, x: np.ndarray) -> np.ndarray:
+    """Weighted least squares of ``rhs`` on ``cols`` plus the nuisance columns, :data:`PASSES` times.
+
+    The first-order correction holds while the fitted offset is small against ``x``; when
+    its RMS exceeds :data:`MAX_OFFSET` of that of ``x`` the first estimate ``coef`` is
+    returned unchanged.
+
+    Parameters
+    ----------
+    cols : ndarray, shape (k, m)
+        The route's columns.
+    rhs : ndarray, shape (k,)
+    w : ndarray, shape (k,)
+        Row weights.
+    coef : ndarray, shape (m,)
+        First estimate (without nuisance columns).
+    basis : scipy.sparse matrix, shape (k, p)
+        :func:`drift_basis`.
+    offset_gain : callable
+        ``coef -> ndarray (k,)``: how the row responds to a unit offset of ``x`` for the
+        stiffness ``coef`` (potential: ``-K(x)``; Lagrangian: ``K'(x)``).
+    extra : scipy.sparse matrix, shape (k, q), or None
+        Further nuisance columns that do not depend on ``coef``.
+    solve : callable
+        ``(a, b) -> (coef, cond)``, e.g. :func:`normal_lstsq`.
+    x : ndarray, shape (k,)
+        The coordinate at the rows.
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        The stiffness coefficients.
+    """
+    first = coef
+    m, p = cols.shape[1], basis.shape[1]
+    offset = np.zeros(basis.shape[0])
+    for _ in range(PASSES):
+        blocks = [sparse.csr_matrix(cols), sparse.diags(offset_gain(coef)) @ basis]
+        if extra is not None:
+            blocks.append(extra)
+        full = sparse.diags(w) @ sparse.hstack(blocks, format="csr")
+        sol, _cond = solve(full, rhs * w)
+        coef = sol[:m]
+        offset = basis @ sol[m:m + p]
+    if not np.all(np.isfinite(coef)) or np.sqrt(np.mean(offset**2)) > MAX_OFFSET * np.sqrt(np.mean(x**2)):
+        return first
+    return coef
+
+
+def normal_lstsq(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
+    """Least squares by the column-scaled normal equations with two steps of refinement.
+
+    For the tall systems of :func:`refit_with_offset` (up to ~1e5 rows, a few stiffness columns
+    and up to a few hundred sparse nuisance columns, four non-zeros a row each) an SVD solver
+    (``numpy.linalg.lstsq``) on the dense matrix took 0.2-0.5 s of CPU a call with ~40 columns
+    and seconds with hundreds; the sparse normal equations take a few ms. Each refinement
+    step solves them again for the residual's correction (the corrected semi-normal
+    equations), which brings the error back to that of a QR solution for condition numbers
+    up to ~1e7 of the scaled matrix (measured: 1.3e-13 relative against an SVD on a test
+    system of condition ~800).
+
+    Parameters
+    ----------
+    a : ndarray or scipy.sparse matrix, shape (n, m)
+    b : ndarray, shape (n,)
+
+    Returns
+    -------
+    coef : ndarray, shape (m,)
+    cond : float
+        A cheap lower bound of the condition number of the scaled matrix (ratio of the
+        extreme diagonal entries of the Cholesky factor).
+    """
+    if sparse.issparse(a):
+        norms = np.sqrt(np.asarray(a.multiply(a).sum(axis=0)).ravel())
+        norms = np.where(norms > 0, norms, 1.0)
+        a_s = a @ sparse.diags(1.0 / norms)
+        gram = (a_s.T @ a_s).toarray()
+    else:
+        norms = np.linalg.norm(a, axis=0)
+        norms = np.where(norms > 0, norms, 1.0)
+        a_s = a / norms
+        gram = a_s.T @ a_s
+    from scipy.linalg import cho_factor, cho_solve  # local: keeps `import eddi` light
+
+    # the scaled columns have unit norm: the Gram matrix has a unit diagonal
+    factor = cho_factor(gram + 1e-14 * np.eye(gram.shape[0]), lower=True)
+    diag = np.abs(np.diag(factor[0]))
+    cond = float(np.max(diag) / max(float(np.min(diag)), 1e-300))
+
+    def normal_solve(rhs: np.ndarray) -> np.ndarray:
+        return cho_solve(factor, np.asarray(a_s.T @ rhs).ravel())
+
+    sol = normal_solve(b)
+    for _ in range(2):
+        sol = sol + normal_solve(b - a_s @ sol)
+    return sol / norms, cond

@@ -1,0 +1,143 @@
+"""A ``map`` over forked copies of this process, for the diagnosis' independent folds.
+
+:func:`eddi.diagnosis.diagnose` takes a ``mapper(fn, items)`` (:mod:`eddi.diagnosis.mapping`)
+for its per-fold work (refinements of each fold's baseline, every candidate's refits, the
+noise floor's perturbed refits). :class:`ForkMap` runs ``fn`` on the items in this process and
+in ``jobs - 1`` forked workers (``fork``: nothing is re-imported and nothing is copied but
+the results, which come back pickled through a pipe), the items dealt round robin. Each
+worker computes exactly what this process would (the same code on the same inputs, one BLAS
+thread each), so the diagnosis is the same bit for bit.
+
+It forks only when it can pay: :func:`jobs_wanted` is 1 (run here, in turn) with one usable
+core, without ``fork``, with another Python thread running (a fork copies the locks other
+threads may hold), when the machine has no free core (1-minute load average), or with
+``STATION_SERIAL=1``; ``STATION_JOBS=N`` forces ``N`` workers in all (no load check). A
+worker that dies (killed, out of memory) is replaced by the same calls in this process; an
+error raised in a worker is raised here, after this process's own share.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import os
+import pickle
+import threading
+from typing import Any, Callable, Sequence
+
+
+def usable_cores() -> int:
+    """CPUs this process may run on (its affinity mask where the OS has one)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+def jobs_wanted(environ: dict[str, str] | None = None, load: float | None = None) -> int:
+    """Processes to run the folds in (this one included; 1: no fork).
+
+    Parameters
+    ----------
+    environ : dict, optional
+        Environment (default ``os.environ``): ``STATION_SERIAL=1`` gives 1, ``STATION_JOBS=N``
+        gives ``N`` (at least 1).
+    load : float, optional
+        1-minute load average (default :func:`os.getloadavg`); the cores not busy with it
+        (rounded) are used, this process's own core included.
+    """
+    env = os.environ if environ is None else environ
+    if env.get("STATION_SERIAL", "") not in ("", "0"):
+        return 1
+    if "fork" not in multiprocessing.get_all_start_methods() or threading.active_count() > 1:
+        return 1
+    forced = env.get("STATION_JOBS", "").strip()
+    if forced:
+        try:
+            return max(1, int(forced))
+        except ValueError:
+            return 1
+    cores = usable_cores()
+    if cores < 2:
+        return 1
+    if load is None:
+        try:
+            load = os.getloadavg()[0]
+        except OSError:  # pragma: no cover - no load average
+            load = 0.0
+    # this process is (about) one of the running ones: it keeps its own core
+    free = cores - max(0.0, load - 1.0)
+    return max(1, min(cores, int(math.floor(free + 0.5))))
+
+
+class ForkMap:
+    """``ForkMap(jobs)(fn, items)`` == ``[fn(item) for item in items]``, in ``jobs`` processes.
+
+    ``fn`` may be any callable (a closure over large arrays included): workers are forked
+    after it exists, so it is never pickled; only the results travel. With ``jobs`` 1 or
+    fewer than two items everything runs here.
+    """
+
+    def __init__(self, jobs: int) -> None:
+        self.jobs = max(1, int(jobs))
+        self.forked = 0  # workers started (for tests and benchmarks)
+
+    def __call__(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> list:
+        items = list(items)
+        n = min(self.jobs, len(items))
+        if n < 2:
+            return [fn(x) for x in items]
+        ctx = multiprocessing.get_context("fork")
+        workers = []
+        try:
+            for w in range(1, n):
+                recv, send = ctx.Pipe(duplex=False)
+                # (multiprocessing flushes stdout / stderr before it forks: nothing is printed twice)
+                proc = ctx.Process(target=_worker, args=(send, fn, items[w::n]), daemon=True)
+                proc.start()
+                send.close()
+                workers.append((w, proc, recv))
+                self.forked += 1
+            out: list[Any] = [None] * len(items)
+            out[0::n] = [fn(x) for x in items[0::n]]
+            error: BaseException | None = None
+            for w, proc, recv in workers:
+                kind, value = _collect(recv, fn, items[w::n])
+                proc.join()
+                if kind == "ok":
+                    out[w::n] = value
+                elif error is None:
+                    error = value
+            if error is not None:
+                raise error
+            return out
+        finally:
+            for _, proc, recv in workers:
+                if proc.is_alive():  # interrupted (Ctrl-C, an error here): stop the worker
+                    proc.terminate()
+                    proc.join()
+                recv.close()
+
+
+def _worker(conn: Any, fn: Callable[[Any], Any], items: list) -> None:  # pragma: no cover - in the child
+    try:
+        out: tuple[str, Any] = ("ok", [fn(x) for x in items])
+    except BaseException as exc:  # noqa: BLE001 - handed back to the parent
+        out = ("error", exc)
+    try:
+        data = pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception as exc:  # noqa: BLE001 - a result or error that does not pickle
+        data = pickle.dumps(("error", RuntimeError(f"fold worker: {exc}")))
+    conn.send_bytes(data)
+    conn.close()
+
+
+def _collect(recv: Any, fn: Callable[[Any], Any], items: list) -> tuple[str, Any]:
+    """A worker's ``("ok", results)`` or ``("error", exc)``; its calls run here if it died."""
+    try:
+        return pickle.loads(recv.recv_bytes())
+    except (EOFError, OSError):  # the worker died (killed, out of memory): compute its share here
+        try:
+            return "ok", [fn(x) for x in items]
+        except Exception as exc:  # noqa: BLE001 - raised by the caller, as a worker's would be
+            return "error", exc

@@ -1,0 +1,119 @@
+"""station.forkmap: the diagnosis' folds in forked workers, the same result as in turn."""
+
+from __future__ import annotations
+
+import json
+import os
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from eddi.model import EquationOfMotion
+from simulated_rig.bench import impact_test
+from station import forkmap
+from station.cli import main
+from station.forkmap import ForkMap, jobs_wanted
+
+
+def test_results_in_order_from_workers_closure_not_pickled() -> None:
+    data = np.random.default_rng(0).standard_normal((7, 1000))
+    parent = os.getpid()
+
+    def fn(i: int) -> tuple[int, float, bool]:  # a closure (not picklable): inherited by fork
+        return i, float(data[i] @ data[i]), os.getpid() != parent
+
+    m = ForkMap(3)
+    out = m(fn, range(7))
+    assert [o[:2] for o in out] == [(i, float(data[i] @ data[i])) for i in range(7)]
+    # items dealt round robin: 0, 3, 6 here; the others in the two workers
+    assert [o[2] for o in out] == [i % 3 != 0 for i in range(7)]
+    assert m.forked == 2
+
+
+def test_one_job_or_one_item_runs_here() -> None:
+    parent = os.getpid()
+    for m, items in ((ForkMap(1), [1, 2, 3]), (ForkMap(4), [5])):
+        assert m(lambda i: (i, os.getpid() == parent), items) == [(i, True) for i in items]
+        assert m.forked == 0
+
+
+def test_a_workers_error_is_raised_here() -> None:
+    def fn(i: int) -> int:
+        if i == 1:  # item 1 is the worker's (of two)
+            raise ValueError(f"bad item {i}")
+        return i
+
+    with pytest.raises(ValueError, match="bad item 1"):
+        ForkMap(2)(fn, [0, 1, 2, 3])
+
+
+def test_a_worker_that_dies_is_replaced_here() -> None:
+    parent = os.getpid()
+
+    def fn(i: int) -> int:
+        if os.getpid() != parent:
+            os._exit(3)  # killed mid-way: nothing sent back
+        return i * i
+
+    m = ForkMap(2)
+    assert m(fn, range(5)) == [i * i for i in range(5)]
+    assert m.forked == 1
+
+
+def test_jobs_wanted_environment_load_and_threads(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(forkmap, "usable_cores", lambda: 2)
+    assert jobs_wanted({}, load=0.3) == 2  # a free core besides this process's
+    assert jobs_wanted({}, load=1.2) == 2
+    assert jobs_wanted({}, load=2.0) == 1  # the other core is busy
+    assert jobs_wanted({}, load=6.0) == 1
+    assert jobs_wanted({"STATION_SERIAL": "1"}, load=0.0) == 1
+    assert jobs_wanted({"STATION_JOBS": "3"}, load=9.0) == 3
+    assert jobs_wanted({"STATION_JOBS": "x"}, load=0.0) == 1
+    monkeypatch.setattr(forkmap, "usable_cores", lambda: 1)
+    assert jobs_wanted({}, load=0.0) == 1
+    monkeypatch.setattr(forkmap, "usable_cores", lambda: 2)
+    stop = threading.Event()
+    t = threading.Thread(target=stop.wait)
+    t.start()
+    try:  # another thread running: a fork could copy a lock it holds
+        assert jobs_wanted({"STATION_JOBS": "2"}, load=0.0) == 1
+    finally:
+        stop.set()
+        t.join()
+
+
+SYSTEM = EquationOfMotion.create(mass=0.1, damping={"v": 0.06}, stiffness={"x": 600.0, "x^3": 2e7})
+
+
+def test_diagnose_forked_equals_in_turn(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    caps = []
+    for i, f in enumerate((20.0, 25.0, 30.0)):
+        r = impact_test(SYSTEM, f, rate_hz=4000.0, pretrigger_s=0.2, record_s=1.5, snr_db=40.0,
+                        effects=[{"name": "coulomb_friction", "params": {"force_n": 0.006}}], seed=i)
+        path = tmp_path / f"c{i}.csv"
+        np.savetxt(path, np.column_stack((r.t, r.force_n, r.acc_m_s2)), delimiter=",",
+                   header="t,force,acc", comments="", fmt="%.10g")
+        caps.append(str(path))
+    forks = []
+    real = ForkMap.__call__
+
+    def counting(self: ForkMap, fn, items):  # type: ignore[no-untyped-def]
+        out = real(self, fn, items)
+        forks.append(self.forked)
+        return out
+
+    monkeypatch.setattr(ForkMap, "__call__", counting)
+    outs = []
+    for env in ({"STATION_SERIAL": "1"}, {"STATION_JOBS": "2"}):
+        monkeypatch.delenv("STATION_SERIAL", raising=False)
+        monkeypatch.delenv("STATION_JOBS", raising=False)
+        for k, v in env.items():
+            monkeypatch.setenv(k, v)
+        forks.clear()
+        assert main(["diagnose", *caps, "--mass", "0.1", "--json"]) == 0
+        outs.append(json.loads(capsys.readouterr().out))
+        assert (max(forks) > 0) == ("STATION_JOBS" in env)
+    assert outs[0] == outs[1]  # every number the same bit for bit
