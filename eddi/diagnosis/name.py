@@ -247,12 +247,12 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
         out = []
         for mech in tried:
             fit = fit_fold(mech, bfit)
-            res.cand_fits[mech.name].append(fit if mech.native else None)
+            keep = fit if mech.native else None  # for refine_candidates (returned: may run elsewhere)
             if fit is None or fit.mech is None:
-                out.append((mech.name, NRMSE_CAP, np.full_like(xm, np.nan), None))
+                out.append((mech.name, NRMSE_CAP, np.full_like(xm, np.nan), None, keep))
                 continue
             xe = simulate_part(fit.eom, rec, part)
-            out.append((mech.name, nrmse(xe, xm), xe, fit.mech.params))
+            out.append((mech.name, nrmse(xe, xm), xe, fit.mech.params, keep))
         return ee_ref, out
 
     n = len(fits)
@@ -269,9 +269,10 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
     for ee_ref, out in out_all[:n]:
         if ee_ref is not None:
             res.ee_ref.append(ee_ref)
-        for name, value, sim, params in out:
+        for name, value, sim, params, keep in out:
             res.cand_fold[name].append(value)
             res.cand_sims[name].append(sim)
+            res.cand_fits[name].append(keep)
             if params is not None:
                 res.cand_params[name].append(params)
     return (out_all[n] if final is not None else {}), out_all[n + (final is not None):]
