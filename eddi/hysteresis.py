@@ -44,13 +44,20 @@ def _bw_path(x, dy, n_exp, out):  # pragma: no cover - compiled
     out[0] = 0.0
     for i in range(1, x.shape[0]):
         du = (x[i] - x[i - 1]) / dy
-        steps = int(abs(du) / 0.02) + 1
+        # at most 400 steps: beyond |du| ~ 8 the element has yielded (z at +-1) whatever the
+        # path, and a yield displacement driven towards 0 by a search would otherwise cost
+        # |du| / 0.02 steps per sample (a calibration null hung on it)
+        steps = min(int(abs(du) / 0.02) + 1, 400)
         h = du / steps
         sg = 1.0 if h > 0 else -1.0
         for _ in range(steps):
             k1 = _bw_rate(z, sg, n_exp)
             k2 = _bw_rate(z + 0.5 * h * k1, sg, n_exp)
             z = z + h * k2
+            if z > 1.0:
+                z = 1.0
+            elif z < -1.0:
+                z = -1.0
         out[i] = z
 
 
