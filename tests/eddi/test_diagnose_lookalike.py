@@ -139,3 +139,14 @@ def test_hidden_amplitude_damping_is_not_named_drag() -> None:
     cand = {c.name: c for c in d.candidates}
     assert cand["amplitude_damping"].within_cycle["quadratic_damping"]["z"] >= Z_SEPARATED
     assert cand["quadratic_damping"].within_cycle["amplitude_damping"]["z"] <= -Z_SEPARATED
+
+
+def test_a_worse_candidate_is_not_named_when_look_alikes_stay_apart() -> None:
+    """Strong drag not told from |x| v within the cycle must not fall to a candidate that
+    reproduces every held-out part worse (the held-out s6 case: sensor_highpass at 8x drag's
+    error was named)."""
+    drag = _cand("quadratic_damping", (0.007, 0.008, 0.008), {"amplitude_damping": _wc(1.2, 2)})
+    amp = _cand("amplitude_damping", (0.011, 0.012, 0.011), {"quadratic_damping": _wc(-1.2, 1)})
+    hp = _cand("sensor_highpass", (0.05, 0.06, 0.06), {})
+    dec = decide([drag, amp, hp], (0.5, 0.5, 0.5), FLOOR, 0.5, 3.5, 10.0)
+    assert dec.cause == "unexplained" and dec.partial is drag
