@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
@@ -199,6 +199,9 @@ class Pipeline:
     route: str = "auto"
     refine: bool = True
     select: bool = True
+    #: ``mapper(fn, items)`` for the refinement's independent term-selection trials (possibly
+    #: forked processes: :mod:`station.forkmap`); None: in turn. The result is the same.
+    mapper: Any = field(default=None, compare=False, repr=False)
 
     @classmethod
     def create(cls, damping: str | Sequence[str] | None = None, stiffness: str | Sequence[str] | None = None,
@@ -234,7 +237,7 @@ class Pipeline:
         if q == 1:
             return identify(cond.t, cond.x, cond.v, mass, damping=self.damping, stiffness=self.stiffness,
                             route=self.route, a=cond.a, window=cond.window, refine=channel if self.refine else False,
-                            select=self.refine and self.select), 1
+                            select=self.refine and self.select, mapper=self.mapper), 1
         td, xd, vd, ad, _ = decimate_centred(tw, xw, vw, aw, q)
         # the noise of the samples (what EDDI would estimate on every sample)
         model = identify(td, xd, vd, mass, damping=self.damping, stiffness=self.stiffness, route=self.route, a=ad,
@@ -243,7 +246,8 @@ class Pipeline:
         if self.refine:
             from eddi.refine import refine_output_error  # local: scipy.optimize
 
-            eom, info = refine_output_error(model.eom, tw, xw, vw, aw, channel=channel, select=self.select)
+            eom, info = refine_output_error(model.eom, tw, xw, vw, aw, channel=channel, select=self.select,
+                                            mapper=self.mapper)
             model = replace(model, eom=eom, unrefined=model.eom, refinement=info)
         return model, q
 

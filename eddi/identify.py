@@ -92,6 +92,7 @@ def identify(
     noise: str | tuple[float, float] | None = "auto",
     refine: bool | str = False,
     select: bool = False,
+    mapper=None,
 ) -> IdentifiedModel:
     """Identify an equation of motion from a free response with the EDDI method.
 
@@ -151,6 +152,9 @@ def identify(
     select : bool
         With ``refine``: remove the terms the data do not support (BIC backward
         elimination, :func:`eddi.refine.refine_output_error`).
+    mapper : callable, optional
+        For the refinement's independent term-selection trials (see
+        :func:`eddi.refine.refine_output_error`); default: in turn, here. Same result.
 
     Returns
     -------
@@ -240,7 +244,7 @@ def identify(
         unrefined = eom
         eom, refinement = refine_output_error(eom, tw, xw, vw, aw,
                                               channel=refine if isinstance(refine, str) else None,
-                                              select=select)
+                                              select=select, mapper=mapper)
     return IdentifiedModel(
         eom=eom, route=chosen, phase_one=p1, phase_two=p2, window=(w0, w1),
         route_scores=scores, alternatives=results, unrefined=unrefined, refinement=refinement,
