@@ -410,8 +410,8 @@ def _judge_refinement(model: IdentifiedModel, cond: ConditionedSignal, held_out:
             jd = judge_fit_record(model.eom, model.unrefined, cond)
             n_ref, n_eddi = jd.nrmse_refined, jd.nrmse_eddi
             better = (div_ref, jd.refined_worse) <= (div_eddi, False)
-            margin = (f" (each at its best impact drive within +-{2 * jd.drive_uncertainty:.2g} of the measured one; "
-                      f"difference {jd.excess_sigmas:+.1f} noise sd, rejected beyond {WHITE_SIGMAS:g})")
+            margin = (f" (difference {jd.excess_sigmas:+.1f} noise sd; rejected only beyond {WHITE_SIGMAS:g} at the "
+                      f"measured impact drive and at each model's best within +-{2 * jd.drive_uncertainty:.2g} of it)")
         if better:
             refinement = "kept"
             reason = f"{what} nrmse on the {judged_on} {n_eddi:.4g} (EDDI) -> {n_ref:.4g} (refined){margin}"
