@@ -186,8 +186,9 @@ class Pipeline:
     route : {"auto", "potential", "lagrangian"}
         Phase-two route.
     refine : bool
-        Try the output-error refinement after EDDI and keep it when it lowers the
-        validation error (see the module notes).
+        Try the output-error refinement after EDDI and keep it when it lowers the held-out
+        validation error or, with none, unless it fits the fit record measurably worse (see
+        the module notes).
     select : bool
         With ``refine``: drop the terms the data do not support (BIC backward elimination
         in the refinement, :mod:`eddi.refine`); the dropped terms and why are in
@@ -457,7 +458,7 @@ def identify_measurement(
     sensor_only : bool
         Also validate with the force sensor alone (``nrmse_force_sensor``).
     refine : bool
-        Try the output-error refinement (kept when it lowers the validation error).
+        Try the output-error refinement (kept unless it validates worse, see :class:`Pipeline`).
 
     Returns
     -------

@@ -115,5 +115,5 @@ def _terms(text: str, damping: bool) -> str:
 def add_refine_option(p: argparse.ArgumentParser) -> None:
     """``--refine/--no-refine``, the same on every command that identifies."""
     p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=True,
-                   help="try the output-error refinement EDDI seeds and keep it when it lowers the "
-                        "validation error (default: on; the EDDI estimate is reported too)")
+                   help="try the output-error refinement EDDI seeds and keep it unless it validates "
+                        "measurably worse (default: on; the EDDI estimate is reported too)")
