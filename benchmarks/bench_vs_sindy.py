@@ -30,7 +30,8 @@ and kinds, kept out of the development of phase two's slow-error columns.
 Second held-out set (``--held-out-2``, :data:`HELD2`): six more, built in session 6 before
 its changes and run only to report on them.
 
-Run: ``python benchmarks/bench_vs_sindy.py [--snr 45 30] [--seeds 1 2] [--systems ...] [--held-out | --held-out-2] [--K 200]``
+Run: ``python benchmarks/bench_vs_sindy.py [--snr 45 30] [--seeds 1 2] [--systems ...]
+[--held-out | --held-out-2] [--K 200]``
 (about 20-40 s per record on a loaded 2-core machine).
 """
 
