@@ -148,6 +148,11 @@ class Mechanism(abc.ABC):
     def columns(self, sig: Signal, shape: dict[str, float], stiffness: tuple[str, ...]) -> np.ndarray:
         """Regressors, shape (n, p), for one record."""
 
+    def masked_columns(self, sig: Signal, shape: dict[str, float], stiffness: tuple[str, ...],
+                       mask: np.ndarray) -> np.ndarray:
+        """The rows ``mask`` of :meth:`columns` (a mechanism may compute only what they need)."""
+        return self.columns(sig, shape, stiffness)[mask]
+
     @abc.abstractmethod
     def to_fit(self, coefs: np.ndarray, shape: dict[str, float], mass: float,
                stiffness: tuple[str, ...]) -> MechanismFit | None:
