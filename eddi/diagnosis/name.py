@@ -448,7 +448,9 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
     explanation. A candidate judged against another reference than the baseline (refitted by
     equation error, a modal sum) must also beat that reference by ``reference_margin``, so it
     cannot win by its fitter. A baseline lost on any part (nrmse at the cap) is never
-    ``none``. With ``strong_margin``, a candidate passing every test with a cut of at least
+    ``none``; nor is one within the factor when a candidate passes every test with the strong
+    cut except being told apart from its look-alikes (:func:`lookalike_fails`): that is
+    ``unexplained`` with it as the partial explanation. With ``strong_margin``, a candidate passing every test with a cut of at least
     that much is named even within ``none_factor`` (``none`` otherwise there).
 
     ``base_fold`` is the baseline judged as the pipeline fits it (refined when the pipeline
@@ -485,6 +487,7 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
 
     # look-alikes that would pass the held-out tests themselves: a name must be told apart from them
     rivals = {c.name: c for c in tried if not held_out_fails(c)}
+    ambiguous, ambiguous_fails = None, []  # the first candidate that fails only for its look-alikes
     for c in tried:
         fails = held_out_fails(c)
         if not c.consistent:
@@ -493,9 +496,17 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
             fails.append(f"leaves nrmse {c.nrmse:.3g}, over {named_factor:g}x the floor {floor.nrmse:.3g}")
         if not fails:
             fails += lookalike_fails(c, rivals)
+            if fails and ambiguous is None:
+                ambiguous, ambiguous_fails = c, list(fails)
         if not fails:
             return Decision(c.name, c, None, within, "")
         why.append(f"{c.name}: " + ", ".join(fails))
+    if within and ambiguous is not None:
+        # a mechanism earns its cut on every test but cannot be told from a look-alike: the
+        # model lacks something of that family, so the verdict is not `none`
+        return Decision("unexplained", None, ambiguous, True,
+                        f"within {none_factor:g}x the floor, but {ambiguous.name} cuts the error by the strong "
+                        f"margin and passes every test except: " + "; ".join(ambiguous_fails))
     if within:
         return Decision("none", None, None, True, "within the noise floor")
     return Decision("unexplained", None, partial, False, departs or "; ".join(why[:2]))

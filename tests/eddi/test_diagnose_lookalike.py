@@ -150,3 +150,18 @@ def test_a_worse_candidate_is_not_named_when_look_alikes_stay_apart() -> None:
     hp = _cand("sensor_highpass", (0.05, 0.06, 0.06), {})
     dec = decide([drag, amp, hp], (0.5, 0.5, 0.5), FLOOR, 0.5, 3.5, 10.0)
     assert dec.cause == "unexplained" and dec.partial is drag
+
+
+def test_within_the_floor_an_ambiguous_strong_cut_is_not_none() -> None:
+    """Within the none factor, drag cutting the error by 70 % but not told from |x| v: the model
+    lacks a damping of that family, so `unexplained` (drag the partial), not `none`; without
+    such a candidate, `none`."""
+    base = (0.05, 0.05, 0.05)  # 2.5x the floor: within the factor 3.5
+    drag = _cand("quadratic_damping", (0.015, 0.016, 0.014), {"amplitude_damping": _wc(2.0, 2)})
+    amp = _cand("amplitude_damping", (0.016, 0.015, 0.016), {"quadratic_damping": _wc(-2.0, 1)})
+    dec = decide([drag, amp], base, FLOOR, 0.5, 3.5, 10.0, strong_margin=0.6)
+    assert dec.cause == "unexplained" and dec.partial is drag and dec.within_floor
+    assert "not told apart from its look-alike amplitude_damping" in dec.reason
+    weak = _cand("quadratic_damping", (0.03, 0.03, 0.03), {"amplitude_damping": _wc(2.0, 2)})
+    weak_amp = _cand("amplitude_damping", (0.031, 0.03, 0.03), {"quadratic_damping": _wc(-2.0, 1)})
+    assert decide([weak, weak_amp], base, FLOOR, 0.5, 3.5, 10.0, strong_margin=0.6).cause == "none"
