@@ -87,7 +87,7 @@ def identify(
     coordinate: str = "displacement [m]",
     weighting: str = "relative",
     energy_floor: float = 1e-6,
-    v_fraction: float = 0.2,
+    v_fraction: float = 0.0,
     anchored: bool = True,
     noise: str | tuple[float, float] | None = "auto",
     refine: bool | str = False,
@@ -127,10 +127,14 @@ def identify(
         Smallest energy, relative to ``E(gamma_0)``, used in phase-two row weights.
     v_fraction : float
         Lagrangian route: samples with ``|v|`` below this fraction of the velocity
-        amplitude at the current energy are left out.
+        amplitude at the current energy are left out (default 0: none; the route needs no
+        division by ``v``, :mod:`eddi.phase_two`).
     anchored : bool
-        Phase two uses the mechanical energy re-anchored on ``T(gamma_i)`` at every
-        crossing (default) instead of the paper's Eq. 12 (accumulated from ``gamma_0``).
+        The potential route uses the mechanical energy re-anchored on ``T(gamma_i)`` at
+        every crossing (default) instead of the paper's Eq. 12 (accumulated from
+        ``gamma_0``). The Lagrangian route always uses Eq. 12's exact rate (the anchoring
+        adds only the half-cycle energy misfits, which do no work against the
+        conservative force; :mod:`eddi.phase_two`).
     noise : "auto", None or (sigma_x, sigma_v)
         Noise on ``x`` and ``v``: ``"auto"`` (default) estimates white noise from third
         differences (:func:`eddi.energy.noise_level`; on clean data this changes the
@@ -220,7 +224,7 @@ def identify(
     if route in ("auto", "lagrangian"):
         results["lagrangian"] = lagrangian_route(p1, xs, vs, mass_f, k_terms, a=a_s,
                                                  v_fraction=v_fraction, energy_floor=energy_floor,
-                                                 anchored=anchored, noise_a=sa)
+                                                 noise_a=sa)
     scores: dict[str, float] = {}
     if route == "auto":
         for name, p2 in results.items():

@@ -36,7 +36,7 @@ if TYPE_CHECKING:  # the engine is imported when captures are diagnosed, not for
 FITS = ("eddi", "equation-error")
 DEFAULT_MARGIN = 0.5
 ALL_NAMES = ("coulomb_friction", "quadratic_damping", "cubic_damping", "clearance", "smooth_stiffening",
-             "asymmetric_stiffness", "second_mode", "hysteresis", "sensor_highpass")
+             "asymmetric_stiffness", "second_mode", "hysteresis", "amplitude_damping", "sensor_highpass")
 
 
 def register(subparsers: Any) -> None:

@@ -120,6 +120,10 @@ class Mechanism(abc.ABC):
     #: How EDDI fits it natively: ``"damping"`` (phase one), ``"stiffness"`` (phase two) or
     #: ``""`` (not a single-coordinate term: fitted on the baseline's residual force).
     native: str = ""
+    #: Mechanisms that can reproduce the same held-out displacement (same loss per cycle, same
+    #: frequency shift): a name needs the held-out records to tell them apart
+    #: (:mod:`eddi.diagnosis.lookalike`).
+    lookalikes: tuple[str, ...] = ()
 
     def bases(self, shape: dict[str, float], stiffness: tuple[str, ...]) -> tuple[Basis, ...]:
         """EDDI bases of the mechanism, in the order of :meth:`columns` (native ones only)."""

@@ -27,6 +27,7 @@ class Hysteresis(Mechanism):
     """
 
     name = "hysteresis"
+    lookalikes = ("quadratic_damping", "cubic_damping", "amplitude_damping")
     strength = "yield_force_n"
     refine = ("yield_displacement_m", "exponent")
     physics = ("a hysteretic restoring force (Bouc-Wen: F_y z, dz = dx/d_y (1 - |z|^n (sign(dx z) + 1)/2)),"
