@@ -24,6 +24,7 @@ from eddi.diagnosis.results import Candidate, NoiseFloor
 from eddi.diagnosis.settings import FULL_REFERENCE_MARGIN, NRMSE_CAP, REFERENCE_MARGIN, REFINE_FOLDS
 from eddi.diagnosis.show import nmte, nrmse, simulate_part, simulate_part_xv
 from eddi.errors import IdentificationError, ModelError, SignalError
+from eddi.model import EquationOfMotion
 
 
 
@@ -130,7 +131,8 @@ def refined_baseline(fit: Fit, records: Sequence[Record], masks: Sequence[np.nda
     return Fit(eom=eom, mech=None, residual=fit.residual) if error(eom) < error(fit.eom) else fit
 
 
-def refine_start(eom, records: Sequence[Record], masks: Sequence[np.ndarray], setup: Setup):
+def refine_start(eom: EquationOfMotion, records: Sequence[Record], masks: Sequence[np.ndarray],
+                 setup: Setup) -> EquationOfMotion:
     """Where a fold's refinement of ``eom`` starts (settings.REFINE_FOLDS): ``eom`` with the
     coefficients of the pipeline's refined model (``setup.refine_start``) for the terms both
     have, when the pipeline's fit record is wholly in the fold's training masks; else ``eom``."""
