@@ -93,7 +93,7 @@ class ForkMap:
             for w in range(1, n):
                 recv, send = ctx.Pipe(duplex=False)
                 # (multiprocessing flushes stdout / stderr before it forks: nothing is printed twice)
-                proc = ctx.Process(target=_worker, args=(send, fn, items[w::n]), daemon=True)
+                proc = ctx.Process(target=_worker, args=(send, fn, items[w::n], recv), daemon=True)
                 proc.start()
                 send.close()
                 workers.append((w, proc, recv))
@@ -119,7 +119,11 @@ class ForkMap:
                 recv.close()
 
 
-def _worker(conn: Any, fn: Callable[[Any], Any], items: list) -> None:  # pragma: no cover - in the child
+def _worker(conn: Any, fn: Callable[[Any], Any], items: list, own_recv: Any = None) -> None:  # pragma: no cover
+    # the fork copied this pipe's read end: closed here, so that if the parent is killed the
+    # result's send fails (broken pipe) instead of blocking this worker forever
+    if own_recv is not None:
+        own_recv.close()
     try:
         out: tuple[str, Any] = ("ok", [fn(x) for x in items])
     except BaseException as exc:  # noqa: BLE001 - handed back to the parent

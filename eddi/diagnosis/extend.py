@@ -37,6 +37,10 @@ class Setup:
     base: EquationOfMotion | None  # fixed baseline (its coefficients are kept)
     coordinate: str
     fit: str = "eddi"
+    #: the pipeline's refined model and the record it was fitted on (-1: none): a fold's
+    #: refinement starts from it when that record is wholly training data (name.refined_baseline)
+    refine_start: EquationOfMotion | None = None
+    refine_start_record: int = -1
 
 
 @dataclass(frozen=True)

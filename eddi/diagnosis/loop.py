@@ -16,7 +16,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -120,6 +120,9 @@ def diagnose(
         records = _check_records(records)
         damping, stiffness = selected_terms(pipeline, base, damping, stiffness)
         setup, chosen = _setup(records, mass, damping, stiffness, base, mechanisms, fit)
+        if pipeline is not None and pipeline.choices.get("refinement") == "kept":
+            # the folds' refinements may start from the pipeline's (settings.REFINE_FOLDS)
+            setup = replace(setup, refine_start=pipeline.model, refine_start_record=int(pipeline.fit_record))
         cat = [m for m in catalogue() if m.name in chosen]
         effects = tuple(e.name for e in base.effects) if base is not None else ()
         skipped = {m.name: m.skip_reason(setup.damping, setup.stiffness, effects) for m in cat}

@@ -21,9 +21,10 @@ from eddi.diagnosis.mapping import Mapper, serial_map
 from eddi.diagnosis.observed import Observed
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.results import Candidate, NoiseFloor
-from eddi.diagnosis.settings import FULL_REFERENCE_MARGIN, NRMSE_CAP, REFERENCE_MARGIN
+from eddi.diagnosis.settings import FULL_REFERENCE_MARGIN, NRMSE_CAP, REFERENCE_MARGIN, REFINE_FOLDS
 from eddi.diagnosis.show import nmte, nrmse, simulate_part, simulate_part_xv
 from eddi.errors import IdentificationError, ModelError, SignalError
+from eddi.model import EquationOfMotion
 
 
 
@@ -112,8 +113,9 @@ def refined_baseline(fit: Fit, records: Sequence[Record], masks: Sequence[np.nda
     k, (a, b) = train[order[(len(order) - 1) // 2]]
     rec = records[k]
     try:
-        eom, _ = refine_output_error(fit.eom, rec.t[a:b], rec.x[a:b], rec.v[a:b], rec.a[a:b],
-                                     channel=REFINE_CHANNEL.get(rec.response, "x"))
+        eom, _ = refine_output_error(refine_start(fit.eom, records, masks, setup), rec.t[a:b], rec.x[a:b],
+                                     rec.v[a:b], rec.a[a:b], channel=REFINE_CHANNEL.get(rec.response, "x"),
+                                     min_gain=REFINE_FOLDS["min_gain"])
     except (IdentificationError, SignalError, ModelError, ValueError):
         return fit
     judges = [(i, ab) for i, ab in train if i != k] or [(k, (a, b))]
@@ -127,6 +129,21 @@ def refined_baseline(fit: Fit, records: Sequence[Record], masks: Sequence[np.nda
         return float(np.mean(errs))
 
     return Fit(eom=eom, mech=None, residual=fit.residual) if error(eom) < error(fit.eom) else fit
+
+
+def refine_start(eom: EquationOfMotion, records: Sequence[Record], masks: Sequence[np.ndarray],
+                 setup: Setup) -> EquationOfMotion:
+    """Where a fold's refinement of ``eom`` starts (settings.REFINE_FOLDS): ``eom`` with the
+    coefficients of the pipeline's refined model (``setup.refine_start``) for the terms both
+    have, when the pipeline's fit record is wholly in the fold's training masks; else ``eom``."""
+    warm, k = setup.refine_start, setup.refine_start_record
+    if warm is None or not REFINE_FOLDS["warm"] or not 0 <= k < len(records):
+        return eom
+    r = records[k]
+    if not (r.free_stop > r.free_start and np.all(masks[k][r.free_start:r.free_stop])):
+        return eom  # the pipeline's model saw (part of) this fold's held-out data
+    return eom.model_copy(update={"damping": {t: warm.damping.get(t, c) for t, c in eom.damping.items()},
+                                  "stiffness": {t: warm.stiffness.get(t, c) for t, c in eom.stiffness.items()}})
 
 
 def all_masks(records: Sequence[Record]) -> list[np.ndarray]:

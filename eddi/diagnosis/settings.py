@@ -60,3 +60,13 @@ STRONG_MARGIN: float | None = 0.6
 #: refinement (:func:`eddi.diagnosis.name.refine_candidates`). A switch for same-run
 #: comparisons in ``benchmarks/`` (``{"on": False}``: the session-4 rule), not a user option.
 REFINE_CANDIDATES = {"on": True}
+#: The per-fold output-error refinements (:func:`eddi.diagnosis.name.refined_baseline`) end a
+#: stage when a step lowers the sum of squares by less than this many times its mean square
+#: per compared value (``refine_output_error(min_gain=)``: about one unit of chi-square once
+#: the model fits, a change the held-out comparison cannot see), and start from the pipeline's
+#: refined coefficients when the pipeline's fit record is wholly in the fold's training data
+#: (``REFINE_FOLDS["warm"]``; never from a model that saw the held-out part). Before (session
+#: 5): from each fold's EDDI fit, to ``max_nfev`` = 60 in each of the three stages, where every
+#: refinement of the double beam stopped, unconverged (docs/performance.md, "Session 6").
+#: ``{"warm": False, "min_gain": None}``: the session-5 rule, for same-run comparisons.
+REFINE_FOLDS: dict = {"warm": False, "min_gain": 1.0}

@@ -42,11 +42,15 @@ class Hysteresis(Mechanism):
 
     def masked_columns(self, sig, shape, stiffness, mask):
         # z at a sample depends on the path up to it only: computed up to the last training
-        # sample, and kept (_PATHS) for the other folds, which try the same grid shapes
+        # sample; the grid's shapes are kept (_PATHS) for the other folds, which try the same
+        # ones when their largest training amplitude is the same
         idx = np.flatnonzero(mask)
         if idx.size == 0:
             return np.zeros((0, 1))
-        z = _path(sig.x, int(idx[-1]) + 1, shape["yield_displacement_m"], min(shape["exponent"], 20.0))
+        dy, n = shape["yield_displacement_m"], min(shape["exponent"], 20.0)
+        if n not in EXPONENTS:  # a shape of the Nelder-Mead polish: not tried again, not kept
+            return bouc_wen_z(sig.x[:int(idx[-1]) + 1], dy, n)[idx][:, None]
+        z = _path(sig.x, int(idx[-1]) + 1, dy, n)
         return z[idx][:, None]
 
     def to_fit(self, coefs, shape, mass, stiffness):
