@@ -161,9 +161,9 @@ def run(name: str, refine: bool, threshold: float) -> None:
     ident = identify_mdof(recs[:3], truth.channels, truth.driving_point)
     model = ident.model
     if refine:
-        from eddi.mdof.refine import refine_mdof
+        from eddi.mdof.refine import refine_identified
 
-        model, _b, _a = refine_mdof(model, recs[:3])
+        model, _b, _a = refine_identified(ident, recs[:3])
     t_eddi = time.perf_counter() - t0
     t0 = time.perf_counter()
     sindy = sindy_model(recs[:3], truth.channels, truth.driving_point, threshold)

@@ -92,9 +92,9 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         cause = "modal_coupling" if gain > margin else "none"
     model = final.model
     if refine:
-        from eddi.mdof.refine import refine_mdof
+        from eddi.mdof.refine import refine_identified
 
-        model, _b, _a = refine_mdof(model, records)
+        model, _b, _a = refine_identified(final, records)
     obj: dict[str, Any] = {
         "captures": [r.label for r in records], "channels": list(names), "driving_point": dp,
         "scheme": f"leave-one-out over {len(records)} captures",
