@@ -50,7 +50,7 @@ FACTORS = (2.0, 2.5, 3.0, 3.5, 4.0, 5.0)
 #: Cuts that name a mechanism even within the ``none`` factor (None: never).
 STRONG = (None, 0.6, 0.75, 0.9)
 MECHANISMS = ("coulomb_friction", "quadratic_damping", "clearance", "asymmetric_stiffness", "second_mode",
-              "sensor_highpass", "hysteresis")
+              "sensor_highpass", "hysteresis", "amplitude_damping")
 #: Factors of the noise floor within which a named mechanism's extended model must land
 #: (``NAMED_FACTOR``); every case is judged at each (at the default none factor and strong cut).
 NAMED_FACTORS = (2.0, 3.0, 5.0, 10.0, 20.0, math.inf)
@@ -59,7 +59,7 @@ NAMED_FACTORS = (2.0, 3.0, 5.0, 10.0, 20.0, math.inf)
 RUNGS = {"coulomb_friction": (0.003, 0.01, 0.03), "quadratic_damping": (0.02, 0.06, 0.2),
          "clearance": (0.02, 0.06, 0.2), "asymmetric_stiffness": (0.02, 0.06, 0.2),
          "second_mode": (0.02, 0.06, 0.2), "sensor_highpass": (0.3, 0.8, 2.0),
-         "hysteresis": (0.01, 0.03, 0.1)}
+         "hysteresis": (0.01, 0.03, 0.1), "amplitude_damping": (0.02, 0.06, 0.2)}
 SETS = {
     "tuning": {"null_seeds": range(1000, 1060), "ladder_seeds": (0, 1, 2), "mass": 0.1, "k1": 600.0,
                "k3": 2e7, "zeta": 0.004, "rate": 5000.0, "snr": 40.0, "record_s": 4.0, "mode_ratio": 2.7},
@@ -170,7 +170,8 @@ def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple
             "pipeline_nrmse": d.pipeline.nrmse if d.pipeline is not None else None,
             "floor": d.noise_floor.nrmse, "partial": d.partial, "causes": _verdicts(d, factors),
             "named_causes": _named_verdicts(d),
-            "candidates": [[c.name, round(c.nrmse, 5), round(c.gain, 4), c.wins_every_part, c.consistent]
+            "candidates": [[c.name, round(c.nrmse, 5), round(c.gain, 4), c.wins_every_part, c.consistent,
+                            {k: round(v["z"], 2) for k, v in c.within_cycle.items() if v.get("same_fitter")}]
                            for c in d.candidates if not c.skipped and c.model is not None]}, \
         time.process_time() - t0
 
@@ -198,6 +199,10 @@ def ladder_case(args: tuple) -> dict:
         sensors = (s[0], dataclasses.replace(s[1], iepe_highpass_hz=magnitude))
     elif name == "second_mode":
         truth = _second_mode(eom, magnitude, seed, cfg["mode_ratio"])
+    elif name == "amplitude_damping":  # a damping term, not an effect: c_x |x| v, jittered as hide_effect
+        amp, vel = _typical(eom, forces[1], cfg["rate"])
+        c = magnitude * float(np.random.default_rng(seed).uniform(0.8, 1.2)) * eom.linear_stiffness() / vel
+        truth = eom.model_copy(update={"damping": {**eom.damping, "abs(x)*v": c}})
     else:
         amp, vel = _typical(eom, forces[1], cfg["rate"])
         truth = hide_effect(eom, name, magnitude, seed, amplitude_m=amp, velocity_m_s=vel)

@@ -27,7 +27,10 @@ Systems: the four of ``impact_cases.SYSTEMS`` plus two not used to tune anything
 Held-out systems (``--held-out``, :data:`HELD`): five more, of other masses, frequencies, rates
 and kinds, kept out of the development of phase two's slow-error columns.
 
-Run: ``python benchmarks/bench_vs_sindy.py [--snr 45 30] [--seeds 1 2] [--systems ...] [--held-out] [--K 200]``
+Second held-out set (``--held-out-2``, :data:`HELD2`): six more, built in session 6 before
+its changes and run only to report on them.
+
+Run: ``python benchmarks/bench_vs_sindy.py [--snr 45 30] [--seeds 1 2] [--systems ...] [--held-out | --held-out-2] [--K 200]``
 (about 20-40 s per record on a loaded 2-core machine).
 """
 
@@ -81,6 +84,32 @@ HELD = {
                      peak_n=74.0), 5000.0, 5.0, 0.5, 2e-3),
 }
 
+#: Second held-out set (session 6): built before the session's changes to phase one/two and
+#: to the refinement judge, and run only to report, never while tuning; other masses (0.02 -
+#: 10 kg), frequencies (2 - 150 Hz), rates (27 - 250 samples a period) and mechanisms
+#: (softening, cubic damping, quintic stiffness, very light damping). Peaks aim at the
+#: stated nonlinearity at the first peak.
+HELD2 = {
+    # 2 Hz, 10 kg, k2 X / k1 = 0.25 and k3 X^2 / k1 = 0.4 at 20 mm, 500 Hz
+    "heavy_quad": (dict(mass=10.0, damping={"v": 2.513}, stiffness={"x": 1579.14, "x^2": 1.974e4, "x^3": 1.579e6},
+                        peak_n=493.5), 500.0, 20.0, 1.0, 8e-3),
+    # 150 Hz hardening (+80 % at 0.2 mm), 27 samples a period at 4 kHz
+    "coarse_hard": (dict(mass=0.02, damping={"v": 0.377}, stiffness={"x": 17765.3, "x^3": 3.553e11}, peak_n=11.84),
+                    4000.0, 1.0, 0.1, 5e-4),
+    # 10 Hz softening (-12 % at 4 mm), 0.1 kg, 2 kHz
+    "soft_light": (dict(mass=0.1, damping={"v": 0.1257}, stiffness={"x": 394.78, "x^3": -2.961e6}, peak_n=13.16),
+                   2000.0, 5.0, 0.5, 3e-3),
+    # 6 Hz hardening with cubic damping (b3 v^2 ~ 0.6 b1 at the first peak), 1 kHz
+    "cubic_damp": (dict(mass=1.0, damping={"v": 0.6032, "v^3": 4.24}, stiffness={"x": 1421.22, "x^3": 8.527e6},
+                        peak_n=148.0), 1000.0, 8.0, 0.5, 4e-3),
+    # 20 Hz, cubic and quintic stiffness (30 % / 30 % of k1 x at 2 mm), 5 kHz
+    "quintic": (dict(mass=0.3, damping={"v": 0.754}, stiffness={"x": 4737.41, "x^3": 3.553e8, "x^5": 8.883e13},
+                     peak_n=59.22), 5000.0, 3.0, 0.3, 2e-3),
+    # 30 Hz, 0.3 % damping (long ring-down), 6 kHz
+    "long_light": (dict(mass=0.8, damping={"v": 0.9048}, stiffness={"x": 28424.5, "x^3": 1.421e10}, peak_n=157.9),
+                   6000.0, 8.0, 0.5, 1.5e-3),
+}
+
 
 def coef_error(eom: EquationOfMotion, truth: dict) -> float:
     """Mean over the true coefficients of ``|identified / exact - 1|`` (missing term: 1)."""
@@ -120,8 +149,9 @@ def weak_sindy(t: np.ndarray, x: np.ndarray, v: np.ndarray, mass: float, terms: 
 
 def record(name: str, snr: float, seed: int):
     """The simulated record and its true spec."""
-    if name in EXTRA or name in HELD:
-        spec, rate, dur, pre, pulse = EXTRA[name] if name in EXTRA else HELD[name]
+    table = {**EXTRA, **HELD, **HELD2}
+    if name in table:
+        spec, rate, dur, pre, pulse = table[name]
         return impact_record(spec, rate_hz=rate, duration_s=dur, pretrigger_s=pre, pulse_s=pulse, snr_db=snr,
                              seed=seed), spec
     return impact_record(name, snr_db=snr, seed=seed), SYSTEMS[name]
@@ -171,6 +201,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="systems (default: all of impact_cases.SYSTEMS and the two unseen ones)")
     ap.add_argument("--held-out", action="store_true",
                     help=f"run the held-out systems instead ({', '.join(HELD)}; not used to develop anything)")
+    ap.add_argument("--held-out-2", action="store_true",
+                    help=f"run the second held-out set instead ({', '.join(HELD2)}; session 6, report only)")
     ap.add_argument("--K", type=int, default=300, help="weak SINDy: number of test functions (default: 300)")
     ap.add_argument("--weak-periods", type=float, default=1.0,
                     help="weak SINDy: the second test-function support tried, in periods of the response "
@@ -180,6 +212,8 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.held_out:
         args.systems = list(HELD)
+    if args.held_out_2:
+        args.systems = list(HELD2)
     verdicts = []
     for snr in args.snr:
         rows: dict[str, list[float]] = {mth: [] for mth in METHODS}

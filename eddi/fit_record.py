@@ -8,13 +8,13 @@ defaults, and its steps add no numerics of their own:
 1. :meth:`Pipeline.condition`: :func:`eddi.conditioning.condition` (drift-free integration,
    impact end, free-response window);
 2. :meth:`Pipeline.fit`: :func:`eddi.identify.identify` (EDDI) on the free-response window,
-   then the output-error refinement it seeds (:mod:`eddi.refine`), kept only when it lowers
-   the validation error: the displacement of records not used for the fit or, with none,
-   the signal the fit record's sensor measured (:func:`measured_nrmse`: the validation
-   simulation, driven from rest by the measured force, against the measured acceleration;
-   the refinement fitted a free response from a fitted state, not this. The conditioned
-   displacement is no judge on the fit record: it carries the integration's error, and EDDI
-   was fitted to it), then validation;
+   then the output-error refinement it seeds (:mod:`eddi.refine`), kept when it lowers the
+   displacement nrmse of records not used for the fit or, with none, unless it fits the
+   signal the fit record's sensor measured measurably worse (:mod:`eddi.judge`: the
+   validation simulation, driven from rest by the measured force, against the measured
+   acceleration, within the judge's own uncertainty; the refinement fitted a free response
+   from a fitted state, not this. The conditioned displacement is no judge on the fit
+   record: it carries the integration's error, and EDDI was fitted to it), then validation;
 3. :meth:`Pipeline.validate`: the simulation of a model for a conditioned record:
 
    * with a measured force and a rest seen before the impact: simulated from rest at the
@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
@@ -52,8 +52,6 @@ if TYPE_CHECKING:
 
 #: The measured-signal name of each conditioned response: what the refinement fits.
 REFINE_CHANNEL = {"acc": "a", "vel": "v", "disp": "x"}
-#: Most samples :func:`measured_nrmse` compares (evenly spaced over the window).
-JUDGE_SAMPLES = 20000
 #: Words for the signals.
 SIGNAL_NAME = {"a": "acceleration", "v": "velocity", "x": "displacement"}
 
@@ -76,7 +74,9 @@ class PipelineChoices:
         ``"held-out records (N)"`` or ``"fit record"``.
     nrmse_eddi, nrmse_refined : float or None
         The compared validation errors (None when not refined): mean displacement nrmse of
-        the held-out records, or :func:`measured_nrmse` of the fit record.
+        the held-out records, or the fit record's measured-signal nrmse of
+        :func:`eddi.judge.judge_fit_record` (each at its best drive within the impulse's
+        uncertainty).
     damping_terms, stiffness_terms : tuple of str
         Terms in the returned model.
     dropped : dict of str to str
@@ -199,6 +199,9 @@ class Pipeline:
     route: str = "auto"
     refine: bool = True
     select: bool = True
+    #: ``mapper(fn, items)`` for the refinement's independent term-selection trials (possibly
+    #: forked processes: :mod:`station.forkmap`); None: in turn. The result is the same.
+    mapper: Any = field(default=None, compare=False, repr=False)
 
     @classmethod
     def create(cls, damping: str | Sequence[str] | None = None, stiffness: str | Sequence[str] | None = None,
@@ -234,7 +237,7 @@ class Pipeline:
         if q == 1:
             return identify(cond.t, cond.x, cond.v, mass, damping=self.damping, stiffness=self.stiffness,
                             route=self.route, a=cond.a, window=cond.window, refine=channel if self.refine else False,
-                            select=self.refine and self.select), 1
+                            select=self.refine and self.select, mapper=self.mapper), 1
         td, xd, vd, ad, _ = decimate_centred(tw, xw, vw, aw, q)
         # the noise of the samples (what EDDI would estimate on every sample)
         model = identify(td, xd, vd, mass, damping=self.damping, stiffness=self.stiffness, route=self.route, a=ad,
@@ -243,7 +246,8 @@ class Pipeline:
         if self.refine:
             from eddi.refine import refine_output_error  # local: scipy.optimize
 
-            eom, info = refine_output_error(model.eom, tw, xw, vw, aw, channel=channel, select=self.select)
+            eom, info = refine_output_error(model.eom, tw, xw, vw, aw, channel=channel, select=self.select,
+                                            mapper=self.mapper)
             model = replace(model, eom=eom, unrefined=model.eom, refinement=info)
         return model, q
 
@@ -391,15 +395,26 @@ def _judge_refinement(model: IdentifiedModel, cond: ConditionedSignal, held_out:
         eddi_held = tuple(validate_conditioned(model.unrefined, c)[0] for c in held_out)
         # held-out records: their displacement; the fit record alone: the signal its sensor
         # measured (the conditioned displacement carries the integration's error, and EDDI
-        # was fitted to it: judged on it, a better refined model lost to EDDI's)
-        n_ref = _mean_nrmse(held) if held else measured_nrmse(model.eom, val, cond)
-        n_eddi = _mean_nrmse(eddi_held) if held else measured_nrmse(model.unrefined, eddi_val, cond)
+        # was fitted to it: judged on it, a better refined model lost to EDDI's), the refined
+        # model kept unless measurably worse (eddi.judge)
         div_ref = val.diverged or any(h.diverged for h in held)
         div_eddi = eddi_val.diverged or any(h.diverged for h in eddi_held)
         what = "displacement" if held else f"{SIGNAL_NAME[REFINE_CHANNEL[cond.response]]} (measured)"
-        if (div_ref, n_ref) <= (div_eddi, n_eddi):
+        if held:
+            n_ref, n_eddi = _mean_nrmse(held), _mean_nrmse(eddi_held)
+            better = (div_ref, n_ref) <= (div_eddi, n_eddi)
+            margin = ""
+        else:
+            from eddi.judge import WHITE_SIGMAS, judge_fit_record
+
+            jd = judge_fit_record(model.eom, model.unrefined, cond)
+            n_ref, n_eddi = jd.nrmse_refined, jd.nrmse_eddi
+            better = (div_ref, jd.refined_worse) <= (div_eddi, False)
+            margin = (f" (each at its best impact drive within +-{2 * jd.drive_uncertainty:.2g} of the measured one; "
+                      f"difference {jd.excess_sigmas:+.1f} noise sd, rejected beyond {WHITE_SIGMAS:g})")
+        if better:
             refinement = "kept"
-            reason = (f"{what} nrmse on the {judged_on} {n_eddi:.4g} (EDDI) -> {n_ref:.4g} (refined)")
+            reason = f"{what} nrmse on the {judged_on} {n_eddi:.4g} (EDDI) -> {n_ref:.4g} (refined){margin}"
         else:
             refinement = "rejected"
             if div_ref and not div_eddi:
@@ -407,35 +422,10 @@ def _judge_refinement(model: IdentifiedModel, cond: ConditionedSignal, held_out:
                           f"{n_ref:.4g}) although it fitted the measured signal better; EDDI estimate kept")
             else:
                 reason = (f"refinement raised the {what} nrmse on the {judged_on}: {n_eddi:.4g} (EDDI) -> "
-                          f"{n_ref:.4g}; EDDI estimate kept")
+                          f"{n_ref:.4g}{margin}; EDDI estimate kept")
             model = replace(model, eom=model.unrefined)
             val, held = eddi_val, eddi_held
     return model, val, held, eddi_held, refinement, reason, n_eddi, n_ref
-
-
-def measured_nrmse(eom: EquationOfMotion, val: Validation, cond: ConditionedSignal) -> float:
-    """``||y_sim - y|| / ||y||`` over the validation window, ``y`` the signal the sensor measured.
-
-    The acceleration of the simulation is ``-R(x_sim, v_sim) / m`` (the window is after the
-    impact: no external force); ``inf`` when the simulation blew up (as ``val.nrmse``). On
-    every ``k``-th sample of the window, ``k`` such that at most :data:`JUDGE_SAMPLES` are
-    compared (the 45 s, 19.2 kHz record: 20,000 of its 460,000).
-    """
-    if not math.isfinite(val.nrmse) or not np.all(np.isfinite(val.x_simulated)):
-        return math.inf
-    channel = REFINE_CHANNEL[cond.response]
-    if channel == "x":
-        return val.nrmse
-    w0, w1 = val.window
-    k = max(1, (w1 - w0) // JUDGE_SAMPLES)
-    if channel == "v":
-        sim, meas = val.v_simulated[::k], cond.v[w0:w1:k]
-    else:
-        from eddi.simulate import internal_force  # local: the simulator imports numba
-
-        sim = -internal_force(eom, val.x_simulated[::k], val.v_simulated[::k]) / eom.mass
-        meas = cond.a[w0:w1:k]
-    return float(np.linalg.norm(sim - meas) / (np.linalg.norm(meas) or 1.0))
 
 
 def _mean_nrmse(vals: Sequence[Validation]) -> float:
@@ -477,13 +467,14 @@ def identify_measurement(
 
 
 def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal,
-                         fused: bool = True) -> tuple[Validation, bool]:
+                         fused: bool = True, *, drive_scale: float = 1.0) -> tuple[Validation, bool]:
     """Simulate ``eom`` for a conditioned record, compare over its free-response window.
 
     Driven from rest by the measured impact force when the record has a force and a rest
     before the impact (fused with ``m a + B + K`` when the acceleration was measured and
-    ``fused``, see :func:`fused_impact_force`); otherwise a free response from the measured
-    state at the start of the window.
+    ``fused``, see :func:`fused_impact_force`; times ``drive_scale``, which the refinement's
+    judge varies within the impulse's uncertainty, :mod:`eddi.judge`); otherwise a free
+    response from the measured state at the start of the window.
 
     Returns
     -------
@@ -495,6 +486,8 @@ def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal,
     if force is not None and cond.impact_start > 0:
         s, e = cond.impact_start, cond.free_stop
         drive = fused_impact_force(cond, eom) if (cond.acc_measured and fused) else force
+        if drive_scale != 1.0:
+            drive = drive * drive_scale
         val = validate(eom, cond.t[s:e], cond.x[s:e], v=cond.v[s:e], force=drive[s:e],
                        window=(cond.free_start - s, cond.free_stop - s))
         return _shift(val, s), True

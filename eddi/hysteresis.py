@@ -51,13 +51,22 @@ def _bw_path(x, dy, n_exp, out):  # pragma: no cover - compiled
         h = du / steps
         sg = 1.0 if h > 0 else -1.0
         for _ in range(steps):
+            if sg * z < 0.0 and sg * (z + 0.5 * h) <= 0.0:
+                # unloading (elastic): both rates are exactly 1, the step is z + h (no power)
+                z = z + h
+                continue
             k1 = _bw_rate(z, sg, n_exp)
             k2 = _bw_rate(z + 0.5 * h * k1, sg, n_exp)
-            z = z + h * k2
-            if z > 1.0:
-                z = 1.0
-            elif z < -1.0:
-                z = -1.0
+            zn = z + h * k2
+            if zn > 1.0:
+                zn = 1.0
+            elif zn < -1.0:
+                zn = -1.0
+            if zn == z:
+                # saturated: the same step from the same z gives the same z (every later step of
+                # this sample too)
+                break
+            z = zn
         out[i] = z
 
 

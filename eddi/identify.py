@@ -87,11 +87,12 @@ def identify(
     coordinate: str = "displacement [m]",
     weighting: str = "relative",
     energy_floor: float = 1e-6,
-    v_fraction: float = 0.2,
+    v_fraction: float = 0.0,
     anchored: bool = True,
     noise: str | tuple[float, float] | None = "auto",
     refine: bool | str = False,
     select: bool = False,
+    mapper=None,
 ) -> IdentifiedModel:
     """Identify an equation of motion from a free response with the EDDI method.
 
@@ -126,10 +127,14 @@ def identify(
         Smallest energy, relative to ``E(gamma_0)``, used in phase-two row weights.
     v_fraction : float
         Lagrangian route: samples with ``|v|`` below this fraction of the velocity
-        amplitude at the current energy are left out.
+        amplitude at the current energy are left out (default 0: none; the route needs no
+        division by ``v``, :mod:`eddi.phase_two`).
     anchored : bool
-        Phase two uses the mechanical energy re-anchored on ``T(gamma_i)`` at every
-        crossing (default) instead of the paper's Eq. 12 (accumulated from ``gamma_0``).
+        The potential route uses the mechanical energy re-anchored on ``T(gamma_i)`` at
+        every crossing (default) instead of the paper's Eq. 12 (accumulated from
+        ``gamma_0``). The Lagrangian route always uses Eq. 12's exact rate (the anchoring
+        adds only the half-cycle energy misfits, which do no work against the
+        conservative force; :mod:`eddi.phase_two`).
     noise : "auto", None or (sigma_x, sigma_v)
         Noise on ``x`` and ``v``: ``"auto"`` (default) estimates white noise from third
         differences (:func:`eddi.energy.noise_level`; on clean data this changes the
@@ -147,6 +152,9 @@ def identify(
     select : bool
         With ``refine``: remove the terms the data do not support (BIC backward
         elimination, :func:`eddi.refine.refine_output_error`).
+    mapper : callable, optional
+        For the refinement's independent term-selection trials (see
+        :func:`eddi.refine.refine_output_error`); default: in turn, here. Same result.
 
     Returns
     -------
@@ -216,7 +224,7 @@ def identify(
     if route in ("auto", "lagrangian"):
         results["lagrangian"] = lagrangian_route(p1, xs, vs, mass_f, k_terms, a=a_s,
                                                  v_fraction=v_fraction, energy_floor=energy_floor,
-                                                 anchored=anchored, noise_a=sa)
+                                                 noise_a=sa)
     scores: dict[str, float] = {}
     if route == "auto":
         for name, p2 in results.items():
@@ -236,7 +244,7 @@ def identify(
         unrefined = eom
         eom, refinement = refine_output_error(eom, tw, xw, vw, aw,
                                               channel=refine if isinstance(refine, str) else None,
-                                              select=select)
+                                              select=select, mapper=mapper)
     return IdentifiedModel(
         eom=eom, route=chosen, phase_one=p1, phase_two=p2, window=(w0, w1),
         route_scores=scores, alternatives=results, unrefined=unrefined, refinement=refinement,

@@ -245,6 +245,11 @@ class _OutputError:
                                     else np.abs(v), self.substeps)
         self.count = 0
         self.diverged = False
+        #: a stage over ``stop`` values ends when a step lowers the RSS by less than
+        #: ``min_gain * RSS / stop`` (MINPACK's ``ftol``; None: 1e-12; see
+        #: :func:`refine_output_error`)
+        self.min_gain: float | None = None
+        self.x_scale: float | str = 1.0
         # the sensitivity pass of the last simulation (see :meth:`simulated`)
         self._last: tuple[bytes, int, np.ndarray, bool] | None = None
 
@@ -342,7 +347,8 @@ class _OutputError:
 
         if free is None:
             return least_squares(lambda q: self.residual(q, stop), p, jac=self._jac_function(stop), method="lm",
-                                 x_scale=1.0, max_nfev=max_nfev, ftol=1e-12, xtol=1e-12)
+                                 x_scale=self.x_scale, max_nfev=max_nfev, xtol=1e-12,
+                                 ftol=1e-12 if self.min_gain is None else max(1e-12, self.min_gain / stop))
         fixed = p.copy()
 
         def full(q: np.ndarray) -> np.ndarray:
@@ -443,6 +449,8 @@ def refine_output_error(
     channel: str | None = None,
     max_nfev: int = 60,
     select: bool = False,
+    mapper=None,
+    min_gain: float | None = None,
 ) -> tuple[EquationOfMotion, Refinement]:
     """Refine the coefficients of ``eom`` by fitting its free response to the measurement.
 
@@ -465,6 +473,16 @@ def refine_output_error(
         (a stage usually converges, by ``ftol``, in 3-5 iterations).
     select : bool
         Remove terms the data do not support (BIC, see the module notes).
+    mapper : callable, optional
+        ``mapper(fn, items) -> [fn(item) for item in items]`` for the independent trials of
+        the forward term selection (:func:`eddi.selection._forward`), possibly in forked
+        processes (:mod:`eddi.diagnosis.mapping`); default: in turn, here. Same result.
+    min_gain : float, optional
+        End a stage when a Levenberg-Marquardt step lowers the sum of squares by less than
+        ``min_gain`` times its mean square per compared value (``RSS / n``: about the noise
+        variance once the model fits, so ``min_gain = 1`` stops where a step moves the fit by
+        less than one unit of chi-square). Default: run each stage to ``max_nfev`` or to
+        rounding (``ftol`` 1e-12), as the identification does.
 
     Returns
     -------
@@ -483,6 +501,7 @@ def refine_output_error(
     t, x, v, y, channel = _check(t, x, v, a, channel)
     prob = _OutputError(eom, t, x, v, y, channel)
     n = prob.n
+    prob.min_gain = None if min_gain is None else float(min_gain)
     p = prob.p0.copy()
     norm = float(np.linalg.norm(prob.y)) or 1.0
     before = float(np.linalg.norm(prob.residual(p, n))) / norm
@@ -503,7 +522,8 @@ def refine_output_error(
     dropped: dict[str, str] = {}
     if select:
         from eddi.selection import core_start, select_terms  # local: it builds on this module
-        p, half, dropped = select_terms(prob, p, half, rss, max_nfev, core_start(prob, t, x, v, y))
+        p, half, dropped = select_terms(prob, p, half, rss, max_nfev, core_start(prob, t, x, v, y),
+                                        mapper)
         after = min(after, float(np.linalg.norm(prob.residual(p, n))) / norm)
     refined = prob.model_of(p).model_copy(update={"notes": (eom.notes + "; " if eom.notes else "")
                                                   + f"refined by output error on {channel}"})

@@ -18,12 +18,23 @@ diverging); with the forward path 3 and 1, none diverging.
 from __future__ import annotations
 
 import math
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
 from eddi.energy import noise_level
 from eddi.refine import DIRECT_NRMSE, NUISANCE, STAGES, _OutputError
 from eddi.terms import coefficient_unit, evaluate, parse_terms
+
+#: ``mapper(fn, items) -> [fn(item) for item in items]``, possibly in forked processes (the
+#: same contract as :data:`eddi.diagnosis.mapping.Mapper`; not imported from there, so that
+#: identification does not import the diagnosis).
+Mapper = Callable[[Callable[[Any], Any], Sequence[Any]], list]
+
+
+def _serial_map(fn: Callable[[Any], Any], items: Sequence[Any]) -> list:
+    return [fn(item) for item in items]
+
 
 #: Backward elimination stops without a refit when the least significant term has
 #: ``(c / se)^2 > WALD_KEEP ln N``: its removal would raise the BIC by ~``(WALD_KEEP - 1) ln N``.
@@ -62,7 +73,7 @@ def core_start(prob: _OutputError, t: np.ndarray, x: np.ndarray, v: np.ndarray,
 
 
 def select_terms(prob: _OutputError, p: np.ndarray, half: np.ndarray, rss: float, max_nfev: int,
-                 core_coef: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[str, str]]:
+                 core_coef: np.ndarray, mapper: Mapper | None = None) -> tuple[np.ndarray, np.ndarray, dict[str, str]]:
     """Backward elimination from the full fit, and forward selection from the core when needed.
 
     The backward path (:func:`_select`) can stall on an ill-conditioned library (a short or
@@ -92,7 +103,7 @@ def select_terms(prob: _OutputError, p: np.ndarray, half: np.ndarray, rss: float
     if not (div_b or weak or negative or misfit or not np.all(np.isfinite(hb))):
         return pb, hb, dropped
     saved = (list(prob.active), prob.scale.copy())
-    fwd = _forward(prob, prob.p0[-NUISANCE:] * saved[1][-NUISANCE:], core, core_coef, max_nfev)
+    fwd = _forward(prob, prob.p0[-NUISANCE:] * saved[1][-NUISANCE:], core, core_coef, max_nfev, mapper)
     if fwd is None:
         prob.active, prob.scale = saved
         return pb, hb, dropped
@@ -106,8 +117,9 @@ def select_terms(prob: _OutputError, p: np.ndarray, half: np.ndarray, rss: float
 
 
 def _forward(prob: _OutputError, nuisance: np.ndarray, core: list[int], core_coef: np.ndarray,
-             max_nfev: int) -> tuple[np.ndarray, np.ndarray, float, dict[str, str]] | None:
-    """Forward selection by BIC from the core terms (see :func:`select_terms`).
+             max_nfev: int, mapper: Mapper | None = None) -> tuple[np.ndarray, np.ndarray, float, dict[str, str]] | None:
+    """Forward selection by BIC from the core terms (see :func:`select_terms`); each round's
+    trials (one per term not yet in) through ``mapper`` (:mod:`eddi.diagnosis.mapping`).
 
     Returns the parameters, their half widths, the RSS and, per term left out, why; None
     when the core itself does not fit (its simulation blows up).
@@ -128,16 +140,30 @@ def _forward(prob: _OutputError, nuisance: np.ndarray, core: list[int], core_coe
     bic = prob.bic(float(r @ r), p.size)
     best_of: dict[int, float] = {}
     while others:
-        trials = {}
-        for j in others:
-            active = sorted(prob.active + [j])
+        base_active = list(prob.active)
+
+        def trial(j: int, p: np.ndarray = p, base_active: list[int] = base_active) -> tuple:
+            """The model with term ``j`` added, refitted: (BIC, parameters, active terms,
+            simulations run). Everything it computes is returned (``mapper`` may run it in a
+            forked copy of this process); ``prob`` is left as it was."""
+            count = prob.count
+            active = sorted(base_active + [j])
             q = np.insert(p, active.index(j), 0.0)
             prob.active = active
             sol = prob.fit(q, n, max(10, max_nfev // 3))
             rr = prob.residual(sol.x, n)
-            trials[j] = (math.inf if prob.diverged else prob.bic(float(rr @ rr), q.size), sol.x, active)
-            prob.active = [i for i in active if i != j]
-            best_of[j] = trials[j][0]
+            out = (math.inf if prob.diverged else prob.bic(float(rr @ rr), q.size), sol.x, active,
+                   prob.count - count)
+            prob.active, prob.count = list(base_active), count
+            return out
+
+        # the trials of one round are independent: through ``mapper`` (other processes when
+        # the caller has cores; the same results either way)
+        trials = {}
+        for j, got in zip(others, (mapper or _serial_map)(trial, list(others))):
+            trials[j] = got[:3]
+            prob.count += got[3]
+            best_of[j] = got[0]
         j = min(trials, key=lambda i: trials[i][0])
         if not trials[j][0] < bic - BIC_TIE:  # a tie: the smaller model
             break

@@ -70,7 +70,7 @@ def drift_basis(t: np.ndarray, gamma: np.ndarray, knot_periods: float = DRIFT_KN
     from scipy.interpolate import BSpline  # local: keeps `import eddi` light
 
     t = np.asarray(t, dtype=float)
-    t0, t1 = float(t[0]), float(t[-1])
+    t0, t1 = float(np.min(t)), float(np.max(t))
     period = 2.0 * float(np.median(np.diff(gamma))) if gamma.size > 1 else t1 - t0
     n_int = max(1, int(np.ceil((t1 - t0) / max(knot_periods * period, 1e-300))))
     knots = np.concatenate(([t0] * 3, np.linspace(t0, t1, n_int + 1), [t1] * 3))

@@ -98,6 +98,10 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     else:
         cause = "modal_coupling" if gain > margin else "none"
     model = final.model
+    verdict = _earned(cause, per_channel["coupled" if gain > margin else "baseline"], records, names, model)
+    cause = verdict.cause
+    if verdict.note:
+        notes.append(verdict.note)
     if refine:
         from eddi.mdof.refine import refine_identified
 
@@ -112,6 +116,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
                     "channel_nrmse": {c: float(np.mean(v)) for c, v in per_channel["coupled"].items()},
                     "mode_nrmse": np.mean(per_mode["coupled"], axis=0).tolist()},
         "gain": gain, "margin": margin, "cause": cause, "coordinates": final.coordinates,
+        "noise_floor": verdict.noise_floor, "symptoms": list(verdict.symptoms),
         "span_residual": final.span_residual,
         "linear_modes_hz": final.modes.frequencies_hz.tolist(),
         "natural_frequencies_hz": model.natural_frequencies_hz().tolist(),
@@ -173,6 +178,17 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str
     return folds, per_channel, per_mode, span
 
 
+def _earned(cause: str, per_channel: dict[str, list], records: Sequence[Any], names: tuple[str, ...],
+            model: MdofModel):
+    """The cause checked against each channel's noise floor (:mod:`eddi.mdof.verdict`)."""
+    from eddi.mdof.verdict import channel_floor, earned_verdict
+
+    held = {c: float(np.mean(v)) for c, v in per_channel.items()}
+    vals = [validate_mdof(model, r) for r in records]
+    return earned_verdict(cause, held, channel_floor(records, names), vals,
+                          [float(f) for f in model.natural_frequencies_hz()])
+
+
 def _coords(text: str) -> set[int]:
     import re
 
@@ -197,6 +213,8 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
                  f"eq {i + 1}: " + (", ".join(f"{t} {c:.4g} +- {h:.2g}" if h is not None else f"{t} {c:.4g}" for t, (c, h) in eq.items()) or "none")
                  for i, eq in enumerate(obj["coupling_coefficients"])),
              f"Model: {obj['model']}"]
+    lines.append("Noise floor per channel (nrmse): " + "  ".join(f"{c} {v:.3g}" for c, v in obj["noise_floor"].items()))
+    lines += [f"Symptom: {s['text']}." for s in obj["symptoms"]]
     lines += [f"Note: {n}." for n in obj["notes"]]
     if "saved_model" in obj:
         lines.append(f"Model written to {obj['saved_model']}")

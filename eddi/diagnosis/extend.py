@@ -175,7 +175,9 @@ def thin_masks(masks: Sequence[np.ndarray], max_rows: int) -> list[np.ndarray]:
 
 def _extra(mech: Mechanism, shape: dict[str, float], sigs: Sequence[Signal],
            masks: Sequence[np.ndarray], setup: Setup) -> np.ndarray:
-    return np.vstack([mech.columns(s, shape, setup.stiffness)[m] for s, m in zip(sigs, masks)])
+    # a record without training samples adds no rows (a fold's held-out record)
+    used = [(s, m) for s, m in zip(sigs, masks) if np.any(m)] or list(zip(sigs, masks))[:1]
+    return np.vstack([mech.masked_columns(s, shape, setup.stiffness, m) for s, m in used])
 
 
 def _context(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,

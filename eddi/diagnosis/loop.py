@@ -24,6 +24,7 @@ import numpy as np
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
 from eddi.diagnosis.chain import inspect, sensor_highpass
 from eddi.diagnosis.extend import Fit, Setup
+from eddi.diagnosis.lookalike import attach
 from eddi.diagnosis.mapping import Mapper
 from eddi.diagnosis.measure import noise_floor
 from eddi.diagnosis.name import (
@@ -201,6 +202,9 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
     observed: Observed | None = done.pop(0) if want_observed else None
     candidates, _finals, notes = build_candidates(cat, skipped, res, final_fits(finals, sh.fit_all), sh.bfit_all,
                                                   len(sh.parts), consistency, sh.setup.stiffness, observed)
+    # look-alikes (same held-out displacement) compared within the cycle on the held-out parts
+    candidates = attach(candidates, {m.name: m.lookalikes for m in cat}, res.cand_fits, records, sh.parts,
+                        {m.name: m.native for m in cat})
     chain_sims: list[np.ndarray] = []
     if "sensor_highpass" in chosen:
         if sh.quiet:
@@ -268,6 +272,8 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
                     f"{pipeline.nrmse:.3g}; per fold, fitted the pipeline's way on the training records, "
                     f"the baseline has {baseline.nrmse:.3g}: the verdict needs both within the factor.")
     winner = dec.winner
+    if winner is not None:  # the named one first (a look-alike of higher gain it was told apart from follows)
+        candidates = [winner] + [c for c in candidates if c is not winner]
     extended, ext_sims, modal = baseline, res.base_sims, None
     if winner is not None:
         extended = Score(model=winner.model, nrmse=winner.nrmse, fold_nrmse=winner.fold_nrmse,  # type: ignore[arg-type]

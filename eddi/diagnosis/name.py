@@ -248,7 +248,8 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
         out = []
         for mech in tried:
             fit = fit_fold(mech, bfit)
-            kept = fit if mech.native else None  # (res.cand_fits, filled below)
+            # (res.cand_fits, filled below): native ones are refined, look-alikes compared
+            kept = fit if (mech.native or mech.lookalikes) else None
             if fit is None or fit.mech is None:
                 out.append((mech.name, NRMSE_CAP, np.full_like(xm, np.nan), None, kept))
                 continue
@@ -466,11 +467,12 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
         return Decision("none", None, None, True, "within the noise floor")
     why = []
     need = strong_margin if within else margin  # within the floor only a strong cut names
-    for c in tried:
-        fails = []
+
+    def held_out_fails(c: Candidate) -> list[str]:
         # the cut against the baseline as judged (the pipeline's procedure) and against the
         # EDDI fit the mechanism extends (same fitter): the gain is the mechanism's, and it
         # stands against the best baseline the pipeline gives
+        fails = []
         cut = min(1.0 - c.nrmse / base if base > 0 else 0.0, 1.0 - c.nrmse / eddi if eddi > 0 else 0.0)
         if not cut >= need:
             fails.append(f"cuts the error by {100 * cut:.0f} % (needs {100 * need:.0f} %)")
@@ -479,16 +481,59 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
             fails.append(f"beats its {c.reference} by {100 * c.gain:.0f} % (needs {100 * ref_need:.0f} %)")
         if not c.wins_every_part:
             fails.append("does not win on every held-out part")
+        return fails
+
+    # look-alikes that would pass the held-out tests themselves: a name must be told apart from them
+    rivals = {c.name: c for c in tried if not held_out_fails(c)}
+    for c in tried:
+        fails = held_out_fails(c)
         if not c.consistent:
             fails.append("its strength changes from fold to fold")
         if not c.nrmse <= named_factor * floor.nrmse:
             fails.append(f"leaves nrmse {c.nrmse:.3g}, over {named_factor:g}x the floor {floor.nrmse:.3g}")
+        if not fails:
+            fails += lookalike_fails(c, rivals)
         if not fails:
             return Decision(c.name, c, None, within, "")
         why.append(f"{c.name}: " + ", ".join(fails))
     if within:
         return Decision("none", None, None, True, "within the noise floor")
     return Decision("unexplained", None, partial, False, departs or "; ".join(why[:2]))
+
+
+def lookalike_fails(c: Candidate, rivals: dict[str, Candidate]) -> list[str]:
+    """Why ``c`` is not told apart from its look-alikes among ``rivals`` (candidates that pass
+    the held-out tests themselves), or is beaten by one of them on every held-out part (then
+    it is not the best explanation, look-alike or not). A look-alike fitted the same way must
+    lose to it within the cycle
+    (:func:`eddi.diagnosis.lookalike.told_apart`: the held-out displacement of two such models
+    can differ by the fit, not by the physics: hidden drag in the tests was reproduced better
+    on every part by ``|x| v``); one fitted another way must lose on every held-out part."""
+    from eddi.diagnosis.lookalike import Z_SEPARATED, told_apart
+
+    out = []
+    for name, other in rivals.items():
+        # any candidate that passes the held-out tests and reproduces every held-out part better:
+        # c is not the best explanation, whatever kept that one from being named (a held-out
+        # case: strong drag, not told from |x| v, then fell to sensor_highpass at 8x drag's error)
+        if (other is not c and len(other.fold_nrmse) == len(c.fold_nrmse)
+                and all(o < m for o, m in zip(other.fold_nrmse, c.fold_nrmse))):
+            out.append(f"{name}, which passes the held-out tests too, reproduces every held-out part better "
+                       f"({other.nrmse:.3g} against {c.nrmse:.3g})")
+    for name, wc in c.within_cycle.items():
+        other = rivals.get(name)
+        if other is None or other is c:
+            continue
+        if wc.get("same_fitter"):
+            if not told_apart(wc):
+                out.append(f"not told apart from its look-alike {name} ({other.nrmse:.3g} held out; within the "
+                           f"cycle z {wc['z']:.2g}, needs {Z_SEPARATED:g} and every part, won "
+                           f"{wc['parts_won']:.0f} of {wc['parts']:.0f})")
+        elif len(other.fold_nrmse) != len(c.fold_nrmse) or any(
+                o <= m for o, m in zip(other.fold_nrmse, c.fold_nrmse)):
+            out.append(f"its look-alike {name}, fitted another way, reproduces some held-out part as well or "
+                       f"better ({other.nrmse:.3g} against {c.nrmse:.3g})")
+    return out
 
 
 def check_trainable(records: Sequence[Record]) -> None:

@@ -43,16 +43,17 @@ class NoiseFloor:
     fold_nrmse : tuple of float
         Per held-out part: how far one more draw of the measured noise moves the conditioned
         coordinate and the baseline's held-out simulation, ``sqrt(d_cond^2 + d_pred^2)``
-        relative to the part's norm (:mod:`eddi.diagnosis.measure`).
+        relative to the part's norm, the median over
+        :data:`~eddi.diagnosis.measure.DRAWS` draws (:mod:`eddi.diagnosis.measure`).
     noise_rms : tuple of float
         Measured noise RMS of each record's response channel (SI units).
     conditioning_nrmse : tuple of float
         Per record: change of the conditioned coordinate over its free response under one
-        more draw of the noise (relative to its norm).
+        more draw of the noise (relative to its norm; the median over the draws).
     method : str
     prediction_nrmse : tuple of float
         Per held-out part: ``d_pred``, how far the baseline's refit simulation moves under
-        that draw (NaN where the refit failed). When it dominates, the floor is mostly the
+        a draw (the median over the draws; NaN where the refit failed). When it dominates, the floor is mostly the
         refit's sensitivity to one noise draw (see the "uncertain none" note of the loop).
     """
 
@@ -174,6 +175,10 @@ class Candidate:
         held-out nrmse is kept.
     nmte, reference_nmte : float
         Mean held-out velocity NMTE of the candidate and of its reference.
+    within_cycle : dict of str to dict
+        Against each look-alike tried (by name): the within-cycle comparison of the held-out
+        residual forces (``z``, ``parts_won``, ``parts``, ``cycles``;
+        :func:`eddi.diagnosis.lookalike.compare`; ``z`` > 0: this one fits the cycle better).
     """
 
     name: str
@@ -192,6 +197,7 @@ class Candidate:
     form: str = ""
     nmte: float = float("nan")
     reference_nmte: float = float("nan")
+    within_cycle: dict[str, dict[str, float]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -344,6 +350,6 @@ class Diagnosis:
                 "consistent": c.consistent, "params": c.params,
                 "reference_nrmse": c.reference_nrmse, "reference": c.reference,
                 "spread": c.spread, "skipped": c.skipped, "form": c.form, "nmte": c.nmte,
-                "reference_nmte": c.reference_nmte,
+                "reference_nmte": c.reference_nmte, "within_cycle": c.within_cycle,
             } for c in self.candidates],
         }

@@ -13,6 +13,7 @@ import numpy as np
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.settings import NRMSE_CAP
 from eddi.energy import zero_crossings
+from eddi.errors import EddiError
 from eddi.model import EquationOfMotion
 from eddi.multimode import trajectory_errors
 from eddi.simulate import simulate
@@ -45,8 +46,53 @@ def simulate_part_xv(eom: EquationOfMotion, rec: Record, part: Part) -> tuple[np
     xs = float(np.max(np.abs(rec.x[s:e]))) or None
     vs = float(np.max(np.abs(rec.v[s:e]))) or None
     f = rec.force[s:e] if rec.force is not None else None
-    sim = simulate(eom, t, force=f, x0=float(rec.x[s]), v0=float(rec.v[s]), x_scale=xs, v_scale=vs)
+    x0, v0 = fitted_state(eom, rec, s, e, xs, vs)
+    sim = simulate(eom, t, force=f, x0=x0, v0=v0, x_scale=xs, v_scale=vs)
     return sim.x, sim.v
+
+
+#: Cycles of a free-response part its initial state is fitted over (:func:`fitted_state`).
+STATE_CYCLES = 2
+#: ... and at most this fraction of the part.
+STATE_FRACTION = 0.25
+
+
+def fitted_state(eom: EquationOfMotion, rec: Record, s: int, e: int, x_scale: float | None,
+                 v_scale: float | None) -> tuple[float, float]:
+    """Initial state ``(x0 [m], v0 [m/s])`` of a free response from sample ``s``: the state
+    whose simulation best reproduces the measured ``x`` and ``v`` over the first
+    :data:`STATE_CYCLES` cycles (at most :data:`STATE_FRACTION` of ``[s, e)``), least squares
+    from the measured state at ``s``. The noise of one sample no longer sets the start: the
+    window averages it, so the part's error is the model's, and a noise draw moves it little.
+    Falls back to the measured state when the window holds no cycle or the fit fails.
+    """
+    from scipy.optimize import least_squares
+
+    x0, v0 = float(rec.x[s]), float(rec.v[s])
+    if not (x_scale and v_scale):
+        return x0, v0
+    n = max(8, int(STATE_FRACTION * (e - s)))
+    g = zero_crossings(rec.t[s:s + n], rec.x[s:s + n], rec.v[s:s + n], hysteresis=0.05 * x_scale)
+    if g.size < 2 * STATE_CYCLES + 1:
+        return x0, v0
+    w = int(np.searchsorted(rec.t[s:s + n], g[2 * STATE_CYCLES])) + 1
+    t = rec.t[s:s + w] - rec.t[s]
+    f = rec.force[s:s + w] if rec.force is not None else None
+    xm, vm = rec.x[s:s + w], rec.v[s:s + w]
+
+    def res(p: np.ndarray) -> np.ndarray:
+        sim = simulate(eom, t, force=f, x0=p[0] * x_scale, v0=p[1] * v_scale, x_scale=x_scale, v_scale=v_scale)
+        out = np.concatenate([(sim.x - xm) / x_scale, (sim.v - vm) / v_scale])
+        return np.where(np.isfinite(out), out, 10.0)
+
+    try:
+        sol = least_squares(res, [x0 / x_scale, v0 / v_scale], method="lm", xtol=1e-8, max_nfev=60)
+    except (ValueError, ArithmeticError, EddiError):
+        return x0, v0
+    if not (sol.success and np.all(np.isfinite(sol.x)) and sol.cost <= 0.5 * float(np.sum(res(
+            np.array([x0 / x_scale, v0 / v_scale])) ** 2))):
+        return x0, v0
+    return float(sol.x[0] * x_scale), float(sol.x[1] * v_scale)
 
 
 def drive_force(eom: EquationOfMotion, rec: Record) -> np.ndarray:

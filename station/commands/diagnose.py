@@ -36,7 +36,7 @@ if TYPE_CHECKING:  # the engine is imported when captures are diagnosed, not for
 FITS = ("eddi", "equation-error")
 DEFAULT_MARGIN = 0.5
 ALL_NAMES = ("coulomb_friction", "quadratic_damping", "cubic_damping", "clearance", "smooth_stiffening",
-             "asymmetric_stiffness", "second_mode", "hysteresis", "sensor_highpass")
+             "asymmetric_stiffness", "second_mode", "hysteresis", "amplitude_damping", "sensor_highpass")
 
 
 def register(subparsers: Any) -> None:
@@ -146,11 +146,15 @@ def pipeline_baseline(measurements: list[Any], mass: float, damping: str, stiffn
     (:func:`load_measurements`), not conditioned again.
     """
     from eddi.diagnosis import PipelineBaseline
+    from eddi.fit_record import Pipeline
     from station.commands.replay import session_object
+    from station.forkmap import ForkMap, jobs_wanted
     from station.session import run_session
 
-    session = run_session(measurements, mass, damping=damping, stiffness=stiffness, refine=refine,
-                          conditioned=conditioned)
+    # the refinement's forward term selection tries independent terms: in forked workers when
+    # cores are free (the same result)
+    pipe = replace(Pipeline.create(damping, stiffness, refine=refine), mapper=ForkMap(jobs_wanted()))
+    session = run_session(measurements, mass, pipeline=pipe, conditioned=conditioned)
     obj = session_object(session)
     obj["model"] = session.fit.model.eom.to_dict()
     k = session.fit_index

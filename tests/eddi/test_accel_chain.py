@@ -50,12 +50,11 @@ def test_force_and_acc_only_45db(system: str, seed: int) -> None:
     assert ref.validation.nrmse <= 0.01
     assert ref.model.refinement.channel == "a"
     assert ref.model.refinement.nrmse_after <= ref.model.refinement.nrmse_before
-    # the refined model is kept only where it fits the measured acceleration better (where
-    # EDDI is already at the noise floor, e.g. paper_do seed 1, the refinement is rejected)
-    if ref.choices.refinement == "kept":
-        assert ref.choices.nrmse_refined <= ref.choices.nrmse_eddi
-    else:
-        assert ref.choices.refinement == "rejected" and ref.choices.nrmse_eddi < ref.choices.nrmse_refined
+    # the refined model is kept unless it fits the measured acceleration measurably worse
+    # (eddi.judge): here it never does. Judged on the nominal drive with no margin, paper_do
+    # seed 1's refinement was rejected (EDDI then at the noise floor, 9e-5)
+    assert ref.choices.refinement == "kept"
+    assert ref.choices.nrmse_refined <= 1.01 * ref.choices.nrmse_eddi
 
 
 def _coef_error(eom: EquationOfMotion, truth: dict) -> float:

@@ -47,8 +47,29 @@ def test_lagrangian_route_gives_the_restoring_force(hardening):
     x = p2.x
     f_exact = -(800 * x + 3000 * x**2 + 2e6 * x**3)
     assert np.max(np.abs(p2.conservative_force - f_exact)) < 1e-3 * np.max(np.abs(f_exact))
-    # turning points (small |v|) are left out
-    assert 0 < p2.samples_used < i1 - i0
+    # every sample is used, the turning points too (the force is m a + B in closed form,
+    # nothing is divided by v), and the first quarter cycle before gamma_0
+    assert p2.samples_used == i1 - i0 == sim.t.size
+    assert np.min(np.abs(sim.v[i0:i1])) < 1e-3 * np.max(np.abs(sim.v))
+    # with the re-anchored energy the turning points are left out (its misfit power / v)
+    anchored = lagrangian_route(p1, sim.x[i0:i1], sim.v[i0:i1], 0.5, parse_terms("x,x^2,x^3"), anchored=True,
+                                v_fraction=0.2)
+    assert 0 < anchored.samples_used < i1 - i0
+    assert anchored.as_dict()["x^3"] == pytest.approx(2e6, rel=1e-3)
+
+
+def test_phase_one_energy_covers_the_half_cycle_before_the_first_crossing(hardening):
+    sim, p1, i0, i1 = hardening
+    # released from a turning point: the first quarter cycle lies before gamma_0
+    assert p1.gamma[0] > sim.t[50]
+    assert (i0, i1) == (0, sim.t.size)
+    e_exact = 0.5 * 0.5 * sim.v**2 + 800 * sim.x**2 / 2 + 3000 * sim.x**3 / 3 + 2e6 * sim.x**4 / 4
+    before = p1.t < p1.gamma[0]
+    after = p1.t > p1.gamma[-1]
+    assert before.sum() > 50 and after.sum() > 0
+    for energy in (p1.mechanical_anchored, p1.mechanical):
+        assert np.max(np.abs(energy[before] - e_exact[before]) / e_exact[before]) < 1e-6
+    assert np.max(np.abs(p1.mechanical_anchored[after] - e_exact[after]) / e_exact[after]) < 1e-5
 
 
 def test_lagrangian_route_excludes_more_with_a_larger_v_fraction(hardening):

@@ -126,3 +126,31 @@ def test_diagnose_forked_equals_in_turn(tmp_path: Path, capsys: pytest.CaptureFi
         outs.append(json.loads(capsys.readouterr().out))
         assert (max(forks) > 0) == ("STATION_JOBS" in env)
     assert outs[0] == outs[1]  # every number the same bit for bit
+
+
+def test_forward_term_selection_forked_equals_in_turn() -> None:
+    # a short, heavily damped record (as tests/eddi/test_term_selection.py; seed 3, where the
+    # backward path leaves a weak term, so the refinement's forward selection runs); its
+    # trials go through the pipeline's mapper (forked workers) and give the same model,
+    # reasons and simulation count as in turn
+    from dataclasses import replace
+
+    from eddi.conditioning import condition
+    from eddi.fit_record import Pipeline
+    from tests.eddi.impact_cases import impact_record
+
+    from tests.eddi.test_term_selection import _linear
+
+    m = 0.5
+    spec = _linear(m, 25.0, 0.15)
+    r = impact_record(spec, rate_hz=10_000.0, duration_s=0.54, pretrigger_s=0.2, pulse_s=2e-3, snr_db=50.0, seed=3)
+    cond = condition(r.t, acc=r.acc, force=r.force)
+    serial = Pipeline().fit(cond, m)
+    fm = ForkMap(2)
+    forked = replace(Pipeline(), mapper=fm).fit(cond, m)
+    assert fm.forked > 0
+    assert "forward selection" in " ".join(serial.choices.dropped.values())
+    assert forked.model.eom == serial.model.eom
+    assert forked.choices.dropped == serial.choices.dropped
+    assert forked.model.refinement.evaluations == serial.model.refinement.evaluations
+    assert forked.ci95 == serial.ci95

@@ -14,7 +14,7 @@ from eddi.diagnosis.catalogue.drag import QuadraticDamping
 from eddi.diagnosis.catalogue.friction import CoulombFriction
 from eddi.diagnosis.catalogue.hysteresis import Hysteresis
 from eddi.diagnosis.catalogue.second_mode import SecondMode
-from eddi.diagnosis.catalogue.terms import CubicDamping, SmoothStiffening
+from eddi.diagnosis.catalogue.terms import AmplitudeDamping, CubicDamping, SmoothStiffening
 from eddi.model import EquationOfMotion
 from eddi.terms import parse_term
 
@@ -25,7 +25,7 @@ __all__ = ["Context", "Mechanism", "MechanismFit", "Signal", "catalogue", "MECHA
 def catalogue() -> tuple[Mechanism, ...]:
     """Every physical mechanism diagnosis tries, in a fixed order."""
     return (CoulombFriction(), QuadraticDamping(), CubicDamping(), Clearance(), SmoothStiffening(),
-            AsymmetricStiffness(), SecondMode(), Hysteresis())
+            AsymmetricStiffness(), SecondMode(), Hysteresis(), AmplitudeDamping())
 
 
 #: Names of the physical catalogue, in order.

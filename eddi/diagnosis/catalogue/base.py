@@ -120,6 +120,10 @@ class Mechanism(abc.ABC):
     #: How EDDI fits it natively: ``"damping"`` (phase one), ``"stiffness"`` (phase two) or
     #: ``""`` (not a single-coordinate term: fitted on the baseline's residual force).
     native: str = ""
+    #: Mechanisms that can reproduce the same held-out displacement (same loss per cycle, same
+    #: frequency shift): a name needs the held-out records to tell them apart
+    #: (:mod:`eddi.diagnosis.lookalike`).
+    lookalikes: tuple[str, ...] = ()
 
     def bases(self, shape: dict[str, float], stiffness: tuple[str, ...]) -> tuple[Basis, ...]:
         """EDDI bases of the mechanism, in the order of :meth:`columns` (native ones only)."""
@@ -143,6 +147,11 @@ class Mechanism(abc.ABC):
     @abc.abstractmethod
     def columns(self, sig: Signal, shape: dict[str, float], stiffness: tuple[str, ...]) -> np.ndarray:
         """Regressors, shape (n, p), for one record."""
+
+    def masked_columns(self, sig: Signal, shape: dict[str, float], stiffness: tuple[str, ...],
+                       mask: np.ndarray) -> np.ndarray:
+        """The rows ``mask`` of :meth:`columns` (a mechanism may compute only what they need)."""
+        return self.columns(sig, shape, stiffness)[mask]
 
     @abc.abstractmethod
     def to_fit(self, coefs: np.ndarray, shape: dict[str, float], mass: float,

@@ -10,6 +10,7 @@ from eddi.model import Effect
 
 class Clearance(Mechanism):
     name = "clearance"
+    lookalikes = ("smooth_stiffening",)
     strength = "stiffness_n_per_m"
     refine = ("gap_m",)
     physics = ("contact beyond a gap g: an extra spring k_c (|x| - g) sign(x) acts only when "

@@ -10,6 +10,7 @@ from eddi.model import Effect
 
 class QuadraticDamping(Mechanism):
     name = "quadratic_damping"
+    lookalikes = ("cubic_damping", "amplitude_damping", "hysteresis")
     strength = "coefficient"
     physics = "quadratic (aerodynamic, turbulent) drag: c_q |v| v"
 

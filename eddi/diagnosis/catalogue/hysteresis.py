@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from eddi.diagnosis.catalogue.base import Mechanism, MechanismFit
 from eddi.hysteresis import bouc_wen_z
 from eddi.model import Effect
@@ -25,6 +27,7 @@ class Hysteresis(Mechanism):
     """
 
     name = "hysteresis"
+    lookalikes = ("quadratic_damping", "cubic_damping", "amplitude_damping")
     strength = "yield_force_n"
     refine = ("yield_displacement_m", "exponent")
     physics = ("a hysteretic restoring force (Bouc-Wen: F_y z, dz = dx/d_y (1 - |z|^n (sign(dx z) + 1)/2)),"
@@ -36,6 +39,15 @@ class Hysteresis(Mechanism):
 
     def columns(self, sig, shape, stiffness):
         return bouc_wen_z(sig.x, shape["yield_displacement_m"], min(shape["exponent"], 20.0))[:, None]
+
+    def masked_columns(self, sig, shape, stiffness, mask):
+        # z at a sample depends on the path up to it only: computed up to the last training
+        # sample, and kept (_PATHS) for the other folds, which try the same grid shapes
+        idx = np.flatnonzero(mask)
+        if idx.size == 0:
+            return np.zeros((0, 1))
+        z = _path(sig.x, int(idx[-1]) + 1, shape["yield_displacement_m"], min(shape["exponent"], 20.0))
+        return z[idx][:, None]
 
     def to_fit(self, coefs, shape, mass, stiffness):
         fy = float(coefs[0])
@@ -52,3 +64,24 @@ class Hysteresis(Mechanism):
                 f"hysteresis (yield force about {p['yield_force_n']:.3g} N at "
                 f"{1e3 * p['yield_displacement_m']:.3g} mm)")
 
+
+
+#: Bouc-Wen paths computed lately: ``(id(x), d_y, n) -> (x, z over x[:stop])`` (``x`` is kept, so
+#: its ``id`` is not reused while the entry lives); at most :data:`PATHS_BYTES` of ``z``.
+_PATHS: dict[tuple[int, float, float], tuple[np.ndarray, np.ndarray]] = {}
+PATHS_BYTES = 48 << 20
+
+
+def _path(x: np.ndarray, stop: int, dy: float, n: float) -> np.ndarray:
+    """``bouc_wen_z(x[:stop], dy, n)``, from :data:`_PATHS` when a path at least as long is there."""
+    key = (id(x), float(dy), float(n))
+    hit = _PATHS.get(key)
+    if hit is not None and hit[0] is x and hit[1].size >= stop:
+        return hit[1][:stop]
+    z = bouc_wen_z(x[:stop], dy, n)
+    _PATHS[key] = (x, z)
+    total = sum(v[1].nbytes for v in _PATHS.values())
+    while total > PATHS_BYTES and len(_PATHS) > 1:  # the oldest first
+        old = next(iter(_PATHS))
+        total -= _PATHS.pop(old)[1].nbytes
+    return z

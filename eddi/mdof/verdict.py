@@ -1,0 +1,133 @@
+"""An earned multi-DOF verdict: ``none`` only within the noise floor, symptoms otherwise.
+
+The single-coordinate loop (:mod:`eddi.diagnosis`) says ``none`` only when the baseline's
+held-out error is within a factor of a floor the records set; this module applies the same
+rule to every channel of a multi-channel diagnosis (issue 10 item 1, issue 14 item 4).
+
+Floor, per channel ``c`` (from the records themselves, no metadata): the displacement noise
+the conditioning measured on that channel relative to the channel's free-response RMS
+(median over the records), raised to :data:`eddi.diagnosis.settings.MIN_FLOOR` (the least
+error the conditioning's drift high-pass and integration leave on a clean record, the same
+constant the one-coordinate loop uses). A perturbation refit as in
+:func:`eddi.diagnosis.measure.noise_floor` is not run here (one identification per record
+and channel set would double the diagnosis); the floor is therefore a lower estimate, and
+the factors are the one-coordinate loop's (``NONE_FACTOR``, ``NAMED_FACTOR``).
+
+Rules, applied after the coupled-vs-uncoupled comparison:
+
+- ``none`` stays ``none`` only when every channel's held-out error is within
+  ``NONE_FACTOR`` x its floor; otherwise ``unexplained``.
+- ``modal_coupling`` stays named only when the coupled model leaves every channel within
+  ``NAMED_FACTOR`` x its floor; otherwise ``unexplained`` with coupling as the best partial
+  explanation.
+
+Symptoms (plain numbers): each channel above its floor (held-out nrmse, floor, ratio) and the
+strongest peak of the residual (measured minus simulated displacement) on that channel, with
+whether the model has a natural frequency there (within 5 %): a residual peak at no model
+frequency is the symptom of a mode the model lacks.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from eddi.diagnosis.settings import MIN_FLOOR, NAMED_FACTOR, NONE_FACTOR
+
+#: a residual peak within this relative distance of a model frequency is "at" that mode
+NEAR_MODE = 0.05
+
+
+@dataclass(frozen=True)
+class MdofVerdict:
+    """The cause after the floor check, the floor per channel and the symptoms.
+
+    Attributes
+    ----------
+    cause : str
+    noise_floor : dict of str to float
+        Floor per channel (nrmse of displacement, dimensionless).
+    symptoms : tuple of dict
+        One entry per finding (``kind``, ``channel``, numbers, ``text``).
+    note : str or None
+        One plain sentence when the cause was changed by the floor.
+    """
+
+    cause: str
+    noise_floor: dict[str, float]
+    symptoms: tuple[dict, ...]
+    note: str | None
+
+
+def channel_floor(records: Sequence, names: Sequence[str]) -> dict[str, float]:
+    """Per-channel floor (module notes) from conditioned :class:`ChannelRecord` s."""
+    out = {}
+    for k, c in enumerate(names):
+        ratios = []
+        for r in records:
+            w0, w1 = r.window
+            rms = float(np.sqrt(np.mean(r.x[k, w0:w1] ** 2))) if w1 > w0 else 0.0
+            if rms > 0 and np.isfinite(r.noise[k]):
+                ratios.append(float(r.noise[k]) / rms)
+        out[c] = max(MIN_FLOOR, float(np.median(ratios)) if ratios else MIN_FLOOR)
+    return out
+
+
+def residual_peak(validations: Sequence, channel: int) -> tuple[float, float]:
+    """Frequency [Hz] of the strongest residual peak on ``channel`` and its share of the
+    residual power (0-1), pooled over the records (NaN, 0 when nothing is finite)."""
+    best_f, share, total = float("nan"), 0.0, 0.0
+    spectra: dict[float, float] = {}
+    for v in validations:
+        if v.diverged or v.t.size < 16:
+            continue
+        res = v.measured[channel] - v.simulated[channel]
+        if not np.all(np.isfinite(res)):
+            continue
+        dt = float(v.t[1] - v.t[0])
+        p = np.abs(np.fft.rfft(res * np.hanning(res.size))) ** 2
+        f = np.fft.rfftfreq(res.size, dt)
+        p[0] = 0.0
+        i = int(np.argmax(p))
+        lo, hi = max(i - 3, 0), min(i + 4, p.size)
+        spectra[float(f[i])] = spectra.get(float(f[i]), 0.0) + float(np.sum(p[lo:hi]))
+        total += float(np.sum(p))
+        share += float(np.sum(p[lo:hi]))
+    if not spectra or total <= 0:
+        return best_f, 0.0
+    best_f = max(spectra, key=spectra.get)
+    return best_f, share / total
+
+
+def earned_verdict(cause: str, channel_nrmse: Mapping[str, float], floors: Mapping[str, float],
+                   validations: Sequence, model_hz: Sequence[float]) -> MdofVerdict:
+    """Apply the module's rules to ``cause`` (``channel_nrmse``: held-out error per channel of
+    the model the cause stands on; ``validations``: that model on each record, for the
+    residual peaks; ``model_hz``: its natural frequencies)."""
+    factor = NAMED_FACTOR if cause == "modal_coupling" else NONE_FACTOR
+    symptoms = []
+    names = list(channel_nrmse)
+    for k, c in enumerate(names):
+        e, fl = float(channel_nrmse[c]), float(floors[c])
+        if not (np.isfinite(e) and e <= NONE_FACTOR * fl):
+            f, share = residual_peak(validations, k)
+            at_mode = any(abs(f - m) <= NEAR_MODE * m for m in model_hz) if np.isfinite(f) else False
+            text = (f"channel {c}: held-out nrmse {e:.3g} is {e / fl:.1f}x its noise floor {fl:.3g}"
+                    if np.isfinite(e) else f"channel {c}: the held-out simulation diverges")
+            if np.isfinite(f):
+                text += (f"; residual peak at {f:.4g} Hz ({100 * share:.0f} % of the residual power), "
+                         + ("at a mode of the model" if at_mode else "at no natural frequency of the model"))
+            symptoms.append({"kind": "channel_above_floor", "channel": c, "nrmse": e, "floor": fl,
+                             "ratio": e / fl if np.isfinite(e) else float("inf"),
+                             "residual_peak_hz": f, "residual_peak_share": share,
+                             "at_model_mode": bool(at_mode), "text": text})
+    worst = max((s["ratio"] for s in symptoms), default=0.0)
+    note = None
+    if cause in ("none", "modal_coupling") and worst > factor:
+        partial = "" if cause == "none" else " (modal coupling is the best partial explanation)"
+        note = (f"unexplained: the {'coupled' if cause == 'modal_coupling' else 'baseline'} model leaves a "
+                f"channel {worst:.1f}x above its noise floor (allowed {factor:g}x){partial}")
+        cause = "unexplained"
+    return MdofVerdict(cause, dict(floors), tuple(symptoms), note)
