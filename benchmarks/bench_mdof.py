@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import os
 import time
 
 import numpy as np
@@ -157,14 +158,18 @@ def run(name: str, refine: bool, threshold: float) -> None:
     peaks = list(system.impacts_n) + [0.7 * max(system.impacts_n)]
     recs = [condition_multichannel(_measurement(mdof_impact_test(system, p, seed=100 + k)))
             for k, p in enumerate(peaks)]
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     ident = identify_mdof(recs[:3], truth.channels, truth.driving_point)
     model = ident.model
+    t_ident = time.perf_counter() - t0
+    c_ident = time.process_time()
+    pre = validate_mdof(model, recs[3])
     if refine:
-        from eddi.mdof.refine import refine_mdof
+        from eddi.mdof.refine import refine_identified
 
-        model, _b, _a = refine_mdof(model, recs[:3])
+        model, _b, _a = refine_identified(ident, recs[:3])
     t_eddi = time.perf_counter() - t0
+    c_eddi = time.process_time() - c0
     t0 = time.perf_counter()
     sindy = sindy_model(recs[:3], truth.channels, truth.driving_point, threshold)
     t_sindy = time.perf_counter() - t0
@@ -173,6 +178,13 @@ def run(name: str, refine: bool, threshold: float) -> None:
     print(f"{name}: EDDI in {ident.coordinates} coordinates ({t_eddi:.1f} s), pysindy ({t_sindy:.1f} s); "
           f"tail modes {', '.join(f'{f:.4g}' for f in ident.modes.frequencies_hz)} Hz")
     print(f"  model: {ident.notes[-1]}")
+    print(f"  EDDI {t_ident:.1f} s wall, {c_ident - c0:.1f} s CPU (this process); with the polish "
+          f"{t_eddi:.1f} s wall, {c_eddi:.1f} s CPU; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    if ident.notes and ident.notes[0].startswith("lumped elements"):
+        print(f"  lumped: {ident.notes[0]}")
+    if refine:
+        print("  held-out nrmse before the polish: "
+              + ", ".join(f"{c} {pre.channel_nrmse[c]:.4f}" for c in truth.channels))
     for c in truth.channels:
         e = held["EDDI"].channel_nrmse[c]
         print(f"  held-out nrmse {c}: EDDI {e:.4f} ({'met' if e <= 0.05 else 'NOT met'} vs floor 0.05), "

@@ -5,9 +5,11 @@ per-channel nrmse and their mean as ``nrmse``. :func:`diagnose_mdof_object` iden
 uncoupled baseline (each coordinate's own terms) and the coupled model (coupling terms found
 from the energy exchanged between coordinates, :mod:`eddi.mdof.identify`), judges both on
 held-out captures (each capture held out in turn) and names ``modal_coupling`` when the
-coupled model wins by more than ``margin``, ``missing_mode`` when the tail holds positive
-evidence of a motion no linear mode describes (:func:`eddi.mdof.identify.modal_evidence`;
-then the coordinates are the physical channels), ``unexplained`` when the tail resolves fewer
+coupled model wins by more than ``margin`` (also when the tail holds positive evidence of a
+motion no linear mode describes and the coordinates are the physical channels: an energy sink's
+purely cubic attachment is a nonlinear coupling between them), ``missing_mode`` when the tail
+holds that evidence (:func:`eddi.mdof.identify.modal_evidence`) and no coupling between the
+physical channels explains it held out, ``unexplained`` when the tail resolves fewer
 modes than channels and no coupling wins (a mode the records cannot resolve is not named).
 """
 
@@ -79,10 +81,15 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     else:  # no coupling earns its place: the baseline
         final = identify_mdof(records, names, dp, coupling=False)
     notes = list(final.notes)
-    if not final.modal_basis:
+    if not final.modal_basis and gain <= margin:
         cause = "missing_mode"
         notes.append("missing mode: the linear modes of the low-amplitude tail do not describe the motion - "
                      "a coordinate with no linear mode (e.g. an essentially nonlinear attachment)")
+    elif not final.modal_basis:  # physical coordinates, and a nonlinear coupling between them explains it
+        cause = "modal_coupling"
+        notes.append("the linear modes of the low-amplitude tail do not describe the motion (a coordinate with "
+                     "no linear mode of its own, e.g. an essentially nonlinear attachment): physical "
+                     "coordinates, and the nonlinear coupling between them earns its place held out")
     elif final.unresolved and gain <= margin:
         cause = "unexplained"
         notes.append(f"unexplained: the tail resolves {final.modes.frequencies_hz.size} linear mode(s) for "
@@ -96,9 +103,9 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     if verdict.note:
         notes.append(verdict.note)
     if refine:
-        from eddi.mdof.refine import refine_mdof
+        from eddi.mdof.refine import refine_identified
 
-        model, _b, _a = refine_mdof(model, records)
+        model, _b, _a = refine_identified(final, records)
     obj: dict[str, Any] = {
         "captures": [r.label for r in records], "channels": list(names), "driving_point": dp,
         "scheme": f"leave-one-out over {len(records)} captures",

@@ -50,6 +50,7 @@ import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -195,6 +196,9 @@ class MdofIdentification:
         True when the coordinates are physical because the tail resolves fewer modes than
         channels (or shapes too alike) with no evidence of a missing one: diagnosis then says
         ``unexplained`` rather than naming a cause the modes cannot support.
+    lumped : LumpedFit or None
+        The element fit (:mod:`eddi.mdof.lumped`) when the model is the lumped-element
+        candidate (for :func:`eddi.mdof.refine.refine_lumped`).
     """
 
     model: MdofModel
@@ -205,6 +209,7 @@ class MdofIdentification:
     notes: tuple[str, ...] = field(default_factory=tuple)
     modal_basis: bool = True
     unresolved: bool = False
+    lumped: Any = None
 
 
 #: A mode beyond the channels counts (evidence of a motion no linear mode basis holds) when it

@@ -11,6 +11,7 @@ No I/O.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -18,6 +19,7 @@ from eddi.mdof.identify import (ChannelRecord, EquationFit, MdofIdentification, 
                                 restore_quasi_static)
 from eddi.mdof.lumped import PREFILTER_RATIO, LumpedFit, driven_mass, element_terms, fit_lumped
 from eddi.mdof.model import MdofModel
+from eddi.mdof.slowband import restore_slow_band
 
 #: Rows start this many periods of the column filter's cut-off after the free window's start;
 #: the one whose model reproduces the training records best is kept. The frequencies move by
@@ -29,7 +31,7 @@ RESCALE_ROUNDS = 2
 
 
 def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], driving_point: str, *,
-                    prune: float = 3e-3, tail_fraction: float = 0.2) -> MdofIdentification:
+                    prune: float = 3e-3, tail_fraction: float = 0.2, slow_band: bool = True) -> MdofIdentification:
     """Masses, springs and dashpots between the measured masses and the ground (no mass given).
 
     Parameters
@@ -41,6 +43,9 @@ def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], d
     prune : float
     tail_fraction : float
         For the linear modes reported beside the model (ERA on the tail).
+    slow_band : bool
+        Also refit the kept elements with the slow band of the displacement restored
+        (:mod:`eddi.mdof.slowband`); kept when it reproduces the training records better.
     """
     channels = tuple(channels)
     d = channels.index(driving_point)
@@ -51,15 +56,27 @@ def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], d
         err = _training_error(lumped_model(fit, channels, driving_point, d, len(records)), records)
         if best is None or err < best[0]:
             best = (err, fit, settle)
-    _err, fit, settle = best
+    err, fit, settle = best
+    rows_note = f"rows from {settle:g} periods of the column filter after the blow"
+    slow_note = ""
+    if slow_band:
+        slow, before, after = _slow_fit(records, fit, n, d, prune)
+        err_slow = _training_error(lumped_model(slow, channels, driving_point, d, len(records)), records)
+        slow_note = (f"; slow band restored (force balance {np.sqrt(before):.3g} -> {np.sqrt(after):.3g} of the "
+                     f"inertia RMS; training nrmse {err_slow:.3g}, prefiltered {err:.3g}")
+        if err_slow < err:
+            fit, rows_note = slow, "rows from the blow, slow band restored"
+            slow_note += ", kept)"
+        else:
+            slow_note += ", not kept)"
     modes = linear_modes(records, tail_fraction=tail_fraction, driving_point=d)
     model = lumped_model(fit, channels, driving_point, d, len(records))
     notes = [f"lumped elements: {', '.join(f'{e.label} {c:.4g}' for e, c in fit.constants.items())} "
-             f"(rows from {settle:g} periods of the column filter after the blow)"]
+             f"({rows_note}{slow_note})"]
     if all(r.force is None for r in records):
         notes.append("no force: every mass per unit driven mass")
     eqs = tuple(_equation(model, fit, i) for i in range(n))
-    return MdofIdentification(model, modes, "physical", eqs, 0.0, tuple(notes), True)
+    return MdofIdentification(model, modes, "physical", eqs, 0.0, tuple(notes), True, lumped=fit)
 
 
 def _training_error(model: MdofModel, records: Sequence[ChannelRecord]) -> float:
@@ -70,17 +87,42 @@ def _training_error(model: MdofModel, records: Sequence[ChannelRecord]) -> float
     return float(np.mean(errs)) if all(np.isfinite(errs)) else float("inf")
 
 
-def _fit(records: Sequence[ChannelRecord], n: int, d: int, prune: float, settle_periods: float) -> LumpedFit:
-    """:func:`fit_lumped` on the records' free windows after the filter settles, scaled by the
-    pulse of the records restored from its own receptance (module docstring of
-    :mod:`eddi.mdof.lumped`)."""
+def _rows(records: Sequence[ChannelRecord], settle_periods: float) -> list[tuple]:
+    """:func:`fit_lumped`'s record tuples, rows from ``settle_periods`` of the column filter's
+    cut-off after the free window's start."""
     full = []
     for r in records:
         rate = 1.0 / float(r.t[1] - r.t[0])
         settle = int(settle_periods * rate / (PREFILTER_RATIO * r.highpass_hz))
         full.append((r.x, r.v, r.a, r.force, (min(r.window[0] + settle, r.window[1] - 1), r.window[1]), rate,
                      r.highpass_hz))
-    fit = fit_lumped(full, _pulses(records), n, d, prune=prune)
+    return full
+
+
+def _fit(records: Sequence[ChannelRecord], n: int, d: int, prune: float, settle_periods: float) -> LumpedFit:
+    """:func:`fit_lumped` on the records' free windows after the filter settles, scaled by the
+    pulse of the records restored from its own receptance (module docstring of
+    :mod:`eddi.mdof.lumped`)."""
+    return _rescaled(fit_lumped(_rows(records, settle_periods), _pulses(records), n, d, prune=prune), records, n, d)
+
+
+def _slow_fit(records: Sequence[ChannelRecord], start: LumpedFit, n: int, d: int, prune: float
+              ) -> tuple[LumpedFit, float, float]:
+    """The elements of ``start`` refitted with the slow band restored (:mod:`eddi.mdof.slowband`),
+    rows from the blow (with a force: the driven mass and the quasi-static response are in the
+    same fit), no prefilter; returns the fit and the force-balance cost before and after."""
+    elements = list(start.constants)
+    forced = all(r.force is not None and r.impact[1] > r.impact[0] for r in records)
+    starts = [r.impact[0] for r in records] if forced else None
+    restored, _m, before, after = restore_slow_band(_rows(records, 0.0), elements, start.masses, start.constants,
+                                                    n, d, starts=starts)
+    fixed = [replace(r, x=t[0], v=t[1]) for r, t in zip(records, restored)]
+    fit = fit_lumped(restored, _pulses(fixed), n, d, elements=elements, prune=prune, prefilter=False)
+    return (fit if forced else _rescaled(fit, records, n, d)), before, after
+
+
+def _rescaled(fit: LumpedFit, records: Sequence[ChannelRecord], n: int, d: int) -> LumpedFit:
+    """The fit scaled by the driven mass from the pulses, with the quasi-static part restored."""
     if all(r.force is None for r in records):
         return fit
     channels = tuple(f"c{i}" for i in range(n))

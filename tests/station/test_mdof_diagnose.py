@@ -33,9 +33,14 @@ def test_hidden_cubic_coupling_is_named_and_linear_null_is_not(tmp_path, capsys)
     assert obj["cause"] == "none"
 
 
-def test_energy_sink_is_named_a_missing_mode(tmp_path, capsys):
-    # the sink has no linear stiffness: no linear mode describes its motion
+def test_energy_sink_is_named_a_nonlinear_coupling_in_physical_coordinates(tmp_path, capsys):
+    # the sink has no linear stiffness: no linear mode describes its motion, so the coordinates are
+    # the physical channels; its purely cubic attachment is a coupling between them, found held out
     files = _captures(load_mdof_system("nes"), tmp_path, "nes")
     assert main(["diagnose", *files, "--json", "--no-refine"]) == 0
     obj = json.loads(capsys.readouterr().out)
-    assert obj["cause"] == "missing_mode" and obj["coordinates"] == "physical"
+    assert obj["cause"] == "modal_coupling" and obj["coordinates"] == "physical"
+    assert obj["coupled"]["nrmse"] < 0.5 * obj["baseline"]["nrmse"]
+    assert any("no linear mode of its own" in n for n in obj["notes"])
+    # the attachment is purely cubic: (x1 - x2)^3 in the sink's equation, no linear spring to the primary
+    assert "x1^3" in obj["coupling_coefficients"][1] and "x1" not in obj["coupling_coefficients"][1]
