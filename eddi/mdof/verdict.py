@@ -4,11 +4,12 @@ The single-coordinate loop (:mod:`eddi.diagnosis`) says ``none`` only when the b
 held-out error is within a factor of a floor the records set; this module applies the same
 rule to every channel of a multi-channel diagnosis (issue 10 item 1, issue 14 item 4).
 
-Floor, per channel ``c`` (from the records themselves, no metadata): the displacement noise
-the conditioning measured on that channel relative to the channel's free-response RMS
-(median over the records), raised to :data:`eddi.diagnosis.settings.MIN_FLOOR` (the least
-error the conditioning's drift high-pass and integration leave on a clean record, the same
-constant the one-coordinate loop uses). A perturbation refit as in
+Floor, per channel ``c`` (from the records themselves, no metadata): the nrmse the
+measurement noise alone leaves on the channel's conditioned displacement
+(:func:`eddi.mdof.validate.noise_floor`: the measured noise integrated twice through the drift
+high-pass, checked there against the true model's error), median over the records, raised to
+:data:`eddi.diagnosis.settings.MIN_FLOOR` (the least error the conditioning leaves on a clean
+record, the same constant the one-coordinate loop uses). A perturbation refit as in
 :func:`eddi.diagnosis.measure.noise_floor` is not run here (one identification per record
 and channel set would double the diagnosis); the floor is therefore a lower estimate, and
 the factors are the one-coordinate loop's (``NONE_FACTOR``, ``NAMED_FACTOR``).
@@ -63,15 +64,13 @@ class MdofVerdict:
 
 def channel_floor(records: Sequence, names: Sequence[str]) -> dict[str, float]:
     """Per-channel floor (module notes) from conditioned :class:`ChannelRecord` s."""
+    from eddi.mdof.validate import noise_floor
+
+    per = np.array([noise_floor(r) for r in records])  # (n_records, n_channels)
     out = {}
     for k, c in enumerate(names):
-        ratios = []
-        for r in records:
-            w0, w1 = r.window
-            rms = float(np.sqrt(np.mean(r.x[k, w0:w1] ** 2))) if w1 > w0 else 0.0
-            if rms > 0 and np.isfinite(r.noise[k]):
-                ratios.append(float(r.noise[k]) / rms)
-        out[c] = max(MIN_FLOOR, float(np.median(ratios)) if ratios else MIN_FLOOR)
+        vals = per[:, k][np.isfinite(per[:, k])]
+        out[c] = max(MIN_FLOOR, float(np.median(vals)) if vals.size else MIN_FLOOR)
     return out
 
 

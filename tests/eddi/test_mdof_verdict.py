@@ -61,9 +61,17 @@ def test_coupling_stays_named_up_to_the_named_factor_only():
 
 
 def test_channel_floor_follows_the_measured_noise():
+    from eddi.mdof.validate import noise_floor
+
     x = np.vstack([_decay(10.0), _decay(10.0)])
+    a = -(2 * np.pi * 10.0) ** 2 * x
     rms = float(np.sqrt(np.mean(x[0] ** 2)))
-    rec = SimpleNamespace(x=x, window=(0, T.size), noise=np.array([0.1 * rms, 1e-3 * rms]))
-    fl = channel_floor([rec, rec], ("a", "b"))
-    assert fl["a"] == pytest.approx(0.1, rel=1e-9)
-    assert fl["b"] == MIN_FLOOR
+
+    def rec(scale):
+        return SimpleNamespace(t=T, x=x, a=a, window=(0, T.size), highpass_hz=2.0,
+                               noise=np.array([scale * rms, 1e-4 * rms]))
+
+    low, high = channel_floor([rec(1.0)] * 2, ("a", "b")), channel_floor([rec(2.0)] * 2, ("a", "b"))
+    assert low["a"] == pytest.approx(float(noise_floor(rec(1.0))[0]), rel=1e-12)
+    assert low["a"] > MIN_FLOOR and high["a"] == pytest.approx(2 * low["a"], rel=1e-9)
+    assert low["b"] == MIN_FLOOR
