@@ -52,7 +52,8 @@ def test_six_captures_from_two_acquire_runs_give_none() -> None:
     contract(d)
     assert d.cause == "none", d.verdict
     assert d.baseline.nrmse <= NONE_FACTOR * d.noise_floor.nrmse
-    assert "follows" in d.symptom
+    assert ("follows" in d.symptom) == (d.baseline.nrmse <= d.noise_floor.nrmse), d.symptom
+    assert ("uncertain" in d.verdict) == (d.baseline.nrmse > d.noise_floor.nrmse)
 
 
 def test_hysteretic_spring_is_unexplained_never_drag() -> None:
