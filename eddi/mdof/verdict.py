@@ -76,28 +76,25 @@ def channel_floor(records: Sequence, names: Sequence[str]) -> dict[str, float]:
 
 def residual_peak(validations: Sequence, channel: int) -> tuple[float, float]:
     """Frequency [Hz] of the strongest residual peak on ``channel`` and its share of the
-    residual power (0-1), pooled over the records (NaN, 0 when nothing is finite)."""
-    best_f, share, total = float("nan"), 0.0, 0.0
-    spectra: dict[float, float] = {}
+    residual power (0-1), pooled over the records: each record's peak (7 bins) adds its power
+    to its frequency; the frequency with the most pooled power wins (NaN, 0 when nothing is
+    finite)."""
+    pooled: dict[float, float] = {}
+    total = 0.0
     for v in validations:
-        if v.diverged or v.t.size < 16:
+        res = v.measured[channel] - v.simulated[channel] if not v.diverged and v.t.size >= 16 else None
+        if res is None or not np.all(np.isfinite(res)):
             continue
-        res = v.measured[channel] - v.simulated[channel]
-        if not np.all(np.isfinite(res)):
-            continue
-        dt = float(v.t[1] - v.t[0])
         p = np.abs(np.fft.rfft(res * np.hanning(res.size))) ** 2
-        f = np.fft.rfftfreq(res.size, dt)
         p[0] = 0.0
         i = int(np.argmax(p))
-        lo, hi = max(i - 3, 0), min(i + 4, p.size)
-        spectra[float(f[i])] = spectra.get(float(f[i]), 0.0) + float(np.sum(p[lo:hi]))
+        f = float(np.fft.rfftfreq(res.size, float(v.t[1] - v.t[0]))[i])
+        pooled[f] = pooled.get(f, 0.0) + float(np.sum(p[max(i - 3, 0):i + 4]))
         total += float(np.sum(p))
-        share += float(np.sum(p[lo:hi]))
-    if not spectra or total <= 0:
-        return best_f, 0.0
-    best_f = max(spectra, key=spectra.get)
-    return best_f, share / total
+    if not pooled or total <= 0:
+        return float("nan"), 0.0
+    best = max(pooled, key=pooled.get)
+    return best, pooled[best] / total
 
 
 def earned_verdict(cause: str, channel_nrmse: Mapping[str, float], floors: Mapping[str, float],
