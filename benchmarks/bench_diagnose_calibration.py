@@ -112,12 +112,15 @@ def _records(truth, forces, cfg: dict, seed: int, sensors=None):
     return recs
 
 
-def _verdicts(d, factors) -> dict[str, str]:
-    """The cause ``diagnose`` gives at each ``none`` factor (see the module notes)."""
+def _verdicts(d, factors) -> tuple[dict[str, str], dict[str, str]]:
+    """The cause ``diagnose`` gives at each ``none`` factor (see the module notes), and the one
+    :func:`eddi.diagnosis.name.decide` gave before :func:`eddi.diagnosis.earn.earn` heard the
+    chain and the symptoms (``--summary --rejudge`` applies the current rule to it)."""
+    from eddi.diagnosis.earn import earn
     from eddi.diagnosis.name import decide
     from eddi.diagnosis.settings import NAMED_FACTOR
 
-    out = {}
+    out, raw = {}, {}
     pipe = d.pipeline
     floor = d.noise_floor.nrmse
     if pipe is not None and pipe.held_out:  # as the loop: the floor over the records it did not fit
@@ -129,12 +132,15 @@ def _verdicts(d, factors) -> dict[str, str]:
             departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= f * floor) else ""
             dec = decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, f, NAMED_FACTOR,
                          strong_margin=strong, eddi_fold=d.reference_fold or None, departs=departs)
+            raw[f"{f:g}|{strong}"] = dec.cause
+            dec = earn(dec, d.judging.nrmse / d.noise_floor.nrmse, d.symptoms)
             out[f"{f:g}|{strong}"] = dec.cause
-    return out
+    return out, raw
 
 
 def _named_verdicts(d) -> dict[str, str]:
     """The cause at each factor of :data:`NAMED_FACTORS` (default none factor and strong cut)."""
+    from eddi.diagnosis.earn import earn
     from eddi.diagnosis.name import decide
     from eddi.diagnosis.settings import NONE_FACTOR, STRONG_MARGIN
 
@@ -144,9 +150,10 @@ def _named_verdicts(d) -> dict[str, str]:
         floors = [fl for p, fl in zip(d.parts, d.noise_floor.fold_nrmse) if p.record in pipe.held_out]
         floor = float(np.mean(floors)) if floors else floor
     departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= NONE_FACTOR * floor) else ""
-    return {f"{nf:g}": decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, NONE_FACTOR, nf,
-                              strong_margin=STRONG_MARGIN, eddi_fold=d.reference_fold or None,
-                              departs=departs).cause for nf in NAMED_FACTORS}
+    return {f"{nf:g}": earn(decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, NONE_FACTOR, nf,
+                                   strong_margin=STRONG_MARGIN, eddi_fold=d.reference_fold or None,
+                                   departs=departs), d.judging.nrmse / d.noise_floor.nrmse, d.symptoms).cause
+            for nf in NAMED_FACTORS}
 
 
 #: Give the loop the pipeline's baseline, as ``station diagnose`` does (``--no-pipeline``: the
@@ -158,6 +165,9 @@ def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple
     from eddi.diagnosis import diagnose
     from eddi.terms import DEFAULT_STIFFNESS
 
+    from eddi.diagnosis.chain import impulse_mass_ratio
+    from eddi.diagnosis.symptoms import notable
+
     t0 = time.process_time()
     pipe = None
     if PIPELINE["on"]:
@@ -168,8 +178,13 @@ def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple
                  stiffness=stiffness or DEFAULT_STIFFNESS, pipeline=pipe)
     return {"ratio": d.judging.nrmse / d.noise_floor.nrmse, "baseline_nrmse": d.judging.nrmse,
             "pipeline_nrmse": d.pipeline.nrmse if d.pipeline is not None else None,
-            "floor": d.noise_floor.nrmse, "partial": d.partial, "causes": _verdicts(d, factors),
+            "floor": d.noise_floor.nrmse, "partial": d.partial, **dict(zip(("causes", "decided"), _verdicts(d, factors))),
             "named_causes": _named_verdicts(d),
+            # every symptom (kind, numbers, notable), and the raw impulse/momentum mass ratio (median,
+            # spread, captures): a rule on them can be re-judged on these rows (summary)
+            "symptoms": [[s.kind, {k: (v if math.isfinite(v) else str(v)) for k, v in s.values.items()}, notable(s)]
+                         for s in d.symptoms],
+            "impulse_mass": impulse_mass_ratio(recs, mass),
             "candidates": [[c.name, round(c.nrmse, 5), round(c.gain, 4), c.wins_every_part, c.consistent,
                             {k: round(v["z"], 2) for k, v in c.within_cycle.items() if v.get("same_fitter")}]
                            for c in d.candidates if not c.skipped and c.model is not None]}, \

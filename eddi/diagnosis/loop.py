@@ -23,6 +23,7 @@ import numpy as np
 
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
 from eddi.diagnosis.chain import inspect, sensor_highpass
+from eddi.diagnosis.earn import earn
 from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.lookalike import attach
 from eddi.diagnosis.mapping import Mapper
@@ -266,6 +267,8 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     symptoms += inspect(records, sh.setup.mass, _frequency(sh.bfit_all.eom))
     dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor, strong_margin=strong_margin,
                  eddi_fold=res.ref_fold, departs=_pipeline_check(pipeline, sh, none_factor))
+    # a chain that cannot be trusted earns neither silence nor a name (eddi.diagnosis.earn)
+    dec = earn(dec, baseline.nrmse / floor.nrmse if floor.nrmse > 0 else math.inf, symptoms)
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
     notes = notes + _floor_note(dec, candidates, floor, baseline.nrmse, margin)
