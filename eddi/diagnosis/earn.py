@@ -38,6 +38,8 @@ from eddi.diagnosis.symptoms import notable
 
 #: Measurement-chain findings that forbid ``none`` and a name (module notes).
 CHAIN_KINDS = ("impulse_mass", "clipping", "double_hit", "base_motion")
+#: How the reason of a verdict the chain overturned begins.
+CHAIN_REASON = "the measurement chain cannot be trusted"
 #: Baseline symptoms that forbid ``none`` above the floor (within the none factor) when notable.
 BAND_KINDS: tuple[str, ...] = ()
 
@@ -59,17 +61,19 @@ def earn(dec: Decision, ratio: float, symptoms: Sequence[Symptom]) -> Decision:
     Decision
         ``dec``, or ``unexplained`` with the reason and the partial explanation kept.
     """
-    if dec.cause == "unexplained":
-        return dec
     chain = [s for s in symptoms if s.kind in CHAIN_KINDS]
     if chain:
         kinds = sorted({s.kind for s in chain})
         would = (f"{dec.winner.name} would have been named" if dec.winner is not None
-                 else f"the baseline is {ratio:.1f}x the noise floor")
+                 else "the baseline would have been called complete" if dec.cause == "none"
+                 else f"besides: {dec.reason}" if dec.reason else "")
         return Decision("unexplained", None, dec.winner or dec.partial, dec.within_floor,
-                        f"the measurement chain cannot be trusted ({', '.join(kinds)}: "
+                        f"{CHAIN_REASON} ({', '.join(kinds)}: "
                         + "; ".join(s.text for s in chain)
-                        + f"); {would}, but a model fitted to such records does not earn a verdict")
+                        + ")" + (f"; {would}" if would else "")
+                        + "; a model fitted to such records does not earn a verdict")
+    if dec.cause == "unexplained":
+        return dec
     if dec.cause == "none" and ratio > 1.0:
         band = [s for s in symptoms if s.kind in BAND_KINDS and notable(s)]
         if band:

@@ -23,7 +23,7 @@ import numpy as np
 
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
 from eddi.diagnosis.chain import inspect, sensor_highpass
-from eddi.diagnosis.earn import earn
+from eddi.diagnosis.earn import CHAIN_REASON, earn
 from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.lookalike import attach
 from eddi.diagnosis.mapping import Mapper
@@ -422,14 +422,21 @@ def _texts(dec: Decision, baseline: Score, floor: NoiseFloor, candidates: Sequen
         if runner is not None:
             verdict += f" Runner-up: {runner.name} ({runner.nrmse:.3g}, {100 * runner.gain:+.0f} %)."
         return verdict, f"the baseline {w.symptom}"
-    verdict = (f"Cause: unexplained. The baseline departs from the held-out measurements (nrmse {b:.3g}, "
-               f"{b / f:.1f}x the noise floor {f:.3g}) and no mechanism of the catalogue earns its place "
-               f"(needs a {100 * margin:.0f} % cut on every part and {named_factor:g}x the floor)")
+    if dec.reason.startswith(CHAIN_REASON):
+        verdict = (f"Cause: unexplained. The baseline's held-out nrmse is {b:.3g} ({b / f:.1f}x the noise floor "
+                   f"{f:.3g}), but {dec.reason}")
+    else:
+        verdict = (f"Cause: unexplained. The baseline departs from the held-out measurements (nrmse {b:.3g}, "
+                   f"{b / f:.1f}x the noise floor {f:.3g}) and no mechanism of the catalogue earns its place "
+                   f"(needs a {100 * margin:.0f} % cut on every part and {named_factor:g}x the floor)")
     if dec.partial is not None:
         p = dec.partial
         verdict += (f". Best partial explanation: {p.name} (nrmse {p.nrmse:.3g}, {100 * (1 - p.nrmse / b):.0f} % "
                     f"less, still {p.nrmse / f:.1f}x the floor)")
-    verdict += f". {dec.reason}." if dec.reason else "."
+    if not dec.reason.startswith(CHAIN_REASON):
+        verdict += f". {dec.reason}." if dec.reason else "."
+    else:
+        verdict += "."
     symptom = "; ".join(said) if said else (f"the baseline's simulation departs from the held-out "
                                             f"measurements (nrmse {b:.3g}) in no way the symptoms single out")
     return verdict, symptom
