@@ -257,8 +257,32 @@ def _key_order(k: str) -> tuple[float, float]:
     return float(f), (math.inf if strong == "None" else float(strong))
 
 
-def summary(path: str, factor: float, strong: float | None) -> None:
+def rejudge(row: dict) -> dict:
+    """The row's verdicts under the current :func:`eddi.diagnosis.earn.earn`, from the verdicts
+    ``decide`` gave (``decided``), the ratio and the stored symptoms (rows of an earlier rule)."""
+    from eddi.diagnosis.earn import earn
+    from eddi.diagnosis.name import Decision
+    from eddi.diagnosis.results import Symptom
+
+    if "decided" not in row:
+        return row
+    sy = [Symptom(k, "", {n: float(v) for n, v in vals.items()}) for k, vals, _n in row["symptoms"]]
+
+    def one(cause: str) -> str:
+        return earn(Decision(cause, None, None, cause == "none", ""), row["ratio"], sy).cause
+
+    out = dict(row)
+    out["causes"] = {k: one(c) for k, c in row["decided"].items()}
+    # the named-factor verdicts are stored after the rule of their run; the rule only adds
+    # reasons for `unexplained`, so applying the current one to them again is the same
+    out["named_causes"] = {k: one(c) for k, c in row.get("named_causes", {}).items()}
+    return out
+
+
+def summary(path: str, factor: float, strong: float | None, again: bool = False) -> None:
     rows = [json.loads(s) for s in open(path) if s.strip()]
+    if again:
+        rows = [rejudge(r) for r in rows if "error" not in r] + [r for r in rows if "error" in r]
     key = f"{factor:g}|{strong}"
     for set_name in SETS:
         nulls = [r for r in rows if r.get("kind") == "null" and r["set"] == set_name]
@@ -343,6 +367,8 @@ def main() -> None:
     ap.add_argument("--ladder-seeds", type=int, default=None, metavar="N",
                     help="a reduced run: only the first N seeds of each rung (default: all)")
     ap.add_argument("--summary", metavar="FILE", help="print the rates of earlier runs")
+    ap.add_argument("--rejudge", action="store_true",
+                    help="with --summary: apply the current eddi.diagnosis.earn rule to the stored verdicts")
     ap.add_argument("--factor", type=float, default=None,
                     help="none factor of the ladder table (default: eddi.diagnosis.NONE_FACTOR)")
     ap.add_argument("--strong", default="default",
@@ -355,7 +381,7 @@ def main() -> None:
         from eddi.diagnosis.settings import STRONG_MARGIN
 
         strong = STRONG_MARGIN if args.strong == "default" else (None if args.strong == "None" else float(args.strong))
-        summary(args.summary, args.factor if args.factor is not None else NONE_FACTOR, strong)
+        summary(args.summary, args.factor if args.factor is not None else NONE_FACTOR, strong, args.rejudge)
         return
     if not args.set:
         ap.error("give --set tuning|heldout, or --summary FILE")

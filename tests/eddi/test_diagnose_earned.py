@@ -96,13 +96,21 @@ def _decision(cause: str) -> Decision:
     return Decision(cause, None, None, cause == "none", "within the noise floor" if cause == "none" else "")
 
 
-def test_rule_keeps_a_clean_verdict_and_overturns_a_chain_finding() -> None:
-    """The rule alone: baseline symptoms (however notable) leave ``none`` as it is; any chain
-    finding turns ``none`` into ``unexplained`` with the finding's words in the reason."""
-    noisy = [Symptom("residual_peak", "peak at 0.3 f1", {"ratio_to_main": 0.3}),
-             Symptom("frequency_bias", "off", {"high_amplitude_pct": 2.0, "low_amplitude_pct": 0.1})]
-    assert earn(_decision("none"), 1.5, noisy).cause == "none"
+def test_rule_on_the_band_and_on_chain_findings() -> None:
+    """The rule alone. Between the floor and the factor (ratio 1.5), ``none`` stands with only
+    a residual peak (where the noise has its power: notable on most nulls), and becomes
+    ``unexplained`` with a frequency bias of 2 % (nulls: under 0.05 %); at or below the floor
+    (ratio 0.8) the same bias leaves ``none``. Any chain finding overturns ``none`` and a name,
+    whatever the ratio, with its words in the reason."""
+    peak = Symptom("residual_peak", "peak at 0.3 f1", {"ratio_to_main": 0.3, "frequency_hz": 4.0})
+    bias = Symptom("frequency_bias", "off by 2 %", {"high_amplitude_pct": 2.0, "low_amplitude_pct": 0.1})
+    assert earn(_decision("none"), 1.5, [peak]).cause == "none"
+    out = earn(_decision("none"), 1.5, [peak, bias])
+    assert out.cause == "unexplained" and "off by 2 %" in out.reason
+    assert earn(_decision("none"), 0.8, [peak, bias]).cause == "none"
     hit = Symptom("double_hit", "impact 2: a second hammer blow 4 ms after the first", {"delay_s": 4e-3})
-    out = earn(_decision("none"), 0.4, noisy + [hit])
+    out = earn(_decision("none"), 0.4, [peak, hit])
     assert out.cause == "unexplained" and "second hammer blow" in out.reason
-    assert earn(_decision("unexplained"), 5.0, [hit]).cause == "unexplained"
+    named = earn(Decision("coulomb_friction", None, None, False, ""), 0.4, [hit])
+    assert named.cause == "unexplained" and CHAIN_REASON in named.reason
+    assert earn(_decision("unexplained"), 5.0, [peak]).cause == "unexplained"
