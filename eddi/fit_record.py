@@ -422,7 +422,7 @@ def _judge_refinement(model: IdentifiedModel, cond: ConditionedSignal, held_out:
         else:
             from eddi.judge import WHITE_SIGMAS, judge_fit_record
 
-            jd = judge_fit_record(model.eom, model.unrefined, cond)
+            jd = judge_fit_record(model.eom, model.unrefined, cond, validations=(val, eddi_val))
             n_ref, n_eddi = jd.nrmse_refined, jd.nrmse_eddi
             better = (div_ref, jd.refined_worse) <= (div_eddi, False)
             margin = (f" (difference {jd.excess_sigmas:+.1f} noise sd; rejected only beyond {WHITE_SIGMAS:g} at the "
