@@ -243,15 +243,17 @@ def era_windows(records: Sequence[tuple[np.ndarray, int, int]], rate_hz: float, 
     **kwargs
         Passed to :func:`era` (``max_freq_hz``, ``driving_point``, ...).
     """
-    modes = _era_windows(records, rate_hz, tail_fraction, early_fractions, **kwargs)
+    modes, added = _era_windows(records, rate_hz, tail_fraction, early_fractions, **kwargs)
     if forces is None:
         return modes
-    masses = residue_masses(modes, records, forces, rate_hz, int(kwargs.get("driving_point", 0)))
-    return replace(modes, modal_masses=masses)
+    masses, shapes = residue_masses(modes, records, forces, rate_hz, int(kwargs.get("driving_point", 0)),
+                                    early_shapes=added)
+    return replace(modes, modal_masses=masses, shapes=shapes)
 
 
 def _era_windows(records: Sequence[tuple[np.ndarray, int, int]], rate_hz: float, tail_fraction: float,
-                 early_fractions: Sequence[float], **kwargs) -> LinearModes:
+                 early_fractions: Sequence[float], **kwargs) -> tuple[LinearModes, np.ndarray]:
+    """:func:`era_windows` without the masses; also which modes were added from earlier windows."""
     tails = [tail_segments(y, s, e, tail_fraction) for y, s, e in records]
     base = era(tails, rate_hz, **kwargs)
     n_ch = base.shapes.shape[0]
@@ -276,8 +278,9 @@ def _era_windows(records: Sequence[tuple[np.ndarray, int, int]], rate_hz: float,
                 tracked.append((f, psi))
                 added.append((f, float(got.damping_ratios[k]), psi))
     if not added:
-        return base
-    return _with_added(base, added, tails, rate_hz)
+        return base, np.zeros(base.frequencies_hz.size, bool)
+    out = _with_added(base, added, tails, rate_hz)
+    return out, np.isin(out.frequencies_hz, [a[0] for a in added])
 
 
 #: Periods of the lowest mode over which :func:`residue_masses` fits the start of each free decay.
@@ -285,7 +288,8 @@ RESIDUE_PERIODS = 3.0
 
 
 def residue_masses(modes: LinearModes, records: Sequence[tuple[np.ndarray, int, int]], forces: Sequence[np.ndarray],
-                   rate_hz: float, driving_point: int, periods: float = RESIDUE_PERIODS) -> np.ndarray:
+                   rate_hz: float, driving_point: int, periods: float = RESIDUE_PERIODS,
+                   early_shapes: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Modal mass of every mode [kg] (for its shape as given) from the driving-point residue.
 
     For a mode ``r`` with real shape ``psi_r`` and modal mass ``m_r``, a force ``F`` at the
@@ -312,16 +316,24 @@ def residue_masses(modes: LinearModes, records: Sequence[tuple[np.ndarray, int, 
     driving_point : int
     periods : float
 
+    early_shapes : ndarray of bool, shape (r,), optional
+        Modes whose shape is taken from these early residues (every channel fitted with the
+        same poles; the leading singular vector over the records, rotated to real): a mode
+        that only an early window holds has a poorer ERA shape there than its residues give.
+
     Returns
     -------
-    ndarray, shape (r,)
-        NaN for a mode with a node at the driving point or no consistent residue.
+    masses : ndarray, shape (r,)
+        NaN for a mode with a node at the driving point or no consistent residue. The median
+        over the records of each record's estimate.
+    shapes : ndarray, shape (n_channels, r)
+        ``modes.shapes`` with the ``early_shapes`` columns replaced.
     """
     lam = np.array([complex(-z * 2 * math.pi * f / math.sqrt(max(1 - z * z, 1e-12)), 2 * math.pi * f)
                     for f, z in zip(modes.frequencies_hz, modes.damping_ratios)])
     if lam.size == 0:
-        return np.zeros(0)
-    num, den = np.zeros(lam.size), np.zeros(lam.size)
+        return np.zeros(0), modes.shapes
+    per_record, residues = [], []
     f_low = float(np.min(modes.frequencies_hz))
     for (y, start, stop), force in zip(records, forces):
         stop = min(stop, start + int(periods * rate_hz / f_low))
@@ -329,19 +341,52 @@ def residue_masses(modes: LinearModes, records: Sequence[tuple[np.ndarray, int, 
         if on.size == 0 or stop - start < 4 * lam.size:
             continue
         t = np.arange(stop - start) / rate_hz
-        z = np.exp(np.outer(t, lam))
-        coef = np.linalg.lstsq(np.hstack([z.real, -z.imag]), y[driving_point, start:stop], rcond=None)[0]
-        res = coef[:lam.size] + 1j * coef[lam.size:]
+        lam_k, res = _early_poles(lam, t, y[:, start:stop])
         tau = (np.arange(on[0], on[-1] + 1) - start) / rate_hz  # pulse time relative to the window start
-        phi = np.exp(-np.outer(lam, tau)) @ force[on[0]:on[-1] + 1] / rate_hz
-        p = -1j * lam**2 * phi / lam.imag
-        num += (np.conj(p) * res).real
-        den += np.abs(p) ** 2
-    psi_d = modes.shapes[driving_point] ** 2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = num / (psi_d * den)
-    out = np.where((inv > 0) & (psi_d > 1e-4) & (den > 0), 1.0 / np.where(inv > 0, inv, 1.0), math.nan)
-    return out
+        phi = np.exp(-np.outer(lam_k, tau)) @ force[on[0]:on[-1] + 1] / rate_hz
+        p = -1j * lam_k**2 * phi / lam_k.imag
+        per_record.append((np.conj(p) * res[:, driving_point]).real / np.abs(p) ** 2)  # psi_d^2 / m per mode
+        residues.append(res)
+    shapes = modes.shapes.copy()
+    if not per_record:
+        return np.full(lam.size, math.nan), shapes
+    for r in np.flatnonzero(early_shapes if early_shapes is not None else np.zeros(lam.size, bool)):
+        u = np.linalg.svd(np.array([res[r] for res in residues]).T, full_matrices=False)[0][:, 0]
+        shapes[:, r] = _real_modes([(0.0, 0.0, u)], driving_point)[2][:, 0]
+    psi_d = shapes[driving_point] ** 2
+    inv = np.median(np.array(per_record), axis=0) / np.maximum(psi_d, 1e-300)  # the median record: a
+    ok = (inv > 0) & (psi_d > 1e-4)  # large blow of a strongly nonlinear mode leaves no linear residue
+    return np.where(ok, 1.0 / np.where(ok, inv, 1.0), math.nan), shapes
+
+
+def _early_poles(lam: np.ndarray, t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Poles and complex residues ``(r, n_channels)`` of ``y_c(t) = Re sum R_rc e^(lambda_r t)`` over a short early window.
+
+    Variable projection (residues by linear least squares for given poles; the poles by
+    ``scipy.optimize.least_squares`` from ERA's, frequencies within 5 %, decay rates 0.2-5x):
+    at the start of a record a nonlinear mode oscillates at its large-amplitude frequency and
+    ERA's damping of a gliding or fast mode is a poor guide, and a fixed pole there leaks into
+    the residues.
+    """
+    from scipy.optimize import least_squares
+
+    def resid(p: np.ndarray) -> np.ndarray:
+        z = np.exp(np.outer(t, -p[:lam.size] + 1j * p[lam.size:]))
+        basis = np.hstack([z.real, -z.imag])
+        return (basis @ np.linalg.lstsq(basis, y.T, rcond=None)[0] - y.T).ravel()
+
+    sig, om = np.maximum(-lam.real, 1e-3), lam.imag
+    x0 = np.concatenate([sig, om])
+    lo = np.concatenate([0.2 * sig, 0.95 * om])
+    hi = np.concatenate([5.0 * sig, 1.05 * om])
+    try:
+        x = least_squares(resid, x0, bounds=(lo, hi), x_scale=np.concatenate([sig, 0.01 * om]), max_nfev=200).x
+    except ValueError:
+        x = x0
+    lam_k = -x[:lam.size] + 1j * x[lam.size:]
+    z = np.exp(np.outer(t, lam_k))
+    coef = np.linalg.lstsq(np.hstack([z.real, -z.imag]), y.T, rcond=None)[0]
+    return lam_k, coef[:lam.size] + 1j * coef[lam.size:]
 
 
 def _with_added(base: LinearModes, added: list[tuple[float, float, np.ndarray]], tails: list[np.ndarray],
