@@ -54,6 +54,7 @@ from typing import Any
 
 import numpy as np
 
+from eddi.mdof.blas import one_blas_thread
 from eddi.energy import cumulative_energy, rate_interpolant, zero_crossings
 from eddi.errors import IdentificationError
 from eddi.mdof.modal import LinearModes, era_windows
@@ -413,6 +414,7 @@ def _input_gain(i: int, impacts: list[tuple], d_terms: list[MultiTerm], s_terms:
     return num / den if den > 0 else 0.0
 
 
+@one_blas_thread()
 def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], driving_point: str, *,
                   coordinates: str = "auto", coupling: bool | str = True, tail_fraction: float = 0.2,
                   max_freq_hz: float | None = None, prune: float = 3e-3,
