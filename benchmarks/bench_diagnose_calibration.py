@@ -112,12 +112,15 @@ def _records(truth, forces, cfg: dict, seed: int, sensors=None):
     return recs
 
 
-def _verdicts(d, factors) -> dict[str, str]:
-    """The cause ``diagnose`` gives at each ``none`` factor (see the module notes)."""
+def _verdicts(d, factors) -> tuple[dict[str, str], dict[str, str]]:
+    """The cause ``diagnose`` gives at each ``none`` factor (see the module notes), and the one
+    :func:`eddi.diagnosis.name.decide` gave before :func:`eddi.diagnosis.earn.earn` heard the
+    chain and the symptoms (``--summary --rejudge`` applies the current rule to it)."""
+    from eddi.diagnosis.earn import earn
     from eddi.diagnosis.name import decide
     from eddi.diagnosis.settings import NAMED_FACTOR
 
-    out = {}
+    out, raw = {}, {}
     pipe = d.pipeline
     floor = d.noise_floor.nrmse
     if pipe is not None and pipe.held_out:  # as the loop: the floor over the records it did not fit
@@ -129,12 +132,15 @@ def _verdicts(d, factors) -> dict[str, str]:
             departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= f * floor) else ""
             dec = decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, f, NAMED_FACTOR,
                          strong_margin=strong, eddi_fold=d.reference_fold or None, departs=departs)
+            raw[f"{f:g}|{strong}"] = dec.cause
+            dec = earn(dec, d.judging.nrmse / d.noise_floor.nrmse, d.symptoms)
             out[f"{f:g}|{strong}"] = dec.cause
-    return out
+    return out, raw
 
 
 def _named_verdicts(d) -> dict[str, str]:
     """The cause at each factor of :data:`NAMED_FACTORS` (default none factor and strong cut)."""
+    from eddi.diagnosis.earn import earn
     from eddi.diagnosis.name import decide
     from eddi.diagnosis.settings import NONE_FACTOR, STRONG_MARGIN
 
@@ -144,9 +150,10 @@ def _named_verdicts(d) -> dict[str, str]:
         floors = [fl for p, fl in zip(d.parts, d.noise_floor.fold_nrmse) if p.record in pipe.held_out]
         floor = float(np.mean(floors)) if floors else floor
     departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= NONE_FACTOR * floor) else ""
-    return {f"{nf:g}": decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, NONE_FACTOR, nf,
-                              strong_margin=STRONG_MARGIN, eddi_fold=d.reference_fold or None,
-                              departs=departs).cause for nf in NAMED_FACTORS}
+    return {f"{nf:g}": earn(decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, NONE_FACTOR, nf,
+                                   strong_margin=STRONG_MARGIN, eddi_fold=d.reference_fold or None,
+                                   departs=departs), d.judging.nrmse / d.noise_floor.nrmse, d.symptoms).cause
+            for nf in NAMED_FACTORS}
 
 
 #: Give the loop the pipeline's baseline, as ``station diagnose`` does (``--no-pipeline``: the
@@ -158,6 +165,9 @@ def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple
     from eddi.diagnosis import diagnose
     from eddi.terms import DEFAULT_STIFFNESS
 
+    from eddi.diagnosis.chain import impulse_mass_ratio
+    from eddi.diagnosis.symptoms import notable
+
     t0 = time.process_time()
     pipe = None
     if PIPELINE["on"]:
@@ -168,8 +178,13 @@ def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple
                  stiffness=stiffness or DEFAULT_STIFFNESS, pipeline=pipe)
     return {"ratio": d.judging.nrmse / d.noise_floor.nrmse, "baseline_nrmse": d.judging.nrmse,
             "pipeline_nrmse": d.pipeline.nrmse if d.pipeline is not None else None,
-            "floor": d.noise_floor.nrmse, "partial": d.partial, "causes": _verdicts(d, factors),
+            "floor": d.noise_floor.nrmse, "partial": d.partial, **dict(zip(("causes", "decided"), _verdicts(d, factors))),
             "named_causes": _named_verdicts(d),
+            # every symptom (kind, numbers, notable), and the raw impulse/momentum mass ratio (median,
+            # spread, captures): a rule on them can be re-judged on these rows (summary)
+            "symptoms": [[s.kind, {k: (v if math.isfinite(v) else str(v)) for k, v in s.values.items()}, notable(s)]
+                         for s in d.symptoms],
+            "impulse_mass": impulse_mass_ratio(recs, mass),
             "candidates": [[c.name, round(c.nrmse, 5), round(c.gain, 4), c.wins_every_part, c.consistent,
                             {k: round(v["z"], 2) for k, v in c.within_cycle.items() if v.get("same_fitter")}]
                            for c in d.candidates if not c.skipped and c.model is not None]}, \
@@ -242,8 +257,32 @@ def _key_order(k: str) -> tuple[float, float]:
     return float(f), (math.inf if strong == "None" else float(strong))
 
 
-def summary(path: str, factor: float, strong: float | None) -> None:
+def rejudge(row: dict) -> dict:
+    """The row's verdicts under the current :func:`eddi.diagnosis.earn.earn`, from the verdicts
+    ``decide`` gave (``decided``), the ratio and the stored symptoms (rows of an earlier rule)."""
+    from eddi.diagnosis.earn import earn
+    from eddi.diagnosis.name import Decision
+    from eddi.diagnosis.results import Symptom
+
+    if "decided" not in row:
+        return row
+    sy = [Symptom(k, "", {n: float(v) for n, v in vals.items()}) for k, vals, _n in row["symptoms"]]
+
+    def one(cause: str) -> str:
+        return earn(Decision(cause, None, None, cause == "none", ""), row["ratio"], sy).cause
+
+    out = dict(row)
+    out["causes"] = {k: one(c) for k, c in row["decided"].items()}
+    # the named-factor verdicts are stored after the rule of their run; the rule only adds
+    # reasons for `unexplained`, so applying the current one to them again is the same
+    out["named_causes"] = {k: one(c) for k, c in row.get("named_causes", {}).items()}
+    return out
+
+
+def summary(path: str, factor: float, strong: float | None, again: bool = False) -> None:
     rows = [json.loads(s) for s in open(path) if s.strip()]
+    if again:
+        rows = [rejudge(r) for r in rows if "error" not in r] + [r for r in rows if "error" in r]
     key = f"{factor:g}|{strong}"
     for set_name in SETS:
         nulls = [r for r in rows if r.get("kind") == "null" and r["set"] == set_name]
@@ -328,6 +367,8 @@ def main() -> None:
     ap.add_argument("--ladder-seeds", type=int, default=None, metavar="N",
                     help="a reduced run: only the first N seeds of each rung (default: all)")
     ap.add_argument("--summary", metavar="FILE", help="print the rates of earlier runs")
+    ap.add_argument("--rejudge", action="store_true",
+                    help="with --summary: apply the current eddi.diagnosis.earn rule to the stored verdicts")
     ap.add_argument("--factor", type=float, default=None,
                     help="none factor of the ladder table (default: eddi.diagnosis.NONE_FACTOR)")
     ap.add_argument("--strong", default="default",
@@ -340,7 +381,7 @@ def main() -> None:
         from eddi.diagnosis.settings import STRONG_MARGIN
 
         strong = STRONG_MARGIN if args.strong == "default" else (None if args.strong == "None" else float(args.strong))
-        summary(args.summary, args.factor if args.factor is not None else NONE_FACTOR, strong)
+        summary(args.summary, args.factor if args.factor is not None else NONE_FACTOR, strong, args.rejudge)
         return
     if not args.set:
         ap.error("give --set tuning|heldout, or --summary FILE")
