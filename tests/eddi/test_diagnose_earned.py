@@ -117,6 +117,11 @@ def test_rule_on_the_band_and_on_chain_findings() -> None:
     out = earn(_decision("none"), 1.5, [peak, bias])
     assert out.cause == "unexplained" and "off by 2 %" in out.reason
     assert earn(_decision("none"), 0.8, [peak, bias]).cause == "none"
+    # energy per cycle does not count (noise-bound on lightly damped nulls: -21 % to -37 %)
+    energy = Symptom("energy_mismatch", "e", {"high_amplitude_pct": -21.0, "low_amplitude_pct": -37.0})
+    assert earn(_decision("none"), 1.2, [energy]).cause == "none"
+    grows = Symptom("growth", "g", {"ratio": 2.0})
+    assert earn(_decision("none"), 1.2, [energy, grows]).cause == "unexplained"
     hit = Symptom("double_hit", "impact 2: a second hammer blow 4 ms after the first", {"delay_s": 4e-3})
     out = earn(_decision("none"), 0.4, [peak, hit])
     assert out.cause == "unexplained" and "second hammer blow" in out.reason
