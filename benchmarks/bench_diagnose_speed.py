@@ -132,15 +132,15 @@ def run_case(case: str, runs: int, profile: int, jobs: int = 1) -> None:
           f"folds in {jobs} process(es) (CPU of this process only)")
 
 
-def _child_run(cmd: list[str], env: dict[str, str]) -> tuple[float, float, bytes]:
+def _child_run(cmd: list[str], env: dict[str, str], cwd: str | None = None) -> tuple[float, float, bytes]:
     """Wall and CPU time (user + sys of the process and its own children) of one command, and
-    its output."""
+    its output. ``cwd``: where it runs (``python -m`` puts it first on the path: not a checkout)."""
     import resource
     import subprocess
 
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    out = subprocess.run(cmd, env=env, check=True, stdout=subprocess.PIPE).stdout
+    out = subprocess.run(cmd, env=env, check=True, stdout=subprocess.PIPE, cwd=cwd).stdout
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), out
@@ -189,7 +189,7 @@ def run_cli(runs: int, cases: tuple[str, ...] = ("three", "beam"), jobs: int = 2
         outs: dict[str, bytes] = {}
         for _ in range(runs):
             for name, (cmd, e) in cmds.items():
-                w, c, out = _child_run(cmd, e)
+                w, c, out = _child_run(cmd, e, cwd=tmp)
                 walls.setdefault(name, []).append(w)
                 cpus.setdefault(name, []).append(c)
                 outs[name] = out
