@@ -243,6 +243,9 @@ def coupling_sweep(seeds: int) -> None:
                 cis.append(h / k3)
                 cover += bool(abs(c - k3) <= h)
             e = np.array(errs)
+            if e.size == 0:
+                print(f"  m2 {m2} kg, cubic {100 * share:.0f} %: no seed kept the lumped model ({', '.join(sorted(kinds))})")
+                continue
             print(f"  m2 {m2} kg, cubic {100 * share:.0f} % of the coupling force (k3 {k3:.3g} N/m^3): "
                   f"mean error {100 * e.mean():+.2f} %, RMS {100 * np.sqrt(np.mean(e**2)):.2f} %, "
                   f"worst {100 * np.max(np.abs(e)):.2f} %, mean ci95 {100 * np.mean(cis):.2f} %, "

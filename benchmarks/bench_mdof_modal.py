@@ -72,7 +72,7 @@ def pair(m1, m2, f1, ratio, zeta1, zeta_ratio, k3_share=0.15, rate=2048.0, drive
 
 #: Pairs whose upper mode decays 3-10 times faster (damping ratio) than the lower one and carries
 #: 10-40 % of the driving point's acceleration: ``(system, SNR)``. ``pairs-tune`` were used while
-#: developing :func:`eddi.mdof.modal.era_windows`; ``pairs-heldout`` were written at the same time
+#: developing :func:`eddi.mdof.early.era_windows`; ``pairs-heldout`` were written at the same time
 #: and run once at the end.
 PAIRS = {
     "pairs-tune": {

@@ -57,7 +57,8 @@ import numpy as np
 from eddi.mdof.blas import one_blas_thread
 from eddi.energy import cumulative_energy, rate_interpolant, zero_crossings
 from eddi.errors import IdentificationError
-from eddi.mdof.modal import LinearModes, era_windows
+from eddi.mdof.early import era_windows
+from eddi.mdof.modal import LinearModes
 from eddi.mdof.intervals import JACKKNIFE_BLOCKS, block_jackknife_ci95
 from eddi.mdof.masses import masses_and_inputs
 from eddi.mdof.model import MdofModel
@@ -243,7 +244,7 @@ def modal_evidence(modes: LinearModes, n_ch: int) -> str:
 def linear_modes(records: Sequence[ChannelRecord], *, tail_fraction: float = 0.2,
                  max_freq_hz: float | None = None, driving_point: int = 0) -> LinearModes:
     """ERA on the low-amplitude tail of the measured accelerations of every record, plus the modes
-    only earlier windows hold (:func:`eddi.mdof.modal.era_windows`)."""
+    only earlier windows hold (:func:`eddi.mdof.early.era_windows`)."""
     rate = 1.0 / float(records[0].t[1] - records[0].t[0])
     forces = None
     if all(r.force is not None and r.impact[1] > r.impact[0] for r in records):
