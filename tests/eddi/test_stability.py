@@ -89,13 +89,14 @@ def test_pipeline_flags_a_model_that_does_not_decay_and_validate_says_diverged(t
     model.write_text(_variant(r.eom, damping={"v": -0.3 * r.eom.damping["v"]}).to_json())
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
-        assert main(["validate", str(model), str(csv), "--json"]) == 0
+        # a diverging model is flagged: exit 1 (station.cli.EXIT_FLAGGED), the result still printed
+        assert main(["validate", str(model), str(csv), "--json"]) == 1
     rec = json.loads(buf.getvalue())["records"][0]
     assert rec["diverged"] is True and rec["warnings"]
     # the pipeline on the same record: a sound model, nothing to flag
     cond = condition(r.t, acc=r.acc, force=r.force)
     res = Pipeline(damping=("v",), stiffness=("x", "x^3"), refine=False).fit(cond, r.eom.mass)
-    assert res.warnings == () and not res.validation.diverged
+    assert res.warnings == () and not res.validation.diverged and not res.unstable
 
 
 def test_poor_fit_warnings_thresholds_from_the_contract() -> None:
