@@ -51,6 +51,14 @@ FACTORS = (2.0, 2.5, 3.0, 3.5, 4.0, 5.0)
 STRONG = (None, 0.6, 0.75, 0.9)
 MECHANISMS = ("coulomb_friction", "quadratic_damping", "clearance", "asymmetric_stiffness", "second_mode",
               "sensor_highpass", "hysteresis", "amplitude_damping")
+#: Measurement-chain faults that are detected, not named (session 7): each rung is "found" when
+#: the verdict is ``unexplained`` with the symptom of that kind (eddi.diagnosis.earn), any name
+#: is wrong, and ``none`` is a miss. Magnitudes: ``mass_error`` the stated mass's error (stated
+#: = true (1 + mag)); ``clipping`` how much of the strongest blow's acceleration peak the range
+#: cuts off (range = (1 - mag) peak); ``double_hit`` the second blow's peak ratio (4 ms later);
+#: ``base_motion`` the structure's mass over the base's (base suspended at 0.2 f1, 5 %).
+CHAIN_FAULTS = {"mass_error": "impulse_mass", "clipping": "clipping", "double_hit": "double_hit",
+                "base_motion": "base_motion"}
 #: Factors of the noise floor within which a named mechanism's extended model must land
 #: (``NAMED_FACTOR``); every case is judged at each (at the default none factor and strong cut).
 NAMED_FACTORS = (2.0, 3.0, 5.0, 10.0, 20.0, math.inf)
@@ -59,7 +67,9 @@ NAMED_FACTORS = (2.0, 3.0, 5.0, 10.0, 20.0, math.inf)
 RUNGS = {"coulomb_friction": (0.003, 0.01, 0.03), "quadratic_damping": (0.02, 0.06, 0.2),
          "clearance": (0.02, 0.06, 0.2), "asymmetric_stiffness": (0.02, 0.06, 0.2),
          "second_mode": (0.02, 0.06, 0.2), "sensor_highpass": (0.3, 0.8, 2.0),
-         "hysteresis": (0.01, 0.03, 0.1), "amplitude_damping": (0.02, 0.06, 0.2)}
+         "hysteresis": (0.01, 0.03, 0.1), "amplitude_damping": (0.02, 0.06, 0.2),
+         "mass_error": (0.05, 0.1, 0.2), "clipping": (0.1, 0.3, 0.5), "double_hit": (0.05, 0.15, 0.3),
+         "base_motion": (0.033, 0.1, 0.33)}
 SETS = {
     "tuning": {"null_seeds": range(1000, 1060), "ladder_seeds": (0, 1, 2), "mass": 0.1, "k1": 600.0,
                "k3": 2e7, "zeta": 0.004, "rate": 5000.0, "snr": 40.0, "record_s": 4.0, "mode_ratio": 2.7},
@@ -97,7 +107,7 @@ def _second_mode(eom, magnitude: float, seed: int, ratio: float):
         "coupling_n_per_m": kc}))
 
 
-def _records(truth, forces, cfg: dict, seed: int, sensors=None):
+def _records(truth, forces, cfg: dict, seed: int, sensors=None, **rig):
     from eddi.conditioning import condition
     from eddi.diagnosis import Record
     from simulated_rig.bench import impact_test
@@ -106,7 +116,7 @@ def _records(truth, forces, cfg: dict, seed: int, sensors=None):
     for i, f in enumerate(forces):
         kw = {"sensors": sensors} if sensors is not None else {"snr_db": cfg["snr"]}
         r = impact_test(truth, f, rate_hz=cfg["rate"], pretrigger_s=0.2, record_s=cfg["record_s"],
-                        seed=1000 * seed + 10 * i + 7, **kw)
+                        seed=1000 * seed + 10 * i + 7, **kw, **rig)
         c = condition(r.t, acc=r.acc_m_s2, force=r.force_n, pretrigger_samples=r.pretrigger_samples)
         recs.append(Record.from_conditioned(c, label=f"impact {i + 1}", pretrigger_samples=r.pretrigger_samples))
     return recs
@@ -208,8 +218,10 @@ def ladder_case(args: tuple) -> dict:
     cfg = SETS[set_name]
     eom = _system(cfg)
     forces = tuple(cfg["mass"] / 0.1 * f for f in (20.0, 25.0, 30.0))
-    truth, sensors = eom, None
-    if name == "sensor_highpass":
+    truth, sensors, rig, stated = eom, None, {}, eom.mass
+    if name in CHAIN_FAULTS:
+        sensors, rig, stated = _chain_fault(name, magnitude, eom, forces, cfg)
+    elif name == "sensor_highpass":
         s = default_sensors(cfg["snr"], 24, None)
         sensors = (s[0], dataclasses.replace(s[1], iepe_highpass_hz=magnitude))
     elif name == "second_mode":
@@ -222,14 +234,33 @@ def ladder_case(args: tuple) -> dict:
         amp, vel = _typical(eom, forces[1], cfg["rate"])
         truth = hide_effect(eom, name, magnitude, seed, amplitude_m=amp, velocity_m_s=vel)
     try:
-        recs = _records(truth, forces, cfg, seed, sensors)
+        recs = _records(truth, forces, cfg, seed, sensors, **rig)
         # x^2 in the default library is an asymmetric stiffness already: judge it with x, x^3
-        row, cpu = _diagnose(recs, eom.mass, factors, "x,x^3" if name == "asymmetric_stiffness" else None)
+        row, cpu = _diagnose(recs, stated, factors, "x,x^3" if name == "asymmetric_stiffness" else None)
     except Exception as exc:  # a case the chain refuses is reported, not hidden
         return {"kind": "ladder", "set": set_name, "mechanism": name, "magnitude": magnitude, "seed": seed,
                 "error": f"{type(exc).__name__}: {exc}"}
     return {"kind": "ladder", "set": set_name, "mechanism": name, "magnitude": magnitude, "seed": seed,
             "f1_hz": math.sqrt(eom.linear_stiffness() / eom.mass) / (2 * math.pi), **row, "cpu_s": cpu}
+
+
+def _chain_fault(name: str, magnitude: float, eom, forces, cfg: dict) -> tuple:
+    """(sensors, impact_test keywords, stated mass) of a measurement-chain rung (CHAIN_FAULTS)."""
+    from simulated_rig.bench import default_sensors, impact_test
+    from simulated_rig.hammer import HammerSpec
+
+    sensors = default_sensors(cfg["snr"], 24, None)
+    f1 = math.sqrt(eom.linear_stiffness() / eom.mass) / (2 * math.pi)
+    if name == "mass_error":
+        return sensors, {}, eom.mass * (1.0 + magnitude)
+    if name == "clipping":
+        peak = float(np.max(np.abs(impact_test(eom, forces[-1], rate_hz=cfg["rate"], pretrigger_s=0.05,
+                                               record_s=0.3, snr_db=None, seed=0).acc_m_s2)))
+        return (sensors[0], dataclasses.replace(sensors[1], range_si=(1.0 - magnitude) * peak)), {}, eom.mass
+    if name == "double_hit":
+        return sensors, {"double_hit": True, "hammer": HammerSpec(double_hit_ratio=magnitude)}, eom.mass
+    return sensors, {"base_motion": {"mass_kg": eom.mass / magnitude, "frequency_hz": 0.2 * f1,
+                                     "damping_ratio": 0.05}}, eom.mass
 
 
 def run(set_name: str, out: str | None, jobs: int, factors, nulls: bool, ladders: bool, names,
@@ -312,6 +343,9 @@ def summary(path: str, factor: float, strong: float | None, again: bool = False)
             ok = [r for r in g if "error" not in r]
             n = len(g)
             c = [r["causes"].get(key, "?") for r in ok]
+            if name in CHAIN_FAULTS:  # found: unexplained with the fault's own symptom
+                c = [name if (x == "unexplained" and any(sy[0] == CHAIN_FAULTS[name] for sy in r["symptoms"]))
+                     else x for x, r in zip(c, ok)]
             found, unex, none = c.count(name), c.count("unexplained"), c.count("none")
             wrong = [x for x in c if x not in (name, "unexplained", "none")]
             ratio = np.median([r["ratio"] for r in ok]) if ok else float("nan")
@@ -327,7 +361,7 @@ def summary(path: str, factor: float, strong: float | None, again: bool = False)
 def _named_table(nulls: list, lad: list) -> None:
     """Per named factor: nulls named, ladder rungs found / unexplained / wrong, and the largest
     extended/floor ratio of a correctly named case."""
-    have = [r for r in lad if "named_causes" in r]
+    have = [r for r in lad if "named_causes" in r and r["mechanism"] not in CHAIN_FAULTS]
     if not have:
         return
     print("   named factor (extended model within F x floor): rungs found / unexplained / none / wrong; "
@@ -355,7 +389,8 @@ def main() -> None:
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     ap.add_argument("--set", choices=tuple(SETS), help="run this set's cases")
     ap.add_argument("--only", choices=("nulls", "ladders"), help="run only the nulls or the ladders")
-    ap.add_argument("--mechanisms", default=",".join(MECHANISMS), help="ladders of these (default: all)")
+    ap.add_argument("--mechanisms", default=",".join(MECHANISMS + tuple(CHAIN_FAULTS)),
+                    help="ladders of these (default: all, chain faults included)")
     ap.add_argument("--factors", default=",".join(f"{f:g}" for f in FACTORS),
                     help="none factors to evaluate (default: %(default)s)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default: %(default)s)")

@@ -72,7 +72,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     records, names, dp = condition_all(meas, driving_point)
     if len(records) < 2:
         raise InputFileError("diagnose on multi-channel captures needs at least 2 captures (one is held out)")
-    folds, per_channel, per_mode, span = _held_out_folds(records, names, dp)
+    folds, per_channel, per_mode, span = _held_out_folds(records, names, dp, refine=refine)
     base = float(np.mean(folds["baseline"]))
     cpl = float(np.mean(folds["coupled"]))
     gain = (base - cpl) / base if base > 0 and math.isfinite(base) else (1.0 if math.isfinite(cpl) else 0.0)
@@ -135,12 +135,16 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     return obj
 
 
-def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str
+def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, refine: bool = False
                     ) -> tuple[dict[str, list], dict[str, dict[str, list]], dict[str, list], float]:
     """Leave-one-out held-out errors of the coupled model and of the baseline (no nonlinear coupling).
 
     Returns per kind (``baseline``, ``coupled``) the fold nrmse, the per-channel and per-mode
-    errors, and the largest span residual of the tail's shapes.
+    errors, and the largest span residual of the tail's shapes. With ``refine`` every fold's
+    chosen model (baseline and coupled alike, so the comparison stays fair) is polished on its
+    training records (:func:`eddi.mdof.refine.refine_identified`) before it predicts the
+    held-out one: the verdict is then judged on the models ``--refine`` delivers (a polish
+    that diverges keeps the unpolished fold).
     """
     folds: dict[str, list] = {"baseline": [], "coupled": []}
     per_channel = {k: {c: [] for c in names} for k in folds}
@@ -169,6 +173,8 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str
             if best is None:
                 raise InputFileError(f"identification failed with {records[k].label} held out")
             v, ident = best
+            if refine:
+                v = _polished_fold(ident, train, records[k], v)
             chosen = ident.coordinates if kind == "coupled" else chosen
             span = max(span, ident.span_residual)
             folds[kind].append(v.nrmse)
@@ -176,6 +182,18 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str
             for c, e in v.channel_nrmse.items():
                 per_channel[kind][c].append(e)
     return folds, per_channel, per_mode, span
+
+
+def _polished_fold(ident: Any, train: Sequence[Any], held: Any, unpolished: Any) -> Any:
+    """The held-out validation of ``ident``'s model polished on ``train`` (``unpolished`` if it diverges)."""
+    from eddi.mdof.refine import refine_identified
+
+    try:
+        model, _b, _a = refine_identified(ident, train)
+    except (IdentificationError, ValueError, FloatingPointError):
+        return unpolished
+    v = validate_mdof(model, held)
+    return v if math.isfinite(v.nrmse) else unpolished
 
 
 def _earned(cause: str, per_channel: dict[str, list], records: Sequence[Any], names: tuple[str, ...],
