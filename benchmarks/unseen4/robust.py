@@ -109,7 +109,9 @@ def write(out, seed, man):
         mb[len(mb) // 3] = ",".join(f)
         add("mdof-empty-cell", ["diagnose", _put(out, "bad-mdof-empty.csv", [ml[0]] + mb),
                                 man["mdof"][0]["files"]["train"][1]])
-        add("mdof-missing-channel", ["validate", "bad-model-negmass.json",
+        with open(os.path.join(out, "robust-model.json"), "w") as fh:
+            json.dump(model, fh)  # a valid model: the CSV is what is wrong
+        add("mdof-missing-channel", ["validate", "robust-model.json",
                                      _put(out, "bad-mdof-cols.csv",
                                           [",".join(mc[:2])] + [",".join(x.split(",")[:2]) for x in ml[1:]])])
     return out_cases
