@@ -12,6 +12,7 @@ import time
 
 import numpy as np
 
+DIAG_TIMEOUT = 300  # s per diagnose command (score.py: 1200 without --quick)
 NONE_FLOOR = 0.15  # baseline held-out nrmse above which `none` on a hidden effect is a failure
 TOL = {"x": 0.02, "stiff": 0.08, "damp": 0.15}
 
@@ -121,7 +122,7 @@ def score_ident(case, run):
 def score_diag(case, run):
     res = {"id": case["id"], "kind": "diagnose", "commands": []}
     argv = ["diagnose", *case["files"], "--mass", repr(case["given_mass"]), "--json"]
-    rec, out, err = run(argv, 900)
+    rec, out, err = run(argv, DIAG_TIMEOUT)
     res["commands"].append(rec)
     d = parse_json(out) if rec["rc"] == 0 else None
     if d is None:
@@ -131,9 +132,12 @@ def score_diag(case, run):
     base = (d.get("baseline") or {}).get("nrmse")
     floor = d.get("noise_floor")
     floor_n = floor.get("nrmse") if isinstance(floor, dict) else floor
-    kinds = [s.get("kind") for s in d.get("symptoms") or [] if isinstance(s, dict)]
+    syms = {s.get("kind"): s.get("values") or {} for s in d.get("symptoms") or [] if isinstance(s, dict)}
+    kinds = sorted(syms)
+    imp = syms.get("impulse_mass", {}).get("mismatch_pct")
     res.update(cause=cause, baseline_nrmse=base, noise_floor=floor_n,
-               extended_nrmse=(d.get("extended") or {}).get("nrmse"), symptoms=kinds,
+               extended_nrmse=(d.get("extended") or {}).get("nrmse"), symptoms=kinds, impulse_mass_pct=imp,
+               verdict_text=str(d.get("verdict", ""))[:300],
                candidates=[(c.get("name"), c.get("nrmse")) for c in d.get("candidates") or []
                            if isinstance(c, dict)][:4])
     if case["hidden"] is None:
@@ -142,8 +146,7 @@ def score_diag(case, run):
         return res
     catalogued = case["expect"] != ["unexplained"]
     if cause in case["expect"]:
-        sym = case.get("symptom")
-        res["verdict"] = "correct" if not sym or sym in kinds else "correct-no-symptom"
+        res["verdict"] = "correct" if _symptom_ok(case, syms) else "correct-no-symptom"
     elif cause in case.get("near", []):
         res["verdict"] = "near"
     elif cause == "unexplained":
@@ -155,6 +158,20 @@ def score_diag(case, run):
         res["verdict"] = "WRONG-NAMED"
     res["catalogued"] = catalogued
     return res
+
+
+def _symptom_ok(case, syms):
+    """The needed symptom is there with the right number (impulse_mass: within 10 points of the truth).
+
+    The JSON lists every symptom kind with its values, so presence alone says nothing."""
+    sym = case.get("symptom")
+    if not sym:
+        return True
+    if sym == "impulse_mass":
+        got = syms.get("impulse_mass", {}).get("mismatch_pct")
+        true = 100 * (case["truth"]["mass"] - case["given_mass"]) / case["given_mass"]
+        return got is not None and abs(float(got) - true) <= 10
+    return sym in syms
 
 
 # ----------------------------------------------------------------------------- (c) multi-DOF
@@ -207,7 +224,7 @@ def score_mdof(case, run, via="csv"):
         argv += ["--driving-point", case["driving_point"]]
     if os.path.exists(os.path.join(run.data, model_path)):
         os.remove(os.path.join(run.data, model_path))
-    rec, out, err = run(argv, 900)
+    rec, out, err = run(argv, DIAG_TIMEOUT)
     res["commands"].append(rec)
     d = parse_json(out) if rec["rc"] == 0 else None
     if d is None or not os.path.exists(os.path.join(run.data, model_path)):

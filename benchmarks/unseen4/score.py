@@ -73,6 +73,7 @@ def main(argv=None):
         return 2
     data = os.path.abspath(a.data)
     run = judge.Runner(a.station_cmd, data, a.timeout_scale)
+    judge.DIAG_TIMEOUT = 300 if a.quick else 1200
     tasks = _tasks(man)
     if a.only:
         tasks = [t for t in tasks if _matches(t, a.only.split(","))]

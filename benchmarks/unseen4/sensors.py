@@ -4,8 +4,8 @@ Per channel, in order: optional first-order IEPE high-pass (analog, corner fc) a
 mounting resonance (second order, base-excited: the sensor's own acceleration), a causal analog
 4th-order Butterworth anti-alias filter at 0.42 x the true rate (``scipy.signal.lsim``, exact for a
 piecewise-linear input), the average over each sample period (trapezoid over the R fine points),
-gain error, DC offset, white noise ``snr_db`` below the channel's peak, quantisation to ``bits`` over
-a full scale of ``range_x`` x the peak. The DAQ's clock runs ``ppm`` off the rate it stamps.
+gain error, DC offset, white noise ``snr_db`` below the channel's free-response peak, quantisation to
+``bits`` over a full scale of ``range_x`` x the whole record's peak (the impact included). The DAQ's clock runs ``ppm`` off the rate it stamps.
 """
 
 from __future__ import annotations
@@ -49,8 +49,8 @@ def chain(t_fine, y_true, ts, rng, *, snr_db, bits, range_x=2.0, gain=1.0, offse
     s = 0.5 * (blocks + prev).mean(axis=1)  # trapezoid mean over [t_k - Ts, t_k]
     pk = peak if peak is not None else np.max(np.abs(s))
     s = gain * s + offset_frac * pk
+    full = range_x * np.max(np.abs(s))  # over the whole record's peak (the impact included)
     s = s + rng.normal(0.0, pk * 10 ** (-snr_db / 20), n)
-    full = range_x * pk
     q = 2 * full / 2 ** bits
     s = np.clip(np.round(s / q) * q, -full, full - q)
     return s
