@@ -130,12 +130,13 @@ def score_diag(case, run):
         return res
     cause = d.get("cause")
     base = (d.get("baseline") or {}).get("nrmse")
+    judged = (d.get("judged_baseline") or {}).get("nrmse")  # the one the verdict text quotes
     floor = d.get("noise_floor")
     floor_n = floor.get("nrmse") if isinstance(floor, dict) else floor
     syms = {s.get("kind"): s.get("values") or {} for s in d.get("symptoms") or [] if isinstance(s, dict)}
     kinds = sorted(syms)
     imp = syms.get("impulse_mass", {}).get("mismatch_pct")
-    res.update(cause=cause, baseline_nrmse=base, noise_floor=floor_n,
+    res.update(cause=cause, baseline_nrmse=base, judged_baseline_nrmse=judged, noise_floor=floor_n,
                extended_nrmse=(d.get("extended") or {}).get("nrmse"), symptoms=kinds, impulse_mass_pct=imp,
                verdict_text=str(d.get("verdict", ""))[:300],
                candidates=[(c.get("name"), c.get("nrmse")) for c in d.get("candidates") or []
@@ -152,7 +153,8 @@ def score_diag(case, run):
     elif cause == "unexplained":
         res["verdict"] = "abstained"  # only reached for catalogued effects
     elif cause == "none":
-        far = (base or 0) > NONE_FLOOR or (floor_n and (base or 0) > 5 * floor_n)
+        held = judged if judged is not None else (base or 0)
+        far = held > NONE_FLOOR or (floor_n and held > 5 * floor_n)
         res["verdict"] = "NONE-ABOVE-FLOOR" if far else "none-weak"
     else:
         res["verdict"] = "WRONG-NAMED"

@@ -52,7 +52,7 @@ def _matches(task, keys):
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--data", required=True, help="folder written by generate.py")
+    p.add_argument("--data", help="folder written by generate.py (required unless --render)")
     p.add_argument("--quick", action="store_true", help="the quick scoring; needs data made with --quick")
     p.add_argument("--jobs", type=int, default=2, help="cases scored at once (default 2)")
     p.add_argument("--station-cmd", default="station", help="the station command (default: station on PATH)")
@@ -60,7 +60,20 @@ def main(argv=None):
     p.add_argument("--only", default="", help="comma-separated case ids (or prefixes) to run")
     p.add_argument("--json-out", default=None, help="results JSON (default DATA/scorecard.json)")
     p.add_argument("--md-out", default=None, help="also write the Markdown scorecard here")
+    p.add_argument("--render", default=None, metavar="SCORECARD.json",
+                   help="only re-render the Markdown card of an earlier run's JSON (no station run)")
     a = p.parse_args(argv)
+    if a.render:
+        with open(a.render) as fh:
+            saved = json.load(fh)
+        md = table.scorecard(saved["results"], saved["meta"])
+        print(md)
+        if a.md_out:
+            with open(a.md_out, "w") as fh:
+                fh.write(md)
+        return 0
+    if not a.data:
+        p.error("--data is required (unless --render)")
     try:
         with open(os.path.join(a.data, "manifest.json")) as fh:
             man = json.load(fh)

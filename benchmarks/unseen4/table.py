@@ -47,9 +47,9 @@ def scorecard(results, meta):
            "## Summary", ""] + summary(results) + [""]
     by = {k: [r for r in results if r["kind"] == k] for k in TITLES}
     if by["diagnose"]:
-        out += ["## (a) diagnosis", "", "| case | verdict | cause | baseline nrmse | noise floor | extended | impulse mass vs given | verdict text |",
+        out += ["## (a) diagnosis", "", "| case | verdict | cause | baseline nrmse (judged) | noise floor | extended | impulse mass vs given | verdict text |",
                 "|---|---|---|---|---|---|---|---|"]
-        out += [f"| {r['id']} | {r['verdict']} | {r.get('cause', '-')} | {_f(r.get('baseline_nrmse'))} | "
+        out += [f"| {r['id']} | {r['verdict']} | {r.get('cause', '-')} | {_f(r.get('baseline_nrmse'))} ({_f(r.get('judged_baseline_nrmse'))}) | "
                 f"{_f(r.get('noise_floor'))} | {_f(r.get('extended_nrmse'))} | {_f(r.get('impulse_mass_pct'), '{:+.1f} %')} | "
                 f"{r.get('verdict_text', '')[:160].replace('|', '/')} |"
                 for r in by["diagnose"]] + [""]
