@@ -81,6 +81,13 @@ def write(out, seed, man):
     add("mass-nan", ["identify", good, "--mass", "nan"])
     add("unknown-term", ["identify", good, *M, "--stiffness", "x,x^q"])
     add("h5-index", ["identify", "robust-good.h5:9", *M], needs_h5=True)
+    _models_and_outputs(out, man, good, mass, add)
+    return out_cases
+
+
+def _models_and_outputs(out, man, good, mass, add):
+    """Bad model JSON, outputs onto inputs, and two-sensor records."""
+    M = ["--mass", mass]
     model = {"schema_version": 1, "mass": float(mass), "damping": {"v": 0.1},
              "stiffness": {"x": 1000.0}, "effects": []}
     with open(os.path.join(out, "bad-model-trunc.json"), "w") as fh:
@@ -114,4 +121,3 @@ def write(out, seed, man):
         add("mdof-missing-channel", ["validate", "robust-model.json",
                                      _put(out, "bad-mdof-cols.csv",
                                           [",".join(mc[:2])] + [",".join(x.split(",")[:2]) for x in ml[1:]])])
-    return out_cases

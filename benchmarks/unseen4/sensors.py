@@ -54,3 +54,30 @@ def chain(t_fine, y_true, ts, rng, *, snr_db, bits, range_x=2.0, gain=1.0, offse
     q = 2 * full / 2 ** bits
     s = np.clip(np.round(s / q) * q, -full, full - q)
     return s
+
+
+def _check():
+    """Gains of the chain's analog parts at a few frequencies vs their transfer functions."""
+    fs, n = 2000.0, 8000
+    rng = np.random.default_rng(0)
+    worst = 0.0
+    for kw, f, expect in (({}, 20.0, 1.0), ({"iepe_hz": 3.0}, 3.0, 2 ** -0.5),
+                          ({"mount_hz": 150.0, "mount_zeta": 0.05}, 150.0, abs((1 + 0.1j) / 0.1j))):
+        tf, ts = fine_grid(n, fs, 0.0, 0.0)
+        s = chain(tf, np.sin(2 * np.pi * f * tf), ts, rng, snr_db=300, bits=52, range_x=10,
+                  peak=1.0, **kw)
+        tail = s[n // 2:]
+        t = np.arange(n)[n // 2:] / fs
+        X = np.column_stack([np.sin(2 * np.pi * f * t), np.cos(2 * np.pi * f * t)])
+        amp = np.hypot(*np.linalg.lstsq(X, tail, rcond=None)[0])
+        # the anti-alias filter and the sample-period average, exactly
+        b, a = signal.butter(4, 2 * np.pi * 0.42 * fs, analog=True)
+        aa = abs(signal.freqs(b, a, [2 * np.pi * f])[1][0]) * abs(np.sinc(f / fs))
+        err = abs(amp / (expect * aa) - 1)
+        worst = max(worst, err)
+        print(f"{kw or 'plain'} at {f} Hz: gain {amp:.5f}, expected {expect * aa:.5f} ({err:.1e})")
+    return worst
+
+
+if __name__ == "__main__":
+    _check()
