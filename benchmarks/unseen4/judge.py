@@ -84,9 +84,13 @@ def score_ident(case, run):
             "--stiffness", ",".join(tr["stiffness"]), "--json"]
     rec, out, err = run(argv, 300)
     res["commands"].append(rec)
-    d = parse_json(out) if rec["rc"] == 0 else None
+    d = parse_json(out) if rec["rc"] in (0, 1) else None
     if d is None:
         res["verdict"] = _failed(rec, err)
+        return res
+    if rec["rc"] == 1:  # main exits 1 (one stderr line) when the model is unstable: flagged, not silent
+        res["verdict"] = "flagged-unstable" if d.get("unstable") or (d.get("validation") or {}).get(
+            "diverged") else _failed(rec, err)
         return res
     ppm = max(abs(f["fit_ppm"]), 1.0)
     errs, cover, bad = {}, [], []
@@ -106,7 +110,7 @@ def score_ident(case, run):
         json.dump(d["model"], fh)
     rec, out, err = run(["validate", model_path, f["held"], "--json"], 300)
     res["commands"].append(rec)
-    v = parse_json(out) if rec["rc"] == 0 else None
+    v = parse_json(out) if rec["rc"] in (0, 1) else None
     held = float(v["nrmse"]) if v and v.get("nrmse") is not None else float("inf")
     warned = bool(d.get("warnings") or (d.get("validation") or {}).get("warnings")
                   or (d.get("validation") or {}).get("diverged") or (v or {}).get("diverged"))
@@ -147,7 +151,7 @@ def score_diag(case, run):
         return res
     catalogued = case["expect"] != ["unexplained"]
     if cause in case["expect"]:
-        res["verdict"] = "correct" if _symptom_ok(case, syms) else "correct-no-symptom"
+        res["verdict"] = "correct" if _symptom_ok(case, syms) else "NO-SYMPTOM"
     elif cause in case.get("near", []):
         res["verdict"] = "near"
     elif cause == "unexplained":

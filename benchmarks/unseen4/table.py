@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-PASS = {"ok", "correct", "correct-no-symptom", "near", "abstained", "none-weak", "poor-warned"}
+PASS = {"ok", "correct", "near", "abstained", "none-weak", "poor-warned", "flagged-unstable"}
 TITLES = {"diagnose": "(a) diagnosis", "ident": "(b) identification", "mdof": "(c) multi-DOF",
           "robust": "(d) bad inputs"}
 
@@ -29,7 +29,7 @@ def summary(results):
             nulls = [r for r in rs if r["id"].startswith("null")]
             eff = [r for r in rs if not r["id"].startswith("null")]
             extra = (f" (nulls `none` {sum(r['verdict'] == 'correct' for r in nulls)}/{len(nulls)}; effects "
-                     f"correct {sum(r['verdict'].startswith('correct') for r in eff)}, near "
+                     f"correct {sum(r['verdict'] == 'correct' for r in eff)}, near "
                      f"{sum(r['verdict'] == 'near' for r in eff)}, failed {sum(not _passed(r) for r in eff)} "
                      f"of {len(eff)})")
         if kind == "ident":
