@@ -51,6 +51,14 @@ FACTORS = (2.0, 2.5, 3.0, 3.5, 4.0, 5.0)
 STRONG = (None, 0.6, 0.75, 0.9)
 MECHANISMS = ("coulomb_friction", "quadratic_damping", "clearance", "asymmetric_stiffness", "second_mode",
               "sensor_highpass", "hysteresis", "amplitude_damping")
+#: Measurement-chain faults that are detected, not named (session 7): each rung is "found" when
+#: the verdict is ``unexplained`` with the symptom of that kind (eddi.diagnosis.earn), any name
+#: is wrong, and ``none`` is a miss. Magnitudes: ``mass_error`` the stated mass's error (stated
+#: = true (1 + mag)); ``clipping`` how much of the strongest blow's acceleration peak the range
+#: cuts off (range = (1 - mag) peak); ``double_hit`` the second blow's peak ratio (4 ms later);
+#: ``base_motion`` the structure's mass over the base's (base suspended at 0.2 f1, 5 %).
+CHAIN_FAULTS = {"mass_error": "impulse_mass", "clipping": "clipping", "double_hit": "double_hit",
+                "base_motion": "base_motion"}
 #: Factors of the noise floor within which a named mechanism's extended model must land
 #: (``NAMED_FACTOR``); every case is judged at each (at the default none factor and strong cut).
 NAMED_FACTORS = (2.0, 3.0, 5.0, 10.0, 20.0, math.inf)
@@ -59,7 +67,9 @@ NAMED_FACTORS = (2.0, 3.0, 5.0, 10.0, 20.0, math.inf)
 RUNGS = {"coulomb_friction": (0.003, 0.01, 0.03), "quadratic_damping": (0.02, 0.06, 0.2),
          "clearance": (0.02, 0.06, 0.2), "asymmetric_stiffness": (0.02, 0.06, 0.2),
          "second_mode": (0.02, 0.06, 0.2), "sensor_highpass": (0.3, 0.8, 2.0),
-         "hysteresis": (0.01, 0.03, 0.1), "amplitude_damping": (0.02, 0.06, 0.2)}
+         "hysteresis": (0.01, 0.03, 0.1), "amplitude_damping": (0.02, 0.06, 0.2),
+         "mass_error": (0.05, 0.1, 0.2), "clipping": (0.1, 0.3, 0.5), "double_hit": (0.05, 0.15, 0.3),
+         "base_motion": (0.033, 0.1, 0.33)}
 SETS = {
     "tuning": {"null_seeds": range(1000, 1060), "ladder_seeds": (0, 1, 2), "mass": 0.1, "k1": 600.0,
                "k3": 2e7, "zeta": 0.004, "rate": 5000.0, "snr": 40.0, "record_s": 4.0, "mode_ratio": 2.7},
@@ -97,7 +107,7 @@ def _second_mode(eom, magnitude: float, seed: int, ratio: float):
         "coupling_n_per_m": kc}))
 
 
-def _records(truth, forces, cfg: dict, seed: int, sensors=None):
+def _records(truth, forces, cfg: dict, seed: int, sensors=None, **rig):
     from eddi.conditioning import condition
     from eddi.diagnosis import Record
     from simulated_rig.bench import impact_test
@@ -106,18 +116,21 @@ def _records(truth, forces, cfg: dict, seed: int, sensors=None):
     for i, f in enumerate(forces):
         kw = {"sensors": sensors} if sensors is not None else {"snr_db": cfg["snr"]}
         r = impact_test(truth, f, rate_hz=cfg["rate"], pretrigger_s=0.2, record_s=cfg["record_s"],
-                        seed=1000 * seed + 10 * i + 7, **kw)
+                        seed=1000 * seed + 10 * i + 7, **kw, **rig)
         c = condition(r.t, acc=r.acc_m_s2, force=r.force_n, pretrigger_samples=r.pretrigger_samples)
         recs.append(Record.from_conditioned(c, label=f"impact {i + 1}", pretrigger_samples=r.pretrigger_samples))
     return recs
 
 
-def _verdicts(d, factors) -> dict[str, str]:
-    """The cause ``diagnose`` gives at each ``none`` factor (see the module notes)."""
+def _verdicts(d, factors) -> tuple[dict[str, str], dict[str, str]]:
+    """The cause ``diagnose`` gives at each ``none`` factor (see the module notes), and the one
+    :func:`eddi.diagnosis.name.decide` gave before :func:`eddi.diagnosis.earn.earn` heard the
+    chain and the symptoms (``--summary --rejudge`` applies the current rule to it)."""
+    from eddi.diagnosis.earn import earn
     from eddi.diagnosis.name import decide
     from eddi.diagnosis.settings import NAMED_FACTOR
 
-    out = {}
+    out, raw = {}, {}
     pipe = d.pipeline
     floor = d.noise_floor.nrmse
     if pipe is not None and pipe.held_out:  # as the loop: the floor over the records it did not fit
@@ -129,12 +142,15 @@ def _verdicts(d, factors) -> dict[str, str]:
             departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= f * floor) else ""
             dec = decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, f, NAMED_FACTOR,
                          strong_margin=strong, eddi_fold=d.reference_fold or None, departs=departs)
+            raw[f"{f:g}|{strong}"] = dec.cause
+            dec = earn(dec, d.judging.nrmse / d.noise_floor.nrmse, d.symptoms)
             out[f"{f:g}|{strong}"] = dec.cause
-    return out
+    return out, raw
 
 
 def _named_verdicts(d) -> dict[str, str]:
     """The cause at each factor of :data:`NAMED_FACTORS` (default none factor and strong cut)."""
+    from eddi.diagnosis.earn import earn
     from eddi.diagnosis.name import decide
     from eddi.diagnosis.settings import NONE_FACTOR, STRONG_MARGIN
 
@@ -144,9 +160,10 @@ def _named_verdicts(d) -> dict[str, str]:
         floors = [fl for p, fl in zip(d.parts, d.noise_floor.fold_nrmse) if p.record in pipe.held_out]
         floor = float(np.mean(floors)) if floors else floor
     departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= NONE_FACTOR * floor) else ""
-    return {f"{nf:g}": decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, NONE_FACTOR, nf,
-                              strong_margin=STRONG_MARGIN, eddi_fold=d.reference_fold or None,
-                              departs=departs).cause for nf in NAMED_FACTORS}
+    return {f"{nf:g}": earn(decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, NONE_FACTOR, nf,
+                                   strong_margin=STRONG_MARGIN, eddi_fold=d.reference_fold or None,
+                                   departs=departs), d.judging.nrmse / d.noise_floor.nrmse, d.symptoms).cause
+            for nf in NAMED_FACTORS}
 
 
 #: Give the loop the pipeline's baseline, as ``station diagnose`` does (``--no-pipeline``: the
@@ -158,6 +175,9 @@ def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple
     from eddi.diagnosis import diagnose
     from eddi.terms import DEFAULT_STIFFNESS
 
+    from eddi.diagnosis.chain import impulse_mass_ratio
+    from eddi.diagnosis.symptoms import notable
+
     t0 = time.process_time()
     pipe = None
     if PIPELINE["on"]:
@@ -168,8 +188,13 @@ def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple
                  stiffness=stiffness or DEFAULT_STIFFNESS, pipeline=pipe)
     return {"ratio": d.judging.nrmse / d.noise_floor.nrmse, "baseline_nrmse": d.judging.nrmse,
             "pipeline_nrmse": d.pipeline.nrmse if d.pipeline is not None else None,
-            "floor": d.noise_floor.nrmse, "partial": d.partial, "causes": _verdicts(d, factors),
+            "floor": d.noise_floor.nrmse, "partial": d.partial, **dict(zip(("causes", "decided"), _verdicts(d, factors))),
             "named_causes": _named_verdicts(d),
+            # every symptom (kind, numbers, notable), and the raw impulse/momentum mass ratio (median,
+            # spread, captures): a rule on them can be re-judged on these rows (summary)
+            "symptoms": [[s.kind, {k: (v if math.isfinite(v) else str(v)) for k, v in s.values.items()}, notable(s)]
+                         for s in d.symptoms],
+            "impulse_mass": impulse_mass_ratio(recs, mass),
             "candidates": [[c.name, round(c.nrmse, 5), round(c.gain, 4), c.wins_every_part, c.consistent,
                             {k: round(v["z"], 2) for k, v in c.within_cycle.items() if v.get("same_fitter")}]
                            for c in d.candidates if not c.skipped and c.model is not None]}, \
@@ -193,8 +218,10 @@ def ladder_case(args: tuple) -> dict:
     cfg = SETS[set_name]
     eom = _system(cfg)
     forces = tuple(cfg["mass"] / 0.1 * f for f in (20.0, 25.0, 30.0))
-    truth, sensors = eom, None
-    if name == "sensor_highpass":
+    truth, sensors, rig, stated = eom, None, {}, eom.mass
+    if name in CHAIN_FAULTS:
+        sensors, rig, stated = _chain_fault(name, magnitude, eom, forces, cfg)
+    elif name == "sensor_highpass":
         s = default_sensors(cfg["snr"], 24, None)
         sensors = (s[0], dataclasses.replace(s[1], iepe_highpass_hz=magnitude))
     elif name == "second_mode":
@@ -207,14 +234,33 @@ def ladder_case(args: tuple) -> dict:
         amp, vel = _typical(eom, forces[1], cfg["rate"])
         truth = hide_effect(eom, name, magnitude, seed, amplitude_m=amp, velocity_m_s=vel)
     try:
-        recs = _records(truth, forces, cfg, seed, sensors)
+        recs = _records(truth, forces, cfg, seed, sensors, **rig)
         # x^2 in the default library is an asymmetric stiffness already: judge it with x, x^3
-        row, cpu = _diagnose(recs, eom.mass, factors, "x,x^3" if name == "asymmetric_stiffness" else None)
+        row, cpu = _diagnose(recs, stated, factors, "x,x^3" if name == "asymmetric_stiffness" else None)
     except Exception as exc:  # a case the chain refuses is reported, not hidden
         return {"kind": "ladder", "set": set_name, "mechanism": name, "magnitude": magnitude, "seed": seed,
                 "error": f"{type(exc).__name__}: {exc}"}
     return {"kind": "ladder", "set": set_name, "mechanism": name, "magnitude": magnitude, "seed": seed,
             "f1_hz": math.sqrt(eom.linear_stiffness() / eom.mass) / (2 * math.pi), **row, "cpu_s": cpu}
+
+
+def _chain_fault(name: str, magnitude: float, eom, forces, cfg: dict) -> tuple:
+    """(sensors, impact_test keywords, stated mass) of a measurement-chain rung (CHAIN_FAULTS)."""
+    from simulated_rig.bench import default_sensors, impact_test
+    from simulated_rig.hammer import HammerSpec
+
+    sensors = default_sensors(cfg["snr"], 24, None)
+    f1 = math.sqrt(eom.linear_stiffness() / eom.mass) / (2 * math.pi)
+    if name == "mass_error":
+        return sensors, {}, eom.mass * (1.0 + magnitude)
+    if name == "clipping":
+        peak = float(np.max(np.abs(impact_test(eom, forces[-1], rate_hz=cfg["rate"], pretrigger_s=0.05,
+                                               record_s=0.3, snr_db=None, seed=0).acc_m_s2)))
+        return (sensors[0], dataclasses.replace(sensors[1], range_si=(1.0 - magnitude) * peak)), {}, eom.mass
+    if name == "double_hit":
+        return sensors, {"double_hit": True, "hammer": HammerSpec(double_hit_ratio=magnitude)}, eom.mass
+    return sensors, {"base_motion": {"mass_kg": eom.mass / magnitude, "frequency_hz": 0.2 * f1,
+                                     "damping_ratio": 0.05}}, eom.mass
 
 
 def run(set_name: str, out: str | None, jobs: int, factors, nulls: bool, ladders: bool, names,
@@ -242,8 +288,32 @@ def _key_order(k: str) -> tuple[float, float]:
     return float(f), (math.inf if strong == "None" else float(strong))
 
 
-def summary(path: str, factor: float, strong: float | None) -> None:
+def rejudge(row: dict) -> dict:
+    """The row's verdicts under the current :func:`eddi.diagnosis.earn.earn`, from the verdicts
+    ``decide`` gave (``decided``), the ratio and the stored symptoms (rows of an earlier rule)."""
+    from eddi.diagnosis.earn import earn
+    from eddi.diagnosis.name import Decision
+    from eddi.diagnosis.results import Symptom
+
+    if "decided" not in row:
+        return row
+    sy = [Symptom(k, "", {n: float(v) for n, v in vals.items()}) for k, vals, _n in row["symptoms"]]
+
+    def one(cause: str) -> str:
+        return earn(Decision(cause, None, None, cause == "none", ""), row["ratio"], sy).cause
+
+    out = dict(row)
+    out["causes"] = {k: one(c) for k, c in row["decided"].items()}
+    # the named-factor verdicts are stored after the rule of their run; the rule only adds
+    # reasons for `unexplained`, so applying the current one to them again is the same
+    out["named_causes"] = {k: one(c) for k, c in row.get("named_causes", {}).items()}
+    return out
+
+
+def summary(path: str, factor: float, strong: float | None, again: bool = False) -> None:
     rows = [json.loads(s) for s in open(path) if s.strip()]
+    if again:
+        rows = [rejudge(r) for r in rows if "error" not in r] + [r for r in rows if "error" in r]
     key = f"{factor:g}|{strong}"
     for set_name in SETS:
         nulls = [r for r in rows if r.get("kind") == "null" and r["set"] == set_name]
@@ -273,6 +343,9 @@ def summary(path: str, factor: float, strong: float | None) -> None:
             ok = [r for r in g if "error" not in r]
             n = len(g)
             c = [r["causes"].get(key, "?") for r in ok]
+            if name in CHAIN_FAULTS:  # found: unexplained with the fault's own symptom
+                c = [name if (x == "unexplained" and any(sy[0] == CHAIN_FAULTS[name] for sy in r["symptoms"]))
+                     else x for x, r in zip(c, ok)]
             found, unex, none = c.count(name), c.count("unexplained"), c.count("none")
             wrong = [x for x in c if x not in (name, "unexplained", "none")]
             ratio = np.median([r["ratio"] for r in ok]) if ok else float("nan")
@@ -288,7 +361,7 @@ def summary(path: str, factor: float, strong: float | None) -> None:
 def _named_table(nulls: list, lad: list) -> None:
     """Per named factor: nulls named, ladder rungs found / unexplained / wrong, and the largest
     extended/floor ratio of a correctly named case."""
-    have = [r for r in lad if "named_causes" in r]
+    have = [r for r in lad if "named_causes" in r and r["mechanism"] not in CHAIN_FAULTS]
     if not have:
         return
     print("   named factor (extended model within F x floor): rungs found / unexplained / none / wrong; "
@@ -316,7 +389,8 @@ def main() -> None:
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     ap.add_argument("--set", choices=tuple(SETS), help="run this set's cases")
     ap.add_argument("--only", choices=("nulls", "ladders"), help="run only the nulls or the ladders")
-    ap.add_argument("--mechanisms", default=",".join(MECHANISMS), help="ladders of these (default: all)")
+    ap.add_argument("--mechanisms", default=",".join(MECHANISMS + tuple(CHAIN_FAULTS)),
+                    help="ladders of these (default: all, chain faults included)")
     ap.add_argument("--factors", default=",".join(f"{f:g}" for f in FACTORS),
                     help="none factors to evaluate (default: %(default)s)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default: %(default)s)")
@@ -328,6 +402,8 @@ def main() -> None:
     ap.add_argument("--ladder-seeds", type=int, default=None, metavar="N",
                     help="a reduced run: only the first N seeds of each rung (default: all)")
     ap.add_argument("--summary", metavar="FILE", help="print the rates of earlier runs")
+    ap.add_argument("--rejudge", action="store_true",
+                    help="with --summary: apply the current eddi.diagnosis.earn rule to the stored verdicts")
     ap.add_argument("--factor", type=float, default=None,
                     help="none factor of the ladder table (default: eddi.diagnosis.NONE_FACTOR)")
     ap.add_argument("--strong", default="default",
@@ -340,7 +416,7 @@ def main() -> None:
         from eddi.diagnosis.settings import STRONG_MARGIN
 
         strong = STRONG_MARGIN if args.strong == "default" else (None if args.strong == "None" else float(args.strong))
-        summary(args.summary, args.factor if args.factor is not None else NONE_FACTOR, strong)
+        summary(args.summary, args.factor if args.factor is not None else NONE_FACTOR, strong, args.rejudge)
         return
     if not args.set:
         ap.error("give --set tuning|heldout, or --summary FILE")

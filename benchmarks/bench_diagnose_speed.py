@@ -17,6 +17,8 @@ Targets (issue 13): ``three`` <= 3 s, ``beam`` <= 8 s on a quiet 2-core machine.
     python benchmarks/bench_diagnose_speed.py                  # both cases, 3 runs each
     python benchmarks/bench_diagnose_speed.py --case three --runs 1 --profile 25
     python benchmarks/bench_diagnose_speed.py --case cli --runs 3    # whole processes, wall + CPU
+    git worktree add /tmp/before HEAD~3    # then, whole processes from both trees, interleaved:
+    python benchmarks/bench_diagnose_speed.py --case cli --runs 3 --before /tmp/before
 
 ``--case cli``: whole ``station diagnose`` processes (imports, reading, conditioning, the
 pipeline baseline, the diagnosis). CPU is the process's and its forked workers'. Each case
@@ -130,29 +132,33 @@ def run_case(case: str, runs: int, profile: int, jobs: int = 1) -> None:
           f"folds in {jobs} process(es) (CPU of this process only)")
 
 
-def _child_run(cmd: list[str], env: dict[str, str]) -> tuple[float, float, bytes]:
+def _child_run(cmd: list[str], env: dict[str, str], cwd: str | None = None) -> tuple[float, float, bytes]:
     """Wall and CPU time (user + sys of the process and its own children) of one command, and
-    its output."""
+    its output. ``cwd``: where it runs (``python -m`` puts it first on the path: not a checkout)."""
     import resource
     import subprocess
 
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    out = subprocess.run(cmd, env=env, check=True, stdout=subprocess.PIPE).stdout
+    out = subprocess.run(cmd, env=env, check=True, stdout=subprocess.PIPE, cwd=cwd).stdout
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), out
 
 
-def run_cli(runs: int, cases: tuple[str, ...] = ("three", "beam"), jobs: int = 2) -> None:
+def run_cli(runs: int, cases: tuple[str, ...] = ("three", "beam"), jobs: int = 2,
+            before: str | None = None) -> None:
     """``station diagnose`` as a whole process: the ``three`` captures written as CSV (with and
     without the pipeline baseline's refinement) and the nine double-beam ring-downs; floor:
     ``python -c "import numpy"``. Wall and CPU (the process and its children), min and median
-    over ``--runs``, runs interleaved; each diagnosis in one process and in ``jobs``."""
+    over ``--runs``, runs interleaved; each diagnosis in one process and in ``jobs``. With
+    ``before`` (another checkout of the project), each one-process diagnosis also runs from it,
+    interleaved, and the CPU ratio after / before and whether the JSON is the same are printed."""
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:
         env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+        old = {**env, "PYTHONPATH": str(Path(before).resolve()), "STATION_SERIAL": "1"} if before else None
         env.pop("STATION_JOBS", None)
         serial = {**env, "STATION_SERIAL": "1"}
         forked = {**{k: v for k, v in env.items() if k != "STATION_SERIAL"}, "STATION_JOBS": str(jobs)}
@@ -168,10 +174,14 @@ def run_cli(runs: int, cases: tuple[str, ...] = ("three", "beam"), jobs: int = 2
             three = [sys.executable, "-m", "station.cli", "diagnose", *files, "--mass", "0.1", "--json"]
             cmds["three: station diagnose --no-refine"] = (three + ["--no-refine"], serial)
             cmds["three: station diagnose"] = (three, serial)
+            if old is not None:
+                cmds["three: station diagnose, before"] = (three, old)
             cmds[f"three: station diagnose, {jobs} jobs"] = (three, forked)
         if "beam" in cases:
             beam = [sys.executable, "-m", "station.cli", "diagnose", *_beam_files(), "--mass", "1", "--json"]
             cmds["beam: station diagnose"] = (beam, serial)
+            if old is not None:
+                cmds["beam: station diagnose, before"] = (beam, old)
             cmds[f"beam: station diagnose, {jobs} jobs"] = (beam, forked)
         load0 = os.getloadavg()[0]
         walls: dict[str, list[float]] = {}
@@ -179,7 +189,7 @@ def run_cli(runs: int, cases: tuple[str, ...] = ("three", "beam"), jobs: int = 2
         outs: dict[str, bytes] = {}
         for _ in range(runs):
             for name, (cmd, e) in cmds.items():
-                w, c, out = _child_run(cmd, e)
+                w, c, out = _child_run(cmd, e, cwd=tmp)
                 walls.setdefault(name, []).append(w)
                 cpus.setdefault(name, []).append(c)
                 outs[name] = out
@@ -188,6 +198,12 @@ def run_cli(runs: int, cases: tuple[str, ...] = ("three", "beam"), jobs: int = 2
             if one is not None and many is not None:
                 print(f"cli: {case}: JSON in one process and in {jobs} jobs "
                       f"{'identical' if one == many else 'DIFFERENT'}")
+            prior = outs.get(f"{case}: station diagnose, before")
+            if one is not None and prior is not None:
+                a, b = cpus[f"{case}: station diagnose"], cpus[f"{case}: station diagnose, before"]
+                print(f"cli: {case}: one process, after / before (same run, interleaved): CPU min "
+                      f"{min(a) / min(b):.3f}, median {statistics.median(a) / statistics.median(b):.3f}; "
+                      f"JSON {'identical' if one == prior else 'different (numbers moved)'}")
         fw, fc = min(walls["import numpy (floor)"]), min(cpus["import numpy (floor)"])
         for name in cmds:
             w, c = walls[name], cpus[name]
@@ -210,13 +226,16 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=None, metavar="N",
                     help="processes for the folds (station.forkmap): the library call's (default 1) and "
                          "the cli case's second row per case (default 2)")
+    ap.add_argument("--before", default=None, metavar="TREE",
+                    help="cli cases: also run each one-process diagnosis from this checkout (e.g. a "
+                         "`git worktree` of the previous commit), interleaved, and print after / before")
     ap.add_argument("--profile", type=int, default=0, metavar="N",
                     help="print the N top cProfile lines of one extra run (default: off)")
     args = ap.parse_args()
     np.seterr(all="ignore")
     if args.case.startswith("cli"):
         run_cli(max(1, args.runs), ("three", "beam") if args.case == "cli" else (args.case[4:],),
-                args.jobs or 2)
+                args.jobs or 2, args.before)
         return
     for case in (("three", "beam") if args.case == "both" else (args.case,)):
         run_case(case, max(1, args.runs), args.profile, args.jobs or 1)

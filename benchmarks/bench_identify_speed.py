@@ -29,7 +29,14 @@ both with ``--no-refine`` and with the default (the output-error refinement trie
 when it helps; ``--refine-runs`` of them, default 2: each is seconds), and with ``--profile``
 the top functions of a cProfile of one ``--no-refine`` call (cumulative time).
 
-Run: ``python benchmarks/bench_identify_speed.py [--runs 5] [--in-process] [--profile]``
+``--stages`` (with ``--in-process``): where the library call's CPU goes, stage by stage
+(conditioning, EDDI phase one, each phase-two route with its slow-error refits, the
+output-error refinement, the validation simulations, the refinement's judge, the model
+checks), each as a share of the call and as a ratio to the floor, best of ``--runs`` calls
+with the refinement. The stages are timed by wrapping those functions in this process
+(``time.process_time``); nested stages are listed under their parent.
+
+Run: ``python benchmarks/bench_identify_speed.py [--runs 5] [--in-process [--stages]] [--profile]``
 """
 
 from __future__ import annotations
@@ -44,9 +51,12 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):  # one BLAS thread, as the CLI
+    os.environ.setdefault(_var, "1")
 
-from simulated_rig.bench import impact_test
+import numpy as np  # noqa: E402 (after the BLAS thread count)
+
+from simulated_rig.bench import impact_test  # noqa: E402
 
 ARGS = ["--mass", "0.815", "--damping", "v,x^2*v,v^3", "--stiffness", "x,x^2,x^3,x^4,x^5", "--json"]
 
@@ -77,7 +87,7 @@ def _stats(xs: list[float]) -> str:
     return f"min {1000 * min(xs):7.1f} ms, median {1000 * statistics.median(xs):7.1f} ms"
 
 
-def in_process(rec, runs: int, profile: bool, refine_runs: int = 2) -> None:
+def in_process(rec, runs: int, profile: bool, refine_runs: int = 2, by_stage: bool = False) -> None:
     """Library call on arrays vs the floor (np.load + one pass) and pysindy on the same data."""
     from eddi.sindy import sindy_identify
     from station.commands.identify import run_identify
@@ -120,6 +130,8 @@ def in_process(rec, runs: int, profile: bool, refine_runs: int = 2) -> None:
                   "target <= 50 ms: " + ("met" if min(xs) <= 0.050 else f"NOT met ({min(xs) / 0.050:.0f}x over)"))
     print(f"  pysindy STLSQ on the same signals          {_stats(sindy)}  = {min(sindy) / f:6.1f}x the floor "
           f"(regression only, on the {w1 - w0} samples of the free-response window)")
+    if by_stage:
+        stages(meas, runs)
     if profile:
         import cProfile
         import io
@@ -134,17 +146,103 @@ def in_process(rec, runs: int, profile: bool, refine_runs: int = 2) -> None:
         print(out.getvalue())
 
 
+#: (module, function, label, depth) of the stages --stages times; depth indents nested stages.
+STAGES = (
+    ("eddi.conditioning.conditioner", "condition", "conditioning (drift-free integration, windows)", 0),
+    ("eddi.identify", "identify", "EDDI (decimated window: phase one + both routes)", 0),
+    ("eddi.phase_one", "phase_one", "phase one (energy balance, damping)", 1),
+    ("eddi.phase_two", "potential_route", "phase two, potential route", 1),
+    ("eddi.phase_two", "lagrangian_route", "phase two, Lagrangian route", 1),
+    ("eddi.slow_errors", "refit_with_offset", "slow-error refits (sparse normal equations)", 2),
+    ("eddi.refine", "refine_output_error", "output-error refinement (RK4 sensitivity passes)", 0),
+    ("eddi.fit_record", "validate_conditioned", "validation simulations (fit record: refined, EDDI)", 0),
+    ("eddi.judge", "judge_fit_record", "the refinement's judge on the fit record", 0),
+    ("eddi.stability", "model_warnings", "model checks (negative stiffness / damping)", 0),
+)
+
+
+def stages(meas, runs: int) -> None:
+    """Print the CPU of each stage of one library call (best of ``runs``) as shares and ratios.
+
+    The floor is CPU too: ``np.load`` of the record's three columns from a ``.npy`` + one pass,
+    best of ``runs``, in this process.
+    """
+    import functools
+    import importlib
+
+    from station.commands.identify import run_identify
+
+    spent: dict[str, float] = {}
+    patched = []
+    for mod_name, fn_name, label, _ in STAGES:
+        mod = importlib.import_module(mod_name)
+        fn = getattr(mod, fn_name)
+
+        def timed(*a, _fn=fn, _label=label, **k):
+            c0 = time.process_time()
+            try:
+                return _fn(*a, **k)
+            finally:
+                spent[_label] = spent.get(_label, 0.0) + time.process_time() - c0
+
+        functools.update_wrapper(timed, fn)
+        # the function where it is defined and wherever it was imported by name
+        for other in list(sys.modules.values()):
+            if (getattr(other, "__name__", "").startswith(("eddi.", "station.")) and hasattr(other, "__dict__")
+                    and vars(other).get(fn_name) is fn):
+                patched.append((other, fn_name, fn))
+                setattr(other, fn_name, timed)
+    try:
+        damping, stiffness = "v,x^2*v,v^3", "x,x^2,x^3,x^4,x^5"
+        best: tuple[float, dict[str, float]] | None = None
+        for _ in range(runs):
+            spent.clear()
+            c0 = time.process_time()
+            run_identify(meas, 0.815, damping, stiffness)
+            total = time.process_time() - c0
+            if best is None or total < best[0]:
+                best = (total, dict(spent))
+    finally:
+        for mod, name, fn in patched:
+            setattr(mod, name, fn)
+    assert best is not None
+    total, spent = best
+    floors = []
+    with tempfile.TemporaryDirectory() as tmp:
+        npy = Path(tmp) / "record.npy"
+        np.save(npy, np.column_stack((meas.t, meas.channels["force"], meas.channels["acc"])))
+        for _ in range(runs):
+            c0 = time.process_time()
+            np.abs(np.load(npy)).sum(axis=0)
+            floors.append(time.process_time() - c0)
+    floor_s = min(floors)
+    print(f"\nwhere the library call goes (default: refinement tried; best of {runs}, CPU, load average "
+          f"{os.getloadavg()[0]:.1f}): {1000 * total:.1f} ms = {total / floor_s:.1f}x the floor "
+          f"(np.load + one pass, CPU {1000 * floor_s:.1f} ms)")
+    covered = 0.0
+    for _, _, label, depth in STAGES:
+        dt = spent.get(label, 0.0)
+        covered += dt if depth == 0 else 0.0
+        print(f"  {'  ' * depth}{label:<{56 - 2 * depth}} {1000 * dt:7.1f} ms {100 * dt / total:5.1f} %  "
+              f"{dt / floor_s:5.1f}x the floor")
+    rest = total - covered
+    print(f"  {'the rest (reading the arrays, result objects, warnings)':<56} {1000 * rest:7.1f} ms "
+          f"{100 * rest / total:5.1f} %  {rest / floor_s:5.1f}x the floor")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--runs", type=int, default=5, help="warm runs (default 5)")
     ap.add_argument("--in-process", action="store_true", help="only the in-process part (library call on arrays)")
     ap.add_argument("--profile", action="store_true", help="print a cProfile of one in-process call")
     ap.add_argument("--refine-runs", type=int, default=2, help="in-process runs with the refinement (default 2)")
+    ap.add_argument("--stages", action="store_true",
+                    help="with --in-process: the CPU of each stage of the library call, as shares and ratios to the floor")
     args = ap.parse_args()
     runs = args.runs
     rec = impact_test("duffing-smooth", 600.0, snr_db=45.0, seed=1)
     if args.in_process:
-        in_process(rec, runs, args.profile, args.refine_runs)
+        in_process(rec, runs, args.profile, args.refine_runs, args.stages)
         return
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "long.csv"

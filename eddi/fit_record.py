@@ -83,6 +83,11 @@ class PipelineChoices:
         Candidate terms not in the model, and why.
     warnings : tuple of str
         Plain sentences (unstable model, coarse sampling...).
+    unstable : bool
+        The model is not a trustworthy equation of motion: negative stiffness or damping at
+        the record's amplitudes (:func:`eddi.stability.model_warnings`), or a simulation of the
+        fit or a held-out record that blows up, grows or does not decay
+        (:func:`eddi.stability.response_warnings`). The station's commands exit with code 1.
     decimation : int
         EDDI ran on every ``decimation``-th sample of the window (acceleration: block means;
         :func:`eddi.calculus.decimate_centred`), 1 for every sample: a record sampled far
@@ -103,6 +108,7 @@ class PipelineChoices:
     dropped: dict[str, str] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     decimation: int = 1
+    unstable: bool = False
 
     def as_dict(self) -> dict[str, object]:
         """JSON-ready."""
@@ -111,7 +117,8 @@ class PipelineChoices:
                 "judged_on": self.judged_on, "nrmse_eddi": self.nrmse_eddi,
                 "nrmse_refined": self.nrmse_refined, "damping_terms": list(self.damping_terms),
                 "stiffness_terms": list(self.stiffness_terms), "dropped": dict(self.dropped),
-                "warnings": list(self.warnings), "eddi_decimation": self.decimation}
+                "warnings": list(self.warnings), "eddi_decimation": self.decimation,
+                "unstable": self.unstable}
 
 
 @dataclass(frozen=True)
@@ -169,6 +176,11 @@ class PipelineResult:
     def warnings(self) -> tuple[str, ...]:
         """The pipeline's warnings (empty when none)."""
         return self.choices.warnings if self.choices is not None else ()
+
+    @property
+    def unstable(self) -> bool:
+        """The model is flagged (:attr:`PipelineChoices.unstable`)."""
+        return self.choices.unstable if self.choices is not None else False
 
 
 def _texts(spec: str | Sequence[str]) -> tuple[str, ...]:
@@ -337,7 +349,8 @@ class Pipeline:
         coarse = samples_per_cycle_note(cond.rate_hz, highest_frequency(cond))
         if coarse:
             warnings.append(coarse)
-        warnings += model_warnings(eom, cond.x[w0:w1], cond.v[w0:w1])
+        unsound = model_warnings(eom, cond.x[w0:w1], cond.v[w0:w1])
+        warnings += unsound
         warnings += [f"fit record: {w}" for w in val.warnings]
         warnings += [f"held-out record {i}: {w}" for i, h in enumerate(held) for w in h.warnings]
         warnings += poor_fit_warnings(val.nrmse, [h.nrmse for h in held])
@@ -345,7 +358,8 @@ class Pipeline:
             route=model.route, route_scores=dict(model.route_scores), refinement=refinement,
             refinement_reason=reason, judged_on=judged_on, nrmse_eddi=n_eddi, nrmse_refined=n_ref,
             damping_terms=tuple(eom.damping), stiffness_terms=tuple(eom.stiffness),
-            dropped=dropped, warnings=tuple(warnings), decimation=q)
+            dropped=dropped, warnings=tuple(warnings), decimation=q,
+            unstable=bool(unsound) or val.diverged or any(h.diverged for h in held))
         return PipelineResult(cond, model, val, by_force, nrmse_sensor, choices, held, eddi_held, held_force,
                               ci95, units_of(eom))
 
@@ -408,7 +422,7 @@ def _judge_refinement(model: IdentifiedModel, cond: ConditionedSignal, held_out:
         else:
             from eddi.judge import WHITE_SIGMAS, judge_fit_record
 
-            jd = judge_fit_record(model.eom, model.unrefined, cond)
+            jd = judge_fit_record(model.eom, model.unrefined, cond, validations=(val, eddi_val))
             n_ref, n_eddi = jd.nrmse_refined, jd.nrmse_eddi
             better = (div_ref, jd.refined_worse) <= (div_eddi, False)
             margin = (f" (difference {jd.excess_sigmas:+.1f} noise sd; rejected only beyond {WHITE_SIGMAS:g} at the "

@@ -43,6 +43,7 @@ from eddi.model import EquationOfMotion
 
 if TYPE_CHECKING:
     from eddi.conditioning import ConditionedSignal
+    from eddi.validate import Validation
 
 #: Most samples compared (evenly spaced over the window): the 45 s, 19.2 kHz record
 #: compares 20,000 of its 460,000.
@@ -103,11 +104,17 @@ def impulse_uncertainty(cond: "ConditionedSignal", eom: EquationOfMotion) -> flo
     return math.sqrt(var * (s1 - s0)) / impulse if impulse > 0 else 0.0
 
 
-def _simulated(eom: EquationOfMotion, cond: "ConditionedSignal", scale: float, k: int) -> np.ndarray:
-    """The measured channel as ``eom`` simulates it for ``cond`` (drive times ``scale``), every ``k``-th sample."""
+def _simulated(eom: EquationOfMotion, cond: "ConditionedSignal", scale: float, k: int,
+               val: "Validation | None" = None) -> np.ndarray:
+    """The measured channel as ``eom`` simulates it for ``cond`` (drive times ``scale``), every ``k``-th sample.
+
+    ``val``: ``validate_conditioned(eom, cond)`` when the caller has it (``scale`` 1), so it
+    is not simulated again.
+    """
     from eddi.fit_record import validate_conditioned  # local: fit_record imports this module
 
-    val, _ = validate_conditioned(eom, cond, drive_scale=scale)
+    if val is None or scale != 1.0:
+        val, _ = validate_conditioned(eom, cond, drive_scale=scale)
     if not math.isfinite(val.nrmse) or not np.all(np.isfinite(val.x_simulated)):
         return np.full(val.x_simulated[::k].size, np.inf)
     channel = CHANNEL[cond.response]
@@ -138,7 +145,8 @@ def _profiled(eom: EquationOfMotion, cond: "ConditionedSignal", y: np.ndarray, u
     return min(max(curv * d * d + slope * d + sq, 0.0) for d in ends)
 
 
-def judge_fit_record(refined: EquationOfMotion, eddi: EquationOfMotion, cond: "ConditionedSignal") -> Judgement:
+def judge_fit_record(refined: EquationOfMotion, eddi: EquationOfMotion, cond: "ConditionedSignal",
+                     validations: "tuple[Validation, Validation] | None" = None) -> Judgement:
     """Whether ``refined`` fits the fit record's measured signal measurably worse than ``eddi``.
 
     Parameters
@@ -147,6 +155,10 @@ def judge_fit_record(refined: EquationOfMotion, eddi: EquationOfMotion, cond: "C
         The refined model and EDDI's estimate.
     cond : ConditionedSignal
         The fit record.
+    validations : (Validation, Validation), optional
+        ``validate_conditioned(refined, cond)[0]`` and ``validate_conditioned(eddi, cond)[0]``
+        when the caller already has them (:meth:`eddi.fit_record.Pipeline.fit` does): the
+        same simulations, not run twice.
 
     Returns
     -------
@@ -157,7 +169,8 @@ def judge_fit_record(refined: EquationOfMotion, eddi: EquationOfMotion, cond: "C
     meas_all = {"a": cond.a, "v": cond.v, "x": cond.x}[CHANNEL[cond.response]][w0:w1]
     y = meas_all[::k]
     norm2 = float(np.sum(y**2)) or 1.0
-    s_r, s_e = _simulated(refined, cond, 1.0, k), _simulated(eddi, cond, 1.0, k)
+    val_r, val_e = validations if validations is not None else (None, None)
+    s_r, s_e = _simulated(refined, cond, 1.0, k, val_r), _simulated(eddi, cond, 1.0, k, val_e)
     sq_r, sq_e = float(np.sum((s_r - y) ** 2)), float(np.sum((s_e - y) ** 2))
     sd = 2.0 * noise_level(meas_all) * float(np.linalg.norm(s_r - s_e)) if np.all(np.isfinite(s_r - s_e)) else 0.0
     u = impulse_uncertainty(cond, refined)

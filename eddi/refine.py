@@ -90,7 +90,8 @@ class Refinement:
         Fitted initial state at the centre of the first block (the window start when
         ``block`` is 1).
     evaluations : int
-        Simulations run (all stages, Jacobians included).
+        Simulations asked for (all stages, Jacobians included; one asked for again at the
+        point just simulated is served from memory, bit for bit the same, and counted).
     samples : int
         Samples in the whole window.
     block : int
@@ -252,6 +253,8 @@ class _OutputError:
         self.x_scale: float | str = 1.0
         # the sensitivity pass of the last simulation (see :meth:`simulated`)
         self._last: tuple[bytes, int, np.ndarray, bool] | None = None
+        # the last simulated signal: ((parameters key, stop), signal, diverged)
+        self._memo: tuple[tuple[bytes, int], np.ndarray, bool] | None = None
 
     @property
     def n(self) -> int:
@@ -276,6 +279,18 @@ class _OutputError:
 
     def simulated(self, p: np.ndarray, stop: int) -> np.ndarray:
         self.count += 1
+        key = (self._key(p), stop)
+        memo = self._memo
+        if memo is not None and memo[0] == key:
+            # the same point again (the fit's last evaluation, then the nrmse and the covariance
+            # at the optimum): the same deterministic simulation, not run again
+            self.diverged = memo[2]
+            return memo[1].copy()
+        out = self._simulated(p, stop)
+        self._memo = (key, out.copy(), self.diverged)
+        return out
+
+    def _simulated(self, p: np.ndarray, stop: int) -> np.ndarray:
         x0, v0 = self.state(p)
         eom = self.model_of(p)
         if eom.effects:

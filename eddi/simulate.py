@@ -336,6 +336,42 @@ def simulate(
     )
 
 
+def free_simulator(eom: EquationOfMotion, t: np.ndarray, *, force: np.ndarray | None = None,
+                   x_scale: float, v_scale: float):
+    """``simulate(eom, t, force=force, x0=x0, v0=v0, x_scale=x_scale, v_scale=v_scale)`` as a
+    function of the initial state, for fits of it: the checks, sub-steps and term tables are
+    computed once (they do not depend on ``x0, v0`` when both scales are given).
+
+    Returns
+    -------
+    callable
+        ``run(x0, v0) -> (x, v)``, each ndarray of shape (n,): the same numbers bit for bit
+        as :func:`simulate`'s ``x`` and ``v``.
+    """
+    probe = simulate(eom, t, force=force, x0=0.0, v0=0.0, x_scale=x_scale, v_scale=v_scale)
+    t = np.asarray(t, dtype=float)
+    dt, n, substeps = float(t[1] - t[0]), t.size, probe.substeps
+    f = np.zeros(0) if force is None else np.ascontiguousarray(force, dtype=float)
+    exps = exponent_table(eom.damping_terms() + eom.stiffness_terms())
+    coefs = np.array(list(eom.damping.values()) + list(eom.stiffness.values()), dtype=float)
+    eff = _effect_vector(eom)
+    hysteretic = eom.effect("hysteresis") is not None
+    inv_m = 1.0 / eom.mass
+
+    def run(x0: float, v0: float) -> tuple[np.ndarray, np.ndarray]:
+        if hysteretic:
+            from eddi.hysteresis import simulate_hysteretic
+
+            out, _ = simulate_hysteretic(eom, f, dt, n, x0, v0, substeps, exps, coefs, eff)
+        else:
+            out = np.empty((n, 4))
+            _KERNELS._rk4(f, dt, substeps, np.array([float(x0), float(v0), 0.0, 0.0]), inv_m, exps, coefs,
+                          eff, out)
+        return out[:, 0], out[:, 1]
+
+    return run
+
+
 def local_angular_frequency(eom: EquationOfMotion, x_amp: float, v_amp: float) -> float:
     """Largest local angular frequency [rad/s] of ``eom`` over ``|x| <= x_amp``, ``|v| <= v_amp``.
 

@@ -82,6 +82,17 @@ def missing_extra(exc: BaseException) -> str | None:
 
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
+#: The command ran and printed its result, but the result is flagged: an identified model
+#: that is unstable (negative stiffness or damping at the record's amplitudes) or whose
+#: simulation blows up, grows or does not decay (``station identify/validate/demo/replay``),
+#: or a replay through the device that is not bit exact. Scripts must not take such a model.
+EXIT_FLAGGED = 1
+
+
+def flagged(command: str, why: str) -> int:
+    """One line on stderr for a flagged result (:data:`EXIT_FLAGGED`); returns the exit code."""
+    print(f"station {command}: {why} (exit code {EXIT_FLAGGED}; see the WARNING lines)", file=sys.stderr)
+    return EXIT_FLAGGED
 
 #: Commands that draw their own live status (the others get :class:`station.progress.Working`).
 OWN_PROGRESS = frozenset({"acquire", "demo", "rig", "campaign"})

@@ -23,6 +23,7 @@ import numpy as np
 
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
 from eddi.diagnosis.chain import inspect, sensor_highpass
+from eddi.diagnosis.earn import CHAIN_REASON, earn
 from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.lookalike import attach
 from eddi.diagnosis.mapping import Mapper
@@ -266,6 +267,8 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     symptoms += inspect(records, sh.setup.mass, _frequency(sh.bfit_all.eom))
     dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor, strong_margin=strong_margin,
                  eddi_fold=res.ref_fold, departs=_pipeline_check(pipeline, sh, none_factor))
+    # a chain that cannot be trusted earns neither silence nor a name (eddi.diagnosis.earn)
+    dec = earn(dec, baseline.nrmse / floor.nrmse if floor.nrmse > 0 else math.inf, symptoms)
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
     notes = notes + _floor_note(dec, candidates, floor, baseline.nrmse, margin)
@@ -419,14 +422,21 @@ def _texts(dec: Decision, baseline: Score, floor: NoiseFloor, candidates: Sequen
         if runner is not None:
             verdict += f" Runner-up: {runner.name} ({runner.nrmse:.3g}, {100 * runner.gain:+.0f} %)."
         return verdict, f"the baseline {w.symptom}"
-    verdict = (f"Cause: unexplained. The baseline departs from the held-out measurements (nrmse {b:.3g}, "
-               f"{b / f:.1f}x the noise floor {f:.3g}) and no mechanism of the catalogue earns its place "
-               f"(needs a {100 * margin:.0f} % cut on every part and {named_factor:g}x the floor)")
+    if dec.reason.startswith(CHAIN_REASON):
+        verdict = (f"Cause: unexplained. The baseline's held-out nrmse is {b:.3g} ({b / f:.1f}x the noise floor "
+                   f"{f:.3g}), but {dec.reason}")
+    else:
+        verdict = (f"Cause: unexplained. The baseline departs from the held-out measurements (nrmse {b:.3g}, "
+                   f"{b / f:.1f}x the noise floor {f:.3g}) and no mechanism of the catalogue earns its place "
+                   f"(needs a {100 * margin:.0f} % cut on every part and {named_factor:g}x the floor)")
     if dec.partial is not None:
         p = dec.partial
         verdict += (f". Best partial explanation: {p.name} (nrmse {p.nrmse:.3g}, {100 * (1 - p.nrmse / b):.0f} % "
                     f"less, still {p.nrmse / f:.1f}x the floor)")
-    verdict += f". {dec.reason}." if dec.reason else "."
+    if not dec.reason.startswith(CHAIN_REASON):
+        verdict += f". {dec.reason}." if dec.reason else "."
+    else:
+        verdict += "."
     symptom = "; ".join(said) if said else (f"the baseline's simulation departs from the held-out "
                                             f"measurements (nrmse {b:.3g}) in no way the symptoms single out")
     return verdict, symptom

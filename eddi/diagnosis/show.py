@@ -16,7 +16,7 @@ from eddi.energy import zero_crossings
 from eddi.errors import EddiError
 from eddi.model import EquationOfMotion
 from eddi.multimode import trajectory_errors
-from eddi.simulate import simulate
+from eddi.simulate import free_simulator, simulate
 
 
 def simulate_part(eom: EquationOfMotion, rec: Record, part: Part) -> np.ndarray:
@@ -80,9 +80,15 @@ def fitted_state(eom: EquationOfMotion, rec: Record, s: int, e: int, x_scale: fl
     f = rec.force[s:s + w] if rec.force is not None else None
     xm, vm = rec.x[s:s + w], rec.v[s:s + w]
 
+    try:
+        # simulate(eom, t, force=f, x0=.., v0=.., x_scale=x_scale, v_scale=v_scale), set up once
+        run = free_simulator(eom, t, force=f, x_scale=x_scale, v_scale=v_scale)
+    except (ValueError, ArithmeticError, EddiError):
+        return x0, v0
+
     def res(p: np.ndarray) -> np.ndarray:
-        sim = simulate(eom, t, force=f, x0=p[0] * x_scale, v0=p[1] * v_scale, x_scale=x_scale, v_scale=v_scale)
-        out = np.concatenate([(sim.x - xm) / x_scale, (sim.v - vm) / v_scale])
+        xs, vs = run(p[0] * x_scale, p[1] * v_scale)
+        out = np.concatenate([(xs - xm) / x_scale, (vs - vm) / v_scale])
         return np.where(np.isfinite(out), out, 10.0)
 
     try:

@@ -54,9 +54,10 @@ from typing import Any
 
 import numpy as np
 
+from eddi.mdof.blas import one_blas_thread
 from eddi.energy import cumulative_energy, rate_interpolant, zero_crossings
 from eddi.errors import IdentificationError
-from eddi.mdof.modal import LinearModes, era, tail_segments
+from eddi.mdof.modal import LinearModes, era_windows
 from eddi.mdof.intervals import JACKKNIFE_BLOCKS, block_jackknife_ci95
 from eddi.mdof.masses import masses_and_inputs
 from eddi.mdof.model import MdofModel
@@ -241,10 +242,18 @@ def modal_evidence(modes: LinearModes, n_ch: int) -> str:
 
 def linear_modes(records: Sequence[ChannelRecord], *, tail_fraction: float = 0.2,
                  max_freq_hz: float | None = None, driving_point: int = 0) -> LinearModes:
-    """ERA on the low-amplitude tail of the measured accelerations of every record."""
+    """ERA on the low-amplitude tail of the measured accelerations of every record, plus the modes
+    only earlier windows hold (:func:`eddi.mdof.modal.era_windows`)."""
     rate = 1.0 / float(records[0].t[1] - records[0].t[0])
-    segs = [tail_segments(r.a, r.window[0], r.window[1], tail_fraction) for r in records]
-    return era(segs, rate, max_freq_hz=max_freq_hz or 0.2 * rate, driving_point=driving_point)
+    forces = None
+    if all(r.force is not None and r.impact[1] > r.impact[0] for r in records):
+        forces = []
+        for r in records:
+            f = np.zeros_like(r.force)
+            f[r.impact[0]:r.impact[1]] = r.force[r.impact[0]:r.impact[1]]
+            forces.append(f)
+    return era_windows([(r.a, r.window[0], r.window[1]) for r in records], rate, tail_fraction=tail_fraction,
+                       max_freq_hz=max_freq_hz or 0.2 * rate, driving_point=driving_point, forces=forces)
 
 
 def choose_coordinates(records: Sequence[ChannelRecord], modes: LinearModes, *, max_shape_condition: float = 8.0,
@@ -405,6 +414,7 @@ def _input_gain(i: int, impacts: list[tuple], d_terms: list[MultiTerm], s_terms:
     return num / den if den > 0 else 0.0
 
 
+@one_blas_thread()
 def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], driving_point: str, *,
                   coordinates: str = "auto", coupling: bool | str = True, tail_fraction: float = 0.2,
                   max_freq_hz: float | None = None, prune: float = 3e-3,

@@ -15,6 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from eddi.mdof.blas import one_blas_thread
 from eddi.mdof.identify import (ChannelRecord, EquationFit, MdofIdentification, linear_modes,
                                 restore_quasi_static)
 from eddi.mdof.lumped import PREFILTER_RATIO, LumpedFit, driven_mass, element_terms, fit_lumped
@@ -30,6 +31,7 @@ SETTLE_CHOICES = (0.6, 1.0, 1.5)
 RESCALE_ROUNDS = 2
 
 
+@one_blas_thread()
 def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], driving_point: str, *,
                     prune: float = 3e-3, tail_fraction: float = 0.2, slow_band: bool = True) -> MdofIdentification:
     """Masses, springs and dashpots between the measured masses and the ground (no mass given).

@@ -23,6 +23,7 @@ from collections.abc import Sequence
 import numpy as np
 from scipy import optimize
 
+from eddi.mdof.blas import one_blas_thread
 from eddi.mdof.identify import ChannelRecord
 from eddi.mdof.model import MdofModel
 from eddi.mdof.validate import noise_floor, predict_channels
@@ -72,6 +73,7 @@ def _residual_function(records: Sequence[ChannelRecord], build, horizon: float =
     return residual, [y.size // 2 + y.size % 2 for _r, y, _n in prepared]
 
 
+@one_blas_thread()
 def refine_lumped(fit, channels: tuple[str, ...], driving_point: str, records: Sequence[ChannelRecord], *,
                   max_nfev: int = 40):
     """Polish a :class:`~eddi.mdof.lumped.LumpedFit`'s masses and element constants (module docstring).
@@ -129,6 +131,7 @@ HORIZONS = (0.2, 0.5, 1.0)
 FLOOR_MIN = 1e-3
 
 
+@one_blas_thread()
 def refine_mdof(model: MdofModel, records: Sequence[ChannelRecord], *, max_nfev: int = 60
                 ) -> tuple[MdofModel, float, float]:
     """Polish the coefficients on the records' simulated displacements.
@@ -187,6 +190,7 @@ def _ci95_scales(jac: np.ndarray, fun: np.ndarray, sizes: list[int]) -> np.ndarr
     return 1.96 * np.sqrt(np.maximum(np.diag(cov), 0.0))
 
 
+@one_blas_thread()
 def refine_identified(ident, records: Sequence[ChannelRecord]) -> tuple[MdofModel, float, float]:
     """:func:`refine_lumped` when ``ident`` (an :class:`~eddi.mdof.identify.MdofIdentification`)
     is the lumped-element candidate, else :func:`refine_mdof`; returns the model and the costs."""

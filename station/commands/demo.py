@@ -50,4 +50,9 @@ def handle(args: argparse.Namespace) -> int:
         live.close()
     obj = demo_object(res)
     emit(args.json, demo_text(obj), obj)
+    session = res.session
+    if session.fit.unstable or any(c.diverged for c in session.held_out):
+        from station.cli import flagged
+
+        return flagged("demo", "the identified model is unstable or its simulation diverges")
     return 0

@@ -96,6 +96,7 @@ def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
             "window_s": [float(t[val.window[0]]), float(t[val.window[1] - 1])],
             "diverged": val.diverged or any(h.diverged for h in res.held_out),
             "warnings": list(val.warnings),
+            "unstable": res.unstable,
         },
         "conditioning": {
             "method": cond.method,
@@ -171,8 +172,9 @@ def handler(args: argparse.Namespace) -> int:
         mass = _mass(args.mass, meas)
         res = run_identify(meas, mass, args.damping, args.stiffness, args.route, args.refine)
         obj = result_object(meas, res)
+        obj["unstable"] = res.unstable
         emit(args.json, _text(obj), obj)
-        return 0
+        return _exit_code(res.unstable)
     recs = read_all(specs)
     session = run_session(recs, args.mass, damping=args.damping, stiffness=args.stiffness, route=args.route,
                           fit_index=args.fit, refine=args.refine)
@@ -183,5 +185,15 @@ def handler(args: argparse.Namespace) -> int:
     text = _text(obj) + "".join(f"\n  held out {c['source']}: nrmse {c['nrmse']:.4g}" for c in obj["held_out"]["records"])
     if session.mean_nrmse is not None:
         text += f"\n  mean nrmse on the records not used for the fit: {session.mean_nrmse:.4g}"
+    obj["unstable"] = bool(session.fit.unstable or any(c.diverged for c in session.held_out))
     emit(args.json, text, obj)
-    return 0
+    return _exit_code(obj["unstable"])
+
+
+def _exit_code(unstable: bool) -> int:
+    """0, or :data:`station.cli.EXIT_FLAGGED` with one line when the model is not trustworthy."""
+    if not unstable:
+        return 0
+    from station.cli import flagged
+
+    return flagged("identify", "the identified model is unstable or its simulation diverges")

@@ -129,6 +129,7 @@ def session_object(session: Any) -> dict[str, Any]:
         "identified": result_object(meas, session.fit),
         "validation": {"nrmse": session.mean_nrmse, "nmte": session.mean_nmte,
                        "held_out": [c.as_dict() for c in session.held_out]},
+        "unstable": bool(session.fit.unstable or any(c.diverged for c in session.held_out)),
     }
 
 
@@ -198,4 +199,8 @@ def handle(args: argparse.Namespace) -> int:
     emit(args.json, "\n".join(lines), obj)
     if args.through_device and not obj["bit_exact"]:
         return 1
+    if session.fit.unstable or any(c.diverged for c in session.held_out):
+        from station.cli import flagged
+
+        return flagged("replay", "the identified model is unstable or its simulation diverges")
     return 0

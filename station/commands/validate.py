@@ -72,10 +72,17 @@ def _text(obj: dict[str, Any]) -> str:
 def handle(args: argparse.Namespace) -> int:
     """Run ``station validate``; return the exit code."""
     obj = validate_object(args.model, list(args.records))
+    diverged = sum(bool(r.get("diverged")) for r in obj["records"])
+    obj["diverged"] = diverged
     if obj["model_kind"] == "mdof":
         from station.mdof_commands import validate_mdof_text
 
         emit(args.json, validate_mdof_text(obj), obj)
-        return 0
-    emit(args.json, _text(obj), obj)
+    else:
+        emit(args.json, _text(obj), obj)
+    if diverged:
+        from station.cli import flagged
+
+        return flagged("validate", f"the model's simulation diverges on {diverged} of {len(obj['records'])} "
+                                   f"record(s)")
     return 0

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from eddi.conditioning import condition
-from eddi.fit_record import Pipeline, fused_impact_force
+from eddi.fit_record import Pipeline, fused_impact_force, validate_conditioned
 from eddi.judge import WHITE_SIGMAS, impulse_uncertainty, judge_fit_record
 from eddi.model import EquationOfMotion
 from tests.eddi.impact_cases import SYSTEMS, half_sine_pulse, impact_record
@@ -32,6 +32,14 @@ def test_a_refined_model_far_off_is_rejected_and_the_true_one_kept(record45):
     assert bad.nrmse_refined > bad.nrmse_eddi
     good = judge_fit_record(_eom(), _eom(1.03), record45)
     assert not good.refined_worse and good.excess_sigmas < -10 * WHITE_SIGMAS
+
+
+def test_validations_handed_in_give_the_same_judgement(record45):
+    # the pipeline hands over the two validations it already ran: the judge does not simulate
+    # them again, and says exactly what it says when it simulates them itself
+    for refined, eddi in ((_eom(1.03), _eom()), (_eom(1.00002), _eom())):
+        vals = (validate_conditioned(refined, record45)[0], validate_conditioned(eddi, record45)[0])
+        assert judge_fit_record(refined, eddi, record45, validations=vals) == judge_fit_record(refined, eddi, record45)
 
 
 def test_models_closer_than_the_noise_resolves_are_not_told_apart(record45):

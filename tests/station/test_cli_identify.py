@@ -203,3 +203,46 @@ def test_hdf5_reader_is_dispatched_by_suffix(tmp_path: Path, capsys: pytest.Capt
     p.write_bytes(b"not an hdf5 file")
     code, _, err = _run(["identify", f"{p}:0", "--mass", "1"], capsys)
     assert code == 2 and err.count("\n") == 1
+
+
+def _growing_record(path: Path) -> Path:
+    """A self-excited free response (damping ratio -1 %, 12 Hz): it grows by e^3 in 4 s."""
+    fs, zeta, w = 2000.0, -0.01, 2 * np.pi * 12.0
+    t = np.arange(0.0, 4.0, 1.0 / fs)
+    wd = w * np.sqrt(1 - zeta**2)
+    # exact acceleration of x = X e^{-zeta w t} sin(wd t)
+    s, c, e = np.sin(wd * t), np.cos(wd * t), 1e-3 * np.exp(-zeta * w * t)
+    acc = e * ((zeta * w) ** 2 * s - 2 * zeta * w * wd * c - wd**2 * s)
+    acc += np.random.default_rng(1).normal(0.0, 1e-3 * np.max(np.abs(acc)), acc.size)
+    return _write_fmt(path, "t,acc", np.c_[t, acc], "%.9g")
+
+
+def test_a_growing_model_is_flagged_with_exit_code_1(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # the record itself grows: EDDI must report the negative damping it holds, and the command
+    # must not pass the model on as a good one (exit 1, one line on stderr, the JSON says why)
+    rec = _growing_record(tmp_path / "grow.csv")
+    code, out, err = _run(["identify", str(rec), "--mass", "0.5", "--damping", "v", "--stiffness", "x",
+                           "--no-refine", "--json"], capsys)
+    assert code == 1
+    assert len(err.strip().splitlines()) == 1 and "unstable" in err and "Traceback" not in err
+    obj = json.loads(out)
+    assert obj["unstable"] is True and obj["validation"]["unstable"] is True
+    # b = 2 zeta w m = -0.754 N s/m, k = m w^2 = 2842 N/m
+    assert obj["damping"]["v"] == pytest.approx(2 * -0.01 * 2 * np.pi * 12.0 * 0.5, rel=0.02)
+    assert obj["stiffness"]["x"] == pytest.approx(0.5 * (2 * np.pi * 12.0) ** 2, rel=0.01)
+    assert any("negative damping" in w for w in obj["warnings"])
+    # its model, validated on a decaying record, is flagged too
+    model = tmp_path / "grow.json"
+    from eddi.model import EquationOfMotion
+
+    model.write_text(EquationOfMotion(mass=0.815, damping={"v": -1.0}, stiffness={"x": 390.0, "x^3": 1.3e7}).to_json())
+    code, out, err = _run(["validate", str(model), str(EXAMPLE), "--json"], capsys)
+    assert code == 1 and "diverges on 1 of 1" in err
+    assert json.loads(out)["diverged"] == 1
+
+
+def test_a_sound_model_exits_0_and_says_so(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = _run(["identify", str(EXAMPLE), "--mass", "0.815", "--damping", "v",
+                           "--stiffness", "x, x^3", "--no-refine", "--json"], capsys)
+    assert code == 0 and err == ""
+    assert json.loads(out)["unstable"] is False

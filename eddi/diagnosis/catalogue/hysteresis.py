@@ -41,17 +41,14 @@ class Hysteresis(Mechanism):
         return bouc_wen_z(sig.x, shape["yield_displacement_m"], min(shape["exponent"], 20.0))[:, None]
 
     def masked_columns(self, sig, shape, stiffness, mask):
-        # z at a sample depends on the path up to it only: computed up to the last training
-        # sample; the grid's shapes are kept (_PATHS) for the other folds, which try the same
-        # ones when their largest training amplitude is the same
+        # z at a sample depends on the path up to it only, and the operator is exact along each
+        # monotone stretch: only the training samples and the reversals before them are computed
         idx = np.flatnonzero(mask)
         if idx.size == 0:
             return np.zeros((0, 1))
-        dy, n = shape["yield_displacement_m"], min(shape["exponent"], 20.0)
-        if n not in EXPONENTS:  # a shape of the Nelder-Mead polish: not tried again, not kept
-            return bouc_wen_z(sig.x[:int(idx[-1]) + 1], dy, n)[idx][:, None]
-        z = _path(sig.x, int(idx[-1]) + 1, dy, n)
-        return z[idx][:, None]
+        stop = int(idx[-1]) + 1
+        return bouc_wen_z(sig.x[:stop], shape["yield_displacement_m"], min(shape["exponent"], 20.0),
+                          at=idx)[:, None]
 
     def to_fit(self, coefs, shape, mass, stiffness):
         fy = float(coefs[0])
@@ -69,23 +66,3 @@ class Hysteresis(Mechanism):
                 f"{1e3 * p['yield_displacement_m']:.3g} mm)")
 
 
-
-#: Bouc-Wen paths computed lately: ``(id(x), d_y, n) -> (x, z over x[:stop])`` (``x`` is kept, so
-#: its ``id`` is not reused while the entry lives); at most :data:`PATHS_BYTES` of ``z``.
-_PATHS: dict[tuple[int, float, float], tuple[np.ndarray, np.ndarray]] = {}
-PATHS_BYTES = 48 << 20
-
-
-def _path(x: np.ndarray, stop: int, dy: float, n: float) -> np.ndarray:
-    """``bouc_wen_z(x[:stop], dy, n)``, from :data:`_PATHS` when a path at least as long is there."""
-    key = (id(x), float(dy), float(n))
-    hit = _PATHS.get(key)
-    if hit is not None and hit[0] is x and hit[1].size >= stop:
-        return hit[1][:stop]
-    z = bouc_wen_z(x[:stop], dy, n)
-    _PATHS[key] = (x, z)
-    total = sum(v[1].nbytes for v in _PATHS.values())
-    while total > PATHS_BYTES and len(_PATHS) > 1:  # the oldest first
-        old = next(iter(_PATHS))
-        total -= _PATHS.pop(old)[1].nbytes
-    return z

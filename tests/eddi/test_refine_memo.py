@@ -1,0 +1,52 @@
+"""The output-error problem serves a simulation asked for again at the same point from memory.
+
+``refine_output_error`` asks for the residual at the optimum up to three more times (the
+fit's last evaluation, the nrmse, the covariance); each is the same deterministic RK4 pass.
+The memory must give the same bits and never a stale answer: another point, another window
+or other active terms simulate again.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+import eddi.sensitivity as sensitivity
+from eddi.conditioning import condition
+from eddi.refine import _OutputError
+from tests.eddi.impact_cases import SYSTEMS, impact_record
+from eddi.model import EquationOfMotion
+
+
+def _problem() -> _OutputError:
+    spec = SYSTEMS["paper_do"]
+    r = impact_record("paper_do", snr_db=45.0, seed=2)
+    cond = condition(r.t, acc=r.acc, force=r.force)
+    w0, w1 = cond.window
+    eom = EquationOfMotion.create(mass=spec["mass"], damping=spec["damping"], stiffness=spec["stiffness"])
+    return _OutputError(eom, cond.t[w0:w1], cond.x[w0:w1], cond.v[w0:w1], cond.a[w0:w1], "a")
+
+
+def test_a_repeated_point_is_served_from_memory_bit_for_bit(monkeypatch) -> None:
+    prob = _problem()
+    runs = []
+    real = sensitivity.free_response_sensitivities
+
+    def counted(*args, **kwargs):
+        runs.append(args[2])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(sensitivity, "free_response_sensitivities", counted)
+    n = prob.n
+    p = prob.p0.copy()
+    r1 = prob.residual(p, n)
+    r2 = prob.residual(p.copy(), n)
+    assert np.array_equal(r1, r2) and len(runs) == 1 and prob.count == 2
+    r2[:] = 0.0  # the caller's copy: the memory is not changed through it
+    assert np.array_equal(prob.residual(p, n), r1) and len(runs) == 1
+    # another point, another window, other active terms: simulated again, and different
+    q = p.copy()
+    q[0] *= 1.01
+    assert not np.array_equal(prob.residual(q, n), r1) and len(runs) == 2
+    assert prob.residual(p, n // 2).size == n // 2 and len(runs) == 3
+    prob.active = prob.active[1:]
+    assert not np.array_equal(prob.residual(p[1:], n), r1) and len(runs) == 4
