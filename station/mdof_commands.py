@@ -16,7 +16,9 @@ modes than channels and no coupling wins (a mode the records cannot resolve is n
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+import sys
+import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -135,7 +137,29 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     return obj
 
 
-def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, refine: bool = False
+#: CPU seconds past which a multi-channel diagnosis says on stderr how long it expects to take.
+BUDGET_CPU_S = 120.0
+
+
+def budget_line(done: int, total: int, spent_s: float, refine: bool, budget_s: float = BUDGET_CPU_S) -> str | None:
+    """The stderr line once the projected CPU time exceeds ``budget_s`` (None within it).
+
+    The projection: the mean CPU time of the ``done`` held-out folds so far times ``total``
+    folds plus one for the final identification on every capture (a fold identifies twice
+    on one capture fewer, so the final one costs less than a fold: an upper estimate).
+    """
+    if done <= 0 or total <= 0:
+        return None
+    projected = spent_s / done * (total + 1)
+    if projected <= budget_s:
+        return None
+    hint = ("; --no-refine skips the output-error polish, most of the time" if refine else "")
+    return (f"station diagnose: {done} of {total} held-out folds took {spent_s:.0f} s CPU; about "
+            f"{projected:.0f} s CPU in all{hint}")
+
+
+def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, refine: bool = False,
+                    say: Callable[[str], None] | None = None, clock: Callable[[], float] = time.process_time
                     ) -> tuple[dict[str, list], dict[str, dict[str, list]], dict[str, list], float]:
     """Leave-one-out held-out errors of the coupled model and of the baseline (no nonlinear coupling).
 
@@ -144,8 +168,12 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, ref
     chosen model (baseline and coupled alike, so the comparison stays fair) is polished on its
     training records (:func:`eddi.mdof.refine.refine_identified`) before it predicts the
     held-out one: the verdict is then judged on the models ``--refine`` delivers (a polish
-    that diverges keeps the unpolished fold).
+    that diverges keeps the unpolished fold). Once the projected CPU time (``clock``) exceeds
+    :data:`BUDGET_CPU_S`, each finished fold is said through ``say`` (default: a line on
+    stderr) rather than running on silently (:func:`budget_line`).
     """
+    say = say if say is not None else (lambda line: print(line, file=sys.stderr, flush=True))
+    start = clock()
     folds: dict[str, list] = {"baseline": [], "coupled": []}
     per_channel = {k: {c: [] for c in names} for k in folds}
     per_mode: dict[str, list] = {k: [] for k in folds}
@@ -181,6 +209,9 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, ref
             per_mode[kind].append([float(x) for x in v.mode_nrmse])
             for c, e in v.channel_nrmse.items():
                 per_channel[kind][c].append(e)
+        line = budget_line(k + 1, len(records), clock() - start, refine)
+        if line:
+            say(line)
     return folds, per_channel, per_mode, span
 
 

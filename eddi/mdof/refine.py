@@ -46,13 +46,19 @@ def _with(model: MdofModel, scales: np.ndarray) -> MdofModel:
     return model.model_copy(update={"damping": tuple(damping), "stiffness": tuple(stiffness)})
 
 
-def _residual_function(records: Sequence[ChannelRecord], build, horizon: float = 1.0):
+def _residual_function(records: Sequence[ChannelRecord], build, horizon: float = 1.0, memo: dict | None = None):
     """``p -> stacked displacement errors`` (every second sample) of ``build(p)``, each channel
     of each record divided by its norm times its noise floor (:func:`eddi.mdof.validate.noise_floor`,
     at least :data:`FLOOR_MIN`): the errors in units of what the noise allows. Without it a
     small blow whose lowest peak set a 2 Hz drift cut-off (floor 0.05, ten times the others')
     dominated the fit: on an energy sink of our own the polish stopped at 0.015 / 0.053
     held out, against 0.007 / 0.009 without that record (the floor 0.007 / 0.008).
+
+    ``memo`` (a dict shared by the residual functions of one polish): the simulations per
+    parameter vector, so that a horizon's least squares starts (value and finite-difference
+    Jacobian) from the last one's simulations instead of running them again. Every horizon
+    simulates the whole record (the zero-phase filter needs it) and truncates the error, so
+    the memo gives the same numbers.
     """
     prepared = []
     for r in records:
@@ -61,11 +67,22 @@ def _residual_function(records: Sequence[ChannelRecord], build, horizon: float =
         keep = max(8, int(horizon * y.shape[1]))
         prepared.append((r, y[:, :keep], np.where(norm > 0, norm, 1.0) * np.sqrt(keep / y.shape[1])))
 
-    def residual(p: np.ndarray) -> np.ndarray:
+    def simulate(p: np.ndarray) -> list[tuple[np.ndarray, bool]]:
+        key = np.asarray(p, float).tobytes()
+        if memo is not None and key in memo:
+            memo[key] = memo.pop(key)  # most recently used last
+            return memo[key]
         m = build(p)
+        sims = [predict_channels(m, r)[::3] for r, _y, _n in prepared]
+        if memo is not None:
+            memo[key] = sims
+            while len(memo) > MEMO_SIZE:
+                memo.pop(next(iter(memo)))
+        return sims
+
+    def residual(p: np.ndarray) -> np.ndarray:
         out = []
-        for r, y, norm in prepared:
-            y_sim, _q, _how, div = predict_channels(m, r)
+        for (y_sim, div), (_r, y, norm) in zip(simulate(p), prepared):
             e = (y_sim[:, :y.shape[1]] - y) / norm if not div else np.full_like(y, 10.0)
             out.append(e.ravel()[::2])
         return np.concatenate(out)
@@ -102,10 +119,11 @@ def refine_lumped(fit, channels: tuple[str, ...], driving_point: str, records: S
 
     n_par = n_m + len(elements)
     p, nfev = np.zeros(n_par), max(4, max_nfev // len(HORIZONS))
+    memo: dict = {}
     for horizon in HORIZONS:  # continuation in the simulated span (docstring)
-        residual, sizes = _residual_function(records, build, horizon)
+        residual, sizes = _residual_function(records, build, horizon, memo)
         if horizon == HORIZONS[0]:
-            r0 = _residual_function(records, build)[0](p)
+            r0 = _residual_function(records, build, memo=memo)[0](p)
         sol = optimize.least_squares(residual, p, x_scale=0.01, diff_step=1e-5, max_nfev=nfev,
                                      bounds=(-0.9 * np.ones(n_par), 2.0 * np.ones(n_par)))
         p = sol.x
@@ -127,6 +145,8 @@ def refine_lumped(fit, channels: tuple[str, ...], driving_point: str, records: S
 #: (measured on an energy sink of our own: from EDDI's start the whole-window fit stopped at
 #: 0.07 / 0.34 held out); over the first fifth the responses are still close.
 HORIZONS = (0.2, 0.5, 1.0)
+#: Parameter vectors whose simulations a polish keeps (:func:`_residual_function`).
+MEMO_SIZE = 64
 #: Smallest noise floor a channel is weighted by (relative nrmse).
 FLOOR_MIN = 1e-3
 
@@ -143,7 +163,7 @@ def refine_mdof(model: MdofModel, records: Sequence[ChannelRecord], *, max_nfev:
         Mean squared error over the records' channels, in units of each channel's noise floor.
     """
     n_par = sum(len(d) + len(s) for d, s in zip(model.damping, model.stiffness))
-    residual, sizes = _residual_function(records, lambda p: _with(model, p))
+    residual, sizes = _residual_function(records, lambda p: _with(model, p), memo={})
     p0 = np.zeros(n_par)
     r0 = residual(p0)
     sol = optimize.least_squares(residual, p0, x_scale=0.01, diff_step=1e-5, max_nfev=max_nfev,

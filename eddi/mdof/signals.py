@@ -17,6 +17,8 @@ the free window runs from the end of the impact to where the largest channel's e
 
 from __future__ import annotations
 
+import functools
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -141,10 +143,18 @@ def kinematics(t: np.ndarray, y: np.ndarray, quantity: str, *, force: np.ndarray
 
 def highpass(y: np.ndarray, rate_hz: float, highpass_hz: float, times: int = 1) -> np.ndarray:
     """The zero-phase drift high-pass of :func:`kinematics`, along the last axis, ``times`` times."""
-    sos = signal.butter(4, highpass_hz, btype="highpass", fs=rate_hz, output="sos")
+    sos = _highpass_sos(float(highpass_hz), float(rate_hz)).copy()
     for _ in range(times):
         y = signal.sosfiltfilt(sos, y, axis=-1)
     return y
+
+
+@functools.lru_cache(maxsize=64)
+def _highpass_sos(highpass_hz: float, rate_hz: float) -> np.ndarray:
+    """The 4th-order Butterworth high-pass sections (cached: the design cost as much as the filtering,
+    and a polish filters every simulation with the same few designs)."""
+    sos = signal.butter(4, highpass_hz, btype="highpass", fs=rate_hz, output="sos")
+    return sos
 
 
 def quasi_static(force: np.ndarray, rate_hz: float, receptance, highpass_hz: float = HIGHPASS_HZ

@@ -54,3 +54,16 @@ def test_energy_sink_is_named_a_nonlinear_coupling_in_physical_coordinates(tmp_p
         assert any(s["ratio"] > 10.0 for s in obj["symptoms"])
     # the attachment is purely cubic: (x1 - x2)^3 in the sink's equation, no linear spring to the primary
     assert "x1^3" in obj["coupling_coefficients"][1] and "x1" not in obj["coupling_coefficients"][1]
+
+
+def test_a_diagnosis_over_its_cpu_budget_says_so_with_its_projection():
+    from station.mdof_commands import BUDGET_CPU_S, budget_line
+
+    # 3 folds plus the final identification: 40 s per fold projects 160 s, over the budget
+    line = budget_line(1, 3, 40.0, refine=True, budget_s=120.0)
+    assert line is not None and "1 of 3 held-out folds took 40 s CPU" in line and "about 160 s CPU" in line
+    assert "--no-refine" in line
+    assert "--no-refine" not in budget_line(2, 3, 80.0, refine=False, budget_s=120.0)
+    assert budget_line(1, 3, 29.0, refine=True, budget_s=120.0) is None  # 116 s: within
+    assert budget_line(0, 3, 500.0, refine=True) is None
+    assert BUDGET_CPU_S > 0
