@@ -153,7 +153,7 @@ def budget_line(done: int, total: int, spent_s: float, refine: bool, budget_s: f
     projected = spent_s / done * (total + 1)
     if projected <= budget_s:
         return None
-    hint = ("; --no-refine skips the output-error polish, most of the time" if refine else "")
+    hint = ("; most of it is the output-error polish of every fold, which --no-refine skips" if refine else "")
     return (f"station diagnose: {done} of {total} held-out folds took {spent_s:.0f} s CPU; about "
             f"{projected:.0f} s CPU in all{hint}")
 
