@@ -480,7 +480,7 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
     eddi = float(np.mean(eddi_fold)) if eddi_fold is not None and len(eddi_fold) else base
     within = within_floor(base_fold, floor, none_factor) and not departs
     tried = [c for c in candidates if not c.skipped and c.model is not None]
-    helpful = [c for c in tried if c.wins_every_part and c.gain > 0]
+    helpful = [c for c in tried if c.wins_every_part and c.gain > 0 and not c.contradicted]
     partial = helpful[0] if helpful else None
     if within and strong_margin is None:
         return Decision("none", None, None, True, "within the noise floor")
@@ -500,6 +500,8 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
             fails.append(f"beats its {c.reference} by {100 * c.gain:.0f} % (needs {100 * ref_need:.0f} %)")
         if not c.wins_every_part:
             fails.append("does not win on every held-out part")
+        if c.contradicted:  # the records rule it out physically: not named, nor a rival
+            fails.append(c.contradicted)
         return fails
 
     # look-alikes that would pass the held-out tests themselves: a name must be told apart from them

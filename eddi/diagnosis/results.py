@@ -179,6 +179,10 @@ class Candidate:
         Against each look-alike tried (by name): the within-cycle comparison of the held-out
         residual forces (``z``, ``parts_won``, ``parts``, ``cycles``;
         :func:`eddi.diagnosis.lookalike.compare`; ``z`` > 0: this one fits the cycle better).
+    contradicted : str
+        A physical check the records fail for this mechanism, in words (empty when none):
+        such a candidate is never named (``sensor_highpass``: damping that grows with the
+        amplitude, :func:`eddi.diagnosis.chain.damping_slope`).
     """
 
     name: str
@@ -198,6 +202,7 @@ class Candidate:
     nmte: float = float("nan")
     reference_nmte: float = float("nan")
     within_cycle: dict[str, dict[str, float]] = field(default_factory=dict)
+    contradicted: str = ""
 
 
 @dataclass(frozen=True)
@@ -351,5 +356,6 @@ class Diagnosis:
                 "reference_nrmse": c.reference_nrmse, "reference": c.reference,
                 "spread": c.spread, "skipped": c.skipped, "form": c.form, "nmte": c.nmte,
                 "reference_nmte": c.reference_nmte, "within_cycle": c.within_cycle,
+                "contradicted": c.contradicted,
             } for c in self.candidates],
         }
