@@ -11,7 +11,7 @@ Modules, in the order the loop reads (``docs/diagnosis.md``):
 * :mod:`~eddi.diagnosis.extend`: fitting the baseline plus a mechanism;
 * :mod:`~eddi.diagnosis.measure`: the noise floor;
 * :mod:`~eddi.diagnosis.loop`: :func:`diagnose`, the whole loop (one BLAS thread while it
-  runs: :mod:`~eddi.diagnosis.threads`).
+  runs: :mod:`eddi.threads`).
 
 Everything here is pure numerics: arrays in, a frozen :class:`Diagnosis` out.
 """

@@ -41,7 +41,7 @@ from eddi.diagnosis.settings import (
     STRONG_MARGIN,
 )
 from eddi.diagnosis.symptoms import baseline_symptoms, notable
-from eddi.diagnosis.threads import one_blas_thread
+from eddi.threads import one_blas_thread
 from eddi.errors import ModelError, SignalError, TermError
 from eddi.model import EquationOfMotion
 from eddi.multimode import MODAL_DAMPING

@@ -54,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-from eddi.mdof.blas import one_blas_thread
+from eddi.threads import one_blas_thread
 from eddi.energy import cumulative_energy, rate_interpolant, zero_crossings
 from eddi.errors import IdentificationError
 from eddi.mdof.early import era_windows

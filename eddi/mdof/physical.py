@@ -15,7 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from eddi.mdof.blas import one_blas_thread
+from eddi.threads import one_blas_thread
 from eddi.mdof.identify import (ChannelRecord, EquationFit, MdofIdentification, linear_modes,
                                 restore_quasi_static)
 from eddi.mdof.lumped import PREFILTER_RATIO, LumpedFit, driven_mass, element_terms, fit_lumped

@@ -23,7 +23,7 @@ from collections.abc import Sequence
 import numpy as np
 from scipy import optimize
 
-from eddi.mdof.blas import one_blas_thread
+from eddi.threads import one_blas_thread
 from eddi.mdof.identify import ChannelRecord
 from eddi.mdof.model import MdofModel
 from eddi.mdof.validate import noise_floor, predict_channels
