@@ -11,6 +11,7 @@ Layout of the output folder::
 
 Columns: ``file, capture`` (empty for a CSV record), ``task, status`` (``ok`` / ``error``),
 ``error`` (one line), ``mass_kg`` [kg], ``route``, ``nrmse``, ``nmte``, ``diverged``,
+``unstable`` (the model is flagged as ``station identify`` flags it: exit code 1 there),
 ``driven_by``, ``cause`` and ``gain`` (diagnose), ``warnings`` (``; ``-separated), then one
 column per coefficient, ``b[TERM]`` (damping) and ``k[TERM]`` (stiffness) in SI units
 (N s/m for ``b[v]``, N/m for ``k[x]``, N/m^3 for ``k[x^3]``...), each followed by
@@ -36,7 +37,7 @@ from typing import IO, Any, Iterator
 from station.errors import ConfigError, InputFileError
 
 LEAD = ("file", "capture", "task", "status", "error", "mass_kg", "route", "nrmse", "nmte", "diverged",
-        "driven_by", "cause", "gain", "warnings")
+        "unstable", "driven_by", "cause", "gain", "warnings")
 TAIL = ("model_json", "seconds", "worker")
 _STR = {"file", "task", "status", "error", "route", "driven_by", "cause", "warnings", "model_json", "worker"}
 _BATCH = 20000
@@ -223,7 +224,7 @@ class Journal:
 
         offsets, cols, units = self._index()
         types = {c: (pa.string() if c in _STR else pa.int64() if c == "capture" else
-                     pa.bool_() if c == "diverged" else pa.float64()) for c in cols}
+                     pa.bool_() if c in ("diverged", "unstable") else pa.float64()) for c in cols}
         units.update({"mass_kg": "kg", "seconds": "s"})
         schema = pa.schema([pa.field(c, types[c], metadata={"unit": units[c]} if c in units else None)
                             for c in cols])

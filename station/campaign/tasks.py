@@ -8,7 +8,7 @@ so one bad file never stops a campaign.
 
 A row is a plain dict (cheap to pickle back to the client)::
 
-    file, capture, task, status, error, mass_kg, route, nrmse, nmte, diverged, driven_by,
+    file, capture, task, status, error, mass_kg, route, nrmse, nmte, diverged, unstable, driven_by,
     cause, gain, warnings, seconds, worker,
     coefficients = {"b[v]": ..., "k[x^3]": ...}      # [SI] of each term
     ci95 = {"b[v]": half-width, ...}                 # when the pipeline gives them
@@ -163,7 +163,8 @@ def _identify(meas: Any, opts: TaskOptions) -> dict[str, Any]:
     if val.diverged or not math.isfinite(val.nrmse):
         warnings.append("the model's simulation diverges from the record")
     return {"mass_kg": mass, "route": res.model.route, "nrmse": float(val.nrmse), "nmte": val.nmte,
-            "diverged": bool(val.diverged), "driven_by": "force" if res.driven_by_force else "initial state",
+            "diverged": bool(val.diverged), "unstable": bool(res.unstable),
+            "driven_by": "force" if res.driven_by_force else "initial state",
             "coefficients": _coefficients(eom), "ci95": _ci95(_coefficients(eom), res, res.model),
             "units": _units(getattr(res, "units", None)),
             "warnings": warnings,
@@ -186,6 +187,7 @@ def _validate(meas: Any, opts: TaskOptions) -> dict[str, Any]:
     check = station_pipeline.validate_measurement(_model_from_json(opts.model_json), meas)
     warnings = ["the model's simulation diverges from the record"] if check.diverged else []
     return {"nrmse": float(check.nrmse), "nmte": check.nmte, "diverged": bool(check.diverged),
+            "unstable": bool(check.diverged),
             "driven_by": check.driven_by, "warnings": warnings}
 
 

@@ -119,6 +119,7 @@ def test_campaign_table_row_by_row_and_resume(captures, client, tmp_path):
             assert float(crow[name]) == row[name]
             assert 0 < row[f"{name}_ci95"] < abs(true) and float(crow[f"{name}_ci95"]) == row[f"{name}_ci95"]
         assert 0 <= row["nrmse"] < 0.1 and row["diverged"] is False and row["driven_by"] == "force"
+        assert row["unstable"] is False and crow["unstable"] == "False"
         if row["capture"] == 2:  # the worker ran exactly the pipeline `station identify` runs
             from station.commands.identify import run_identify
             from station.readers import read_measurement
