@@ -7,6 +7,8 @@ One module owns these so that conditioning (:mod:`eddi.conditioning`), the modal
   function of that name computes, the same arithmetic, without importing ``scipy.integrate``
   (~0.3 s of CPU at start-up: it pulls in ``scipy.special``, ``scipy.optimize`` and
   ``scipy.sparse.linalg``));
+* :func:`trapezoid`: the trapezoid rule's definite integral (``numpy.trapezoid``, a name
+  numpy 1.x, which the project supports, does not have);
 * :func:`integrate`: cumulative integral, 4th-order accurate in the interior
   (``dt/24 (-y[n-1] + 13 y[n] + 13 y[n+1] - y[n+2])``; the weights sum to one, so the integral
   of a pulse is kept exactly). The trapezoid rule shrinks a sinusoid's integral by
@@ -59,6 +61,21 @@ def cumulative_trapezoid(y: np.ndarray, t: np.ndarray) -> np.ndarray:
     if y.shape != t.shape or y.ndim != 1 or y.size == 0:
         raise ValueError(f"y and t must be 1-D of one non-zero length, got {y.shape} and {t.shape}")
     return np.concatenate(([0.0], np.cumsum(np.diff(t) * (y[1:] + y[:-1]) / 2.0)))
+
+
+def trapezoid(y: np.ndarray, x: np.ndarray | None = None, dx: float = 1.0) -> float:
+    """Trapezoid integral of ``y`` (over the points ``x``, or uniform spacing ``dx``).
+
+    ``numpy.trapezoid``'s arithmetic on every numpy the project supports (the name is
+    numpy >= 2.0 only; numpy 1.x has ``numpy.trapz``).
+    """
+    y = np.asarray(y, dtype=float)
+    if y.size < 2:
+        return 0.0
+    if x is None:
+        return float(dx * np.sum((y[1:] + y[:-1]) / 2.0))
+    x = np.asarray(x, dtype=float)
+    return float(np.sum(np.diff(x) * (y[1:] + y[:-1]) / 2.0))
 
 
 def integrate(y: np.ndarray, dt: float, smooth_from: int = 0) -> np.ndarray:

@@ -35,6 +35,7 @@ from typing import Sequence
 
 import numpy as np
 
+from eddi.calculus import cumulative_trapezoid, trapezoid
 from eddi.diagnosis.extend import Setup
 from eddi.diagnosis.name import Fitter, spread_of
 from eddi.diagnosis.records import Part, Record
@@ -162,12 +163,10 @@ def through_highpass(x: np.ndarray, t: np.ndarray, corner_hz: float, lag0: float
     """
     if corner_hz <= 0.0 or x.size == 0:
         return x
-    from scipy.integrate import cumulative_trapezoid
-
     wc = 2 * math.pi * corner_hz
     tau = t - t[0]
     # w_c q(t) = exp(-w_c tau) (lag0 + w_c integral_0^tau exp(w_c s) x(s) ds)
-    inner = cumulative_trapezoid(np.exp(wc * (tau - tau[-1])) * x, tau, initial=0.0)
+    inner = cumulative_trapezoid(np.exp(wc * (tau - tau[-1])) * x, tau)
     lag = np.exp(-wc * tau) * lag0 + wc * np.exp(-wc * (tau - tau[-1])) * inner
     return x - lag
 
@@ -302,11 +301,11 @@ def _impulse_mass(r: Record, mass: float, f1: float = 0.0) -> tuple[float, float
     pad = max(1, int(2e-4 * r.rate_hz))
     a, b = max(0, a - pad), min(r.t.size - 1, b + pad)
     dt = 1.0 / r.rate_hz
-    j = float(np.trapezoid(r.force[a:b + 1]) * dt)  # over the same samples as v[b] - v[a]
+    j = trapezoid(r.force[a:b + 1], dx=dt)  # over the same samples as v[b] - v[a]
     dv = float(r.v[b] - r.v[a])
     w1 = 2 * math.pi * f1 if f1 > 0 else 0.0
     # the displacement from its value before the blow (the spring pushes on the deflection)
-    spring = w1 ** 2 * float(np.trapezoid(r.x[a:b + 1] - r.x[a]) * dt)
+    spring = w1 ** 2 * trapezoid(r.x[a:b + 1] - r.x[a], dx=dt)
     mom = dv + spring
     return (j, mass * mom) if abs(mom) > 0 else None
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from eddi.calculus import trapezoid
 from eddi.mdof.identify import ChannelRecord
 from eddi.mdof.model import MdofModel
 from eddi.mdof.signals import highpass
@@ -133,5 +134,5 @@ def noise_floor(record: ChannelRecord) -> np.ndarray:
     fc = record.highpass_hz
     f = np.geomspace(0.05 * fc, rate / 2, 4000)
     gain = (2 * np.pi * f) ** -4 * (1 + (fc / f) ** 8) ** -4
-    s_x = s_a * np.sqrt(float(np.trapezoid(gain, f)) / (rate / 2))
+    s_x = s_a * np.sqrt(trapezoid(gain, f) / (rate / 2))
     return s_x / np.maximum(rms_x, 1e-300)

@@ -187,3 +187,18 @@ def test_integrate_stencil_and_trapezoid_split(n: int) -> None:
             inc[j] = dt / 24.0 * (-y[j - 1] + 13.0 * y[j] + 13.0 * y[j + 1] - y[j + 2])
         expect = np.concatenate(([0.0], np.cumsum(inc)))
         np.testing.assert_allclose(integrate(y, dt, smooth_from), expect, rtol=0, atol=1e-13 * n * dt)
+
+
+def test_trapezoid_is_the_trapezoid_rule_on_uniform_and_uneven_points() -> None:
+    from eddi.calculus import trapezoid
+
+    rng = np.random.default_rng(3)
+    y = rng.normal(size=501)
+    x = np.sort(rng.uniform(0.0, 2.0, 501))
+    ref = 0.5 * np.sum(np.diff(x) * (y[1:] + y[:-1]))
+    assert trapezoid(y, x) == pytest.approx(ref, rel=1e-14, abs=1e-14)
+    assert trapezoid(y, dx=0.01) == pytest.approx(0.01 * (np.sum(y) - 0.5 * (y[0] + y[-1])), rel=1e-12, abs=1e-14)
+    # exact for a straight line: integral of 3 t + 1 over [0, 2] is 8
+    t = np.linspace(0.0, 2.0, 7)
+    assert trapezoid(3 * t + 1, t) == pytest.approx(8.0, rel=1e-15)
+    assert trapezoid(np.array([5.0])) == 0.0
