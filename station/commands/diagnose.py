@@ -227,8 +227,47 @@ def handle(args: argparse.Namespace) -> int:
 
         files = write_report(diag, records, args.report)
         obj["report"] = [str(f) for f in files]
+    warnings = model_flags(diag, pipe_obj)
+    obj["unstable"] = bool(warnings)
+    obj["warnings"] = list(warnings)
     emit(args.json, render_text(diag, obj), obj)
+    if warnings:
+        from station.cli import flagged
+
+        return flagged("diagnose", "the diagnosed model is unstable or its simulation diverges")
     return 0
+
+
+def model_flags(diag: Diagnosis, pipe_obj: dict[str, Any] | None) -> tuple[str, ...]:
+    """Why the model this diagnosis stands behind (the extended one when a mechanism is named,
+    else the baseline) cannot be trusted as a simulation: negative stiffness or damping along
+    the held-out records (:func:`eddi.stability.model_warnings`), a simulation that diverged on
+    a held-out part, or a pipeline baseline flagged as ``station identify`` flags it. Empty
+    when the model is sound."""
+    import numpy as np
+
+    from eddi.model import EquationOfMotion
+    from eddi.stability import model_warnings
+
+    named = diag.cause not in ("none", "unexplained")
+    score = diag.extended if named else diag.baseline
+    out: list[str] = []
+    if score.nrmse == np.inf or any(v == np.inf for v in score.fold_nrmse):
+        out.append(f"the {'extended' if named else 'baseline'} model's simulation diverged on a held-out part")
+    model = score.model
+    if isinstance(model, EquationOfMotion):
+        seen: set[str] = set()
+        for h in diag.held_out:
+            if h.v_measured is None:
+                continue
+            for w in model_warnings(model, h.x_measured, h.v_measured):
+                if w not in seen:
+                    seen.add(w)
+                    out.append(f"{'extended' if named else 'baseline'} model, part {h.part.label}: {w}")
+    if not named and pipe_obj is not None and pipe_obj.get("unstable"):
+        out.append("the pipeline baseline (as station identify) is flagged unstable: "
+                   + "; ".join(pipe_obj.get("identified", {}).get("warnings", []) or ["see its warnings"]))
+    return tuple(out)
 
 
 def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
@@ -262,6 +301,7 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
         lines.append("Symptoms (held-out parts, median; measurement chain):")
         lines += [f"  - {s.kind}: {s.text}" for s in diag.symptoms]
     lines += [f"Note: {n}." for n in diag.notes]
+    lines += [f"WARNING: {w}" for w in obj.get("warnings", [])]
     if obj.get("resampled"):
         lines.append(f"Note: {obj['resampled']}.")
     lines += ["", f"Baseline: {diag.baseline.model.equation_text()}"]
