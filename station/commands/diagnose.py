@@ -239,32 +239,13 @@ def handle(args: argparse.Namespace) -> int:
 
 
 def model_flags(diag: Diagnosis, pipe_obj: dict[str, Any] | None) -> tuple[str, ...]:
-    """Why the model this diagnosis stands behind (the extended one when a mechanism is named,
-    else the baseline) cannot be trusted as a simulation: negative stiffness or damping along
-    the held-out records (:func:`eddi.stability.model_warnings`), a simulation that diverged on
-    a held-out part, or a pipeline baseline flagged as ``station identify`` flags it. Empty
-    when the model is sound."""
-    import numpy as np
+    """Why the model this diagnosis stands behind cannot be trusted as a simulation
+    (:func:`eddi.diagnosis.soundness.model_flags`), plus a pipeline baseline flagged as
+    ``station identify`` flags it when no mechanism is named. Empty when the model is sound."""
+    from eddi.diagnosis.soundness import model_flags as engine_flags
 
-    from eddi.model import EquationOfMotion
-    from eddi.stability import model_warnings
-
-    named = diag.cause not in ("none", "unexplained")
-    score = diag.extended if named else diag.baseline
-    out: list[str] = []
-    if score.nrmse == np.inf or any(v == np.inf for v in score.fold_nrmse):
-        out.append(f"the {'extended' if named else 'baseline'} model's simulation diverged on a held-out part")
-    model = score.model
-    if isinstance(model, EquationOfMotion):
-        seen: set[str] = set()
-        for h in diag.held_out:
-            if h.v_measured is None:
-                continue
-            for w in model_warnings(model, h.x_measured, h.v_measured):
-                if w not in seen:
-                    seen.add(w)
-                    out.append(f"{'extended' if named else 'baseline'} model, part {h.part.label}: {w}")
-    if not named and pipe_obj is not None and pipe_obj.get("unstable"):
+    out = list(engine_flags(diag))
+    if diag.cause in ("none", "unexplained") and pipe_obj is not None and pipe_obj.get("unstable"):
         out.append("the pipeline baseline (as station identify) is flagged unstable: "
                    + "; ".join(pipe_obj.get("identified", {}).get("warnings", []) or ["see its warnings"]))
     return tuple(out)

@@ -140,3 +140,16 @@ def test_a_growing_diagnosed_model_exits_1_with_its_reason(tmp_path: Path,
     assert any("negative damping" in w for w in obj["warnings"]), obj["warnings"]
     assert any("WARNING: " in line for line in _run(["diagnose", *caps, "--mass", "0.5", "--damping", "v",
                                                     "--stiffness", "x", "--no-refine"], capsys)[1].splitlines())
+
+
+def test_a_campaign_diagnose_row_has_the_flag_and_a_sound_model_is_not_flagged(tmp_path: Path) -> None:
+    # the campaign's diagnose task (one record, amplitude bands) carries the same flag as the CLI
+    # (eddi.diagnosis.soundness.model_flags); a friction ring-down's model is sound
+    from station.campaign.sources import CaptureRef
+    from station.campaign.tasks import TaskOptions, run_capture
+
+    rec = _capture(tmp_path / "f.csv", 30.0, 7)
+    row = run_capture(CaptureRef(str(rec)), TaskOptions(task="diagnose", mass=0.1, damping="v,x^2*v,v^3",
+                                                                    stiffness="x,x^2,x^3"))
+    assert row["status"] == "ok", row["error"]
+    assert row["unstable"] is False and not any("negative" in w for w in row["warnings"]), row["warnings"]
