@@ -101,6 +101,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         cause = "modal_coupling" if gain > margin else "none"
     model = final.model
     verdict = _earned(cause, per_channel["coupled" if gain > margin else "baseline"], records, names, model)
+    verdict = _chain_heard(verdict, meas, records, names, dp, model)
     cause = verdict.cause
     if verdict.note:
         notes.append(verdict.note)
@@ -236,6 +237,25 @@ def _earned(cause: str, per_channel: dict[str, list], records: Sequence[Any], na
     vals = [validate_mdof(model, r) for r in records]
     return earned_verdict(cause, held, channel_floor(records, names), vals,
                           [float(f) for f in model.natural_frequencies_hz()])
+
+
+def _chain_heard(verdict: Any, meas: Sequence[Any], records: Sequence[Any], names: tuple[str, ...], dp: str,
+                 model: MdofModel) -> Any:
+    """The verdict once the driving point's measurement chain is heard (clipping, double hit,
+    base motion: :func:`eddi.mdof.verdict.chain_checked`), from the force as measured."""
+    from eddi.mdof.verdict import chain_checked, driving_point_records
+    from station.readers import response_channels
+
+    forces, rests = [], []
+    for m in meas:
+        rest = int(m.pretrigger_samples or 0) or int(np.sum(np.asarray(m.t) < 0))
+        f = m.channels.get("force")
+        forces.append(None if f is None else np.asarray(f, float) - (np.median(f[:rest]) if rest > 8 else 0.0))
+        rests.append(rest)
+    qty = response_channels(meas[0].channels)[dp][0]
+    dp_recs = driving_point_records(records, names.index(dp), forces, rests, qty)
+    hz = [float(f) for f in model.natural_frequencies_hz() if math.isfinite(f) and f > 0]
+    return chain_checked(verdict, dp_recs, min(hz) if hz else 0.0, dp)
 
 
 def _coords(text: str) -> set[int]:
