@@ -22,7 +22,8 @@
   -0.18..0.003 with a 0.3-2 Hz coupling or none) contradicts it (:func:`damping_slope`): the
   candidate is kept in ``candidates`` with the reason, never named (a strong ``|x| v`` was
   named ``sensor_highpass`` in 2 of 3 held-out seeds before).
-* Detected and reported (:func:`inspect`): clipping/overload (a channel flat at its extreme),
+* Detected and reported (:func:`inspect`): clipping/overload (a channel flat at its extreme,
+  also for 2-4 samples: :func:`_short_plateau`),
   double hits (a second force pulse), base motion (a slow resonance in the acceleration well
   below the structure's), and a mass that disagrees with the hammer impulse (impulse of the
   measured force against the momentum the measured acceleration gives).
