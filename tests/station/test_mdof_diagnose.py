@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from simulated_rig.mdof_systems import MdofSystem, load_mdof_system, mdof_impact_test
 from station.cli import main
 
@@ -98,3 +100,36 @@ def test_clipped_driving_point_turns_a_null_into_unexplained(tmp_path, capsys):
     clip = [s for s in obj["symptoms"] if s["kind"] == "clipping"]
     assert clip and all(s["channel"] == "acc1" and 3 <= s["samples"] < 5 for s in clip)
     assert any("measurement chain cannot be trusted" in n for n in obj["notes"])
+
+
+def test_similar_blows_earn_none_only_when_the_backbone_holds_and_say_how_far(tmp_path, capsys):
+    # our own pair (not a rig system), three blows within 25 % of each other: the folds cannot
+    # test amplitude extrapolation. Hidden: quadratic drag on mass 1, which no library term
+    # carries (the models' damping is linear in the rates); the ring-downs' damping ratio grows
+    # with the amplitude and a linear dashpot cannot follow it
+    from eddi.mdof.model import MdofModel
+
+    pair = MdofSystem(name="pair", masses_kg=(1.1, 0.45), elements=(
+        {"between": (0, 1), "k": 38000.0, "c": 4.5}, {"between": (1, 2), "k": 21000.0, "c": 1.3}), record_s=2.0)
+    linear = pair.model()
+    damping = ({**linear.damping[0], "abs(v1)*v1": 45.0},) + linear.damping[1:]
+    drag: MdofModel = linear.model_copy(update={"damping": damping})
+    out = {}
+    for tag, model in (("linear", linear), ("drag", drag)):
+        files = [str(mdof_impact_test(pair, p, seed=30 + k, model=model).write_csv(tmp_path / f"{tag}-{k}.csv"))
+                 for k, p in enumerate((45.0, 50.0, 55.0))]
+        assert main(["diagnose", *files, "--json", "--no-refine"]) == 0
+        out[tag] = json.loads(capsys.readouterr().out)
+    null, hidden = out["linear"], out["drag"]
+    assert null["cause"] == "none" and not [s for s in null["symptoms"] if s["kind"] == "amplitude_dependence"]
+    assert null["amplitude"]["span"]["extrapolation_tested"] is False
+    assert any("extrapolation in amplitude not tested" in n for n in null["notes"])
+    assert hidden["cause"] == "unexplained"
+    (amp,) = [s for s in hidden["symptoms"] if s["kind"] == "amplitude_dependence"]
+    assert amp["model_zeta"] > amp["measured_zeta"] and amp["implied_nrmse"] > amp["allowed"]
+    assert amp["mode_hz"] == pytest.approx(min(hidden["natural_frequencies_hz"]), rel=0.05)
+    # the human text says how far the verdict was tested
+    from station.mdof_commands import diagnose_mdof_text
+
+    assert "Cause: none (within" in diagnose_mdof_text(null)
+    assert "extrapolation in amplitude not tested" in diagnose_mdof_text(null)
