@@ -18,7 +18,7 @@ from dataclasses import replace
 import numpy as np
 
 from eddi.errors import IdentificationError
-from eddi.mdof.modal import LinearModes, _mac, _real_modes, _significant, era, tail_segments
+from eddi.mdof.modal import LinearModes, era, mac, real_modes, significant, tail_segments
 
 
 #: Envelope fractions of the earlier windows :func:`era_windows` also analyses (latest first).
@@ -97,7 +97,7 @@ def _era_windows(records: Sequence[tuple[np.ndarray, int, int]], rate_hz: float,
         for k in np.argsort(-got.energy_share):
             f, psi = float(got.frequencies_hz[k]), got.shapes[:, k]
             near = [j for j, (f0, p0) in enumerate(tracked)
-                    if abs(f - f0) <= SAME_MODE_TOL * f0 and _mac(psi, p0) >= SAME_MODE_MAC]
+                    if abs(f - f0) <= SAME_MODE_TOL * f0 and mac(psi, p0) >= SAME_MODE_MAC]
             if near:
                 j = min(near, key=lambda j: abs(f - tracked[j][0]))
                 tracked[j] = (f, psi)  # the same mode at a larger amplitude
@@ -179,7 +179,7 @@ def residue_masses(modes: LinearModes, records: Sequence[tuple[np.ndarray, int, 
         return np.full(lam.size, math.nan), shapes
     for r in np.flatnonzero(early_shapes if early_shapes is not None else np.zeros(lam.size, bool)):
         u = np.linalg.svd(np.array([res[r] for res in residues]).T, full_matrices=False)[0][:, 0]
-        shapes[:, r] = _real_modes([(0.0, 0.0, u)], driving_point)[2][:, 0]
+        shapes[:, r] = real_modes([(0.0, 0.0, u)], driving_point)[2][:, 0]
     psi_d = shapes[driving_point] ** 2
     inv = np.median(np.array(per_record), axis=0) / np.maximum(psi_d, 1e-300)  # the median record: a
     ok = (inv > 0) & (psi_d > 1e-4)  # large blow of a strongly nonlinear mode leaves no linear residue
@@ -228,7 +228,7 @@ def _with_added(base: LinearModes, added: list[tuple[float, float, np.ndarray]],
     share = np.concatenate([base.energy_share, np.zeros(len(added))])
     if segs:
         dt = 1.0 / rate_hz
-        joint = _significant([(f, z, shapes[:, k].astype(complex)) for k, (f, z) in enumerate(zip(freqs, zetas))],
+        joint = significant([(f, z, shapes[:, k].astype(complex)) for k, (f, z) in enumerate(zip(freqs, zetas))],
                              segs, dt, 0.0)
         share[base.frequencies_hz.size:] = [m[3] for m in joint[base.frequencies_hz.size:]]
     return replace(base, frequencies_hz=freqs[order], damping_ratios=zetas[order], shapes=shapes[:, order],

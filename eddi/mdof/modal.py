@@ -181,7 +181,7 @@ def era(
     f_min, f_max = 0.5 / (dt * longest), 1.2 * top
     diagram = [(n, _poles(u, sv, g, n, n_ch, dt)) for n in range(2, min(max_order, rank) + 1, 2)]
     modes = _stable_modes(diagram, f_min, f_max, max_zeta, min_stable)
-    modes = _merge_gliding(_significant(modes, segs, dt, min_energy))
+    modes = _merge_gliding(significant(modes, segs, dt, min_energy))
     modes, unexplained = _shapes_from_residues(modes, segs, dt, floor * 0.5 / dt)
     if not modes:
         raise IdentificationError(
@@ -189,7 +189,7 @@ def era(
             f"({f_min:.3g}-{f_max:.3g} Hz): too noisy or too short a ring-down")
     lam_t = _poles(u, sv, g, order, n_ch, dt)[0]
     n_real = int(np.sum(np.abs(lam_t.imag) < 1e-9 * np.maximum(np.abs(lam_t), 1.0)))
-    freqs, zetas, shapes, cplx = _real_modes([m[:3] for m in modes], driving_point)
+    freqs, zetas, shapes, cplx = real_modes([m[:3] for m in modes], driving_point)
     return LinearModes(freqs, zetas, shapes, cplx, svn, max(n for n, _ in diagram), n_real, unexplained,
                        np.array([m[3] for m in modes]))
 
@@ -231,8 +231,8 @@ def _poles(u: np.ndarray, sv: np.ndarray, g: np.ndarray, order: int, n_ch: int, 
     return np.log(mu.astype(complex)) / dt, c @ vec
 
 
-def _significant(modes: list[tuple[float, float, np.ndarray]], segs: Sequence[np.ndarray], dt: float,
-                 min_energy: float) -> list[tuple[float, float, np.ndarray]]:
+def significant(modes: list[tuple[float, float, np.ndarray]], segs: Sequence[np.ndarray], dt: float,
+                min_energy: float) -> list[tuple[float, float, np.ndarray]]:
     """The modes whose share of the tails (free decays fitted jointly by least squares, one complex
     amplitude per mode and segment) is at least ``min_energy`` of the fitted energy."""
     if len(modes) < 2:
@@ -301,7 +301,7 @@ def _merge_gliding(modes: list[tuple[float, float, np.ndarray, float]]) -> list[
     column represents it, with the group's summed share. ``(f_d, zeta, shape, energy share)``."""
     kept: list[tuple[float, float, np.ndarray, float]] = []
     for m in sorted(modes, key=lambda r: -r[3]):
-        same = [j for j, k in enumerate(kept) if abs(m[0] - k[0]) <= 0.08 * k[0] and _mac(m[2], k[2]) >= 0.9]
+        same = [j for j, k in enumerate(kept) if abs(m[0] - k[0]) <= 0.08 * k[0] and mac(m[2], k[2]) >= 0.9]
         if same:
             k = kept[same[0]]
             kept[same[0]] = (k[0], k[1], k[2], k[3] + m[3])
@@ -325,7 +325,8 @@ def _drop_combination_tones(modes: list[tuple[float, float, np.ndarray, float]],
     return out
 
 
-def _mac(a: np.ndarray, b: np.ndarray) -> float:
+def mac(a: np.ndarray, b: np.ndarray) -> float:
+    """Modal assurance criterion of two (complex) shapes, 0 to 1."""
     return float(abs(np.vdot(a, b)) ** 2 / max(np.vdot(a, a).real * np.vdot(b, b).real, 1e-300))
 
 
@@ -352,7 +353,7 @@ def _stable_modes(diagram: list[tuple[int, tuple[np.ndarray, np.ndarray]]], f_mi
     stable = []
     for j in range(1, len(per_order)):
         for fd, zeta, psi in per_order[j]:
-            if any(abs(f0 - fd) <= 0.01 * fd and abs(z0 - zeta) <= max(0.3 * zeta, 0.003) and _mac(p0, psi) >= 0.9
+            if any(abs(f0 - fd) <= 0.01 * fd and abs(z0 - zeta) <= max(0.3 * zeta, 0.003) and mac(p0, psi) >= 0.9
                    for f0, z0, p0 in per_order[j - 1]):
                 stable.append((fd, zeta, psi, j))
     stable.sort(key=lambda r: r[0])
@@ -402,8 +403,8 @@ def _hankel(segs: list[np.ndarray], p: int) -> tuple[np.ndarray, np.ndarray]:
     return np.hstack(cols0), np.hstack(cols1)
 
 
-def _real_modes(modes: list[tuple[float, float, np.ndarray]], driving_point: int
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def real_modes(modes: list[tuple[float, float, np.ndarray]], driving_point: int
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Frequencies, damping ratios, real shapes (largest entry 1, positive at the driving point), complexity."""
     freqs, zetas, shapes, cplx = [], [], [], []
     for fd, zeta, psi in modes:
