@@ -197,12 +197,17 @@ def free_response_sensitivities(eom: EquationOfMotion, dt: float, n: int, x0: fl
     exps = exponent_table(eom.damping_terms() + eom.stiffness_terms())
     coefs = np.array(list(eom.damping.values()) + list(eom.stiffness.values()), dtype=float)
     npar = coefs.size + 2 if jacobian else 0
-    resp = np.full((3, n), np.nan)
-    jac = np.full((3, n, npar), np.nan)
+    # the kernel writes every sample up to a divergence (returned: the first it did not
+    # write); only those after it are filled (NaN): no pass over the whole Jacobian first
+    resp = np.empty((3, n))
+    jac = np.empty((3, n, npar))
     deg = int(exps[:, :4].max()) if exps.size else 0
     steps = np.maximum(np.atleast_1d(np.asarray(substeps, dtype=np.int64)), 1)
     div = _KERNELS._rk4_sens(deg, float(dt), steps, float(x0), float(v0), 1.0 / eom.mass, exps, coefs, int(n),
                     resp[0], resp[1], resp[2], jac[0], jac[1], jac[2])
+    if div >= 0:
+        resp[:, div:] = np.nan
+        jac[:, div:] = np.nan
     return resp.T, jac, bool(div >= 0)
 
 
