@@ -14,7 +14,10 @@ its module. Test-free: it only prints.
 ``duffing-smooth``, 600 N, 45 dB, as ``bench_identify_speed.py``), warm (best and median of
 --repeats) and once with an empty ``NUMBA_CACHE_DIR`` (every kernel compiled), as ratios to the
 floor process (``python -c`` that ``np.load``s the same three columns and makes one pass),
-beside the process that only imports what the command imports (no work: the import budget);
+beside the process that only imports what the command imports (no work: the import budget),
+and once more with the project's bytecode cached (``PYTHONPYCACHEPREFIX``; where
+``PYTHONDONTWRITEBYTECODE`` is set, as on the shared machine, every other line compiles
+eddi/ and station/ at each start, which an installed package does not);
 then the import budget of that command line from ``python -X importtime``: total, the largest
 top-level packages, and the libraries it must not import (matplotlib, pysindy, dask, h5py,
 pyarrow, scipy.signal). Issue 13 targets: <= 0.5 s warm, <= 1.5 s cold.
@@ -84,9 +87,9 @@ def best(cmd: list[str], repeats: int) -> tuple[float, float]:
     return min(r[0] for r in runs), min(r[1] for r in runs)
 
 
-def _importtime_rows(argv: list[str]) -> list[tuple[int, int, str]]:
+def _importtime_rows(argv: list[str], env: dict[str, str] | None = None) -> list[tuple[int, int, str]]:
     """(self us, cumulative us, indented name) of every import of ``station ARGV``."""
-    res = subprocess.run([sys.executable, "-X", "importtime", "-m", "station.cli", *argv], env=ENV,
+    res = subprocess.run([sys.executable, "-X", "importtime", "-m", "station.cli", *argv], env=env or ENV,
                          capture_output=True, text=True)
     rows = []
     for line in res.stderr.splitlines():
@@ -103,16 +106,16 @@ def importtime(argv: list[str], top: int = 12) -> list[tuple[int, str]]:
     return sorted(rows, reverse=True)[:top]
 
 
-def import_budget(argv: list[str], top: int = 8) -> None:
+def import_budget(argv: list[str], top: int = 8, env: dict[str, str] | None = None, how: str = "") -> None:
     """Print the total import time of ``station ARGV``, its largest packages and forbidden imports."""
-    rows = _importtime_rows(argv)
+    rows = _importtime_rows(argv, env)
     names = {name.strip() for _, _, name in rows}
     per_package: dict[str, int] = {}
     for own, _, name in rows:
         root = name.strip().split(".")[0]
         per_package[root] = per_package.get(root, 0) + own
     total = sum(per_package.values())
-    print(f"\nimport budget of `station identify FILE` (python -X importtime, self times summed): {total / 1e3:.0f} ms")
+    print(f"\nimport budget of `station identify FILE`{how} (python -X importtime, self times summed): {total / 1e3:.0f} ms")
     for root, us in sorted(per_package.items(), key=lambda kv: -kv[1])[:top]:
         print(f"  {us / 1e3:8.1f} ms  {root}")
     bad = [m for m in NOT_FOR_IDENTIFY if m in names]
@@ -172,17 +175,24 @@ def identify_whole_process(repeats: int, extra: list[str]) -> None:
         # the kernels built ahead of time (python -m eddi.kernels), no numba at run time
         env = {**ENV, "NUMBA_CACHE_DIR": str(cache), "EDDI_JIT": "1"}
         aot = {**ENV, "NUMBA_CACHE_DIR": str(Path(tmp) / "numba-cache-aot"), "EDDI_AOT_DIR": str(aot_dir)}
+        # bytecode cached, as an installed package has it (a machine with PYTHONDONTWRITEBYTECODE
+        # set, like the shared one, otherwise compiles the project's modules at every start)
+        aot_pyc = {**aot, "PYTHONPYCACHEPREFIX": str(Path(tmp) / "pyc")}
+        aot_pyc.pop("PYTHONDONTWRITEBYTECODE", None)
         cold = run(STATION + argv, env)
         cold_aot = run(STATION + argv, aot) if not built.returncode else None
         rows = {"floor (np.load + one pass)": [], "imports only (no work)": [], "station identify (warm JIT)": []}
         if cold_aot is not None:
             rows["station identify (AOT kernels)"] = []
+            rows["station identify (AOT, .pyc cached)"] = []
+            run(STATION + argv, aot_pyc)  # writes the bytecode
         for _ in range(repeats):  # interleaved, so a change of load hits all alike
             rows["floor (np.load + one pass)"].append(run(floor_cmd))
             rows["imports only (no work)"].append(run(imports_cmd, env))
             rows["station identify (warm JIT)"].append(run(STATION + argv, env))
             if cold_aot is not None:
                 rows["station identify (AOT kernels)"].append(run(STATION + argv, aot))
+                rows["station identify (AOT, .pyc cached)"].append(run(STATION + argv, aot_pyc))
         f_cpu = min(c for _, c in rows["floor (np.load + one pass)"])
         print(f"\nwhole process, {rec.n_samples} samples ({rec.n_samples / rec.rate_hz:.0f} s at {rec.rate_hz:.0f} Hz, "
               f"CSV {csv.stat().st_size / 1e6:.0f} MB), `station {' '.join(['identify', 'FILE', *IDENTIFY_ARGS[:2], *extra])}`; "
@@ -206,7 +216,10 @@ def identify_whole_process(repeats: int, extra: list[str]) -> None:
         print(f"  {label:<32} cpu min {inp_min * 1e3:7.1f} ms median "
               f"{inp_med * 1e3:7.1f} ms = {inp_min / inp_floor:5.1f}x the floor  (target 50 ms: "
               f"{'met' if inp_min <= 0.050 else 'NOT met'})")
-        import_budget(argv)
+        if cold_aot is not None:  # as the AOT line runs: no numba
+            import_budget(argv, env=aot_pyc, how=" with the AOT kernels, .pyc cached")
+        else:
+            import_budget(argv, env=env, how=" with numba's JIT")
 
 
 def main() -> None:

@@ -10,6 +10,7 @@ Modules, in the order the loop reads (``docs/diagnosis.md``):
   (a second mode seen in the signal): candidates judged held out;
 * :mod:`~eddi.diagnosis.extend`: fitting the baseline plus a mechanism;
 * :mod:`~eddi.diagnosis.measure`: the noise floor;
+* :mod:`~eddi.diagnosis.soundness`: whether the diagnosed model can be trusted as a simulation;
 * :mod:`~eddi.diagnosis.loop`: :func:`diagnose`, the whole loop (one BLAS thread while it
   runs: :mod:`eddi.threads`).
 

@@ -283,8 +283,15 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
             return {m.name: final[0](m, final[1]) for m in tried}
         return extra[k - n - (final is not None)]()
 
-    # all independent: through ``fitter.map`` (other processes when the caller has cores)
-    out_all = fitter.map(item, range(n + (final is not None) + len(extra)))
+    # all independent: through ``fitter.map`` (other processes when the caller has cores); the
+    # caller's extra work first, then the final fits, then the folds: a mapper that hands out
+    # items as processes free up then starts the longest (the observed second mode's fold
+    # fits, ~3x a fold on the double beam) first instead of last
+    total = n + (final is not None) + len(extra)
+    order = list(range(n, total)) + list(range(n))
+    out_all: list[Any] = [None] * total
+    for k, got in zip(order, fitter.map(item, order)):
+        out_all[k] = got
     for ee_ref, out in out_all[:n]:
         if ee_ref is not None:
             res.ee_ref.append(ee_ref)

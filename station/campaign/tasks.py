@@ -201,10 +201,13 @@ def _diagnose(meas: Any, opts: TaskOptions) -> dict[str, Any]:
                                              pretrigger_samples=getattr(meas, "pretrigger_samples", None))],
                     mass, damping=opts.damping,
                     stiffness=opts.stiffness)
+    from eddi.diagnosis.soundness import model_flags
+
     eom = diag.extended.model
+    flags = model_flags(diag)
     return {"mass_kg": mass, "nrmse": float(diag.extended.nrmse), "nmte": diag.extended.nmte,
             "cause": diag.cause, "gain": float(diag.gain), "coefficients": _coefficients(eom),
-            "warnings": list(diag.notes), "model": eom.to_json() if hasattr(eom, "to_json") else None}
+            "unstable": bool(flags), "warnings": [*flags, *diag.notes], "model": eom.to_json() if hasattr(eom, "to_json") else None}
 
 
 _RUNNERS = {"identify": _identify, "validate": _validate, "diagnose": _diagnose}

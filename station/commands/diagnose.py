@@ -227,8 +227,28 @@ def handle(args: argparse.Namespace) -> int:
 
         files = write_report(diag, records, args.report)
         obj["report"] = [str(f) for f in files]
+    warnings = model_flags(diag, pipe_obj)
+    obj["unstable"] = bool(warnings)
+    obj["warnings"] = list(warnings)
     emit(args.json, render_text(diag, obj), obj)
+    if warnings:
+        from station.cli import flagged
+
+        return flagged("diagnose", "the diagnosed model is unstable or its simulation diverges")
     return 0
+
+
+def model_flags(diag: Diagnosis, pipe_obj: dict[str, Any] | None) -> tuple[str, ...]:
+    """Why the model this diagnosis stands behind cannot be trusted as a simulation
+    (:func:`eddi.diagnosis.soundness.model_flags`), plus a pipeline baseline flagged as
+    ``station identify`` flags it when no mechanism is named. Empty when the model is sound."""
+    from eddi.diagnosis.soundness import model_flags as engine_flags
+
+    out = list(engine_flags(diag))
+    if diag.cause in ("none", "unexplained") and pipe_obj is not None and pipe_obj.get("unstable"):
+        out.append("the pipeline baseline (as station identify) is flagged unstable: "
+                   + "; ".join(pipe_obj.get("identified", {}).get("warnings", []) or ["see its warnings"]))
+    return tuple(out)
 
 
 def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
@@ -262,6 +282,7 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
         lines.append("Symptoms (held-out parts, median; measurement chain):")
         lines += [f"  - {s.kind}: {s.text}" for s in diag.symptoms]
     lines += [f"Note: {n}." for n in diag.notes]
+    lines += [f"WARNING: {w}" for w in obj.get("warnings", [])]
     if obj.get("resampled"):
         lines.append(f"Note: {obj['resampled']}.")
     lines += ["", f"Baseline: {diag.baseline.model.equation_text()}"]

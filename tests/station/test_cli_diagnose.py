@@ -39,6 +39,7 @@ def test_friction_found_model_saved_and_report(tmp_path: Path, capsys: pytest.Ca
     assert code == 0, err
     obj = json.loads(out)
     assert obj["cause"] == "coulomb_friction"
+    assert obj["unstable"] is False and obj["warnings"] == []  # a sound model is not flagged
     # the gain is over the per-fold fit the candidates are judged against; the baseline is
     # the pipeline's (as station identify), judged on the records it did not fit
     assert obj["extended"]["nrmse"] <= 0.5 * obj["judged_baseline"]["nrmse"]
@@ -111,3 +112,44 @@ def test_clocks_36_ppm_apart_are_resampled_and_said(tmp_path: Path, capsys: pyte
     obj = json.loads(out)
     assert "resampled onto 5000 Hz" in obj["resampled"] and "b.csv (+36 ppm)" in obj["resampled"]
     assert obj["pipeline_baseline"]["validation"]["nrmse"] is not None
+
+
+def _growing(path: Path, amp_m: float, seed: int) -> Path:
+    """A self-excited free response (damping ratio -1 %, 12 Hz, 2 kHz): grows by e^3 in 4 s."""
+    fs, zeta, w = 2000.0, -0.01, 2 * np.pi * 12.0
+    t = np.arange(0.0, 4.0, 1.0 / fs)
+    wd = w * np.sqrt(1 - zeta**2)
+    s, c, e = np.sin(wd * t), np.cos(wd * t), amp_m * np.exp(-zeta * w * t)
+    acc = e * ((zeta * w) ** 2 * s - 2 * zeta * w * wd * c - wd**2 * s)
+    acc += np.random.default_rng(seed).normal(0.0, 1e-3 * np.max(np.abs(acc)), acc.size)
+    np.savetxt(path, np.column_stack((t, acc)), delimiter=",", header="t,acc", comments="", fmt="%.9g")
+    return path
+
+
+def test_a_growing_diagnosed_model_exits_1_with_its_reason(tmp_path: Path,
+                                                           capsys: pytest.CaptureFixture[str]) -> None:
+    # records that grow: whatever the verdict, the model the diagnosis stands behind has negative
+    # damping; the command prints its result but must not pass it on with exit 0
+    caps = [str(_growing(tmp_path / f"g{i}.csv", a, i)) for i, a in enumerate((1e-3, 1.6e-3, 2.5e-3))]
+    code, out, err = _run(["diagnose", *caps, "--mass", "0.5", "--damping", "v", "--stiffness", "x",
+                           "--no-refine", "--json"], capsys)
+    assert code == 1, err
+    assert len(err.strip().splitlines()) == 1 and "unstable" in err and "Traceback" not in err
+    obj = json.loads(out)
+    assert obj["unstable"] is True
+    assert any("negative damping" in w for w in obj["warnings"]), obj["warnings"]
+    assert any("WARNING: " in line for line in _run(["diagnose", *caps, "--mass", "0.5", "--damping", "v",
+                                                    "--stiffness", "x", "--no-refine"], capsys)[1].splitlines())
+
+
+def test_a_campaign_diagnose_row_has_the_flag_and_a_sound_model_is_not_flagged(tmp_path: Path) -> None:
+    # the campaign's diagnose task (one record, amplitude bands) carries the same flag as the CLI
+    # (eddi.diagnosis.soundness.model_flags); a friction ring-down's model is sound
+    from station.campaign.sources import CaptureRef
+    from station.campaign.tasks import TaskOptions, run_capture
+
+    rec = _capture(tmp_path / "f.csv", 30.0, 7)
+    row = run_capture(CaptureRef(str(rec)), TaskOptions(task="diagnose", mass=0.1, damping="v,x^2*v,v^3",
+                                                                    stiffness="x,x^2,x^3"))
+    assert row["status"] == "ok", row["error"]
+    assert row["unstable"] is False and not any("negative" in w for w in row["warnings"]), row["warnings"]

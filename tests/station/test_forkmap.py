@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import multiprocessing
 import os
 import threading
 from pathlib import Path
@@ -27,9 +28,41 @@ def test_results_in_order_from_workers_closure_not_pickled() -> None:
     m = ForkMap(3)
     out = m(fn, range(7))
     assert [o[:2] for o in out] == [(i, float(data[i] @ data[i])) for i in range(7)]
-    # items dealt round robin: 0, 3, 6 here; the others in the two workers
-    assert [o[2] for o in out] == [i % 3 != 0 for i in range(7)]
+    # item k < 3 starts process k (0: here); the others go to whichever process is free
+    assert [o[2] for o in out[:3]] == [False, True, True]
     assert m.forked == 2
+
+
+def test_the_first_error_in_turn_is_raised() -> None:
+    parent = os.getpid()
+
+    def fn(i: int) -> int:
+        if i in (1, 2):  # the two workers' first items both raise
+            raise ValueError(f"bad item {i}: {'worker' if os.getpid() != parent else 'here'}")
+        return i
+
+    for _ in range(3):  # whichever worker reports first, item 1's error is the one raised
+        with pytest.raises(ValueError, match="bad item 1: worker"):
+            ForkMap(3)(fn, range(6))
+
+
+def test_items_are_shared_out_as_processes_free_up() -> None:
+    # item 0 (here) waits until both workers' items are done: the workers take every item
+    # after their first, none is dealt to the busy process in advance
+    parent = os.getpid()
+    ctx = multiprocessing.get_context("fork")
+    done = ctx.Semaphore(0)
+
+    def fn(i: int) -> tuple[int, bool]:
+        if i == 0:
+            for _ in range(5):
+                assert done.acquire(timeout=60)
+        else:
+            done.release()
+        return i, os.getpid() != parent
+
+    out = ForkMap(2)(fn, range(6))
+    assert out == [(0, False)] + [(i, True) for i in range(1, 6)]
 
 
 def test_one_job_or_one_item_runs_here() -> None:
