@@ -208,11 +208,14 @@ def sampling_curvature(block: int, kernel_var: float = 0.0) -> float:
     return (block**2 - 1 + 12.0 * kernel_var) / (24.0 * block**2)
 
 
-#: Lags of the residual autocovariance the intervals look at (compared values).
+#: Lags of the residual autocorrelation the colour test looks at (compared values).
 COLOUR_LAGS = 10
 #: Ljung-Box statistic over :data:`COLOUR_LAGS` lags beyond which the residuals count as
 #: coloured (chi-square with 10 degrees of freedom: 0.1 % of white records exceed 29.6).
 COLOUR_Q = 29.6
+#: Smoothing of the residual periodogram: a moving mean over ``2 m + 1`` bins, ``m`` this
+#: fraction of the bins (at least 8).
+PSD_SMOOTH = 1.0 / 400
 
 
 def noise_covariance_of_fit(jac: np.ndarray, r: np.ndarray, dof: int, jtj: np.ndarray | None = None) -> np.ndarray:
@@ -220,12 +223,20 @@ def noise_covariance_of_fit(jac: np.ndarray, r: np.ndarray, dof: int, jtj: np.nd
 
     White residuals (the Ljung-Box statistic of lags 1-:data:`COLOUR_LAGS` below
     :data:`COLOUR_Q`): ``s^2 J^T J``, ``s^2 = RSS / dof``, the usual ``s^2 (J^T J)^-1``.
-    Coloured ones (a DAQ's decimation filter correlates neighbouring samples; compared on
-    every sample, ``s^2 (J^T J)^-1`` then holds the variance of one sample where the fit
-    averages over a band whose noise density is higher: sinc3 made the intervals ~1.5x too
-    narrow, ``benchmarks/bench_ci_coverage_chain.py``): ``Sigma`` is the stationary noise's
-    Toeplitz covariance from the residual autocovariance ``gamma_l`` (Bartlett weights over
-    :data:`COLOUR_LAGS` lags, which keeps it positive semi-definite).
+    Coloured ones: a DAQ's decimation filter correlates neighbouring samples, and compared on
+    every sample ``s^2 (J^T J)^-1`` holds one sample's variance where the fit averages over
+    the band of the response, whose noise density is higher (sinc3 made the intervals ~1.3x
+    too narrow, ``benchmarks/bench_ci_coverage_chain.py``); a drifting sensor bias colours
+    them at low frequency, far below that band. ``Sigma`` is then the stationary noise's
+    covariance from the residuals' smoothed periodogram ``S(f)``:
+    ``J^T Sigma J = sum_f Re(J(f)^H J(f)) S(f) / n`` (Parseval: ``s^2 J^T J`` for a flat
+    ``S``), so only the noise density in the band of the Jacobian counts. (A Toeplitz
+    covariance from 10 residual lags smeared a drift's low-frequency power into that band and
+    widened the intervals of drifting records 1.8x: RMS z 0.57.) The caller
+    (``_OutputError.ci95``) keeps the wider of this and the white ``s^2 (J^T J)^-1`` per
+    coefficient: a slow drift leaks into the coefficients a little, which the white ``s^2``
+    (raised by the drift) held (drifting records: RMS z 1.35 with the band density alone,
+    1.04 with the wider one).
 
     Parameters
     ----------
@@ -243,15 +254,20 @@ def noise_covariance_of_fit(jac: np.ndarray, r: np.ndarray, dof: int, jtj: np.nd
     lags = min(COLOUR_LAGS, n // 4)
     if not (g0 > 0) or lags < 1:
         return g0 * jtj
-    gam = np.array([float(r[:-k] @ r[k:]) / dof for k in range(1, lags + 1)])
-    q = n * (n + 2) * float(np.sum((gam / g0) ** 2 / (n - np.arange(1, lags + 1))))
+    rho = np.array([float(r[:-k] @ r[k:]) for k in range(1, lags + 1)]) / float(r @ r)
+    q = n * (n + 2) * float(np.sum(rho**2 / (n - np.arange(1, lags + 1))))
     if q <= COLOUR_Q:
         return g0 * jtj
-    mid = g0 * jtj
-    for k in range(1, lags + 1):
-        c = jac[:-k].T @ jac[k:]
-        mid = mid + (1.0 - k / (lags + 1.0)) * gam[k - 1] * (c + c.T)
-    return mid
+    spec = np.abs(np.fft.rfft(r)) ** 2 / n * (n / dof)
+    m = max(8, int(PSD_SMOOTH * spec.size))
+    kernel = np.ones(2 * m + 1)
+    dens = np.convolve(spec, kernel, mode="same") / np.convolve(np.ones(spec.size), kernel, mode="same")
+    weight = np.full(spec.size, 2.0)
+    weight[0] = 1.0
+    if n % 2 == 0:
+        weight[-1] = 1.0
+    fj = np.fft.rfft(jac, axis=0)
+    return np.real((fj.conj().T * (weight * dens)) @ fj) / n
 
 
 def smooth_model(eom: EquationOfMotion) -> bool:
@@ -476,8 +492,13 @@ class _OutputError:
             jac = self.jacobian(p)
         dof = max(1, n - p.size)
         jtj = jac.T @ jac
-        cov = np.linalg.pinv(jtj) @ noise_covariance_of_fit(jac, r, dof, jtj) @ np.linalg.pinv(jtj)
-        se = np.sqrt(np.clip(np.diag(cov)[:-NUISANCE], 0.0, None)) * self.scale[self.active]
+        inv = np.linalg.pinv(jtj)
+        # the coloured-noise covariance only ever widens an interval: a drift's low-frequency
+        # power lies outside the response's band, but a slow ramp still leaks into the
+        # coefficients, which the white s^2 (raised by it) happened to hold (see
+        # noise_covariance_of_fit)
+        var = np.maximum((rss / dof) * np.diag(inv), np.diag(inv @ noise_covariance_of_fit(jac, r, dof, jtj) @ inv))
+        se = np.sqrt(np.clip(var[:-NUISANCE], 0.0, None)) * self.scale[self.active]
         se[~(np.diag(jtj)[:-NUISANCE] > 0)] = math.inf
         return 1.959964 * se, rss
 
