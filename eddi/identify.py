@@ -94,6 +94,7 @@ def identify(
     refine: bool | str = False,
     select: bool = False,
     mapper=None,
+    kernel_var: float = 0.0,
 ) -> IdentifiedModel:
     """Identify an equation of motion from a free response with the EDDI method.
 
@@ -156,6 +157,9 @@ def identify(
     mapper : callable, optional
         For the refinement's independent term-selection trials (see
         :func:`eddi.refine.refine_output_error`); default: in turn, here. Same result.
+    kernel_var : float
+        With ``refine``: variance of the DAQ's sampling kernel [sample intervals^2]
+        (:func:`eddi.refine.sampling_curvature`); 0 for point samples.
 
     Returns
     -------
@@ -248,7 +252,7 @@ def identify(
         unrefined = eom
         eom, refinement = refine_output_error(eom, tw, xw, vw, aw,
                                               channel=refine if isinstance(refine, str) else None,
-                                              select=select, mapper=mapper)
+                                              select=select, mapper=mapper, kernel_var=kernel_var)
     return IdentifiedModel(
         eom=eom, route=chosen, phase_one=p1, phase_two=p2, window=(w0, w1),
         route_scores=scores, alternatives=results, unrefined=unrefined, refinement=refinement,

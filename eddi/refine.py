@@ -186,6 +186,90 @@ def block_means(y: np.ndarray, block: int) -> np.ndarray:
     return np.asarray(y[: nb * block], dtype=float).reshape(nb, block).mean(axis=1)
 
 
+def sampling_curvature(block: int, kernel_var: float = 0.0) -> float:
+    """Weight of the second difference (on the grid of block centres) in a compared value.
+
+    A compared value is the mean of ``block`` samples, and each sample is the DAQ's
+    weighted mean of the signal around its time (its decimation filter: a kernel of variance
+    ``kernel_var`` sample intervals squared; 0 for point sampling or a flat passband, ``1/12``
+    for the mean over each sample interval, ``K/12`` for a sinc^K decimator such as the
+    ADS131M04's sinc3). For a smooth signal the value is then the signal at the centre plus
+    half the total variance times its second derivative:
+    ``(block^2 - 1 + 12 kernel_var) / (24 block^2)`` times the second difference on the
+    centres' grid (``O((omega h)^4)`` left). A kernel's delay is a time shift of the free
+    response, which the fitted initial state absorbs.
+
+    Unmodelled, a sinc3 decimator's droop ``1 - (omega dt)^2 / 8`` is a gain on the
+    measured acceleration: at 33 samples per cycle it moved a fitted ``k3`` by ~1 % (134
+    standard errors; ``benchmarks/bench_ci_coverage_chain.py``, ``coarse_sinc3``).
+    """
+    if not (kernel_var >= 0 and math.isfinite(kernel_var)):
+        raise SignalError(f"sampling kernel variance must be >= 0 sample intervals^2, got {kernel_var}")
+    return (block**2 - 1 + 12.0 * kernel_var) / (24.0 * block**2)
+
+
+#: Lags of the residual autocorrelation the colour test looks at (compared values).
+COLOUR_LAGS = 10
+#: Ljung-Box statistic over :data:`COLOUR_LAGS` lags beyond which the residuals count as
+#: coloured (chi-square with 10 degrees of freedom: 0.1 % of white records exceed 29.6).
+COLOUR_Q = 29.6
+#: Smoothing of the residual periodogram: a moving mean over ``2 m + 1`` bins, ``m`` this
+#: fraction of the bins (at least 8).
+PSD_SMOOTH = 1.0 / 400
+
+
+def noise_covariance_of_fit(jac: np.ndarray, r: np.ndarray, dof: int, jtj: np.ndarray | None = None) -> np.ndarray:
+    """``J^T Sigma J``: the middle of the coefficients' covariance ``(J^T J)^-1 J^T Sigma J (J^T J)^-1``.
+
+    White residuals (the Ljung-Box statistic of lags 1-:data:`COLOUR_LAGS` below
+    :data:`COLOUR_Q`): ``s^2 J^T J``, ``s^2 = RSS / dof``, the usual ``s^2 (J^T J)^-1``.
+    Coloured ones: a DAQ's decimation filter correlates neighbouring samples, and compared on
+    every sample ``s^2 (J^T J)^-1`` holds one sample's variance where the fit averages over
+    the band of the response, whose noise density is higher (sinc3 made the intervals ~1.3x
+    too narrow, ``benchmarks/bench_ci_coverage_chain.py``); a drifting sensor bias colours
+    them at low frequency, far below that band. ``Sigma`` is then the stationary noise's
+    covariance from the residuals' smoothed periodogram ``S(f)``:
+    ``J^T Sigma J = sum_f Re(J(f)^H J(f)) S(f) / n`` (Parseval: ``s^2 J^T J`` for a flat
+    ``S``), so only the noise density in the band of the Jacobian counts. (A Toeplitz
+    covariance from 10 residual lags smeared a drift's low-frequency power into that band and
+    widened the intervals of drifting records 1.8x: RMS z 0.57.) The caller
+    (``_OutputError.ci95``) keeps the wider of this and the white ``s^2 (J^T J)^-1`` per
+    coefficient: a slow drift leaks into the coefficients a little, which the white ``s^2``
+    (raised by the drift) held (drifting records: RMS z 1.35 with the band density alone,
+    1.04 with the wider one).
+
+    Parameters
+    ----------
+    jac : ndarray, shape (n, p)
+        Jacobian of the compared values.
+    r : ndarray, shape (n,)
+        Residuals at the optimum.
+    dof : int
+        ``n - p``.
+    """
+    if jtj is None:
+        jtj = jac.T @ jac
+    n = r.size
+    g0 = float(r @ r) / dof
+    lags = min(COLOUR_LAGS, n // 4)
+    if not (g0 > 0) or lags < 1:
+        return g0 * jtj
+    rho = np.array([float(r[:-k] @ r[k:]) for k in range(1, lags + 1)]) / float(r @ r)
+    q = n * (n + 2) * float(np.sum(rho**2 / (n - np.arange(1, lags + 1))))
+    if q <= COLOUR_Q:
+        return g0 * jtj
+    spec = np.abs(np.fft.rfft(r)) ** 2 / n * (n / dof)
+    m = max(8, int(PSD_SMOOTH * spec.size))
+    kernel = np.ones(2 * m + 1)
+    dens = np.convolve(spec, kernel, mode="same") / np.convolve(np.ones(spec.size), kernel, mode="same")
+    weight = np.full(spec.size, 2.0)
+    weight[0] = 1.0
+    if n % 2 == 0:
+        weight[-1] = 1.0
+    fj = np.fft.rfft(jac, axis=0)
+    return np.real((fj.conj().T * (weight * dens)) @ fj) / n
+
+
 def smooth_model(eom: EquationOfMotion) -> bool:
     """True when the sensitivity equations give the Jacobian: no effects, no ``sign`` factor.
 
@@ -207,7 +291,7 @@ class _OutputError:
     """
 
     def __init__(self, eom: EquationOfMotion, t: np.ndarray, x: np.ndarray, v: np.ndarray, y: np.ndarray,
-                 channel: str) -> None:
+                 channel: str, kernel_var: float = 0.0) -> None:
         self.eom, self.channel = eom, channel
         self.n_samples = t.size
         dt = float(t[1] - t[0])
@@ -217,7 +301,9 @@ class _OutputError:
         self.y = block_means(y, self.block)
         nb = self.y.size
         self.t = t[half: half + nb * self.block: self.block]
-        self.curvature = (self.block**2 - 1) / (24.0 * self.block**2)
+        # block mean of samples that are themselves the DAQ's kernel-weighted means (variance
+        # ``kernel_var`` sample intervals^2, see :func:`sampling_curvature`)
+        self.curvature = sampling_curvature(self.block, kernel_var)
         d_terms, k_terms = eom.damping_terms(), eom.stiffness_terms()
         self.names = [("damping", tm.text) for tm in d_terms] + [("stiffness", tm.text) for tm in k_terms]
         c0 = np.array([eom.damping[tm.text] for tm in d_terms] + [eom.stiffness[tm.text] for tm in k_terms])
@@ -311,7 +397,7 @@ class _OutputError:
         self.diverged = bool(diverged or not np.all(np.isfinite(out)))
         if self.diverged:
             return np.full(stop, 1e6 * float(np.max(np.abs(self.y))))
-        if self.block > 1 and stop >= 3:  # the block mean of a smooth signal: centre + curvature
+        if self.curvature and stop >= 3:  # the block mean of a smooth signal: centre + curvature
             d2 = np.empty_like(out)
             d2[1:-1] = out[2:] - 2.0 * out[1:-1] + out[:-2]
             d2[0], d2[-1] = d2[1], d2[-2]
@@ -349,7 +435,7 @@ class _OutputError:
         if div or not np.all(np.isfinite(j)):
             return None
         j = np.column_stack((j, np.ones(stop)))
-        if self.block > 1 and stop >= 3:
+        if self.curvature and stop >= 3:
             d2 = np.empty_like(j)
             d2[1:-1] = j[2:] - 2.0 * j[1:-1] + j[:-2]
             d2[0], d2[-1] = d2[1], d2[-2]
@@ -406,8 +492,13 @@ class _OutputError:
             jac = self.jacobian(p)
         dof = max(1, n - p.size)
         jtj = jac.T @ jac
-        cov = (rss / dof) * np.linalg.pinv(jtj)
-        se = np.sqrt(np.clip(np.diag(cov)[:-NUISANCE], 0.0, None)) * self.scale[self.active]
+        inv = np.linalg.pinv(jtj)
+        # the coloured-noise covariance only ever widens an interval: a drift's low-frequency
+        # power lies outside the response's band, but a slow ramp still leaks into the
+        # coefficients, which the white s^2 (raised by it) happened to hold (see
+        # noise_covariance_of_fit)
+        var = np.maximum((rss / dof) * np.diag(inv), np.diag(inv @ noise_covariance_of_fit(jac, r, dof, jtj) @ inv))
+        se = np.sqrt(np.clip(var[:-NUISANCE], 0.0, None)) * self.scale[self.active]
         se[~(np.diag(jtj)[:-NUISANCE] > 0)] = math.inf
         return 1.959964 * se, rss
 
@@ -466,6 +557,7 @@ def refine_output_error(
     select: bool = False,
     mapper=None,
     min_gain: float | None = None,
+    kernel_var: float = 0.0,
 ) -> tuple[EquationOfMotion, Refinement]:
     """Refine the coefficients of ``eom`` by fitting its free response to the measurement.
 
@@ -498,6 +590,9 @@ def refine_output_error(
         variance once the model fits, so ``min_gain = 1`` stops where a step moves the fit by
         less than one unit of chi-square). Default: run each stage to ``max_nfev`` or to
         rounding (``ftol`` 1e-12), as the identification does.
+    kernel_var : float
+        Variance of the DAQ's sampling kernel [sample intervals^2] (:func:`sampling_curvature`;
+        :attr:`eddi.conditioning.ConditionedSignal.sample_kernel_var`): 0 for point samples.
 
     Returns
     -------
@@ -514,7 +609,7 @@ def refine_output_error(
         If ``channel`` is unknown, or ``"a"`` without ``a``.
     """
     t, x, v, y, channel = _check(t, x, v, a, channel)
-    prob = _OutputError(eom, t, x, v, y, channel)
+    prob = _OutputError(eom, t, x, v, y, channel, kernel_var)
     n = prob.n
     prob.min_gain = None if min_gain is None else float(min_gain)
     p = prob.p0.copy()
@@ -551,7 +646,8 @@ def refine_output_error(
 
 
 def confidence_intervals(eom: EquationOfMotion, t: np.ndarray, x: np.ndarray, v: np.ndarray,
-                         a: np.ndarray | None = None, *, channel: str | None = None) -> dict[str, dict[str, float]]:
+                         a: np.ndarray | None = None, *, channel: str | None = None,
+                         kernel_var: float = 0.0) -> dict[str, dict[str, float]]:
     """95 % half widths of the coefficients of ``eom`` as they stand (not refitted).
 
     Only the initial state of the free response is fitted; the covariance is that of the
@@ -564,7 +660,7 @@ def confidence_intervals(eom: EquationOfMotion, t: np.ndarray, x: np.ndarray, v:
         ``{"damping": {term: half width}, "stiffness": {...}}`` in the coefficients' units.
     """
     t, x, v, y, channel = _check(t, x, v, a, channel)
-    prob = _OutputError(eom, t, x, v, y, channel)
+    prob = _OutputError(eom, t, x, v, y, channel, kernel_var)
     free = np.zeros(prob.p0.size, dtype=bool)
     free[-NUISANCE:] = True
     p = prob.p0.copy()
