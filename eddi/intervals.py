@@ -35,11 +35,11 @@ ASSUMED_SINC_ORDER = 3
 #: Warn when the filter would move a coefficient by more than this many interval half widths...
 WARN_HALF_WIDTHS = 1.0
 #: ...on a record of fewer samples per cycle than this (a sinc3 droop moves a cubic term by
-#: >= 1.3 % there). Above it, a clean record's intervals are narrower than such a droop too
-#: (41 samples per cycle: 0.6 % on ``k3``), but most DAQs either point-sample, or decimate
-#: with a compensated flat passband: a warning on every such record would be noise. The
-#: assumption is stated in ``docs/eddi-method.md`` instead.
-WARN_BELOW_SAMPLES = 30.0
+#: >= 0.6 % there; ``coarse_sinc3`` of the chain benchmark, ~31 a cycle: 1 %, 30-150 se).
+#: Above it, a clean record's intervals can be narrower than such a droop too, but most
+#: DAQs either point-sample, or decimate with a compensated flat passband: a warning on
+#: every such record would be noise. The assumption is stated in ``docs/eddi-method.md``.
+WARN_BELOW_SAMPLES = 40.0
 
 
 def droop_bias(term: str, omega_dt: float, sinc_order: int = ASSUMED_SINC_ORDER) -> float:
