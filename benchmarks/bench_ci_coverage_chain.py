@@ -170,10 +170,8 @@ def run_case(spec: dict, seeds: range, refine: bool, tell: bool = True
     warned = 0
     for seed in seeds:
         t, force, acc, tau = chain_record(spec, seed)
-        sinc = spec.get("sinc", 1) if spec["osr"] > 1 and tell else None
-        res = pipe.fit(pipe.condition(t, acc=acc, force=force, ac_coupling_s=tau, adc_sinc_order=sinc,
-                                      adc_osr=spec["osr"]),
-                       spec["mass"])
+        told = dict(adc_sinc_order=spec.get("sinc", 1), adc_osr=spec["osr"]) if spec["osr"] > 1 and tell else {}
+        res = pipe.fit(pipe.condition(t, acc=acc, force=force, ac_coupling_s=tau, **told), spec["mass"])
         warned += any("interval" in w for w in res.warnings)
         for group, terms in truth.items():
             for term, c in terms.items():

@@ -548,6 +548,7 @@ def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal,
         drive = fused_impact_force(cond, eom) if (cond.acc_measured and fused) else force
         if cond.sample_kernel_var > 0:
             drive = unsharpened(drive, cond.sample_kernel_var)
+            s = max(0, s - 1)  # the correction spills one sample before the impact: keep its impulse
         if drive_scale != 1.0:
             drive = drive * drive_scale
         val = validate(eom, cond.t[s:e], cond.x[s:e], v=cond.v[s:e], force=drive[s:e],
@@ -564,7 +565,10 @@ def unsharpened(drive: np.ndarray, kernel_var: float) -> np.ndarray:
     ``1 - kv (omega dt)^2 / 2`` of it, and a nonlinear mode then rings at another amplitude
     and frequency (sinc3 at 25 samples a cycle: the true model's driven validation of a
     hardening oscillator drifted in phase to a displacement nrmse above 0.1). The correction
-    keeps the impulse (the second difference of a pulse inside the record sums to 0).
+    keeps the impulse (the second difference of a pulse inside the record sums to 0; it
+    spills one sample to each side of the pulse, which the simulation must start before:
+    cut, the 0.1 % of the impulse there moved a 1 t, 3 Hz response by 0.13 % and the judge
+    rejected the exact model).
     """
     d2 = np.zeros_like(drive)
     d2[1:-1] = drive[2:] - 2.0 * drive[1:-1] + drive[:-2]
