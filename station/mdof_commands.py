@@ -115,6 +115,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         model, _b, _a = refine_identified(final, records)
     verdict, amp, modes, amp_span = _earned(cause, per_channel["coupled" if gain > margin else "baseline"], records,
                                         names, model, dp)
+    verdict = _chain_heard(verdict, meas, records, names, dp, model)
     cause, symptoms = verdict.cause, list(verdict.symptoms) + amp
     if verdict.note:
         notes.append(verdict.note)
@@ -352,6 +353,25 @@ def nonlinear_coupling_terms(model: MdofModel) -> list[str]:
     """Terms of degree 2 or more in one coordinate's equation that involve another coordinate."""
     return [f"eq {i + 1}: {t.text}" for i in range(model.n_coords) for t, c in model.terms(i)
             if c != 0.0 and t.degree >= 2 and set(t.coordinates) - {i}]
+
+
+def _chain_heard(verdict: Any, meas: Sequence[Any], records: Sequence[Any], names: tuple[str, ...], dp: str,
+                 model: MdofModel) -> Any:
+    """The verdict once the driving point's measurement chain is heard (clipping, double hit,
+    base motion: :func:`eddi.mdof.verdict.chain_checked`), from the force as measured."""
+    from eddi.mdof.verdict import chain_checked, driving_point_records
+    from station.readers import response_channels
+
+    forces, rests = [], []
+    for m in meas:
+        rest = int(m.pretrigger_samples or 0) or int(np.sum(np.asarray(m.t) < 0))
+        f = m.channels.get("force")
+        forces.append(None if f is None else np.asarray(f, float) - (np.median(f[:rest]) if rest > 8 else 0.0))
+        rests.append(rest)
+    qty = response_channels(meas[0].channels)[dp][0]
+    dp_recs = driving_point_records(records, names.index(dp), forces, rests, qty)
+    hz = [float(f) for f in model.natural_frequencies_hz() if math.isfinite(f) and f > 0]
+    return chain_checked(verdict, dp_recs, min(hz) if hz else 0.0, dp)
 
 
 def _coords(text: str) -> set[int]:

@@ -71,6 +71,37 @@ def test_a_diagnosis_over_its_cpu_budget_says_so_with_its_projection():
     assert BUDGET_CPU_S > 0
 
 
+def test_clipped_driving_point_turns_a_null_into_unexplained(tmp_path, capsys):
+    """The chain rule of the one-coordinate loop (eddi.diagnosis.earn) on the driving point:
+    the linear null of the test above, its driving-point accelerometer flat at its largest
+    value for 3 samples at each blow's peak (a converter at its limit for a moment: too short
+    for the reader's 5-sample refusal), is `unexplained` with the clipping as symptom, not
+    `none`."""
+    import numpy as np
+
+    chain = load_mdof_system("two-mass-cubic")
+    linear = chain.model_copy(update={"elements": tuple(e.model_copy(update={"k3": 0.0}) for e in chain.elements)})
+    files = _captures(linear, tmp_path, "linear")
+    for f in files:
+        with open(f) as fh:
+            head = fh.readline().strip().split(",")
+        data = np.loadtxt(f, delimiter=",", skiprows=1)
+        k = head.index("acc1")
+        sign = 1.0 if data[:, k].max() >= -data[:, k].min() else -1.0
+        y = sign * data[:, k]
+        i = int(np.argmax(y))
+        top = float(min(y[i - 1:i + 2]))  # the peak and its two neighbours flat at the lowest of them
+        assert np.sum(y > top) <= 2
+        data[:, k] = sign * np.minimum(y, top)
+        np.savetxt(f, data, delimiter=",", header=",".join(head), comments="", fmt="%.10g")
+    assert main(["diagnose", *files, "--json", "--no-refine"]) == 0
+    obj = json.loads(capsys.readouterr().out)
+    assert obj["cause"] == "unexplained"
+    clip = [s for s in obj["symptoms"] if s["kind"] == "clipping"]
+    assert clip and all(s["channel"] == "acc1" and 3 <= s["samples"] < 5 for s in clip)
+    assert any("measurement chain cannot be trusted" in n for n in obj["notes"])
+
+
 def test_similar_blows_earn_none_only_when_the_backbone_holds_and_say_how_far(tmp_path, capsys):
     # our own pair (not a rig system), three blows within 25 % of each other: the folds cannot
     # test amplitude extrapolation. Hidden: quadratic drag on mass 1, which no library term
