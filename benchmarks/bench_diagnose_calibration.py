@@ -323,6 +323,7 @@ def summary(path: str, factor: float, strong: float | None, again: bool = False)
             print(f"[{set_name}] nulls: {len(nulls)} ({multi} six-capture sets from two rig runs); "
                   f"baseline/floor ratio median {ratios[len(ratios) // 2]:.2f}, 95th pct "
                   f"{ratios[int(0.95 * (len(ratios) - 1))]:.2f}, max {ratios[-1]:.2f}")
+            _null_ranges(nulls)
             for f in sorted({k for r in nulls for k in r["causes"]}, key=_key_order):
                 bad = [r for r in nulls if r["causes"][f] != "none"]
                 named = [r for r in bad if r["causes"][f] != "unexplained"]
@@ -356,6 +357,26 @@ def summary(path: str, factor: float, strong: float | None, again: bool = False)
         cpu = [r["cpu_s"] for r in rows if r.get("set") == set_name and "cpu_s" in r]
         if cpu:
             print(f"[{set_name}] CPU per case median {np.median(cpu):.1f} s, max {max(cpu):.1f} s")
+
+
+def _null_ranges(nulls: list) -> None:
+    """What the nulls span (masses, springs, rates, SNR), the impulse/momentum ratio's bias
+    (the impulse-mass check's tolerance is set against it) and the chain findings on them."""
+    from eddi.diagnosis.chain import IMPULSE_MASS_TOLERANCE
+    from eddi.diagnosis.earn import CHAIN_KINDS
+
+    m = [r["mass_kg"] for r in nulls]
+    snr = [r["snr_db"] for r in nulls]
+    rates = sorted({int(r["rate_hz"]) for r in nulls})
+    soft = sum(r["spring"] == "soft" for r in nulls)
+    print(f"   masses {min(m):.3f}-{max(m):.3f} kg; {soft} soft, {len(nulls) - soft} hard springs; "
+          f"rates {', '.join(str(x) for x in rates)} Hz; SNR {min(snr):.1f}-{max(snr):.1f} dB")
+    imp = [abs(r["impulse_mass"][0] - 1.0) for r in nulls if r.get("impulse_mass")]
+    if imp:
+        print(f"   impulse/momentum |ratio - 1|: median {100 * float(np.median(imp)):.2f} %, max "
+              f"{100 * max(imp):.2f} % (tolerance {100 * IMPULSE_MASS_TOLERANCE:g} %)")
+    chain = [(r["seed"], sy[0]) for r in nulls for sy in r.get("symptoms", []) if sy[0] in CHAIN_KINDS]
+    print(f"   chain findings on the nulls: {len(chain)}" + (f" ({chain})" if chain else ""))
 
 
 def _named_table(nulls: list, lad: list) -> None:

@@ -15,7 +15,9 @@ came out within 1 % (floor: every case) and wrong names (floor: 0).
 ``--set pairs-*``: two-mass pairs (1:2.3, 1:3, 1:4.5) whose upper mode's damping ratio is 3-10
 times the lower one's, so it can be gone before the low-amplitude tail starts; printed: whether
 the tail alone misses it, the modes found (floor: every one within 3 %) and the modal masses
-from the driving-point residue against the true ones (for the shapes scaled to a largest entry 1).
+from the driving-point residue against the true ones (for the shapes scaled to a largest entry 1),
+with the spread of the records' residues (modal coordinates use a residue mass only when it is
+at most ``eddi.mdof.identify.RESIDUE_SPREAD_MAX``).
 """
 
 from __future__ import annotations
@@ -145,8 +147,13 @@ def run_pair(name: str, system: MdofSystem, snr: float) -> tuple[bool, bool, boo
     f, mm = modes.frequencies_hz, modes.modal_masses
     ok = f.size == truth.size and bool(np.all(np.abs(f - truth) <= 0.03 * truth))
     ok_m = ok and bool(np.all(np.abs(mm - mass) <= 0.1 * mass))
+    from eddi.mdof.identify import RESIDUE_SPREAD_MAX
+
+    spread = modes.modal_mass_spread
+    used = ["used" if s <= RESIDUE_SPREAD_MAX else "not used" for s in spread]
     print(f"  {name:<40} {snr:>4.0f} dB  {'hidden' if hidden else 'in tail'}  true {np.round(truth, 2)} "
-          f"found {np.round(f, 2)}  modal mass {np.round(mm, 3)} (true {np.round(mass, 3)})"
+          f"found {np.round(f, 2)}  modal mass {np.round(mm, 3)} (true {np.round(mass, 3)}; records' spread "
+          f"{', '.join(f'{s:.3f} {u}' for s, u in zip(spread, used))} by modal coordinates)"
           f"{'' if ok else '  (NOT within 3 %)'}{'' if ok_m else '  (masses NOT within 10 %)'}")
     return hidden, ok, ok_m
 

@@ -42,6 +42,7 @@ from eddi.conditioning import ConditionedSignal, condition
 from eddi.energy import noise_level
 from eddi.errors import IdentificationError, SignalError
 from eddi.identify import IdentifiedModel, identify
+from eddi.intervals import sampling_kernel_warning
 from eddi.model import EquationOfMotion
 from eddi.stability import model_warnings, poor_fit_warnings
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, coefficient_unit, parse_terms
@@ -233,10 +234,32 @@ class Pipeline:
 
     def condition(self, t: np.ndarray, *, acc: np.ndarray | None = None, vel: np.ndarray | None = None,
                   disp: np.ndarray | None = None, force: np.ndarray | None = None,
-                  pretrigger_samples: int | None = None, ac_coupling_s: float | None = None) -> ConditionedSignal:
-        """Step 1: :func:`eddi.conditioning.condition` (see there)."""
-        return condition(t, acc=acc, vel=vel, disp=disp, force=force, pretrigger_samples=pretrigger_samples,
+                  pretrigger_samples: int | None = None, ac_coupling_s: float | None = None,
+                  adc_sinc_order: int | None = None, adc_osr: int | None = None) -> ConditionedSignal:
+        """Step 1: :func:`eddi.conditioning.condition` (see there).
+
+        ``adc_sinc_order``: the order ``K`` of the DAQ's sinc^K decimation filter (the
+        ADS131M04's is 3; 1 for a mean over each sample interval; None or 0 for point samples or a
+        compensated, flat passband). Its passband droop ``1 - K (omega dt)^2 / 24`` is a gain on
+        the measured acceleration that biases nonlinear coefficients (a ``k3`` by ~1 % at 33
+        samples per cycle with sinc3); the refinement then compares the model through the same
+        kernel (:attr:`ConditionedSignal.sample_kernel_var` ``= K (R^2 - 1) / (12 R^2)`` for
+        ``R = adc_osr`` modulator samples per output sample; ``K / 12`` when not given, the
+        limit of a large ``R``: the ADS131M04's is 128-16256).
+        """
+        cond = condition(t, acc=acc, vel=vel, disp=disp, force=force, pretrigger_samples=pretrigger_samples,
                          ac_coupling_s=ac_coupling_s)
+        if adc_sinc_order:
+            k = int(adc_sinc_order)
+            if not (k == adc_sinc_order and 1 <= k <= 8):
+                raise SignalError(f"adc_sinc_order must be an integer in 1..8, got {adc_sinc_order}")
+            r = adc_osr
+            if r is not None and not (int(r) == r and r >= 1):
+                raise SignalError(f"adc_osr must be an integer >= 1, got {adc_osr}")
+            var = k / 12.0 if r is None else k * (r * r - 1) / (12.0 * r * r)
+            cond = replace(cond, sample_kernel_var=var,
+                           notes=cond.notes + (f"samples are sinc{k} means (decimation filter): compared through it",))
+        return cond
 
     def _identify(self, cond: ConditionedSignal, mass: float) -> tuple[IdentifiedModel, int]:
         """EDDI (on a decimated copy of a densely sampled window), then the refinement.
@@ -251,7 +274,8 @@ class Pipeline:
         if q == 1:
             return identify(cond.t, cond.x, cond.v, mass, damping=self.damping, stiffness=self.stiffness,
                             route=self.route, a=cond.a, window=cond.window, refine=channel if self.refine else False,
-                            select=self.refine and self.select, mapper=self.mapper), 1
+                            select=self.refine and self.select, mapper=self.mapper,
+                            kernel_var=cond.sample_kernel_var), 1
         td, xd, vd, ad, _ = decimate_centred(tw, xw, vw, aw, q)
         # the noise of the samples (what EDDI would estimate on every sample)
         model = identify(td, xd, vd, mass, damping=self.damping, stiffness=self.stiffness, route=self.route, a=ad,
@@ -261,7 +285,7 @@ class Pipeline:
             from eddi.refine import refine_output_error  # local: scipy.optimize
 
             eom, info = refine_output_error(model.eom, tw, xw, vw, aw, channel=channel, select=self.select,
-                                            mapper=self.mapper)
+                                            mapper=self.mapper, kernel_var=cond.sample_kernel_var)
             model = replace(model, eom=eom, unrefined=model.eom, refinement=info)
         return model, q
 
@@ -282,11 +306,12 @@ class Pipeline:
         w0, w1 = cond.window
         args = (cond.t[w0:w1], cond.x[w0:w1], cond.v[w0:w1], cond.a[w0:w1])
         channel = REFINE_CHANNEL[cond.response]
+        kv = cond.sample_kernel_var
         if ref is None or not ref.unselected:
             try:
-                _, ref = refine_output_error(eom, *args, channel=channel)
+                _, ref = refine_output_error(eom, *args, channel=channel, kernel_var=kv)
             except (IdentificationError, SignalError):  # too short a window: the covariance at EDDI
-                return confidence_intervals(eom, *args, channel=channel)
+                return confidence_intervals(eom, *args, channel=channel, kernel_var=kv)
         return bounded_intervals(eom, ref.unselected, ref.unselected_ci95)
 
     def validate(self, eom: EquationOfMotion, cond: ConditionedSignal) -> tuple[Validation, bool]:
@@ -355,9 +380,11 @@ class Pipeline:
         if refinement == "kept" and ref is not None:
             dropped.update(ref.dropped)
         warnings = list(cond_warnings(cond))
-        coarse = samples_per_cycle_note(cond.rate_hz, highest_frequency(cond))
+        f_hi = highest_frequency(cond)
+        coarse = samples_per_cycle_note(cond.rate_hz, f_hi)
         if coarse:
             warnings.append(coarse)
+        warnings += sampling_kernel_warning(eom, ci95, cond.rate_hz, f_hi, cond.sample_kernel_var)
         unsound = model_warnings(eom, cond.x[w0:w1], cond.v[w0:w1])
         warnings += unsound
         warnings += [f"fit record: {w}" for w in val.warnings]
@@ -519,12 +546,33 @@ def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal,
     if force is not None and cond.impact_start > 0:
         s, e = cond.impact_start, cond.free_stop
         drive = fused_impact_force(cond, eom) if (cond.acc_measured and fused) else force
+        if cond.sample_kernel_var > 0:
+            drive = unsharpened(drive, cond.sample_kernel_var)
+            s = max(0, s - 1)  # the correction spills one sample before the impact: keep its impulse
         if drive_scale != 1.0:
             drive = drive * drive_scale
         val = validate(eom, cond.t[s:e], cond.x[s:e], v=cond.v[s:e], force=drive[s:e],
                        window=(cond.free_start - s, cond.free_stop - s))
         return _shift(val, s), True
     return validate(eom, cond.t, cond.x, v=cond.v, window=cond.window), False
+
+
+def unsharpened(drive: np.ndarray, kernel_var: float) -> np.ndarray:
+    """The force before the DAQ's decimation filter, to second order: ``f - kv/2 * second difference``.
+
+    The filter (kernel variance ``kv`` sample intervals^2) spreads a blow over its kernel:
+    the impulse is kept, but the mode is driven by the force's spectrum at its frequency,
+    ``1 - kv (omega dt)^2 / 2`` of it, and a nonlinear mode then rings at another amplitude
+    and frequency (sinc3 at 25 samples a cycle: the true model's driven validation of a
+    hardening oscillator drifted in phase to a displacement nrmse above 0.1). The correction
+    keeps the impulse (the second difference of a pulse inside the record sums to 0; it
+    spills one sample to each side of the pulse, which the simulation must start before:
+    cut, the 0.1 % of the impulse there moved a 1 t, 3 Hz response by 0.13 % and the judge
+    rejected the exact model).
+    """
+    d2 = np.zeros_like(drive)
+    d2[1:-1] = drive[2:] - 2.0 * drive[1:-1] + drive[:-2]
+    return drive - 0.5 * kernel_var * d2
 
 
 def fused_impact_force(cond: ConditionedSignal, eom: EquationOfMotion) -> np.ndarray:

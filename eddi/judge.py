@@ -118,14 +118,23 @@ def _simulated(eom: EquationOfMotion, cond: "ConditionedSignal", scale: float, k
     if not math.isfinite(val.nrmse) or not np.all(np.isfinite(val.x_simulated)):
         return np.full(val.x_simulated[::k].size, np.inf)
     channel = CHANNEL[cond.response]
+    kv = cond.sample_kernel_var
+    step = 1 if kv else k  # the DAQ's kernel needs neighbouring samples
     if channel == "x":
-        return val.x_simulated[::k]
-    if channel == "v":
-        return val.v_simulated[::k]
-    from eddi.simulate import internal_force  # local: the simulator imports numba
+        out = val.x_simulated[::step]
+    elif channel == "v":
+        out = val.v_simulated[::step]
+    else:
+        from eddi.simulate import internal_force  # local: the simulator imports numba
 
-    # the window is after the impact: no external force
-    return -internal_force(eom, val.x_simulated[::k], val.v_simulated[::k]) / eom.mass
+        # the window is after the impact: no external force
+        out = -internal_force(eom, val.x_simulated[::step], val.v_simulated[::step]) / eom.mass
+    if kv and out.size >= 3:  # samples are the DAQ's kernel means (eddi.intervals.sampling_curvature)
+        d2 = np.empty_like(out)
+        d2[1:-1] = out[2:] - 2.0 * out[1:-1] + out[:-2]
+        d2[0], d2[-1] = d2[1], d2[-2]
+        out = (out + 0.5 * kv * d2)[::k]
+    return out
 
 
 def _profiled(eom: EquationOfMotion, cond: "ConditionedSignal", y: np.ndarray, u: float, k: int,

@@ -41,7 +41,10 @@ Evidence for each term (``select=True``)
 At the optimum the output-error fit is a nonlinear least-squares problem with white sensor
 noise, so the coefficients' covariance is ``s^2 (J^T J)^-1`` (``J``: the Jacobian of the
 simulated signal, ``s^2 = RSS / (n - p)``, over the block means): :attr:`Refinement.ci95`
-is ``1.96`` standard errors. Terms are then removed one at a time, the one with the smallest ``|c| / se`` first,
+is ``1.96`` standard errors. Residuals that are not white (a DAQ's decimation filter, a
+drifting bias) widen it by a sandwich over the response's band
+(:func:`eddi.intervals.noise_covariance_of_fit`); a DAQ's sampling kernel, when told, is part of the model
+(:func:`eddi.intervals.sampling_curvature`). Terms are then removed one at a time, the one with the smallest ``|c| / se`` first,
 each removal refitted and kept only when it lowers the Bayesian information criterion
 ``BIC = n ln(RSS / n) + p ln(N)`` (``n`` block means, ``N`` samples: the likelihood ratio of
 two nested fits is the same on block means as on the samples, and the penalty stays that of
@@ -63,6 +66,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from eddi.errors import IdentificationError, SignalError
+from eddi.intervals import noise_covariance_of_fit, sampling_curvature
 from eddi.model import EquationOfMotion
 from eddi.simulate import local_angular_frequency, simulate
 from eddi.terms import evaluate
@@ -207,7 +211,7 @@ class _OutputError:
     """
 
     def __init__(self, eom: EquationOfMotion, t: np.ndarray, x: np.ndarray, v: np.ndarray, y: np.ndarray,
-                 channel: str) -> None:
+                 channel: str, kernel_var: float = 0.0) -> None:
         self.eom, self.channel = eom, channel
         self.n_samples = t.size
         dt = float(t[1] - t[0])
@@ -217,7 +221,9 @@ class _OutputError:
         self.y = block_means(y, self.block)
         nb = self.y.size
         self.t = t[half: half + nb * self.block: self.block]
-        self.curvature = (self.block**2 - 1) / (24.0 * self.block**2)
+        # block mean of samples that are themselves the DAQ's kernel-weighted means (variance
+        # ``kernel_var`` sample intervals^2, see :func:`eddi.intervals.sampling_curvature`)
+        self.curvature = sampling_curvature(self.block, kernel_var)
         d_terms, k_terms = eom.damping_terms(), eom.stiffness_terms()
         self.names = [("damping", tm.text) for tm in d_terms] + [("stiffness", tm.text) for tm in k_terms]
         c0 = np.array([eom.damping[tm.text] for tm in d_terms] + [eom.stiffness[tm.text] for tm in k_terms])
@@ -311,7 +317,7 @@ class _OutputError:
         self.diverged = bool(diverged or not np.all(np.isfinite(out)))
         if self.diverged:
             return np.full(stop, 1e6 * float(np.max(np.abs(self.y))))
-        if self.block > 1 and stop >= 3:  # the block mean of a smooth signal: centre + curvature
+        if self.curvature and stop >= 3:  # the block mean of a smooth signal: centre + curvature
             d2 = np.empty_like(out)
             d2[1:-1] = out[2:] - 2.0 * out[1:-1] + out[:-2]
             d2[0], d2[-1] = d2[1], d2[-2]
@@ -349,7 +355,7 @@ class _OutputError:
         if div or not np.all(np.isfinite(j)):
             return None
         j = np.column_stack((j, np.ones(stop)))
-        if self.block > 1 and stop >= 3:
+        if self.curvature and stop >= 3:
             d2 = np.empty_like(j)
             d2[1:-1] = j[2:] - 2.0 * j[1:-1] + j[:-2]
             d2[0], d2[-1] = d2[1], d2[-2]
@@ -406,8 +412,13 @@ class _OutputError:
             jac = self.jacobian(p)
         dof = max(1, n - p.size)
         jtj = jac.T @ jac
-        cov = (rss / dof) * np.linalg.pinv(jtj)
-        se = np.sqrt(np.clip(np.diag(cov)[:-NUISANCE], 0.0, None)) * self.scale[self.active]
+        inv = np.linalg.pinv(jtj)
+        # the coloured-noise covariance only ever widens an interval: a drift's low-frequency
+        # power lies outside the response's band, but a slow ramp still leaks into the
+        # coefficients, which the white s^2 (raised by it) happened to hold (see
+        # noise_covariance_of_fit)
+        var = np.maximum((rss / dof) * np.diag(inv), np.diag(inv @ noise_covariance_of_fit(jac, r, dof, jtj) @ inv))
+        se = np.sqrt(np.clip(var[:-NUISANCE], 0.0, None)) * self.scale[self.active]
         se[~(np.diag(jtj)[:-NUISANCE] > 0)] = math.inf
         return 1.959964 * se, rss
 
@@ -466,6 +477,7 @@ def refine_output_error(
     select: bool = False,
     mapper=None,
     min_gain: float | None = None,
+    kernel_var: float = 0.0,
 ) -> tuple[EquationOfMotion, Refinement]:
     """Refine the coefficients of ``eom`` by fitting its free response to the measurement.
 
@@ -498,6 +510,9 @@ def refine_output_error(
         variance once the model fits, so ``min_gain = 1`` stops where a step moves the fit by
         less than one unit of chi-square). Default: run each stage to ``max_nfev`` or to
         rounding (``ftol`` 1e-12), as the identification does.
+    kernel_var : float
+        Variance of the DAQ's sampling kernel [sample intervals^2] (:func:`eddi.intervals.sampling_curvature`;
+        :attr:`eddi.conditioning.ConditionedSignal.sample_kernel_var`): 0 for point samples.
 
     Returns
     -------
@@ -514,7 +529,7 @@ def refine_output_error(
         If ``channel`` is unknown, or ``"a"`` without ``a``.
     """
     t, x, v, y, channel = _check(t, x, v, a, channel)
-    prob = _OutputError(eom, t, x, v, y, channel)
+    prob = _OutputError(eom, t, x, v, y, channel, kernel_var)
     n = prob.n
     prob.min_gain = None if min_gain is None else float(min_gain)
     p = prob.p0.copy()
@@ -551,7 +566,8 @@ def refine_output_error(
 
 
 def confidence_intervals(eom: EquationOfMotion, t: np.ndarray, x: np.ndarray, v: np.ndarray,
-                         a: np.ndarray | None = None, *, channel: str | None = None) -> dict[str, dict[str, float]]:
+                         a: np.ndarray | None = None, *, channel: str | None = None,
+                         kernel_var: float = 0.0) -> dict[str, dict[str, float]]:
     """95 % half widths of the coefficients of ``eom`` as they stand (not refitted).
 
     Only the initial state of the free response is fitted; the covariance is that of the
@@ -564,7 +580,7 @@ def confidence_intervals(eom: EquationOfMotion, t: np.ndarray, x: np.ndarray, v:
         ``{"damping": {term: half width}, "stiffness": {...}}`` in the coefficients' units.
     """
     t, x, v, y, channel = _check(t, x, v, a, channel)
-    prob = _OutputError(eom, t, x, v, y, channel)
+    prob = _OutputError(eom, t, x, v, y, channel, kernel_var)
     free = np.zeros(prob.p0.size, dtype=bool)
     free[-NUISANCE:] = True
     p = prob.p0.copy()

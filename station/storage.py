@@ -92,7 +92,8 @@ def sha256_of(data: np.ndarray) -> str:
     """
     a = np.asarray(data)
     dt = "<i4" if a.dtype.kind in "iu" else "<f8"
-    return hashlib.sha256(np.ascontiguousarray(a, dtype=dt).tobytes()).hexdigest()
+    # hashed through the buffer protocol: the same bytes as ``.tobytes()`` without copying them
+    return hashlib.sha256(memoryview(np.ascontiguousarray(a, dtype=dt)).cast("B")).hexdigest()
 
 
 @dataclass(frozen=True)

@@ -50,6 +50,11 @@ class ConditionedSignal:
     response : str
         The measured response channel the window and noise floor refer to: ``"acc"``,
         ``"vel"`` or ``"disp"`` (acceleration first when several were given).
+    sample_kernel_var : float
+        Variance of the DAQ's sampling kernel [sample intervals^2]: each sample is the
+        signal's weighted mean over that kernel (its decimation filter: 0 for point samples
+        or a flat passband, ``K / 12`` for a sinc^K decimator). The output-error fit compares
+        the model through the same kernel (:func:`eddi.intervals.sampling_curvature`).
     """
 
     t: np.ndarray
@@ -68,6 +73,7 @@ class ConditionedSignal:
     force_noise_rms: float = 0.0
     acc_measured: bool = False
     response: str = "acc"
+    sample_kernel_var: float = 0.0
 
     def __post_init__(self) -> None:
         n = self.t.size

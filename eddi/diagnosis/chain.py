@@ -22,7 +22,8 @@
   -0.18..0.003 with a 0.3-2 Hz coupling or none) contradicts it (:func:`damping_slope`): the
   candidate is kept in ``candidates`` with the reason, never named (a strong ``|x| v`` was
   named ``sensor_highpass`` in 2 of 3 held-out seeds before).
-* Detected and reported (:func:`inspect`): clipping/overload (a channel flat at its extreme),
+* Detected and reported (:func:`inspect`): clipping/overload (a channel flat at its extreme,
+  also for 2-4 samples: :func:`_short_plateau`),
   double hits (a second force pulse), base motion (a slow resonance in the acceleration well
   below the structure's), and a mass that disagrees with the hammer impulse (impulse of the
   measured force against the momentum the measured acceleration gives).
@@ -458,15 +459,18 @@ def impulse_mass_ratio(records: Sequence[Record], mass: float, f1: float | None 
     return float(np.median(ratios)), spread, int(ratios.size)
 
 
-def inspect(records: Sequence[Record], mass: float, f1: float) -> list[Symptom]:
+def inspect(records: Sequence[Record], mass: float | None, f1: float, measured_f1: bool = True) -> list[Symptom]:
     """Measurement-chain findings (module notes), one symptom per finding.
 
-    ``f1`` is the baseline's frequency [Hz]; base motion is looked for below the measured
+    ``mass`` [kg] is the mass the model is given (None: no impulse-mass check, e.g. the
+    driving point of a multi-DOF structure, whose mass is not given). ``f1`` is the
+    baseline's frequency [Hz]; base motion is looked for below the measured
     resonance (:func:`measured_frequency`) when there is one: a baseline fitted to records
     with a moving base can have any frequency (0.3 f1 in a case of my own, where the slow
-    motion then fell outside the band searched and was never said)."""
+    motion then fell outside the band searched and was never said). ``measured_f1=False``:
+    ``f1`` as given (several modes: the lowest one; the strongest peak may be a higher one)."""
     out: list[Symptom] = []
-    f_meas = measured_frequency(records)
+    f_meas = measured_frequency(records) if measured_f1 else 0.0
     f1 = f_meas if f_meas > 0 else f1
     clipped = set()
     for i, r in enumerate(records):
@@ -480,8 +484,8 @@ def inspect(records: Sequence[Record], mass: float, f1: float) -> list[Symptom]:
         if s is not None:
             out.append(Symptom(s.kind, s.text, {**s.values, "record": float(i)}))
     out += _short_clipping(records, clipped)
-    m = impulse_mass_ratio(records, mass, f1)
-    if m is not None:
+    m = impulse_mass_ratio(records, mass, f1) if mass is not None else None
+    if m is not None and mass is not None:
         med, spread, n = m
         if abs(med - 1.0) > IMPULSE_MASS_TOLERANCE and abs(med - 1.0) > IMPULSE_MASS_SPREADS * spread:
             m_imp = mass * med

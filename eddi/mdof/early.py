@@ -73,9 +73,9 @@ def era_windows(records: Sequence[tuple[np.ndarray, int, int]], rate_hz: float, 
     modes, added = _era_windows(records, rate_hz, tail_fraction, early_fractions, **kwargs)
     if forces is None:
         return modes
-    masses, shapes = residue_masses(modes, records, forces, rate_hz, int(kwargs.get("driving_point", 0)),
-                                    early_shapes=added)
-    return replace(modes, modal_masses=masses, shapes=shapes)
+    masses, shapes, spread = residue_masses(modes, records, forces, rate_hz, int(kwargs.get("driving_point", 0)),
+                                            early_shapes=added, spread=True)
+    return replace(modes, modal_masses=masses, shapes=shapes, modal_mass_spread=spread)
 
 
 def _era_windows(records: Sequence[tuple[np.ndarray, int, int]], rate_hz: float, tail_fraction: float,
@@ -116,7 +116,7 @@ RESIDUE_PERIODS = 3.0
 
 def residue_masses(modes: LinearModes, records: Sequence[tuple[np.ndarray, int, int]], forces: Sequence[np.ndarray],
                    rate_hz: float, driving_point: int, periods: float = RESIDUE_PERIODS,
-                   early_shapes: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   early_shapes: np.ndarray | None = None, spread: bool = False) -> tuple[np.ndarray, ...]:
     """Modal mass of every mode [kg] (for its shape as given) from the driving-point residue.
 
     For a mode ``r`` with real shape ``psi_r`` and modal mass ``m_r``, a force ``F`` at the
@@ -148,6 +148,9 @@ def residue_masses(modes: LinearModes, records: Sequence[tuple[np.ndarray, int, 
         same poles; the leading singular vector over the records, rotated to real): a mode
         that only an early window holds has a poorer ERA shape there than its residues give.
 
+    spread : bool
+        Also return each mode's spread over the records.
+
     Returns
     -------
     masses : ndarray, shape (r,)
@@ -155,11 +158,15 @@ def residue_masses(modes: LinearModes, records: Sequence[tuple[np.ndarray, int, 
         over the records of each record's estimate.
     shapes : ndarray, shape (n_channels, r)
         ``modes.shapes`` with the ``early_shapes`` columns replaced.
+    spread : ndarray, shape (r,)
+        (with ``spread=True``) ``(max - min) / median`` of the records' estimates of
+        ``psi_d^2 / m`` (NaN with fewer than two records): blows of different strength agree on a
+        linear mode's residue; a nonlinear mode's early residue moves with the blow.
     """
     lam = np.array([complex(-z * 2 * math.pi * f / math.sqrt(max(1 - z * z, 1e-12)), 2 * math.pi * f)
                     for f, z in zip(modes.frequencies_hz, modes.damping_ratios)])
     if lam.size == 0:
-        return np.zeros(0), modes.shapes
+        return (np.zeros(0), modes.shapes) + ((np.zeros(0),) if spread else ())
     per_record, residues = [], []
     f_low = float(np.min(modes.frequencies_hz))
     for (y, start, stop), force in zip(records, forces):
@@ -176,14 +183,20 @@ def residue_masses(modes: LinearModes, records: Sequence[tuple[np.ndarray, int, 
         residues.append(res)
     shapes = modes.shapes.copy()
     if not per_record:
-        return np.full(lam.size, math.nan), shapes
+        return (np.full(lam.size, math.nan), shapes) + ((np.full(lam.size, math.nan),) if spread else ())
     for r in np.flatnonzero(early_shapes if early_shapes is not None else np.zeros(lam.size, bool)):
         u = np.linalg.svd(np.array([res[r] for res in residues]).T, full_matrices=False)[0][:, 0]
         shapes[:, r] = real_modes([(0.0, 0.0, u)], driving_point)[2][:, 0]
     psi_d = shapes[driving_point] ** 2
     inv = np.median(np.array(per_record), axis=0) / np.maximum(psi_d, 1e-300)  # the median record: a
     ok = (inv > 0) & (psi_d > 1e-4)  # large blow of a strongly nonlinear mode leaves no linear residue
-    return np.where(ok, 1.0 / np.where(ok, inv, 1.0), math.nan), shapes
+    masses = np.where(ok, 1.0 / np.where(ok, inv, 1.0), math.nan)
+    if not spread:
+        return masses, shapes
+    est = np.array(per_record)
+    med = np.median(est, axis=0)
+    rel = (np.ptp(est, axis=0) / np.maximum(np.abs(med), 1e-300)) if est.shape[0] > 1 else np.full(lam.size, math.nan)
+    return masses, shapes, np.where(ok, rel, math.nan)
 
 
 def _early_poles(lam: np.ndarray, t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

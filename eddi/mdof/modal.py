@@ -72,6 +72,11 @@ class LinearModes:
         Modal mass of each mode for its shape as given (largest entry 1) [kg], from the
         driving-point residue and the measured force (:func:`eddi.mdof.early.residue_masses`); NaN without a
         force or where the driving point is a node. Empty when not computed.
+    modal_mass_spread : ndarray, shape (r,)
+        Spread of the records' driving-point residues behind each modal mass,
+        ``(max - min) / median`` (:func:`eddi.mdof.early.residue_masses`): small for a linear
+        mode, large when the early residue moves with the blow (a nonlinear mode). Empty when
+        not computed.
     """
 
     frequencies_hz: np.ndarray
@@ -84,6 +89,7 @@ class LinearModes:
     unexplained: np.ndarray = field(default_factory=lambda: np.zeros(0))
     energy_share: np.ndarray = field(default_factory=lambda: np.zeros(0))
     modal_masses: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    modal_mass_spread: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def tail_segments(y: np.ndarray, start: int, stop: int, fraction: float) -> np.ndarray:

@@ -127,3 +127,44 @@ def earned_verdict(cause: str, channel_nrmse: Mapping[str, float], floors: Mappi
                 f"channel {worst:.1f}x above its noise floor (allowed {factor:g}x){partial}")
         cause = "unexplained"
     return MdofVerdict(cause, dict(floors), tuple(symptoms), note)
+
+
+def driving_point_records(records: Sequence, channel: int, forces: Sequence, rests: Sequence[int],
+                          response: str = "acc") -> list:
+    """The driving-point channel of conditioned multi-channel records as one-coordinate
+    :class:`eddi.diagnosis.Record` s, with the force as measured (offset removed, every pulse:
+    the conditioned force keeps the first pulse only), for the measurement-chain checks."""
+    from eddi.diagnosis.records import Record
+
+    out = []
+    for r, f, rest in zip(records, forces, rests):
+        out.append(Record(t=r.t, x=r.x[channel], v=r.v[channel], a=r.a[channel],
+                          force=None if f is None else np.asarray(f, float),
+                          free_start=int(r.window[0]), free_stop=int(r.window[1]), label=r.label,
+                          response=response, pretrigger_samples=int(rest) if rest else None))
+    return out
+
+
+def chain_checked(verdict: MdofVerdict, dp_records: Sequence, lowest_hz: float, channel: str) -> MdofVerdict:
+    """``verdict`` once the driving point's measurement chain has been heard (as
+    :func:`eddi.diagnosis.earn.earn` for one coordinate): clipping, a double hit or base motion
+    on the driving point (:func:`eddi.diagnosis.chain.inspect`, no impulse-mass check: the
+    driving point's mass is not given) turn ``none`` and a name into ``unexplained``; the
+    findings are symptoms either way. Base motion is looked for below ``lowest_hz`` [Hz], the
+    model's lowest mode (the driving point's strongest peak may be a higher one)."""
+    from eddi.diagnosis.chain import inspect
+    from eddi.diagnosis.earn import CHAIN_REASON
+
+    found = inspect(dp_records, None, lowest_hz, measured_f1=False)
+    if not found:
+        return verdict
+    symptoms = verdict.symptoms + tuple({"kind": s.kind, "channel": channel, **s.values, "text": s.text}
+                                        for s in found)
+    if verdict.cause == "unexplained":
+        return MdofVerdict(verdict.cause, verdict.noise_floor, symptoms, verdict.note)
+    kinds = ", ".join(sorted({s.kind for s in found}))
+    was = "the baseline would have been called complete" if verdict.cause == "none" else \
+        f"{verdict.cause} would have been named"
+    note = (f"unexplained: {CHAIN_REASON} at the driving point {channel} ({kinds}: "
+            + "; ".join(s.text for s in found) + f"); {was}")
+    return MdofVerdict("unexplained", verdict.noise_floor, symptoms, note)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from simulated_rig.mdof_systems import MdofSystem, load_mdof_system, mdof_impact_test
 from station.cli import main
 
@@ -67,3 +69,107 @@ def test_a_diagnosis_over_its_cpu_budget_says_so_with_its_projection():
     assert budget_line(1, 3, 29.0, refine=True, budget_s=120.0) is None  # 116 s: within
     assert budget_line(0, 3, 500.0, refine=True) is None
     assert BUDGET_CPU_S > 0
+
+
+def test_clipped_driving_point_turns_a_null_into_unexplained(tmp_path, capsys):
+    """The chain rule of the one-coordinate loop (eddi.diagnosis.earn) on the driving point:
+    the linear null of the test above, its driving-point accelerometer flat at its largest
+    value for 3 samples at each blow's peak (a converter at its limit for a moment: too short
+    for the reader's 5-sample refusal), is `unexplained` with the clipping as symptom, not
+    `none`."""
+    import numpy as np
+
+    chain = load_mdof_system("two-mass-cubic")
+    linear = chain.model_copy(update={"elements": tuple(e.model_copy(update={"k3": 0.0}) for e in chain.elements)})
+    files = _captures(linear, tmp_path, "linear")
+    for f in files:
+        with open(f) as fh:
+            head = fh.readline().strip().split(",")
+        data = np.loadtxt(f, delimiter=",", skiprows=1)
+        k = head.index("acc1")
+        sign = 1.0 if data[:, k].max() >= -data[:, k].min() else -1.0
+        y = sign * data[:, k]
+        i = int(np.argmax(y))
+        top = float(min(y[i - 1:i + 2]))  # the peak and its two neighbours flat at the lowest of them
+        assert np.sum(y > top) <= 2
+        data[:, k] = sign * np.minimum(y, top)
+        np.savetxt(f, data, delimiter=",", header=",".join(head), comments="", fmt="%.10g")
+    assert main(["diagnose", *files, "--json", "--no-refine"]) == 0
+    obj = json.loads(capsys.readouterr().out)
+    assert obj["cause"] == "unexplained"
+    clip = [s for s in obj["symptoms"] if s["kind"] == "clipping"]
+    assert clip and all(s["channel"] == "acc1" and 3 <= s["samples"] < 5 for s in clip)
+    assert any("measurement chain cannot be trusted" in n for n in obj["notes"])
+
+
+def test_similar_blows_earn_none_only_when_the_backbone_holds_and_say_how_far(tmp_path, capsys):
+    # our own pair (not a rig system), three blows within 25 % of each other: the folds cannot
+    # test amplitude extrapolation. Hidden: quadratic drag on mass 1, which no library term
+    # carries (the models' damping is linear in the rates); the ring-downs' damping ratio grows
+    # with the amplitude and a linear dashpot cannot follow it
+    from eddi.mdof.model import MdofModel
+
+    pair = MdofSystem(name="pair", masses_kg=(1.1, 0.45), elements=(
+        {"between": (0, 1), "k": 38000.0, "c": 4.5}, {"between": (1, 2), "k": 21000.0, "c": 1.3}), record_s=2.0)
+    linear = pair.model()
+    damping = ({**linear.damping[0], "abs(v1)*v1": 45.0},) + linear.damping[1:]
+    drag: MdofModel = linear.model_copy(update={"damping": damping})
+    out = {}
+    for tag, model in (("linear", linear), ("drag", drag)):
+        files = [str(mdof_impact_test(pair, p, seed=30 + k, model=model).write_csv(tmp_path / f"{tag}-{k}.csv"))
+                 for k, p in enumerate((45.0, 50.0, 55.0))]
+        assert main(["diagnose", *files, "--json", "--no-refine"]) == 0
+        out[tag] = json.loads(capsys.readouterr().out)
+    null, hidden = out["linear"], out["drag"]
+    assert null["cause"] == "none" and not [s for s in null["symptoms"] if s["kind"] == "amplitude_dependence"]
+    assert null["amplitude"]["span"]["extrapolation_tested"] is False
+    assert any("extrapolation in amplitude not tested" in n for n in null["notes"])
+    assert hidden["cause"] == "unexplained"
+    (amp,) = [s for s in hidden["symptoms"] if s["kind"] == "amplitude_dependence"]
+    assert amp["model_zeta"] > amp["measured_zeta"] and amp["implied_nrmse"] > amp["allowed"]
+    assert amp["mode_hz"] == pytest.approx(min(hidden["natural_frequencies_hz"]), rel=0.05)
+    # the human text says how far the verdict was tested
+    from station.mdof_commands import diagnose_mdof_text
+
+    assert "Cause: none (within" in diagnose_mdof_text(null)
+    assert "extrapolation in amplitude not tested" in diagnose_mdof_text(null)
+
+
+def test_folds_are_polished_only_where_the_polish_can_change_the_verdict(monkeypatch):
+    from types import SimpleNamespace
+
+    import eddi.mdof.verdict
+    import station.mdof_commands as mc
+
+    def fold(e):
+        return SimpleNamespace(nrmse=e, channel_nrmse={"acc1": e, "acc2": e})
+
+    calls = []
+
+    def polished(ident, train, held, v):  # a polish that halves the error
+        calls.append(ident)
+        return fold(v.nrmse / 2)
+
+    monkeypatch.setattr(mc, "_polished_fold", polished)
+    monkeypatch.setattr(eddi.mdof.verdict, "channel_floor", lambda records, names: {c: 0.02 for c in names})
+
+    def fits(base, cpl):
+        return [{"baseline": (fold(b), f"b{k}", []), "coupled": (fold(c), f"c{k}", [])}
+                for k, (b, c) in enumerate(zip(base, cpl))]
+
+    # coupling wins by far and sits within 10x the floor: polishing it cannot change the verdict;
+    # the diverged-like baseline fold (nrmse 40 > 1) is not polished either
+    f = fits([0.5, 40.0, 0.6], [0.03, 0.02, 0.04])
+    done = mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)
+    assert done == {"baseline": [0, 2], "coupled": []} and calls == ["b0", "b2"]
+    assert [x["baseline"][0].nrmse for x in f] == [0.25, 40.0, 0.3]
+    assert [x["coupled"][0].nrmse for x in f] == [0.03, 0.02, 0.04]
+    # within the margin after the baseline's polish: the coupled polish may change it, so it runs
+    calls.clear()
+    f = fits([0.06, 0.05, 0.07], [0.04, 0.03, 0.05])
+    assert mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5) == {"baseline": [0, 1, 2],
+                                                                             "coupled": [0, 1, 2]}
+    # coupled above 10x the floor on a channel: polished too (it may come within)
+    calls.clear()
+    f = fits([40.0, 30.0, 20.0], [0.3, 0.25, 0.2])
+    assert mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)["coupled"] == [0, 1, 2]
