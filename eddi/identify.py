@@ -159,7 +159,7 @@ def identify(
         :func:`eddi.refine.refine_output_error`); default: in turn, here. Same result.
     kernel_var : float
         With ``refine``: variance of the DAQ's sampling kernel [sample intervals^2]
-        (:func:`eddi.refine.sampling_curvature`); 0 for point samples.
+        (:func:`eddi.intervals.sampling_curvature`); 0 for point samples.
 
     Returns
     -------

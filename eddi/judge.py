@@ -129,7 +129,7 @@ def _simulated(eom: EquationOfMotion, cond: "ConditionedSignal", scale: float, k
 
         # the window is after the impact: no external force
         out = -internal_force(eom, val.x_simulated[::step], val.v_simulated[::step]) / eom.mass
-    if kv and out.size >= 3:  # samples are the DAQ's kernel means (eddi.refine.sampling_curvature)
+    if kv and out.size >= 3:  # samples are the DAQ's kernel means (eddi.intervals.sampling_curvature)
         d2 = np.empty_like(out)
         d2[1:-1] = out[2:] - 2.0 * out[1:-1] + out[:-2]
         d2[0], d2[-1] = d2[1], d2[-2]

@@ -41,7 +41,10 @@ Evidence for each term (``select=True``)
 At the optimum the output-error fit is a nonlinear least-squares problem with white sensor
 noise, so the coefficients' covariance is ``s^2 (J^T J)^-1`` (``J``: the Jacobian of the
 simulated signal, ``s^2 = RSS / (n - p)``, over the block means): :attr:`Refinement.ci95`
-is ``1.96`` standard errors. Terms are then removed one at a time, the one with the smallest ``|c| / se`` first,
+is ``1.96`` standard errors. Residuals that are not white (a DAQ's decimation filter, a
+drifting bias) widen it by a sandwich over the response's band
+(:func:`eddi.intervals.noise_covariance_of_fit`); a DAQ's sampling kernel, when told, is part of the model
+(:func:`eddi.intervals.sampling_curvature`). Terms are then removed one at a time, the one with the smallest ``|c| / se`` first,
 each removal refitted and kept only when it lowers the Bayesian information criterion
 ``BIC = n ln(RSS / n) + p ln(N)`` (``n`` block means, ``N`` samples: the likelihood ratio of
 two nested fits is the same on block means as on the samples, and the penalty stays that of
@@ -63,6 +66,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from eddi.errors import IdentificationError, SignalError
+from eddi.intervals import noise_covariance_of_fit, sampling_curvature
 from eddi.model import EquationOfMotion
 from eddi.simulate import local_angular_frequency, simulate
 from eddi.terms import evaluate
@@ -186,90 +190,6 @@ def block_means(y: np.ndarray, block: int) -> np.ndarray:
     return np.asarray(y[: nb * block], dtype=float).reshape(nb, block).mean(axis=1)
 
 
-def sampling_curvature(block: int, kernel_var: float = 0.0) -> float:
-    """Weight of the second difference (on the grid of block centres) in a compared value.
-
-    A compared value is the mean of ``block`` samples, and each sample is the DAQ's
-    weighted mean of the signal around its time (its decimation filter: a kernel of variance
-    ``kernel_var`` sample intervals squared; 0 for point sampling or a flat passband, ``1/12``
-    for the mean over each sample interval, ``K/12`` for a sinc^K decimator such as the
-    ADS131M04's sinc3). For a smooth signal the value is then the signal at the centre plus
-    half the total variance times its second derivative:
-    ``(block^2 - 1 + 12 kernel_var) / (24 block^2)`` times the second difference on the
-    centres' grid (``O((omega h)^4)`` left). A kernel's delay is a time shift of the free
-    response, which the fitted initial state absorbs.
-
-    Unmodelled, a sinc3 decimator's droop ``1 - (omega dt)^2 / 8`` is a gain on the
-    measured acceleration: at 33 samples per cycle it moved a fitted ``k3`` by ~1 % (134
-    standard errors; ``benchmarks/bench_ci_coverage_chain.py``, ``coarse_sinc3``).
-    """
-    if not (kernel_var >= 0 and math.isfinite(kernel_var)):
-        raise SignalError(f"sampling kernel variance must be >= 0 sample intervals^2, got {kernel_var}")
-    return (block**2 - 1 + 12.0 * kernel_var) / (24.0 * block**2)
-
-
-#: Lags of the residual autocorrelation the colour test looks at (compared values).
-COLOUR_LAGS = 10
-#: Ljung-Box statistic over :data:`COLOUR_LAGS` lags beyond which the residuals count as
-#: coloured (chi-square with 10 degrees of freedom: 0.1 % of white records exceed 29.6).
-COLOUR_Q = 29.6
-#: Smoothing of the residual periodogram: a moving mean over ``2 m + 1`` bins, ``m`` this
-#: fraction of the bins (at least 8).
-PSD_SMOOTH = 1.0 / 400
-
-
-def noise_covariance_of_fit(jac: np.ndarray, r: np.ndarray, dof: int, jtj: np.ndarray | None = None) -> np.ndarray:
-    """``J^T Sigma J``: the middle of the coefficients' covariance ``(J^T J)^-1 J^T Sigma J (J^T J)^-1``.
-
-    White residuals (the Ljung-Box statistic of lags 1-:data:`COLOUR_LAGS` below
-    :data:`COLOUR_Q`): ``s^2 J^T J``, ``s^2 = RSS / dof``, the usual ``s^2 (J^T J)^-1``.
-    Coloured ones: a DAQ's decimation filter correlates neighbouring samples, and compared on
-    every sample ``s^2 (J^T J)^-1`` holds one sample's variance where the fit averages over
-    the band of the response, whose noise density is higher (sinc3 made the intervals ~1.3x
-    too narrow, ``benchmarks/bench_ci_coverage_chain.py``); a drifting sensor bias colours
-    them at low frequency, far below that band. ``Sigma`` is then the stationary noise's
-    covariance from the residuals' smoothed periodogram ``S(f)``:
-    ``J^T Sigma J = sum_f Re(J(f)^H J(f)) S(f) / n`` (Parseval: ``s^2 J^T J`` for a flat
-    ``S``), so only the noise density in the band of the Jacobian counts. (A Toeplitz
-    covariance from 10 residual lags smeared a drift's low-frequency power into that band and
-    widened the intervals of drifting records 1.8x: RMS z 0.57.) The caller
-    (``_OutputError.ci95``) keeps the wider of this and the white ``s^2 (J^T J)^-1`` per
-    coefficient: a slow drift leaks into the coefficients a little, which the white ``s^2``
-    (raised by the drift) held (drifting records: RMS z 1.35 with the band density alone,
-    1.04 with the wider one).
-
-    Parameters
-    ----------
-    jac : ndarray, shape (n, p)
-        Jacobian of the compared values.
-    r : ndarray, shape (n,)
-        Residuals at the optimum.
-    dof : int
-        ``n - p``.
-    """
-    if jtj is None:
-        jtj = jac.T @ jac
-    n = r.size
-    g0 = float(r @ r) / dof
-    lags = min(COLOUR_LAGS, n // 4)
-    if not (g0 > 0) or lags < 1:
-        return g0 * jtj
-    rho = np.array([float(r[:-k] @ r[k:]) for k in range(1, lags + 1)]) / float(r @ r)
-    q = n * (n + 2) * float(np.sum(rho**2 / (n - np.arange(1, lags + 1))))
-    if q <= COLOUR_Q:
-        return g0 * jtj
-    spec = np.abs(np.fft.rfft(r)) ** 2 / n * (n / dof)
-    m = max(8, int(PSD_SMOOTH * spec.size))
-    kernel = np.ones(2 * m + 1)
-    dens = np.convolve(spec, kernel, mode="same") / np.convolve(np.ones(spec.size), kernel, mode="same")
-    weight = np.full(spec.size, 2.0)
-    weight[0] = 1.0
-    if n % 2 == 0:
-        weight[-1] = 1.0
-    fj = np.fft.rfft(jac, axis=0)
-    return np.real((fj.conj().T * (weight * dens)) @ fj) / n
-
-
 def smooth_model(eom: EquationOfMotion) -> bool:
     """True when the sensitivity equations give the Jacobian: no effects, no ``sign`` factor.
 
@@ -302,7 +222,7 @@ class _OutputError:
         nb = self.y.size
         self.t = t[half: half + nb * self.block: self.block]
         # block mean of samples that are themselves the DAQ's kernel-weighted means (variance
-        # ``kernel_var`` sample intervals^2, see :func:`sampling_curvature`)
+        # ``kernel_var`` sample intervals^2, see :func:`eddi.intervals.sampling_curvature`)
         self.curvature = sampling_curvature(self.block, kernel_var)
         d_terms, k_terms = eom.damping_terms(), eom.stiffness_terms()
         self.names = [("damping", tm.text) for tm in d_terms] + [("stiffness", tm.text) for tm in k_terms]
@@ -591,7 +511,7 @@ def refine_output_error(
         less than one unit of chi-square). Default: run each stage to ``max_nfev`` or to
         rounding (``ftol`` 1e-12), as the identification does.
     kernel_var : float
-        Variance of the DAQ's sampling kernel [sample intervals^2] (:func:`sampling_curvature`;
+        Variance of the DAQ's sampling kernel [sample intervals^2] (:func:`eddi.intervals.sampling_curvature`;
         :attr:`eddi.conditioning.ConditionedSignal.sample_kernel_var`): 0 for point samples.
 
     Returns

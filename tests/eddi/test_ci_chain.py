@@ -4,9 +4,9 @@ Two causes of dishonest intervals, each with a test that fails on the old code:
 
 * coloured noise (a decimation filter correlates neighbouring samples): ``s^2 (J^T J)^-1``
   holds one sample's variance while the fit averages over a band where the noise density is
-  higher (:func:`eddi.refine.noise_covariance_of_fit`);
+  higher (:func:`eddi.intervals.noise_covariance_of_fit`);
 * a sinc^K decimator's passband droop, a gain on the measured acceleration that moves the
-  nonlinear coefficients (:func:`eddi.refine.sampling_curvature`,
+  nonlinear coefficients (:func:`eddi.intervals.sampling_curvature`,
   ``Pipeline.condition(adc_sinc_order=...)``), or a warning when the filter is not told.
 """
 
@@ -19,7 +19,7 @@ import pytest
 
 from eddi.fit_record import Pipeline
 from eddi.model import EquationOfMotion
-from eddi.refine import noise_covariance_of_fit, sampling_curvature
+from eddi.intervals import noise_covariance_of_fit, sampling_curvature
 from simulated_rig.bench import impact_test
 from simulated_rig.hammer import HammerSpec
 from simulated_rig.sensors import accelerometer, force_sensor
