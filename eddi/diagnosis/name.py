@@ -547,8 +547,8 @@ def lookalike_fails(c: Candidate, rivals: dict[str, Candidate],
                     unfitted: dict[str, Candidate] | None = None) -> list[str]:
     """Why ``c`` is not told apart from its look-alikes among ``rivals`` (candidates that pass
     the held-out tests themselves), or is beaten by one of them on every held-out part (then
-    it is not the best explanation, look-alike or not), or has a look-alike in ``unfitted``
-    (no better than the judged baseline on any held-out part: a model that holds the baseline
+    it is not the best explanation, look-alike or not), or has a look-alike fitted the same way
+    in ``unfitted`` (no better than the judged baseline on any held-out part: a model that holds the baseline
     and does worse everywhere is a failed fit, not a mechanism ruled out; session 8, tuning
     ladder: hidden ``v |v|`` 0.06 k1 A, seed 2, its candidate traded the term against the
     library's ``x^2 v`` and ``v^3`` and did worse than the baseline on all three parts, and
@@ -561,9 +561,11 @@ def lookalike_fails(c: Candidate, rivals: dict[str, Candidate],
     from eddi.diagnosis.lookalike import Z_SEPARATED, told_apart
 
     out = []
-    for name in c.within_cycle:
+    for name, wc in c.within_cycle.items():
         other = (unfitted or {}).get(name)
-        if other is not None and other is not c:
+        # fitted the same way (the EDDI fit extending the same baseline): nested, so worse on
+        # every part is a failed fit; one fitted another way (hysteresis) can be genuinely worse
+        if other is not None and other is not c and wc.get("same_fitter"):
             out.append(f"its look-alike {name} could not be fitted (no better than the baseline on any "
                        f"held-out part, {other.nrmse:.3g} held out), so it is not ruled out")
     for name, other in rivals.items():

@@ -137,6 +137,11 @@ def test_a_look_alike_whose_fit_failed_is_not_ruled_out() -> None:
     dec = decide([amp, drag], base, FLOOR, 0.5, 3.5, 10.0, strong_margin=0.6)
     assert dec.cause == "unexplained" and dec.partial is amp
     assert "its look-alike quadratic_damping could not be fitted" in dec.reason
+    # a look-alike fitted another way (hysteresis) worse everywhere can be genuinely absent
+    other = _cand("amplitude_damping", (0.0061, 0.0116, 0.0275), {"hysteresis": _wc(math.nan, 0, 0)})
+    other = Candidate(**{**other.__dict__, "gain": 0.73})
+    hyst = _cand("hysteresis", (0.11, 0.12, 0.10), {})
+    assert decide([other, hyst], base, FLOOR, 0.5, 3.5, 10.0, strong_margin=0.6).cause == "amplitude_damping"
     # better than the baseline on one part: a fit, beaten within the cycle -> amp is named
     drag = _cand("quadratic_damping", (0.0398, 0.0700, 0.0615), {"amplitude_damping": _wc(-4.74, 0)})
     assert decide([amp, drag], base, FLOOR, 0.5, 3.5, 10.0, strong_margin=0.6).cause == "amplitude_damping"
