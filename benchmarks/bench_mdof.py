@@ -211,7 +211,7 @@ def run(name: str, refine: bool, threshold: float, snr_db: float = 45.0) -> None
         print(line)
 
 
-def coupling_sweep(seeds: int, polish: bool = True) -> None:
+def coupling_sweep(seeds: int, polish: bool = True, masses: tuple[float, ...] = (0.5, 0.2)) -> None:
     """Cubic coupling spring between two masses: estimate error against its printed 95 % interval.
 
     Chains ground-m1-m2 of our own (m1 = 1 kg, m2 = 0.5 or 0.2 kg; linear springs 3e4 / 2e4 N/m,
@@ -230,7 +230,7 @@ def coupling_sweep(seeds: int, polish: bool = True) -> None:
 
     print(f"coupling sweep: {seeds} seeds per case, EDDI (lumped element k3(1-2))"
           + (" and EDDI + output-error polish" if polish else "") + f"; load average {os.getloadavg()[0]:.1f}")
-    for m2 in (0.5, 0.2):
+    for m2 in masses:
         base = [Element(between=(0, 1), k=3e4, c=4.0), Element(between=(1, 2), k=2e4, c=1.5)]
         lin = MdofSystem(name="sweep", masses_kg=(1.0, m2), elements=tuple(base), impacts_n=(60.0, 150.0, 300.0))
         x = mdof_impact_test(lin, 300.0, snr_db=None).truth_x
@@ -339,6 +339,7 @@ def main() -> None:
     ap.add_argument("--coupling-sweep", type=int, metavar="SEEDS", default=0,
                     help="instead: the coupling-coefficient sweep (bias vs printed ci95) with SEEDS seeds per case")
     ap.add_argument("--no-polish", action="store_true", help="coupling sweep: EDDI alone, no output-error polish")
+    ap.add_argument("--sweep-m2", default="0.5,0.2", help="coupling sweep: second masses [kg], comma-separated")
     ap.add_argument("--coupling-anatomy", type=int, metavar="SEEDS", default=0,
                     help="instead: where a weak coupling's k3 error comes from (noise per state, rows' start)")
     args = ap.parse_args()
@@ -346,7 +347,8 @@ def main() -> None:
         coupling_anatomy(args.coupling_anatomy)
         return
     if args.coupling_sweep:
-        coupling_sweep(args.coupling_sweep, polish=not args.no_polish)
+        coupling_sweep(args.coupling_sweep, polish=not args.no_polish,
+                       masses=tuple(float(m) for m in args.sweep_m2.split(",")))
         return
     for name in args.systems.split(","):
         run(name.strip(), args.refine, args.sindy_threshold, args.snr_db)

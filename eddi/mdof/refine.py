@@ -46,6 +46,18 @@ def _with(model: MdofModel, scales: np.ndarray) -> MdofModel:
     return model.model_copy(update={"damping": tuple(damping), "stiffness": tuple(stiffness)})
 
 
+def _weights(records: Sequence[ChannelRecord], horizon: float) -> list[tuple[ChannelRecord, int, np.ndarray]]:
+    """Per record: the samples of the free window the error keeps and each channel's divisor
+    (:func:`_residual_function`), shape (n_channels, 1)."""
+    out = []
+    for r in records:
+        y = r.x[:, r.window[0]:r.window[1]]
+        norm = np.linalg.norm(y, axis=1, keepdims=True) * np.maximum(noise_floor(r), FLOOR_MIN)[:, None]
+        keep = max(8, int(horizon * y.shape[1]))
+        out.append((r, keep, np.where(norm > 0, norm, 1.0) * np.sqrt(keep / y.shape[1])))
+    return out
+
+
 def _residual_function(records: Sequence[ChannelRecord], build, horizon: float = 1.0, memo: dict | None = None):
     """``p -> stacked displacement errors`` (every second sample) of ``build(p)``, each channel
     of each record divided by its norm times its noise floor (:func:`eddi.mdof.validate.noise_floor`,
@@ -60,12 +72,7 @@ def _residual_function(records: Sequence[ChannelRecord], build, horizon: float =
     simulates the whole record (the zero-phase filter needs it) and truncates the error, so
     the memo gives the same numbers.
     """
-    prepared = []
-    for r in records:
-        y = r.x[:, r.window[0]:r.window[1]]
-        norm = np.linalg.norm(y, axis=1, keepdims=True) * np.maximum(noise_floor(r), FLOOR_MIN)[:, None]
-        keep = max(8, int(horizon * y.shape[1]))
-        prepared.append((r, y[:, :keep], np.where(norm > 0, norm, 1.0) * np.sqrt(keep / y.shape[1])))
+    prepared = [(r, r.x[:, r.window[0]:r.window[1]][:, :keep], norm) for r, keep, norm in _weights(records, horizon)]
 
     def simulate(p: np.ndarray) -> list[tuple[np.ndarray, bool]]:
         key = np.asarray(p, float).tobytes()
@@ -102,12 +109,7 @@ def _jacobian_function(records: Sequence[ChannelRecord], build, horizon: float =
     """
     from eddi.mdof.sensitivity import predict_sensitivities, theta
 
-    prepared = []
-    for r in records:
-        y = r.x[:, r.window[0]:r.window[1]]
-        norm = np.linalg.norm(y, axis=1, keepdims=True) * np.maximum(noise_floor(r), FLOOR_MIN)[:, None]
-        keep = max(8, int(horizon * y.shape[1]))
-        prepared.append((r, keep, np.where(norm > 0, norm, 1.0) * np.sqrt(keep / y.shape[1])))
+    prepared = _weights(records, horizon)
 
     def jac(p: np.ndarray) -> np.ndarray:
         p = np.asarray(p, float)
