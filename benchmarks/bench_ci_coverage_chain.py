@@ -22,8 +22,8 @@ Systems (``SYSTEMS``): masses 5 g - 1 t, 2-80 Hz, 2-40 kHz, 30-60 dB, 5-45 s rec
 hardening, softening and asymmetric (``x^2``) stiffness, ``x^2*v`` and ``v^3`` damping.
 Nonlinear coefficients are set by their share at the first peak (``x^n``: ``k_n x_p^(n-1) /
 k1``; ``x^2*v``: ``c x_p^2 / b1``; ``v^3``: ``c v_p^2 / b1``, with ``v_p = J / m`` and
-``x_p = v_p / omega`` from the hammer's impulse ``J``). The first half (``tune``) was used
-while changing the engine; the ``held-out`` half was run once, at the end.
+``x_p = v_p / omega`` from the hammer's impulse ``J``). Six systems (``tune``) were used
+while changing the engine; the four ``held-out`` ones were run once, at the end.
 
 Each record is conditioned (``Pipeline.condition``) and identified by the pipeline with the
 system's own terms (``Pipeline(damping=..., stiffness=...)``, as ``station identify --damping
@@ -170,10 +170,8 @@ def run_case(spec: dict, seeds: range, refine: bool, tell: bool = True
     warned = 0
     for seed in seeds:
         t, force, acc, tau = chain_record(spec, seed)
-        sinc = spec.get("sinc", 1) if spec["osr"] > 1 and tell else None
-        res = pipe.fit(pipe.condition(t, acc=acc, force=force, ac_coupling_s=tau, adc_sinc_order=sinc,
-                                      adc_osr=spec["osr"]),
-                       spec["mass"])
+        told = dict(adc_sinc_order=spec.get("sinc", 1), adc_osr=spec["osr"]) if spec["osr"] > 1 and tell else {}
+        res = pipe.fit(pipe.condition(t, acc=acc, force=force, ac_coupling_s=tau, **told), spec["mass"])
         warned += any("interval" in w for w in res.warnings)
         for group, terms in truth.items():
             for term, c in terms.items():

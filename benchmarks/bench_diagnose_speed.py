@@ -20,6 +20,16 @@ Targets (issue 13): ``three`` <= 3 s, ``beam`` <= 8 s on a quiet 2-core machine.
     git worktree add /tmp/before HEAD~3    # then, whole processes from both trees, interleaved:
     python benchmarks/bench_diagnose_speed.py --case cli --runs 3 --before /tmp/before
 
+    python benchmarks/bench_diagnose_speed.py --case estimate   # quiet 2-core wall, modelled
+
+``--case estimate``: each ``station diagnose`` runs once in one process with every item of every
+fork map timed (CPU); the wall time on ``--jobs`` idle cores is modelled as the CPU outside the
+maps plus, per map, the time ``jobs`` processes take to share its items the way
+:class:`station.forkmap.ForkMap` hands them out (item ``k < jobs`` to process ``k``, then each
+item to the first process free). This is the quiet-machine figure the targets speak of, from
+CPU measured at whatever load (CPU rises with the load too: read it as an upper bound), and the
+same model with the items dealt round robin (how ForkMap shared them before session 8).
+
 ``--case cli``: whole ``station diagnose`` processes (imports, reading, conditioning, the
 pipeline baseline, the diagnosis). CPU is the process's and its forked workers'. Each case
 runs twice per round: in one process (``STATION_SERIAL=1``) and with the folds in ``--jobs``
@@ -216,12 +226,91 @@ def run_cli(runs: int, cases: tuple[str, ...] = ("three", "beam"), jobs: int = 2
               f"{os.cpu_count()} CPUs")
 
 
+def _makespan(items: list[float], jobs: int, dealt: bool = False) -> float:
+    """Time ``jobs`` processes take for items of these CPU times: round robin (``dealt``), or
+    item ``k < jobs`` to process ``k`` and then each to the first process free (ForkMap)."""
+    import heapq
+
+    if jobs < 2 or len(items) < 2:
+        return float(sum(items))
+    n = min(jobs, len(items))
+    if dealt:
+        return max(sum(items[w::n]) for w in range(n))
+    free = sorted(items[:n])
+    heapq.heapify(free)
+    for t in items[n:]:
+        heapq.heappush(free, heapq.heappop(free) + t)
+    return max(free)
+
+
+_ESTIMATE_CHILD = r"""
+import json, sys, time
+c0 = time.process_time()
+import station.forkmap as fm
+calls = []
+def timed(self, fn, items):
+    out, ts = [], []
+    for x in items:
+        t0 = time.process_time(); out.append(fn(x)); ts.append(time.process_time() - t0)
+    calls.append(ts)
+    return out
+fm.ForkMap.__call__ = timed
+from station.cli import main
+try:
+    main(sys.argv[2:])
+finally:
+    c2 = time.process_time()
+    with open(sys.argv[1], "w") as f:
+        json.dump({"total": c2 - c0, "maps": calls}, f)
+"""
+
+
+def run_estimate(jobs: int) -> None:
+    """The quiet-machine wall time of ``station diagnose`` on ``jobs`` idle cores, modelled (see
+    the module notes) from one timed run per case in one process."""
+    import json
+    import subprocess
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        files = []
+        for i, r in enumerate(_three_raw()):
+            path = Path(tmp) / f"c{i}.csv"
+            np.savetxt(path, np.column_stack((r.t, r.force_n, r.acc_m_s2)), delimiter=",",
+                       header="t,force,acc", comments="", fmt="%.10g")
+            files.append(str(path))
+        cases = {"three": ["diagnose", *files, "--mass", "0.1", "--json"],
+                 "beam": ["diagnose", *_beam_files(), "--mass", "1", "--json"]}
+        env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               "STATION_SERIAL": "1"}
+        env.pop("STATION_JOBS", None)
+        for case, args in cases.items():
+            out = Path(tmp) / f"{case}.json"
+            load0 = os.getloadavg()[0]
+            subprocess.run([sys.executable, "-c", _ESTIMATE_CHILD, str(out), *args], env=env, cwd=tmp,
+                           stdout=subprocess.DEVNULL, check=False)
+            got = json.loads(out.read_text())
+            maps = got["maps"]
+            inside = sum(sum(m) for m in maps)
+            outside = got["total"] - inside
+            shared = sum(_makespan(m, jobs) for m in maps)
+            dealt = sum(_makespan(m, jobs, dealt=True) for m in maps)
+            target = {"three": 3.0, "beam": 8.0}[case]
+            print(f"estimate: {case}: CPU {got['total']:.2f} s in one process after Python's start-up (outside "
+                  f"the {len(maps)} fork maps {outside:.2f} s, inside {inside:.2f} s); on {jobs} idle "
+                  f"cores: {outside + shared:.2f} s wall ({outside + dealt:.2f} s with the items dealt round "
+                  f"robin); target {target:g} s: {'met' if outside + shared <= target else 'NOT met'}; "
+                  f"load {load0:.2f} -> {os.getloadavg()[0]:.2f} (CPU inflates with the load)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
-    ap.add_argument("--case", choices=("three", "beam", "both", "cli", "cli-three", "cli-beam"), default="both",
+    ap.add_argument("--case", choices=("three", "beam", "both", "cli", "cli-three", "cli-beam", "estimate"),
+                    default="both",
                     help="cli: whole station diagnose processes (the three captures as CSV and the "
-                         "nine ring-downs; cli-three / cli-beam: one of them)")
+                         "nine ring-downs; cli-three / cli-beam: one of them); estimate: their wall "
+                         "time on --jobs (default 2) idle cores, modelled from timed fork-map items")
     ap.add_argument("--runs", type=int, default=3, help="timed runs per case (default: %(default)s)")
     ap.add_argument("--jobs", type=int, default=None, metavar="N",
                     help="processes for the folds (station.forkmap): the library call's (default 1) and "
@@ -233,6 +322,9 @@ def main() -> None:
                     help="print the N top cProfile lines of one extra run (default: off)")
     args = ap.parse_args()
     np.seterr(all="ignore")
+    if args.case == "estimate":
+        run_estimate(args.jobs or 2)
+        return
     if args.case.startswith("cli"):
         run_cli(max(1, args.runs), ("three", "beam") if args.case == "cli" else (args.case[4:],),
                 args.jobs or 2, args.before)

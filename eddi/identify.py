@@ -21,6 +21,7 @@ from eddi.errors import ModelError, SignalError, TermError
 from eddi.model import EquationOfMotion
 from eddi.phase_one import PhaseOneResult, phase_one
 from eddi.phase_two import ROUTES, PhaseTwoResult, lagrangian_route, potential_route
+from eddi.slow_errors import drift_basis
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, Term, parse_terms
 
 if TYPE_CHECKING:
@@ -158,7 +159,7 @@ def identify(
         :func:`eddi.refine.refine_output_error`); default: in turn, here. Same result.
     kernel_var : float
         With ``refine``: variance of the DAQ's sampling kernel [sample intervals^2]
-        (:func:`eddi.refine.sampling_curvature`); 0 for point samples.
+        (:func:`eddi.intervals.sampling_curvature`); 0 for point samples.
 
     Returns
     -------
@@ -222,13 +223,16 @@ def identify(
         )
 
     results: dict[str, PhaseTwoResult] = {}
+    # both routes' slow-error columns use the same drift basis over phase one's samples (built
+    # here once when there are rows enough for it to be used: >= 4 functions, 2 columns each)
+    drift = drift_basis(p1.t, p1.gamma) if route == "auto" and p1.t.size >= 10 * (len(k_terms) + 8) else None
     if route in ("auto", "potential"):
         results["potential"] = potential_route(p1, xs, k_terms, energy_floor=energy_floor,
-                                               anchored=anchored, noise_v=sv, v=vs, mass=mass_f)
+                                               anchored=anchored, noise_v=sv, v=vs, mass=mass_f, drift=drift)
     if route in ("auto", "lagrangian"):
         results["lagrangian"] = lagrangian_route(p1, xs, vs, mass_f, k_terms, a=a_s,
                                                  v_fraction=v_fraction, energy_floor=energy_floor,
-                                                 noise_a=sa)
+                                                 noise_a=sa, drift=drift)
     scores: dict[str, float] = {}
     if route == "auto":
         for name, p2 in results.items():

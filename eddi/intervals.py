@@ -1,4 +1,9 @@
-"""What the 95 % intervals of an output-error fit do not hold: warnings in plain sentences.
+"""What the 95 % intervals of the output-error fit (:mod:`eddi.refine`) hold, and warnings for what they do not.
+
+:func:`sampling_curvature`: a DAQ's sampling kernel in the compared values;
+:func:`noise_covariance_of_fit`: the noise covariance of coloured residuals;
+:func:`sampling_kernel_warning`: a sentence when an untold decimation filter could move a
+coefficient beyond its interval.
 
 The intervals (:mod:`eddi.refine`) are the fit's covariance: they hold the noise, not a gain
 error of the measured signal. A DAQ whose decimation filter droops in the passband (a sinc^K
@@ -18,6 +23,9 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from eddi.errors import SignalError
 from eddi.model import EquationOfMotion
 from eddi.terms import parse_terms
 
@@ -27,11 +35,11 @@ ASSUMED_SINC_ORDER = 3
 #: Warn when the filter would move a coefficient by more than this many interval half widths...
 WARN_HALF_WIDTHS = 1.0
 #: ...on a record of fewer samples per cycle than this (a sinc3 droop moves a cubic term by
-#: >= 1.3 % there). Above it, a clean record's intervals are narrower than such a droop too
-#: (41 samples per cycle: 0.6 % on ``k3``), but most DAQs either point-sample, or decimate
-#: with a compensated flat passband: a warning on every such record would be noise. The
-#: assumption is stated in ``docs/eddi-method.md`` instead.
-WARN_BELOW_SAMPLES = 30.0
+#: >= 0.6 % there; ``coarse_sinc3`` of the chain benchmark, ~31 a cycle: 1 %, 30-150 se).
+#: Above it, a clean record's intervals can be narrower than such a droop too, but most
+#: DAQs either point-sample, or decimate with a compensated flat passband: a warning on
+#: every such record would be noise. The assumption is stated in ``docs/eddi-method.md``.
+WARN_BELOW_SAMPLES = 40.0
 
 
 def droop_bias(term: str, omega_dt: float, sinc_order: int = ASSUMED_SINC_ORDER) -> float:
@@ -95,4 +103,88 @@ def sampling_kernel_warning(eom: EquationOfMotion, ci95: dict[str, dict[str, flo
     return (f"the 95 % intervals assume point samples (or a flat-passband decimation filter): at "
             f"{rate_hz / frequency_hz:.0f} samples a cycle a sinc{ASSUMED_SINC_ORDER} decimator's droop "
             f"would move {term} by {100 * rel:.2g} % ({ratio:.1f} interval half widths); if the DAQ has one, "
-            "give its order (adc_sinc_order)",)
+            "give its order (adc_sinc_order; `station identify --adc-filter sincK[:R]`)",)
+
+
+def sampling_curvature(block: int, kernel_var: float = 0.0) -> float:
+    """Weight of the second difference (on the grid of block centres) in a compared value.
+
+    A compared value is the mean of ``block`` samples, and each sample is the DAQ's
+    weighted mean of the signal around its time (its decimation filter: a kernel of variance
+    ``kernel_var`` sample intervals squared; 0 for point sampling or a flat passband, ``1/12``
+    for the mean over each sample interval, ``K/12`` for a sinc^K decimator such as the
+    ADS131M04's sinc3). For a smooth signal the value is then the signal at the centre plus
+    half the total variance times its second derivative:
+    ``(block^2 - 1 + 12 kernel_var) / (24 block^2)`` times the second difference on the
+    centres' grid (``O((omega h)^4)`` left). A kernel's delay is a time shift of the free
+    response, which the fitted initial state absorbs.
+
+    Unmodelled, a sinc3 decimator's droop ``1 - (omega dt)^2 / 8`` is a gain on the
+    measured acceleration: at 33 samples per cycle it moved a fitted ``k3`` by ~1 % (134
+    standard errors; ``benchmarks/bench_ci_coverage_chain.py``, ``coarse_sinc3``).
+    """
+    if not (kernel_var >= 0 and math.isfinite(kernel_var)):
+        raise SignalError(f"sampling kernel variance must be >= 0 sample intervals^2, got {kernel_var}")
+    return (block**2 - 1 + 12.0 * kernel_var) / (24.0 * block**2)
+
+
+#: Lags of the residual autocorrelation the colour test looks at (compared values).
+COLOUR_LAGS = 10
+#: Ljung-Box statistic over :data:`COLOUR_LAGS` lags beyond which the residuals count as
+#: coloured (chi-square with 10 degrees of freedom: 0.1 % of white records exceed 29.6).
+COLOUR_Q = 29.6
+#: Smoothing of the residual periodogram: a moving mean over ``2 m + 1`` bins, ``m`` this
+#: fraction of the bins (at least 8).
+PSD_SMOOTH = 1.0 / 400
+
+
+def noise_covariance_of_fit(jac: np.ndarray, r: np.ndarray, dof: int, jtj: np.ndarray | None = None) -> np.ndarray:
+    """``J^T Sigma J``: the middle of the coefficients' covariance ``(J^T J)^-1 J^T Sigma J (J^T J)^-1``.
+
+    White residuals (the Ljung-Box statistic of lags 1-:data:`COLOUR_LAGS` below
+    :data:`COLOUR_Q`): ``s^2 J^T J``, ``s^2 = RSS / dof``, the usual ``s^2 (J^T J)^-1``.
+    Coloured ones: a DAQ's decimation filter correlates neighbouring samples, and compared on
+    every sample ``s^2 (J^T J)^-1`` holds one sample's variance where the fit averages over
+    the band of the response, whose noise density is higher (sinc3 made the intervals ~1.3x
+    too narrow, ``benchmarks/bench_ci_coverage_chain.py``); a drifting sensor bias colours
+    them at low frequency, far below that band. ``Sigma`` is then the stationary noise's
+    covariance from the residuals' smoothed periodogram ``S(f)``:
+    ``J^T Sigma J = sum_f Re(J(f)^H J(f)) S(f) / n`` (Parseval: ``s^2 J^T J`` for a flat
+    ``S``), so only the noise density in the band of the Jacobian counts. (A Toeplitz
+    covariance from 10 residual lags smeared a drift's low-frequency power into that band and
+    widened the intervals of drifting records 1.8x: RMS z 0.57.) The caller
+    (``_OutputError.ci95``) keeps the wider of this and the white ``s^2 (J^T J)^-1`` per
+    coefficient: a slow drift leaks into the coefficients a little, which the white ``s^2``
+    (raised by the drift) held (drifting records: RMS z 1.35 with the band density alone,
+    1.04 with the wider one).
+
+    Parameters
+    ----------
+    jac : ndarray, shape (n, p)
+        Jacobian of the compared values.
+    r : ndarray, shape (n,)
+        Residuals at the optimum.
+    dof : int
+        ``n - p``.
+    """
+    if jtj is None:
+        jtj = jac.T @ jac
+    n = r.size
+    g0 = float(r @ r) / dof
+    lags = min(COLOUR_LAGS, n // 4)
+    if not (g0 > 0) or lags < 1:
+        return g0 * jtj
+    rho = np.array([float(r[:-k] @ r[k:]) for k in range(1, lags + 1)]) / float(r @ r)
+    q = n * (n + 2) * float(np.sum(rho**2 / (n - np.arange(1, lags + 1))))
+    if q <= COLOUR_Q:
+        return g0 * jtj
+    spec = np.abs(np.fft.rfft(r)) ** 2 / n * (n / dof)
+    m = max(8, int(PSD_SMOOTH * spec.size))
+    kernel = np.ones(2 * m + 1)
+    dens = np.convolve(spec, kernel, mode="same") / np.convolve(np.ones(spec.size), kernel, mode="same")
+    weight = np.full(spec.size, 2.0)
+    weight[0] = 1.0
+    if n % 2 == 0:
+        weight[-1] = 1.0
+    fj = np.fft.rfft(jac, axis=0)
+    return np.real((fj.conj().T * (weight * dens)) @ fj) / n

@@ -101,19 +101,7 @@ def impulse_uncertainty(cond: "ConditionedSignal", eom: EquationOfMotion) -> flo
     else:
         var, drive = var_f, cond.impact_force
     impulse = abs(float(np.sum(drive[s0:s1])))
-    u = math.sqrt(var * (s1 - s0)) / impulse if impulse > 0 else 0.0
-    if cond.sample_kernel_var > 0:
-        # a decimation filter spreads the blow over its kernel: the impulse is kept, but what
-        # drives the mode is the force's spectrum there, ``1 - kv (omega dt)^2 / 2`` of it
-        # (a nonlinear mode then rings at another amplitude and frequency); not known better
-        from eddi.simulate import local_angular_frequency  # local: numba
-
-        w0, w1 = cond.window
-        omega = local_angular_frequency(eom, float(np.max(np.abs(cond.x[w0:w1]))),
-                                        float(np.max(np.abs(cond.v[w0:w1]))))
-        if math.isfinite(omega):
-            u = math.hypot(u, 0.5 * cond.sample_kernel_var * (omega / cond.rate_hz) ** 2)
-    return u
+    return math.sqrt(var * (s1 - s0)) / impulse if impulse > 0 else 0.0
 
 
 def _simulated(eom: EquationOfMotion, cond: "ConditionedSignal", scale: float, k: int,
@@ -141,7 +129,7 @@ def _simulated(eom: EquationOfMotion, cond: "ConditionedSignal", scale: float, k
 
         # the window is after the impact: no external force
         out = -internal_force(eom, val.x_simulated[::step], val.v_simulated[::step]) / eom.mass
-    if kv and out.size >= 3:  # samples are the DAQ's kernel means (eddi.refine.sampling_curvature)
+    if kv and out.size >= 3:  # samples are the DAQ's kernel means (eddi.intervals.sampling_curvature)
         d2 = np.empty_like(out)
         d2[1:-1] = out[2:] - 2.0 * out[1:-1] + out[:-2]
         d2[0], d2[-1] = d2[1], d2[-2]

@@ -126,12 +126,14 @@ def _dk_dx(terms: tuple[Term, ...], x: np.ndarray) -> np.ndarray:
     return (term_matrix(terms, x + h, zero) - term_matrix(terms, x - h, zero)) / (2.0 * h)
 
 
-def _nuisance_basis(p1: PhaseOneResult, n_terms: int):  # -> scipy.sparse.csr_matrix | None
+def _nuisance_basis(p1: PhaseOneResult, n_terms: int, basis=None):  # -> scipy.sparse.csr_matrix | None
     """:func:`eddi.slow_errors.drift_basis` over phase one's samples, or None when too few rows.
 
     The nuisance columns (two per basis function) must leave at least ten rows per unknown.
+    ``basis``: that basis when the caller already built it (both routes use the same one).
     """
-    basis = drift_basis(p1.t, p1.gamma)
+    if basis is None:
+        basis = drift_basis(p1.t, p1.gamma)
     if p1.t.size < 10 * (n_terms + 2 * basis.shape[1]):
         return None
     return basis
@@ -154,6 +156,7 @@ def potential_route(
     mass: float = 1.0,
     relative_accuracy: float = 1e-6,
     slow_errors: bool = True,
+    drift=None,
 ) -> PhaseTwoResult:
     """Stiffness from ``V(x) = E - T`` (no division by ``v``).
 
@@ -183,6 +186,9 @@ def potential_route(
         Fit, with the stiffness, a slow offset of ``x`` and a slow error of ``v`` (and of
         the energy anchored on it) in the conditioner's drift-spline space, and discard
         them (:mod:`eddi.slow_errors`; default). Needs ``v`` for the rate part.
+    drift : scipy.sparse matrix, optional
+        :func:`eddi.slow_errors.drift_basis` ``(p1.t, p1.gamma)`` when the caller already built
+        it (:func:`eddi.identify.identify` builds it once for both routes).
 
     Returns
     -------
@@ -200,7 +206,7 @@ def potential_route(
         scale = np.sqrt(scale**2 + (sd / relative_accuracy) ** 2)
     w = 1.0 / scale
     coef, cond = scaled_lstsq(cols * w[:, None], pot * w)
-    basis = _nuisance_basis(p1, len(terms)) if slow_errors else None
+    basis = _nuisance_basis(p1, len(terms), drift) if slow_errors else None
     if basis is not None:
         kmat = term_matrix(terms, x, np.zeros_like(x))
         vcols = (rate_error_columns(p1.t, p1.gamma, p1.kinetic_at_gamma, v, mass, basis)
@@ -234,6 +240,7 @@ def lagrangian_route(
     noise_a: float = 0.0,
     relative_accuracy: float = 1e-6,
     slow_errors: bool = True,
+    drift=None,
 ) -> PhaseTwoResult:
     """Stiffness from the conservative force of the reformulated Lagrangian (paper Eq. 16).
 
@@ -271,6 +278,9 @@ def lagrangian_route(
     slow_errors : bool
         Fit a slow offset of ``x`` with the stiffness and discard it
         (:mod:`eddi.slow_errors`; default).
+    drift : scipy.sparse matrix, optional
+        :func:`eddi.slow_errors.drift_basis` ``(p1.t, p1.gamma)`` when the caller already built
+        it (:func:`eddi.identify.identify` builds it once for both routes).
 
     Returns
     -------
@@ -296,7 +306,7 @@ def lagrangian_route(
     f0 = mass * float(np.max(np.abs(acc))) / np.sqrt(max(float(e[0]), 1e-300))
     w = 1.0 / np.sqrt((relative_accuracy * f0) ** 2 * e[keep] + (mass * noise_a) ** 2)
     coef, cond = scaled_lstsq(cols * w[:, None], fc[keep] * w)
-    basis = _nuisance_basis(p1, len(terms)) if slow_errors else None
+    basis = _nuisance_basis(p1, len(terms), drift) if slow_errors else None
     if basis is not None:
         xk = x[keep]
         dmat = _dk_dx(terms, xk)

@@ -41,7 +41,10 @@ Evidence for each term (``select=True``)
 At the optimum the output-error fit is a nonlinear least-squares problem with white sensor
 noise, so the coefficients' covariance is ``s^2 (J^T J)^-1`` (``J``: the Jacobian of the
 simulated signal, ``s^2 = RSS / (n - p)``, over the block means): :attr:`Refinement.ci95`
-is ``1.96`` standard errors. Terms are then removed one at a time, the one with the smallest ``|c| / se`` first,
+is ``1.96`` standard errors. Residuals that are not white (a DAQ's decimation filter, a
+drifting bias) widen it by a sandwich over the response's band
+(:func:`eddi.intervals.noise_covariance_of_fit`); a DAQ's sampling kernel, when told, is part of the model
+(:func:`eddi.intervals.sampling_curvature`). Terms are then removed one at a time, the one with the smallest ``|c| / se`` first,
 each removal refitted and kept only when it lowers the Bayesian information criterion
 ``BIC = n ln(RSS / n) + p ln(N)`` (``n`` block means, ``N`` samples: the likelihood ratio of
 two nested fits is the same on block means as on the samples, and the penalty stays that of
@@ -63,6 +66,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from eddi.errors import IdentificationError, SignalError
+from eddi.intervals import noise_covariance_of_fit, sampling_curvature
 from eddi.model import EquationOfMotion
 from eddi.simulate import local_angular_frequency, simulate
 from eddi.terms import evaluate
@@ -186,74 +190,6 @@ def block_means(y: np.ndarray, block: int) -> np.ndarray:
     return np.asarray(y[: nb * block], dtype=float).reshape(nb, block).mean(axis=1)
 
 
-def sampling_curvature(block: int, kernel_var: float = 0.0) -> float:
-    """Weight of the second difference (on the grid of block centres) in a compared value.
-
-    A compared value is the mean of ``block`` samples, and each sample is the DAQ's
-    weighted mean of the signal around its time (its decimation filter: a kernel of variance
-    ``kernel_var`` sample intervals squared; 0 for point sampling or a flat passband, ``1/12``
-    for the mean over each sample interval, ``K/12`` for a sinc^K decimator such as the
-    ADS131M04's sinc3). For a smooth signal the value is then the signal at the centre plus
-    half the total variance times its second derivative:
-    ``(block^2 - 1 + 12 kernel_var) / (24 block^2)`` times the second difference on the
-    centres' grid (``O((omega h)^4)`` left). A kernel's delay is a time shift of the free
-    response, which the fitted initial state absorbs.
-
-    Unmodelled, a sinc3 decimator's droop ``1 - (omega dt)^2 / 8`` is a gain on the
-    measured acceleration: at 33 samples per cycle it moved a fitted ``k3`` by ~1 % (134
-    standard errors; ``benchmarks/bench_ci_coverage_chain.py``, ``coarse_sinc3``).
-    """
-    if not (kernel_var >= 0 and math.isfinite(kernel_var)):
-        raise SignalError(f"sampling kernel variance must be >= 0 sample intervals^2, got {kernel_var}")
-    return (block**2 - 1 + 12.0 * kernel_var) / (24.0 * block**2)
-
-
-#: Lags of the residual autocovariance the intervals look at (compared values).
-COLOUR_LAGS = 10
-#: Ljung-Box statistic over :data:`COLOUR_LAGS` lags beyond which the residuals count as
-#: coloured (chi-square with 10 degrees of freedom: 0.1 % of white records exceed 29.6).
-COLOUR_Q = 29.6
-
-
-def noise_covariance_of_fit(jac: np.ndarray, r: np.ndarray, dof: int, jtj: np.ndarray | None = None) -> np.ndarray:
-    """``J^T Sigma J``: the middle of the coefficients' covariance ``(J^T J)^-1 J^T Sigma J (J^T J)^-1``.
-
-    White residuals (the Ljung-Box statistic of lags 1-:data:`COLOUR_LAGS` below
-    :data:`COLOUR_Q`): ``s^2 J^T J``, ``s^2 = RSS / dof``, the usual ``s^2 (J^T J)^-1``.
-    Coloured ones (a DAQ's decimation filter correlates neighbouring samples; compared on
-    every sample, ``s^2 (J^T J)^-1`` then holds the variance of one sample where the fit
-    averages over a band whose noise density is higher: sinc3 made the intervals ~1.5x too
-    narrow, ``benchmarks/bench_ci_coverage_chain.py``): ``Sigma`` is the stationary noise's
-    Toeplitz covariance from the residual autocovariance ``gamma_l`` (Bartlett weights over
-    :data:`COLOUR_LAGS` lags, which keeps it positive semi-definite).
-
-    Parameters
-    ----------
-    jac : ndarray, shape (n, p)
-        Jacobian of the compared values.
-    r : ndarray, shape (n,)
-        Residuals at the optimum.
-    dof : int
-        ``n - p``.
-    """
-    if jtj is None:
-        jtj = jac.T @ jac
-    n = r.size
-    g0 = float(r @ r) / dof
-    lags = min(COLOUR_LAGS, n // 4)
-    if not (g0 > 0) or lags < 1:
-        return g0 * jtj
-    gam = np.array([float(r[:-k] @ r[k:]) / dof for k in range(1, lags + 1)])
-    q = n * (n + 2) * float(np.sum((gam / g0) ** 2 / (n - np.arange(1, lags + 1))))
-    if q <= COLOUR_Q:
-        return g0 * jtj
-    mid = g0 * jtj
-    for k in range(1, lags + 1):
-        c = jac[:-k].T @ jac[k:]
-        mid = mid + (1.0 - k / (lags + 1.0)) * gam[k - 1] * (c + c.T)
-    return mid
-
-
 def smooth_model(eom: EquationOfMotion) -> bool:
     """True when the sensitivity equations give the Jacobian: no effects, no ``sign`` factor.
 
@@ -286,7 +222,7 @@ class _OutputError:
         nb = self.y.size
         self.t = t[half: half + nb * self.block: self.block]
         # block mean of samples that are themselves the DAQ's kernel-weighted means (variance
-        # ``kernel_var`` sample intervals^2, see :func:`sampling_curvature`)
+        # ``kernel_var`` sample intervals^2, see :func:`eddi.intervals.sampling_curvature`)
         self.curvature = sampling_curvature(self.block, kernel_var)
         d_terms, k_terms = eom.damping_terms(), eom.stiffness_terms()
         self.names = [("damping", tm.text) for tm in d_terms] + [("stiffness", tm.text) for tm in k_terms]
@@ -476,8 +412,13 @@ class _OutputError:
             jac = self.jacobian(p)
         dof = max(1, n - p.size)
         jtj = jac.T @ jac
-        cov = np.linalg.pinv(jtj) @ noise_covariance_of_fit(jac, r, dof, jtj) @ np.linalg.pinv(jtj)
-        se = np.sqrt(np.clip(np.diag(cov)[:-NUISANCE], 0.0, None)) * self.scale[self.active]
+        inv = np.linalg.pinv(jtj)
+        # the coloured-noise covariance only ever widens an interval: a drift's low-frequency
+        # power lies outside the response's band, but a slow ramp still leaks into the
+        # coefficients, which the white s^2 (raised by it) happened to hold (see
+        # noise_covariance_of_fit)
+        var = np.maximum((rss / dof) * np.diag(inv), np.diag(inv @ noise_covariance_of_fit(jac, r, dof, jtj) @ inv))
+        se = np.sqrt(np.clip(var[:-NUISANCE], 0.0, None)) * self.scale[self.active]
         se[~(np.diag(jtj)[:-NUISANCE] > 0)] = math.inf
         return 1.959964 * se, rss
 
@@ -570,7 +511,7 @@ def refine_output_error(
         less than one unit of chi-square). Default: run each stage to ``max_nfev`` or to
         rounding (``ftol`` 1e-12), as the identification does.
     kernel_var : float
-        Variance of the DAQ's sampling kernel [sample intervals^2] (:func:`sampling_curvature`;
+        Variance of the DAQ's sampling kernel [sample intervals^2] (:func:`eddi.intervals.sampling_curvature`;
         :attr:`eddi.conditioning.ConditionedSignal.sample_kernel_var`): 0 for point samples.
 
     Returns

@@ -56,8 +56,11 @@ def _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, dsx, dsv, use_abs):  # pragma: no
     rv = 0.0
     for j in range(nt):
         px, pv, pax, pav = exps[j, 0], exps[j, 1], exps[j, 2], exps[j, 3]
-        fx = pw[0, px] * pw[2, pax]
-        fv = pw[1, pv] * pw[3, pav]
+        fx = pw[0, px]
+        fv = pw[1, pv]
+        if use_abs:  # (else rows 2, 3 are 1: the products would be the same numbers)
+            fx *= pw[2, pax]
+            fv *= pw[3, pav]
         if exps[j, 4] % 2 == 1:
             fx *= sgx
         if exps[j, 5] % 2 == 1:
@@ -67,15 +70,20 @@ def _rhs(x, v, sx, sv, exps, coefs, inv_m, pw, dsx, dsv, use_abs):  # pragma: no
         if npar == 0:  # the response alone: no derivative of the force is needed
             continue
         dx = 0.0
-        if px >= 1:
-            dx = px * pw[0, px - 1] * pw[2, pax]
-        if pax >= 1:
-            dx += pax * pw[0, px] * pw[2, pax - 1] * sgx
         dv = 0.0
+        if px >= 1:
+            dx = px * pw[0, px - 1]
+            if use_abs:
+                dx *= pw[2, pax]
         if pv >= 1:
-            dv = pv * pw[1, pv - 1] * pw[3, pav]
-        if pav >= 1:
-            dv += pav * pw[1, pv] * pw[3, pav - 1] * sgv
+            dv = pv * pw[1, pv - 1]
+            if use_abs:
+                dv *= pw[3, pav]
+        if use_abs:  # (pax, pav are 0 without it)
+            if pax >= 1:
+                dx += pax * pw[0, px] * pw[2, pax - 1] * sgx
+            if pav >= 1:
+                dv += pav * pw[1, pv] * pw[3, pav - 1] * sgv
         if exps[j, 4] % 2 == 1:
             dx *= sgx
         if exps[j, 5] % 2 == 1:
@@ -197,12 +205,17 @@ def free_response_sensitivities(eom: EquationOfMotion, dt: float, n: int, x0: fl
     exps = exponent_table(eom.damping_terms() + eom.stiffness_terms())
     coefs = np.array(list(eom.damping.values()) + list(eom.stiffness.values()), dtype=float)
     npar = coefs.size + 2 if jacobian else 0
-    resp = np.full((3, n), np.nan)
-    jac = np.full((3, n, npar), np.nan)
+    # the kernel writes every sample up to a divergence (returned: the first it did not
+    # write); only those after it are filled (NaN): no pass over the whole Jacobian first
+    resp = np.empty((3, n))
+    jac = np.empty((3, n, npar))
     deg = int(exps[:, :4].max()) if exps.size else 0
     steps = np.maximum(np.atleast_1d(np.asarray(substeps, dtype=np.int64)), 1)
     div = _KERNELS._rk4_sens(deg, float(dt), steps, float(x0), float(v0), 1.0 / eom.mass, exps, coefs, int(n),
                     resp[0], resp[1], resp[2], jac[0], jac[1], jac[2])
+    if div >= 0:
+        resp[:, div:] = np.nan
+        jac[:, div:] = np.nan
     return resp.T, jac, bool(div >= 0)
 
 

@@ -50,7 +50,8 @@ MAX_OFFSET = 0.1
 PASSES = 2
 
 
-def drift_basis(t: np.ndarray, gamma: np.ndarray, knot_periods: float = DRIFT_KNOT_PERIODS) -> np.ndarray:
+def drift_basis(t: np.ndarray, gamma: np.ndarray, knot_periods: float = DRIFT_KNOT_PERIODS,
+                span: tuple[float, float] | None = None) -> np.ndarray:
     """Cubic B-spline basis over ``t`` with knots every ``knot_periods`` periods.
 
     Parameters
@@ -61,6 +62,9 @@ def drift_basis(t: np.ndarray, gamma: np.ndarray, knot_periods: float = DRIFT_KN
         Zero crossings of ``x`` (two per period; the period is twice their median spacing).
     knot_periods : float
         Knot spacing in periods.
+    span : (float, float), optional
+        The knots' first and last time [s] (default: the extremes of ``t``), to evaluate
+        another basis's functions at other times.
 
     Returns
     -------
@@ -70,7 +74,7 @@ def drift_basis(t: np.ndarray, gamma: np.ndarray, knot_periods: float = DRIFT_KN
     from scipy.interpolate import BSpline  # local: keeps `import eddi` light
 
     t = np.asarray(t, dtype=float)
-    t0, t1 = float(np.min(t)), float(np.max(t))
+    t0, t1 = (float(np.min(t)), float(np.max(t))) if span is None else (float(span[0]), float(span[1]))
     period = 2.0 * float(np.median(np.diff(gamma))) if gamma.size > 1 else t1 - t0
     n_int = max(1, int(np.ceil((t1 - t0) / max(knot_periods * period, 1e-300))))
     knots = np.concatenate(([t0] * 3, np.linspace(t0, t1, n_int + 1), [t1] * 3))
@@ -103,8 +107,12 @@ def rate_error_columns(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.nd
     scipy.sparse.csr_matrix, shape (k, p), [J per m/s]
     """
     v = np.asarray(v, dtype=float)
-    # the basis at the crossings, on the knots of ``basis`` (the same t[0], t[-1] and period)
-    bg = drift_basis(np.concatenate((t, np.clip(gamma, t[0], t[-1]))), gamma, knot_periods)[t.size:]
+    # the basis at the crossings, on the knots of ``basis`` (the same t[0], t[-1] and period;
+    # each row of a design matrix depends only on its own time)
+    t = np.asarray(t, dtype=float)
+    gc = np.clip(gamma, t[0], t[-1])
+    span = (min(float(np.min(t)), float(np.min(gc))), max(float(np.max(t)), float(np.max(gc))))
+    bg = drift_basis(gc, gamma, knot_periods, span=span)
     vg = np.sign(np.interp(gamma, t, v)) * np.sqrt(2.0 * np.maximum(kinetic_at_gamma, 0.0) / mass)
     i = np.clip(np.searchsorted(gamma, t, side="right") - 1, 0, gamma.size - 2)
     lam = np.clip((t - gamma[i]) / np.maximum(gamma[i + 1] - gamma[i], 1e-300), 0.0, 1.0)

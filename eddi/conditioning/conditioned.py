@@ -54,7 +54,7 @@ class ConditionedSignal:
         Variance of the DAQ's sampling kernel [sample intervals^2]: each sample is the
         signal's weighted mean over that kernel (its decimation filter: 0 for point samples
         or a flat passband, ``K / 12`` for a sinc^K decimator). The output-error fit compares
-        the model through the same kernel (:func:`eddi.refine.sampling_curvature`).
+        the model through the same kernel (:func:`eddi.intervals.sampling_curvature`).
     """
 
     t: np.ndarray

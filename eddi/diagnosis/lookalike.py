@@ -74,8 +74,11 @@ def cycles(rec: Record, part: Part) -> list[tuple[int, int]]:
 
 
 def compare(records: Sequence[Record], parts: Sequence[Part], fits_a: Sequence[Fit | None],
-            fits_b: Sequence[Fit | None]) -> dict[str, float]:
+            fits_b: Sequence[Fit | None], memo: dict | None = None) -> dict[str, float]:
     """Mechanism A against B within the cycle (module notes), per-fold fits of each.
+
+    ``memo``: a dict shared by calls on the same records and parts (while the fits live):
+    each fit's residual force and each part's cycles are computed once, not once per pair.
 
     Returns
     -------
@@ -88,11 +91,20 @@ def compare(records: Sequence[Record], parts: Sequence[Part], fits_a: Sequence[F
     won = 0
     if len(fits_a) != len(parts) or len(fits_b) != len(parts) or any(f is None for f in [*fits_a, *fits_b]):
         return {"z": float("nan"), "parts_won": 0, "parts": len(parts), "cycles": 0}
+    memo = {} if memo is None else memo
+
+    def once(key: tuple, fn, *args):  # type: ignore[no-untyped-def]
+        if key not in memo:
+            memo[key] = fn(*args)
+        return memo[key]
+
     for part, fa, fb in zip(parts, fits_a, fits_b):
         rec = records[part.record]
-        ra, rb = residual_force(fa, rec, part), residual_force(fb, rec, part)  # type: ignore[arg-type]
+        where = (part.record, part.start, part.stop)
+        ra = once(("residual", id(fa), *where), residual_force, fa, rec, part)
+        rb = once(("residual", id(fb), *where), residual_force, fb, rec, part)
         ds = [(float(np.sum(rb[i:j] ** 2 - ra[i:j] ** 2)), float(np.sum((rb[i:j] - ra[i:j]) ** 2)))
-              for i, j in cycles(rec, part)]
+              for i, j in once(("cycles", *where), cycles, rec, part)]
         ds = [(d, q) for d, q in ds if math.isfinite(d) and math.isfinite(q)]
         blocks += [d for d, _ in ds]
         sizes += [q for _, q in ds]
@@ -123,6 +135,7 @@ def attach(candidates: Sequence, lookalikes: dict[str, tuple[str, ...]], fold_fi
     from dataclasses import replace
 
     tried = {c.name for c in candidates if not c.skipped and c.model is not None}
+    memo: dict = {}  # residuals and cycles shared by the pairs (the fits live until the return)
     out = []
     for c in candidates:
         if c.name in tried and c.form != "observed":
@@ -131,7 +144,7 @@ def attach(candidates: Sequence, lookalikes: dict[str, tuple[str, ...]], fold_fi
                 if b not in tried:
                     continue
                 same = bool(native.get(c.name)) and native.get(c.name) == native.get(b)
-                wc[b] = ({**compare(records, parts, fold_fits.get(c.name) or [], fold_fits.get(b) or []),
+                wc[b] = ({**compare(records, parts, fold_fits.get(c.name) or [], fold_fits.get(b) or [], memo),
                           "same_fitter": 1} if same else
                          {"z": float("nan"), "parts_won": 0, "parts": len(parts), "cycles": 0, "same_fitter": 0})
             c = replace(c, within_cycle=wc) if wc else c

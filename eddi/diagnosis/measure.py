@@ -81,9 +81,14 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
     :data:`MIN_FLOOR`); floors below :data:`MIN_FLOOR` are raised to it. The parts' refits
     run through ``mapper`` (:mod:`eddi.diagnosis.mapping`).
     """
+    m = len(records)
+    # every record of every draw conditioned again: independent, through ``mapper`` too (in
+    # turn they were 1.5 s of the double beam's 6 s that two cores could not share)
+    perts = (mapper or serial_map)(lambda ji: perturbed_record(records[ji[1]], seed + SEED_STEP * ji[0] + ji[1]),
+                                   [(j, i) for j in range(DRAWS) for i in range(m)])
     draws = []
     for j in range(DRAWS):
-        pert = [perturbed_record(r, seed + SEED_STEP * j + i) for i, r in enumerate(records)]
+        pert = perts[j * m:(j + 1) * m]
         # the same procedure as judged
         draws.append((pert, Fitter([r.signal() for r in pert], setup, pert, refine)))
     cond = []

@@ -513,6 +513,11 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
 
     # look-alikes that would pass the held-out tests themselves: a name must be told apart from them
     rivals = {c.name: c for c in tried if not held_out_fails(c)}
+    # candidates no better than the judged baseline on any held-out part: each holds the
+    # baseline (its mechanism at zero strength), so its fit failed (the mechanism traded against
+    # near-collinear library terms), which is no evidence against the mechanism
+    unfitted = {c.name: c for c in tried if len(c.fold_nrmse) == len(base_fold)
+                and all(m >= b for m, b in zip(c.fold_nrmse, base_fold))}
     ambiguous, ambiguous_fails = None, []  # the first candidate that fails only for its look-alikes
     for c in tried:
         fails = held_out_fails(c)
@@ -521,7 +526,7 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
         if not c.nrmse <= named_factor * floor.nrmse:
             fails.append(f"leaves nrmse {c.nrmse:.3g}, over {named_factor:g}x the floor {floor.nrmse:.3g}")
         if not fails:
-            fails += lookalike_fails(c, rivals)
+            fails += lookalike_fails(c, rivals, unfitted)
             if fails and ambiguous is None:
                 ambiguous, ambiguous_fails = c, list(fails)
         if not fails:
@@ -538,10 +543,17 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
     return Decision("unexplained", None, partial, False, departs or "; ".join(why[:2]))
 
 
-def lookalike_fails(c: Candidate, rivals: dict[str, Candidate]) -> list[str]:
+def lookalike_fails(c: Candidate, rivals: dict[str, Candidate],
+                    unfitted: dict[str, Candidate] | None = None) -> list[str]:
     """Why ``c`` is not told apart from its look-alikes among ``rivals`` (candidates that pass
     the held-out tests themselves), or is beaten by one of them on every held-out part (then
-    it is not the best explanation, look-alike or not). A look-alike fitted the same way must
+    it is not the best explanation, look-alike or not), or has a look-alike fitted the same way
+    in ``unfitted`` (no better than the judged baseline on any held-out part: a model that holds the baseline
+    and does worse everywhere is a failed fit, not a mechanism ruled out; session 8, tuning
+    ladder: hidden ``v |v|`` 0.06 k1 A, seed 2, its candidate traded the term against the
+    library's ``x^2 v`` and ``v^3`` and did worse than the baseline on all three parts, and
+    ``|x| v`` was named; on every correct name of the session 8 calibration ladders the
+    look-alike's held-out nrmse was below the baseline's). A look-alike fitted the same way must
     lose to it within the cycle
     (:func:`eddi.diagnosis.lookalike.told_apart`: the held-out displacement of two such models
     can differ by the fit, not by the physics: hidden drag in the tests was reproduced better
@@ -549,6 +561,13 @@ def lookalike_fails(c: Candidate, rivals: dict[str, Candidate]) -> list[str]:
     from eddi.diagnosis.lookalike import Z_SEPARATED, told_apart
 
     out = []
+    for name, wc in c.within_cycle.items():
+        other = (unfitted or {}).get(name)
+        # fitted the same way (the EDDI fit extending the same baseline): nested, so worse on
+        # every part is a failed fit; one fitted another way (hysteresis) can be genuinely worse
+        if other is not None and other is not c and wc.get("same_fitter"):
+            out.append(f"its look-alike {name} could not be fitted (no better than the baseline on any "
+                       f"held-out part, {other.nrmse:.3g} held out), so it is not ruled out")
     for name, other in rivals.items():
         # any candidate that passes the held-out tests and reproduces every held-out part better:
         # c is not the best explanation, whatever kept that one from being named (a held-out

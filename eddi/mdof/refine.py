@@ -46,6 +46,18 @@ def _with(model: MdofModel, scales: np.ndarray) -> MdofModel:
     return model.model_copy(update={"damping": tuple(damping), "stiffness": tuple(stiffness)})
 
 
+def _weights(records: Sequence[ChannelRecord], horizon: float) -> list[tuple[ChannelRecord, int, np.ndarray]]:
+    """Per record: the samples of the free window the error keeps and each channel's divisor
+    (:func:`_residual_function`), shape (n_channels, 1)."""
+    out = []
+    for r in records:
+        y = r.x[:, r.window[0]:r.window[1]]
+        norm = np.linalg.norm(y, axis=1, keepdims=True) * np.maximum(noise_floor(r), FLOOR_MIN)[:, None]
+        keep = max(8, int(horizon * y.shape[1]))
+        out.append((r, keep, np.where(norm > 0, norm, 1.0) * np.sqrt(keep / y.shape[1])))
+    return out
+
+
 def _residual_function(records: Sequence[ChannelRecord], build, horizon: float = 1.0, memo: dict | None = None):
     """``p -> stacked displacement errors`` (every second sample) of ``build(p)``, each channel
     of each record divided by its norm times its noise floor (:func:`eddi.mdof.validate.noise_floor`,
@@ -60,12 +72,7 @@ def _residual_function(records: Sequence[ChannelRecord], build, horizon: float =
     simulates the whole record (the zero-phase filter needs it) and truncates the error, so
     the memo gives the same numbers.
     """
-    prepared = []
-    for r in records:
-        y = r.x[:, r.window[0]:r.window[1]]
-        norm = np.linalg.norm(y, axis=1, keepdims=True) * np.maximum(noise_floor(r), FLOOR_MIN)[:, None]
-        keep = max(8, int(horizon * y.shape[1]))
-        prepared.append((r, y[:, :keep], np.where(norm > 0, norm, 1.0) * np.sqrt(keep / y.shape[1])))
+    prepared = [(r, r.x[:, r.window[0]:r.window[1]][:, :keep], norm) for r, keep, norm in _weights(records, horizon)]
 
     def simulate(p: np.ndarray) -> list[tuple[np.ndarray, bool]]:
         key = np.asarray(p, float).tobytes()
@@ -90,9 +97,45 @@ def _residual_function(records: Sequence[ChannelRecord], build, horizon: float =
     return residual, [y.size // 2 + y.size % 2 for _r, y, _n in prepared]
 
 
+def _jacobian_function(records: Sequence[ChannelRecord], build, horizon: float = 1.0):
+    """``p -> d residual / d p`` of :func:`_residual_function` (same records, build and horizon)
+    from forward sensitivities (:mod:`eddi.mdof.sensitivity`): one simulation with its
+    variational equations (along the ``p`` directions) per Jacobian instead of one simulation per parameter.
+
+    The sensitivities are in the ODE's own parameters ``theta`` (coefficients, inverse masses);
+    ``d theta / d p`` comes from central differences of ``build`` alone (no simulation: the
+    coefficients are linear in ``p``, the inverse masses smooth, so the step 1e-6 is exact to
+    about 1e-12). A diverged simulation (whose residual is a constant) has a zero Jacobian.
+    """
+    from eddi.mdof.sensitivity import predict_sensitivities, theta
+
+    prepared = _weights(records, horizon)
+
+    def jac(p: np.ndarray) -> np.ndarray:
+        p = np.asarray(p, float)
+        step = 1e-6
+        cols = []
+        for k in range(p.size):
+            e = np.zeros(p.size)
+            e[k] = step
+            cols.append((theta(build(p + e)) - theta(build(p - e))) / (2 * step))
+        dtheta = np.column_stack(cols)  # (n_theta, n_par)
+        model = build(p)
+        blocks = []
+        for r, keep, norm in prepared:
+            _y, dy, div = predict_sensitivities(model, r, dtheta)
+            if div:
+                blocks.append(np.zeros(((r.x.shape[0] * keep + 1) // 2, p.size)))
+                continue
+            blocks.append((dy[:, :, :keep] / norm[None]).reshape(p.size, -1)[:, ::2].T)
+        return np.vstack(blocks)
+
+    return jac
+
+
 @one_blas_thread()
 def refine_lumped(fit, channels: tuple[str, ...], driving_point: str, records: Sequence[ChannelRecord], *,
-                  max_nfev: int = 40):
+                  max_nfev: int = 40, jac: str = "sensitivity"):
     """Polish a :class:`~eddi.mdof.lumped.LumpedFit`'s masses and element constants (module docstring).
 
     Returns
@@ -124,7 +167,8 @@ def refine_lumped(fit, channels: tuple[str, ...], driving_point: str, records: S
         residual, sizes = _residual_function(records, build, horizon, memo)
         if horizon == HORIZONS[0]:
             r0 = _residual_function(records, build, memo=memo)[0](p)
-        sol = optimize.least_squares(residual, p, x_scale=0.01, diff_step=1e-5, max_nfev=nfev,
+        sol = optimize.least_squares(residual, p, jac=_jac(jac, records, build, horizon), x_scale=0.01,
+                                     diff_step=1e-5, max_nfev=nfev,
                                      bounds=(-0.9 * np.ones(n_par), 2.0 * np.ones(n_par)))
         p = sol.x
     n_ch = len(channels)
@@ -152,8 +196,8 @@ FLOOR_MIN = 1e-3
 
 
 @one_blas_thread()
-def refine_mdof(model: MdofModel, records: Sequence[ChannelRecord], *, max_nfev: int = 60
-                ) -> tuple[MdofModel, float, float]:
+def refine_mdof(model: MdofModel, records: Sequence[ChannelRecord], *, max_nfev: int = 60,
+                jac: str = "sensitivity") -> tuple[MdofModel, float, float]:
     """Polish the coefficients on the records' simulated displacements.
 
     Returns
@@ -166,7 +210,8 @@ def refine_mdof(model: MdofModel, records: Sequence[ChannelRecord], *, max_nfev:
     residual, sizes = _residual_function(records, lambda p: _with(model, p), memo={})
     p0 = np.zeros(n_par)
     r0 = residual(p0)
-    sol = optimize.least_squares(residual, p0, x_scale=0.01, diff_step=1e-5, max_nfev=max_nfev,
+    sol = optimize.least_squares(residual, p0, jac=_jac(jac, records, lambda p: _with(model, p)), x_scale=0.01,
+                                 diff_step=1e-5, max_nfev=max_nfev,
                                  bounds=(-0.9 * np.ones(n_par), 2.0 * np.ones(n_par)))
     n_ch = len(model.channels)
     before = float(np.sum(r0**2) * 2 / len(records) / n_ch)
@@ -181,6 +226,16 @@ def refine_mdof(model: MdofModel, records: Sequence[ChannelRecord], *, max_nfev:
         ci.append({t: float(abs(c) * h) for (t, c), h in zip(out.stiffness[i].items(), half[k:])})
         k += len(model.stiffness[i])
     return out.model_copy(update={"stiffness_ci95": tuple(ci)}), before, after
+
+
+def _jac(kind: str, records: Sequence[ChannelRecord], build, horizon: float = 1.0):
+    """``least_squares``'s ``jac``: forward sensitivities (``"sensitivity"``, the default) or
+    scipy's finite differences (``"2-point"``, the former default, one simulation per parameter)."""
+    if kind == "sensitivity":
+        return _jacobian_function(records, build, horizon)
+    if kind == "2-point":
+        return "2-point"
+    raise ValueError(f"jac: expected 'sensitivity' or '2-point', got {kind!r}")
 
 
 def _ci95_scales(jac: np.ndarray, fun: np.ndarray, sizes: list[int]) -> np.ndarray:
@@ -211,11 +266,13 @@ def _ci95_scales(jac: np.ndarray, fun: np.ndarray, sizes: list[int]) -> np.ndarr
 
 
 @one_blas_thread()
-def refine_identified(ident, records: Sequence[ChannelRecord]) -> tuple[MdofModel, float, float]:
+def refine_identified(ident, records: Sequence[ChannelRecord], *, jac: str = "sensitivity"
+                      ) -> tuple[MdofModel, float, float]:
     """:func:`refine_lumped` when ``ident`` (an :class:`~eddi.mdof.identify.MdofIdentification`)
     is the lumped-element candidate, else :func:`refine_mdof`; returns the model and the costs."""
     if ident.lumped is not None:
         m = ident.model
-        _fit, model, before, after = refine_lumped(ident.lumped, tuple(m.channels), m.driving_point, records)
+        _fit, model, before, after = refine_lumped(ident.lumped, tuple(m.channels), m.driving_point, records,
+                                                   jac=jac)
         return model, before, after
-    return refine_mdof(ident.model, records)
+    return refine_mdof(ident.model, records, jac=jac)

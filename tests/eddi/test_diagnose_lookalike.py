@@ -124,6 +124,29 @@ def test_a_look_alike_that_fails_the_held_out_tests_is_no_rival() -> None:
     assert decide([drag, amp], BASE, FLOOR, 0.5, 3.5, 10.0).cause == "quadratic_damping"
 
 
+def test_a_look_alike_whose_fit_failed_is_not_ruled_out() -> None:
+    """Session 8 tuning ladder (hidden ``v |v|`` 0.06 k1 A, seed 2): the drag candidate traded
+    its term against the library's and did worse than the baseline on every held-out part,
+    so |x| v (told apart from that broken fit within the cycle) was named. A model that holds
+    the baseline and does worse everywhere failed to fit: no name, |x| v the partial one."""
+    base = (0.033, 0.079, 0.056)
+    amp = _cand("amplitude_damping", (0.0061, 0.0116, 0.0275), {"quadratic_damping": _wc(4.74, 3)})
+    amp = Candidate(**{**amp.__dict__, "gain": 0.73})
+    drag = _cand("quadratic_damping", (0.0398, 0.0852, 0.0615), {"amplitude_damping": _wc(-4.74, 0)})
+    # 2.8x the floor: within the none factor 3.5, named only with the strong cut (default 0.6)
+    dec = decide([amp, drag], base, FLOOR, 0.5, 3.5, 10.0, strong_margin=0.6)
+    assert dec.cause == "unexplained" and dec.partial is amp
+    assert "its look-alike quadratic_damping could not be fitted" in dec.reason
+    # a look-alike fitted another way (hysteresis) worse everywhere can be genuinely absent
+    other = _cand("amplitude_damping", (0.0061, 0.0116, 0.0275), {"hysteresis": _wc(math.nan, 0, 0)})
+    other = Candidate(**{**other.__dict__, "gain": 0.73})
+    hyst = _cand("hysteresis", (0.11, 0.12, 0.10), {})
+    assert decide([other, hyst], base, FLOOR, 0.5, 3.5, 10.0, strong_margin=0.6).cause == "amplitude_damping"
+    # better than the baseline on one part: a fit, beaten within the cycle -> amp is named
+    drag = _cand("quadratic_damping", (0.0398, 0.0700, 0.0615), {"amplitude_damping": _wc(-4.74, 0)})
+    assert decide([amp, drag], base, FLOOR, 0.5, 3.5, 10.0, strong_margin=0.6).cause == "amplitude_damping"
+
+
 def test_hidden_amplitude_damping_is_not_named_drag() -> None:
     """The session-5 wrong name: damping ``|x| v`` (same energy per cycle as drag) on the
     tests' rig chain (three blows, 40 dB, acceleration only). With the library ``v`` it is

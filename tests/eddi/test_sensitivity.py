@@ -50,6 +50,22 @@ def test_jacobian_matches_finite_differences_of_the_simulator(name: str) -> None
             assert np.linalg.norm(jac[ch, :, k] - fd) <= 1e-4 * np.linalg.norm(fd), (names + ["x0", "v0"])[k]
 
 
+def test_divergence_leaves_nan_after_the_last_sample_it_reached() -> None:
+    # a negative linear damping and a softening cubic: the state runs away; every sample up
+    # to the divergence is the simulator's, everything after it NaN (response and Jacobian)
+    eom = EquationOfMotion.create(mass=0.1, damping={"v": -0.5}, stiffness={"x": 600.0, "x^3": -3e7})
+    n = 4000
+    resp, jac, div = free_response_sensitivities(eom, 1e-3, n, 0.004, 0.0, 4)
+    assert div
+    ok = np.isfinite(resp[:, 0])
+    k = int(np.argmin(ok))
+    assert 0 < k < n and not np.any(ok[k:])
+    assert np.all(np.isnan(resp[k:])) and np.all(np.isnan(jac[:, k:]))
+    assert np.all(np.isfinite(jac[:, :k]))
+    sim = simulate(eom, np.arange(n) * 1e-3, x0=0.004, v0=0.0, substeps=4)
+    assert sim.diverged and np.allclose(resp[:k - 1, 0], sim.x[:k - 1], rtol=1e-9, atol=1e-15)
+
+
 def test_dry_friction_falls_back_to_finite_differences() -> None:
     # sign(v) switches the force at each reversal: the sensitivities would miss the jumps
     assert smooth_model(MODELS["abs"]) and smooth_model(MODELS["duffing"])

@@ -85,3 +85,25 @@ def test_lagrangian_rows_weighted_by_the_acceleration_noise() -> None:
                         window=cond.window, route="lagrangian")
     assert weighted.eom.stiffness["x^3"] == pytest.approx(2.0e6, rel=2e-3)
     assert weighted.eom.stiffness["x"] == pytest.approx(3200.0, rel=5e-4)
+
+
+def test_basis_at_the_crossings_equals_those_rows_of_the_basis_over_samples_and_crossings() -> None:
+    """rate_error_columns evaluates the drift basis at the crossings alone (on the samples' knots):
+    bit for bit the rows it used to slice from the basis over samples and crossings together."""
+    from eddi.slow_errors import drift_basis
+
+    rng = np.random.default_rng(7)
+    for trial in range(40):
+        n = int(rng.integers(20, 2000))
+        t = np.sort(rng.uniform(0.0, 10.0, n)) if trial % 2 else np.linspace(0.3, 7.1, n)
+        gamma = np.sort(rng.uniform(t[0] - 0.5, t[-1] + 0.5, int(rng.integers(3, 40))))
+        gc = np.clip(gamma, t[0], t[-1])
+        together = drift_basis(np.concatenate((t, gc)), gamma)[t.size:]
+        alone = drift_basis(gc, gamma, span=(float(t[0]), float(t[-1])))
+        assert together.shape == alone.shape
+        assert np.array_equal(together.indices, alone.indices) and np.array_equal(together.indptr, alone.indptr)
+        assert np.array_equal(together.data, alone.data)
+        # without the span, the crossings' own extremes would set other knots
+        if gc.min() > t[0] or gc.max() < t[-1]:
+            assert not (drift_basis(gc, gamma).shape == alone.shape
+                        and np.array_equal(drift_basis(gc, gamma).data, alone.data))

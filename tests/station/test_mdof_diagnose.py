@@ -133,3 +133,43 @@ def test_similar_blows_earn_none_only_when_the_backbone_holds_and_say_how_far(tm
 
     assert "Cause: none (within" in diagnose_mdof_text(null)
     assert "extrapolation in amplitude not tested" in diagnose_mdof_text(null)
+
+
+def test_folds_are_polished_only_where_the_polish_can_change_the_verdict(monkeypatch):
+    from types import SimpleNamespace
+
+    import eddi.mdof.verdict
+    import station.mdof_commands as mc
+
+    def fold(e):
+        return SimpleNamespace(nrmse=e, channel_nrmse={"acc1": e, "acc2": e})
+
+    calls = []
+
+    def polished(ident, train, held, v):  # a polish that halves the error
+        calls.append(ident)
+        return fold(v.nrmse / 2)
+
+    monkeypatch.setattr(mc, "_polished_fold", polished)
+    monkeypatch.setattr(eddi.mdof.verdict, "channel_floor", lambda records, names: {c: 0.02 for c in names})
+
+    def fits(base, cpl):
+        return [{"baseline": (fold(b), f"b{k}", []), "coupled": (fold(c), f"c{k}", [])}
+                for k, (b, c) in enumerate(zip(base, cpl))]
+
+    # coupling wins by far and sits within 10x the floor: polishing it cannot change the verdict;
+    # the diverged-like baseline fold (nrmse 40 > 1) is not polished either
+    f = fits([0.5, 40.0, 0.6], [0.03, 0.02, 0.04])
+    done = mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)
+    assert done == {"baseline": [0, 2], "coupled": []} and calls == ["b0", "b2"]
+    assert [x["baseline"][0].nrmse for x in f] == [0.25, 40.0, 0.3]
+    assert [x["coupled"][0].nrmse for x in f] == [0.03, 0.02, 0.04]
+    # within the margin after the baseline's polish: the coupled polish may change it, so it runs
+    calls.clear()
+    f = fits([0.06, 0.05, 0.07], [0.04, 0.03, 0.05])
+    assert mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5) == {"baseline": [0, 1, 2],
+                                                                             "coupled": [0, 1, 2]}
+    # coupled above 10x the floor on a channel: polished too (it may come within)
+    calls.clear()
+    f = fits([40.0, 30.0, 20.0], [0.3, 0.25, 0.2])
+    assert mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)["coupled"] == [0, 1, 2]
