@@ -128,10 +128,26 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         "exchanged_fraction": [f.exchanged_fraction for f in final.equations],
         "model": model.equation_text(), "notes": notes,
     }
+    obj["warnings"] = _model_flags(model, folds["coupled" if gain > margin else "baseline"])
+    obj["unstable"] = bool(obj["warnings"])
     if save_model:
         Path(save_model).write_text(model.to_json() + "\n")
         obj["saved_model"] = save_model
     return obj
+
+
+def _model_flags(model: Any, folds: Sequence[float]) -> list[str]:
+    """Why the delivered model cannot be trusted as a simulation: its linear part grows, or the
+    variant it was chosen from diverged on a held-out capture (as ``station identify`` flags)."""
+    from eddi.mdof.identify import linear_growth_rate
+
+    out = []
+    growth = linear_growth_rate(model)
+    if growth > 0:
+        out.append(f"the model's linear part is unstable: a mode grows at {growth:.3g} 1/s")
+    if any(not math.isfinite(float(f)) for f in folds):
+        out.append("the model's simulation diverged on a held-out capture")
+    return out
 
 
 def _first_cause(final: Any, gain: float, margin: float, n_channels: int, notes: list[str]) -> str:
@@ -425,4 +441,5 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
     lines += [f"Note: {n}." for n in obj["notes"]]
     if "saved_model" in obj:
         lines.append(f"Model written to {obj['saved_model']}")
+    lines += [f"WARNING: {w}" for w in obj.get("warnings", [])]
     return "\n".join(lines)

@@ -602,7 +602,7 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
         driving_point=driving_point,
         notes=f"identified by eddi.mdof from {len(records)} record(s); {kind} coordinates; "
               f"linear modes {', '.join(f'{f:.4g} Hz' for f in modes.frequencies_hz)}")
-    growth = _linear_growth_rate(model)
+    growth = linear_growth_rate(model)
     if growth > 0:
         notes.append(f"warning: the identified linear part is unstable (a mode grows at {growth:.3g} 1/s): "
                      "the damping is not determined by these records")
@@ -633,7 +633,7 @@ def _residue_masses(modes: LinearModes, tmat: np.ndarray) -> np.ndarray | None:
     return out
 
 
-def _linear_growth_rate(model: MdofModel) -> float:
+def linear_growth_rate(model: MdofModel) -> float:
     """Largest real part of the eigenvalues of the model's linear part [1/s] (> 0: unstable)."""
     m, c, k = model.linear_matrices()
     n = model.n_coords

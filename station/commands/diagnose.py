@@ -182,6 +182,10 @@ def handle(args: argparse.Namespace) -> int:
         obj = diagnose_mdof_object(list(args.captures), driving_point=args.driving_point, margin=args.margin,
                                    save_model=args.save_model, refine=args.refine)
         emit(args.json, diagnose_mdof_text(obj), obj)
+        if obj.get("unstable"):
+            from station.cli import flagged
+
+            return flagged("diagnose", "the diagnosed model is unstable or its simulation diverges")
         return 0
     base = None
     if args.model:
