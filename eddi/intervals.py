@@ -103,7 +103,7 @@ def sampling_kernel_warning(eom: EquationOfMotion, ci95: dict[str, dict[str, flo
     return (f"the 95 % intervals assume point samples (or a flat-passband decimation filter): at "
             f"{rate_hz / frequency_hz:.0f} samples a cycle a sinc{ASSUMED_SINC_ORDER} decimator's droop "
             f"would move {term} by {100 * rel:.2g} % ({ratio:.1f} interval half widths); if the DAQ has one, "
-            "give its order (adc_sinc_order)",)
+            "give its order (adc_sinc_order; `station identify --adc-filter sincK[:R]`)",)
 
 
 def sampling_curvature(block: int, kernel_var: float = 0.0) -> float:

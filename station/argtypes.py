@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 
 #: Longest record or wait a command accepts [s] (a day): beyond it a typo, not a test.
 MAX_SECONDS = 86_400.0
@@ -110,6 +111,27 @@ def _terms(text: str, damping: bool) -> str:
             raise argparse.ArgumentTypeError(f"stiffness term {t.text!r} involves the rate v; expected terms of "
                                              "x only, such as x, x^3 (v terms are damping)")
     return text
+
+
+def adc_filter(text: str) -> tuple[int, int | None]:
+    """A DAQ's decimation filter: ``sincK`` or ``sincK:R`` (order K in 1..8, R >= 2 modulator
+    samples per output sample; the ADS131M04's is ``sinc3:R``) or ``none`` (point samples or a
+    flat, compensated passband). Returns ``(K, R or None)``; ``(0, None)`` for ``none``."""
+    t = text.strip().lower()
+    if t == "none":
+        return 0, None
+    m = re.fullmatch(r"sinc([1-8])(?::(\d+))?", t)
+    if m is None or (m.group(2) is not None and int(m.group(2)) < 2):
+        raise argparse.ArgumentTypeError(f"expected sincK or sincK:R (K 1..8, R >= 2) or none, got {text!r}")
+    return int(m.group(1)), (int(m.group(2)) if m.group(2) else None)
+
+
+def add_adc_filter_option(p: argparse.ArgumentParser) -> None:
+    """``--adc-filter``: the DAQ's decimation filter, so the fit compares the model through it."""
+    p.add_argument("--adc-filter", type=adc_filter, default=None, metavar="sincK[:R]|none",
+                   help="the DAQ's decimation filter (e.g. sinc3:128 for an ADS131M04 at OSR 128): "
+                        "the fit compares the model through its kernel; default: what the capture "
+                        "file records, else point samples")
 
 
 def add_refine_option(p: argparse.ArgumentParser) -> None:

@@ -11,6 +11,11 @@ purely cubic attachment is a nonlinear coupling between them), ``missing_mode`` 
 holds that evidence (:func:`eddi.mdof.identify.modal_evidence`) and no coupling between the
 physical channels explains it held out, ``unexplained`` when the tail resolves fewer
 modes than channels and no coupling wins (a mode the records cannot resolve is not named).
+``modal_coupling`` needs a nonlinear term between coordinates in the model (a better fit of
+linear springs is not a coupling). The verdict is then earned per channel against the noise
+floor (:mod:`eddi.mdof.verdict`), per mode against the records' frequency and damping at every
+amplitude the ring-downs sweep (:mod:`eddi.mdof.amplitude`), and says how far the captures'
+blow sizes tested extrapolation in amplitude.
 """
 
 from __future__ import annotations
@@ -85,30 +90,8 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     else:  # no coupling earns its place: the baseline
         final = _final_baseline(records, names, dp)
     notes = list(final.notes)
-    if not final.modal_basis and gain <= margin:
-        cause = "missing_mode"
-        notes.append("missing mode: the linear modes of the low-amplitude tail do not describe the motion - "
-                     "a coordinate with no linear mode (e.g. an essentially nonlinear attachment)")
-    elif not final.modal_basis:  # physical coordinates, and a nonlinear coupling between them explains it
-        cause = "modal_coupling"
-        notes.append("the linear modes of the low-amplitude tail do not describe the motion (a coordinate with "
-                     "no linear mode of its own, e.g. an essentially nonlinear attachment): physical "
-                     "coordinates, and the nonlinear coupling between them earns its place held out")
-    elif final.unresolved and gain <= margin:
-        cause = "unexplained"
-        notes.append(f"unexplained: the tail resolves {final.modes.frequencies_hz.size} linear mode(s) for "
-                     f"{len(names)} channels and no coupling earns its place held out; a mode these records "
-                     "do not resolve is not evidence of a missing one (record quieter or longer ring-downs)")
-    else:
-        cause = "modal_coupling" if gain > margin else "none"
+    cause = _first_cause(final, gain, margin, len(names), notes)
     model = final.model
-    if cause == "modal_coupling" and not nonlinear_coupling_terms(model):
-        # the identification with coupling terms won held out, but what it kept couples the
-        # coordinates linearly only (springs, dashpots, a rotated modal basis): a better model of
-        # the same kind, not a nonlinear coupling; judged on that model as ``none``
-        cause = "none"
-        notes.append(f"no coupling named: the identification with coupling terms wins held out (gain "
-                     f"{100 * gain:.0f} %) but its model holds no nonlinear term between coordinates")
     if refine:  # the verdict judges the model delivered (symptoms, backbones)
         from eddi.mdof.refine import refine_identified
 
@@ -119,15 +102,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     cause, symptoms = verdict.cause, list(verdict.symptoms) + amp
     if verdict.note:
         notes.append(verdict.note)
-    if amp and cause in ("none", "modal_coupling"):
-        worst = max(amp, key=lambda s: s["implied_nrmse"])
-        notes.append(f"unexplained: the model's frequency and damping against amplitude depart from the records' "
-                     f"(mode at {worst['mode_hz']:.4g} Hz: a blow ringing down from {worst['amplitude_m']:.3g} m "
-                     f"would leave about {worst['implied_nrmse']:.2g} nrmse, allowed {worst['allowed']:.2g})"
-                     + (" (modal coupling is the best partial explanation)" if cause == "modal_coupling" else ""))
-        cause = "unexplained"
-    if not amp_span.tested:
-        notes.append(amp_span.text())
+    cause = _amplitude_heard(cause, amp, amp_span, notes)
     obj: dict[str, Any] = {
         "captures": [r.label for r in records], "channels": list(names), "driving_point": dp,
         "scheme": f"leave-one-out over {len(records)} captures",
@@ -153,10 +128,70 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         "exchanged_fraction": [f.exchanged_fraction for f in final.equations],
         "model": model.equation_text(), "notes": notes,
     }
+    obj["warnings"] = _model_flags(model, folds["coupled" if gain > margin else "baseline"])
+    obj["unstable"] = bool(obj["warnings"])
     if save_model:
         Path(save_model).write_text(model.to_json() + "\n")
         obj["saved_model"] = save_model
     return obj
+
+
+def _model_flags(model: Any, folds: Sequence[float]) -> list[str]:
+    """Why the delivered model cannot be trusted as a simulation: its linear part grows, or the
+    variant it was chosen from diverged on a held-out capture (as ``station identify`` flags)."""
+    from eddi.mdof.identify import linear_growth_rate
+
+    out = []
+    growth = linear_growth_rate(model)
+    if growth > 0:
+        out.append(f"the model's linear part is unstable: a mode grows at {growth:.3g} 1/s")
+    if any(not math.isfinite(float(f)) for f in folds):
+        out.append("the model's simulation diverged on a held-out capture")
+    return out
+
+
+def _first_cause(final: Any, gain: float, margin: float, n_channels: int, notes: list[str]) -> str:
+    """The cause from the held-out gain and the tail's modal evidence (module docstring); the
+    reason appended to ``notes``."""
+    if not final.modal_basis and gain <= margin:
+        cause = "missing_mode"
+        notes.append("missing mode: the linear modes of the low-amplitude tail do not describe the motion - "
+                     "a coordinate with no linear mode (e.g. an essentially nonlinear attachment)")
+    elif not final.modal_basis:  # physical coordinates, and a nonlinear coupling between them explains it
+        cause = "modal_coupling"
+        notes.append("the linear modes of the low-amplitude tail do not describe the motion (a coordinate with "
+                     "no linear mode of its own, e.g. an essentially nonlinear attachment): physical "
+                     "coordinates, and the nonlinear coupling between them earns its place held out")
+    elif final.unresolved and gain <= margin:
+        cause = "unexplained"
+        notes.append(f"unexplained: the tail resolves {final.modes.frequencies_hz.size} linear mode(s) for "
+                     f"{n_channels} channels and no coupling earns its place held out; a mode these records "
+                     "do not resolve is not evidence of a missing one (record quieter or longer ring-downs)")
+    else:
+        cause = "modal_coupling" if gain > margin else "none"
+    if cause == "modal_coupling" and not nonlinear_coupling_terms(final.model):
+        # the identification with coupling terms won held out, but what it kept couples the
+        # coordinates linearly only (springs, dashpots, a rotated modal basis): a better model of
+        # the same kind, not a nonlinear coupling; judged on that model as ``none``
+        cause = "none"
+        notes.append(f"no coupling named: the identification with coupling terms wins held out (gain "
+                     f"{100 * gain:.0f} %) but its model holds no nonlinear term between coordinates")
+    return cause
+
+
+def _amplitude_heard(cause: str, amp: list[dict], span: Any, notes: list[str]) -> str:
+    """``none`` or a name turned ``unexplained`` by an amplitude symptom; the span said when the
+    folds did not test extrapolation in amplitude (:mod:`eddi.mdof.amplitude`)."""
+    if amp and cause in ("none", "modal_coupling"):
+        worst = max(amp, key=lambda s: s["implied_nrmse"])
+        notes.append(f"unexplained: the model's frequency and damping against amplitude depart from the records' "
+                     f"(mode at {worst['mode_hz']:.4g} Hz: a blow ringing down from {worst['amplitude_m']:.3g} m "
+                     f"would leave about {worst['implied_nrmse']:.2g} nrmse, allowed {worst['allowed']:.2g})"
+                     + (" (modal coupling is the best partial explanation)" if cause == "modal_coupling" else ""))
+        cause = "unexplained"
+    if not span.tested:
+        notes.append(span.text())
+    return cause
 
 
 #: A fold whose model misses its held-out capture by more than this (nrmse) is not polished: the
@@ -406,4 +441,5 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
     lines += [f"Note: {n}." for n in obj["notes"]]
     if "saved_model" in obj:
         lines.append(f"Model written to {obj['saved_model']}")
+    lines += [f"WARNING: {w}" for w in obj.get("warnings", [])]
     return "\n".join(lines)

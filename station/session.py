@@ -231,6 +231,10 @@ def session_mass(measurements: Sequence[Measurement] | Sequence[RecordInfo], mas
 def condition_measurement(meas: Measurement, pipeline: Pipeline | None = None) -> ConditionedSignal:
     """Condition a record as every command does (:meth:`eddi.fit_record.Pipeline.condition`).
 
+    The DAQ's decimation filter comes from the record's metadata (``adc_sinc_order``,
+    ``adc_osr``: stored with a capture by ``station import --adc-filter``, or set by
+    :func:`with_adc_filter` from a command's ``--adc-filter``).
+
     Raises
     ------
     EddiError
@@ -243,9 +247,21 @@ def condition_measurement(meas: Measurement, pipeline: Pipeline | None = None) -
     try:
         return (pipeline or Pipeline()).condition(
             meas.t, acc=ch.get("acc"), vel=ch.get("vel"), disp=ch.get("disp"), force=ch.get("force"),
-            pretrigger_samples=meas.pretrigger_samples, ac_coupling_s=meas.metadata.get("ac_coupling_s"))
+            pretrigger_samples=meas.pretrigger_samples, ac_coupling_s=meas.metadata.get("ac_coupling_s"),
+            adc_sinc_order=meas.metadata.get("adc_sinc_order") or None, adc_osr=meas.metadata.get("adc_osr") or None)
     except EddiError as exc:
         raise type(exc)(f"{meas.source}: {exc}") from None
+
+
+def with_adc_filter(meas: Measurement, adc: tuple[int, int | None] | None) -> Measurement:
+    """``meas`` with the DAQ's decimation filter ``(K, R or None)`` in its metadata (``None``:
+    unchanged; ``(0, None)``: point samples, overriding what the file records)."""
+    if adc is None:
+        return meas
+    import dataclasses
+
+    meta = {**meas.metadata, "adc_sinc_order": int(adc[0]), "adc_osr": int(adc[1] or 0)}
+    return dataclasses.replace(meas, metadata=meta)
 
 
 def choose_fit_index(measurements: Sequence[Measurement] | Sequence[RecordInfo]) -> int:

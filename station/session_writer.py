@@ -394,7 +394,9 @@ def import_measurement(writer: CaptureWriter, measurement: Any, notes: str = "",
         # pretrigger_known 0, so the reader gives None (unknown) as the CSV reader does, and
         # the conditioning looks for the rest itself either way (same floor, same verdict)
         extra={"t0_s": float(t[0]) if t.size else 0.0, "import_metadata": json.dumps(meta, default=str),
-               "pretrigger_known": int(measurement.pretrigger_samples is not None)},
+               "pretrigger_known": int(measurement.pretrigger_samples is not None),
+               **({"adc_sinc_order": int(meta["adc_sinc_order"]), "adc_osr": int(meta.get("adc_osr") or 0)}
+                  if meta.get("adc_sinc_order") else {})},
     )
 
 

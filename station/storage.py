@@ -443,6 +443,9 @@ def measurement_of(cap: StoredCapture, path: str | os.PathLike[str]) -> Any:
         "units": {MEASUREMENT_KEYS[c.info.quantity]: c.info.unit for c in cap.channels.values() if c.info.quantity in MEASUREMENT_KEYS},
         "sensitivities": {c.info.name: [c.info.sensitivity, c.info.sensitivity_unit] for c in cap.channels.values()},
     }
+    if int(cap.attrs.get("adc_sinc_order", 0) or 0):  # the DAQ's decimation filter (station import --adc-filter)
+        meta["adc_sinc_order"] = int(cap.attrs["adc_sinc_order"])
+        meta["adc_osr"] = int(cap.attrs.get("adc_osr", 0) or 0)
     if cap.attrs.get("driving_point"):  # multi-DOF: the response channel at the hammer
         meta["driving_point"] = str(cap.attrs["driving_point"])
     t0 = float(cap.attrs.get("t0_s", 0.0))  # imported records keep their first time stamp

@@ -62,7 +62,7 @@ from eddi.mdof.modal import LinearModes
 from eddi.mdof.intervals import JACKKNIFE_BLOCKS, block_jackknife_ci95
 from eddi.mdof.masses import masses_and_inputs
 from eddi.mdof.model import MdofModel
-from eddi.mdof.signals import EDGE_PERIODS, HIGHPASS_HZ, highpass, quasi_static
+from eddi.mdof.signals import HIGHPASS_HZ, highpass, quasi_static
 from eddi.mdof.terms import MultiTerm, monomial, parse_multi_term
 from eddi.phase_one import scaled_lstsq
 
@@ -253,16 +253,8 @@ def linear_modes(records: Sequence[ChannelRecord], *, tail_fraction: float = 0.2
             f = np.zeros_like(r.force)
             f[r.impact[0]:r.impact[1]] = r.force[r.impact[0]:r.impact[1]]
             forces.append(f)
-    return era_windows([(r.a, r.window[0], _acc_stop(r, rate)) for r in records], rate, tail_fraction=tail_fraction,
+    return era_windows([(r.a, r.window[0], r.window[1]) for r in records], rate, tail_fraction=tail_fraction,
                        max_freq_hz=max_freq_hz or 0.2 * rate, driving_point=driving_point, forces=forces)
-
-
-def _acc_stop(r: ChannelRecord, rate: float) -> int:
-    """End of the free response in the measured accelerations: the record's end where the window
-    stops only for the drift filter's end transient (:data:`eddi.mdof.signals.EDGE_PERIODS`: it
-    is in ``x`` and ``v``, not in the unfiltered ``a`` ERA reads), else the window's end."""
-    edge = r.t.size - int(EDGE_PERIODS * rate / r.highpass_hz)
-    return r.t.size if r.window[1] >= edge - 2 else r.window[1]
 
 
 def choose_coordinates(records: Sequence[ChannelRecord], modes: LinearModes, *, max_shape_condition: float = 8.0,
@@ -610,7 +602,7 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
         driving_point=driving_point,
         notes=f"identified by eddi.mdof from {len(records)} record(s); {kind} coordinates; "
               f"linear modes {', '.join(f'{f:.4g} Hz' for f in modes.frequencies_hz)}")
-    growth = _linear_growth_rate(model)
+    growth = linear_growth_rate(model)
     if growth > 0:
         notes.append(f"warning: the identified linear part is unstable (a mode grows at {growth:.3g} 1/s): "
                      "the damping is not determined by these records")
@@ -641,7 +633,7 @@ def _residue_masses(modes: LinearModes, tmat: np.ndarray) -> np.ndarray | None:
     return out
 
 
-def _linear_growth_rate(model: MdofModel) -> float:
+def linear_growth_rate(model: MdofModel) -> float:
     """Largest real part of the eigenvalues of the model's linear part [1/s] (> 0: unstable)."""
     m, c, k = model.linear_matrices()
     n = model.n_coords

@@ -182,6 +182,10 @@ def handle(args: argparse.Namespace) -> int:
         obj = diagnose_mdof_object(list(args.captures), driving_point=args.driving_point, margin=args.margin,
                                    save_model=args.save_model, refine=args.refine)
         emit(args.json, diagnose_mdof_text(obj), obj)
+        if obj.get("unstable"):
+            from station.cli import flagged
+
+            return flagged("diagnose", "the diagnosed model is unstable or its simulation diverges")
         return 0
     base = None
     if args.model:
@@ -227,6 +231,11 @@ def handle(args: argparse.Namespace) -> int:
 
         files = write_report(diag, records, args.report)
         obj["report"] = [str(f) for f in files]
+    span = capture_span(records, diag.scheme)
+    if span is not None:
+        obj["amplitude"] = {"span": span.as_dict()}
+        if not span.tested:
+            obj["notes"] = [*obj.get("notes", []), span.text()]
     warnings = model_flags(diag, pipe_obj)
     obj["unstable"] = bool(warnings)
     obj["warnings"] = list(warnings)
@@ -236,6 +245,24 @@ def handle(args: argparse.Namespace) -> int:
 
         return flagged("diagnose", "the diagnosed model is unstable or its simulation diverges")
     return 0
+
+
+def capture_span(records: list[Record], scheme: str) -> Any:
+    """How far the leave-one-record-out folds extrapolate in amplitude (peak acceleration of
+    each record's free response; :class:`eddi.mdof.amplitude.CaptureSpan`), or None for the
+    amplitude-band scheme (its bands are held out by amplitude, so it tests extrapolation)."""
+    import numpy as np
+
+    from eddi.mdof.amplitude import SPAN_MIN, CaptureSpan
+
+    if scheme != "leave-one-record-out" or len(records) < 2:
+        return None
+    peaks = [float(np.max(np.abs(r.a[r.free_start:r.free_stop]))) for r in records]
+    up = down = 1.0
+    for j, p in enumerate(peaks):
+        rest = [q for k, q in enumerate(peaks) if k != j]
+        up, down = max(up, p / max(rest)), max(down, min(rest) / p)
+    return CaptureSpan("the response (free part)", tuple(peaks), up, down, max(up, down) >= SPAN_MIN)
 
 
 def model_flags(diag: Diagnosis, pipe_obj: dict[str, Any] | None) -> tuple[str, ...]:
@@ -281,7 +308,7 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
     if diag.symptoms:
         lines.append("Symptoms (held-out parts, median; measurement chain):")
         lines += [f"  - {s.kind}: {s.text}" for s in diag.symptoms]
-    lines += [f"Note: {n}." for n in diag.notes]
+    lines += [f"Note: {n}." for n in obj.get("notes", diag.notes)]
     lines += [f"WARNING: {w}" for w in obj.get("warnings", [])]
     if obj.get("resampled"):
         lines.append(f"Note: {obj['resampled']}.")

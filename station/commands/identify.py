@@ -13,7 +13,7 @@ import math
 from typing import TYPE_CHECKING, Any
 
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
-from station.argtypes import add_refine_option, damping_terms, finite_positive, stiffness_terms  # noqa: F401 (re-export)
+from station.argtypes import add_adc_filter_option, add_refine_option, damping_terms, finite_positive, stiffness_terms  # noqa: F401 (re-export)
 from station.errors import ConfigError
 from station.output import emit
 
@@ -48,6 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--route", choices=("auto", "potential", "lagrangian"), default="auto",
                    help="phase-two route (default: %(default)s)")
     add_refine_option(p)
+    add_adc_filter_option(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handler)
 
@@ -163,11 +164,11 @@ def _text(obj: dict[str, Any]) -> str:
 
 def handler(args: argparse.Namespace) -> int:
     from station.readers import read_measurement, require_one_coordinate
-    from station.session import expand_specs, read_all, run_session
+    from station.session import expand_specs, read_all, run_session, with_adc_filter
 
     specs = expand_specs(list(args.path))
     if len(specs) == 1:
-        meas = read_measurement(specs[0])
+        meas = with_adc_filter(read_measurement(specs[0]), args.adc_filter)
         require_one_coordinate(meas, "identify")
         mass = _mass(args.mass, meas)
         res = run_identify(meas, mass, args.damping, args.stiffness, args.route, args.refine)
@@ -175,7 +176,7 @@ def handler(args: argparse.Namespace) -> int:
         obj["unstable"] = res.unstable
         emit(args.json, _text(obj), obj)
         return _exit_code(res.unstable)
-    recs = read_all(specs)
+    recs = [with_adc_filter(m, args.adc_filter) for m in read_all(specs)]
     session = run_session(recs, args.mass, damping=args.damping, stiffness=args.stiffness, route=args.route,
                           fit_index=args.fit, refine=args.refine)
     meas = session.measurements[session.fit_index]

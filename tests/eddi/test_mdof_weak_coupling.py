@@ -3,10 +3,10 @@
 Own chain (not the rig's, not the coupling sweep's): ground - 1 kg - 0.2 kg, a cubic spring
 between the masses giving about 3 % of the coupling spring's force at the largest blow, two
 blows, 1.5 s records, 45 dB, acc only, no mass given. The equation-error lumped fit's ``k3``
-scatters by tens of per cent here (session 8: +7.2 and +23 % on two seeds; it is variance
-of the noisy displacement columns and the choice of the rows' start, not a bias of the normal
-equations, see ``benchmarks/bench_mdof.py --coupling-anatomy``); the polish on the simulated
-displacements, which has the noise in the output only, gave +0.15 and +0.38 %.
+scatters by tens of per cent here (session 8: +5.7, +21, +19 % on three seeds; it is
+variance of the noisy displacement columns and the choice of the rows' start, not a bias of
+the normal equations, see ``benchmarks/bench_mdof.py --coupling-anatomy``); the polish on the
+simulated displacements, which has the noise in the output only, gave +0.8 to +1.6 %.
 """
 
 from __future__ import annotations

@@ -40,6 +40,11 @@ def test_friction_found_model_saved_and_report(tmp_path: Path, capsys: pytest.Ca
     obj = json.loads(out)
     assert obj["cause"] == "coulomb_friction"
     assert obj["unstable"] is False and obj["warnings"] == []  # a sound model is not flagged
+    # blows of 20-30 N: no capture lies 1.5x outside the others, so the verdict says it holds
+    # within that range only
+    span = obj["amplitude"]["span"]
+    assert span["extrapolation_tested"] is False and len(span["peak_m_s2"]) == 3
+    assert any("extrapolation in amplitude not tested" in n for n in obj["notes"])
     # the gain is over the per-fold fit the candidates are judged against; the baseline is
     # the pipeline's (as station identify), judged on the records it did not fit
     assert obj["extended"]["nrmse"] <= 0.5 * obj["judged_baseline"]["nrmse"]
@@ -138,6 +143,10 @@ def test_a_growing_diagnosed_model_exits_1_with_its_reason(tmp_path: Path,
     obj = json.loads(out)
     assert obj["unstable"] is True
     assert any("negative damping" in w for w in obj["warnings"]), obj["warnings"]
+    # amplitudes 1 / 1.6 / 2.5 mm: the largest lies 1.56x above the others, extrapolation tested
+    assert obj["amplitude"]["span"]["extrapolation_tested"] is True
+    assert obj["amplitude"]["span"]["extrapolation_up"] == pytest.approx(1.5625, rel=0.1)
+    assert not any("not tested" in n for n in obj["notes"])
     assert any("WARNING: " in line for line in _run(["diagnose", *caps, "--mass", "0.5", "--damping", "v",
                                                     "--stiffness", "x", "--no-refine"], capsys)[1].splitlines())
 

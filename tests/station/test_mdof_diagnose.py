@@ -24,6 +24,7 @@ def test_hidden_cubic_coupling_is_named_and_linear_null_is_not(tmp_path, capsys)
     assert main(["diagnose", *files, "--json", "--no-refine", "--save-model", str(tmp_path / "m.json")]) == 0
     obj = json.loads(capsys.readouterr().out)
     assert obj["cause"] == "modal_coupling"
+    assert obj["unstable"] is False and obj["warnings"] == []  # a sound model: exit 0, no warning
     assert obj["coupled"]["nrmse"] < 0.5 * obj["baseline"]["nrmse"]
     assert main(["validate", str(tmp_path / "m.json"), files[0], "--json"]) == 0
     val = json.loads(capsys.readouterr().out)
@@ -173,3 +174,19 @@ def test_folds_are_polished_only_where_the_polish_can_change_the_verdict(monkeyp
     calls.clear()
     f = fits([40.0, 30.0, 20.0], [0.3, 0.25, 0.2])
     assert mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)["coupled"] == [0, 1, 2]
+
+
+def test_an_unstable_or_diverging_mdof_model_is_flagged() -> None:
+    # the flags behind station diagnose's exit code 1 on multi-channel captures: a linear part
+    # with a growing mode (negative damping on one mass), or a held-out simulation that diverged
+    import math
+
+    from station.mdof_commands import _model_flags
+
+    sound = load_mdof_system("two-mass-cubic").model()
+    assert _model_flags(sound, [0.02, 0.03]) == []
+    assert _model_flags(sound, [0.02, math.inf]) == ["the model's simulation diverged on a held-out capture"]
+    damping = tuple({t: -abs(c) for t, c in d.items()} for d in sound.damping)
+    grows = sound.model_copy(update={"damping": damping})
+    (w,) = _model_flags(grows, [0.02, 0.03])
+    assert "linear part is unstable" in w and "grows at" in w
