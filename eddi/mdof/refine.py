@@ -6,6 +6,10 @@ over 70 cycles). As the single-DOF ``eddi.refine``, the coefficients are then po
 nonlinear least squares (``scipy.optimize.least_squares``) on the simulated displacement of
 every channel of the training records, starting from EDDI's values, each coefficient scaled
 by its start value (so a term EDDI pruned stays out). Masses and inputs are kept.
+The Jacobian comes from forward sensitivities integrated alongside the simulation
+(:mod:`eddi.mdof.sensitivity`; one run per Jacobian instead of one simulation per parameter:
+the three-mass chain's diagnose 76 -> 44 s CPU, same verdict and fold errors); ``jac="2-point"``
+keeps scipy's finite differences.
 
 :func:`refine_lumped` does the same for a lumped-element fit (:mod:`eddi.mdof.lumped`) in its
 own parameters: one scale per element constant (a spring's monomials in both equations move
@@ -67,10 +71,10 @@ def _residual_function(records: Sequence[ChannelRecord], build, horizon: float =
     held out, against 0.007 / 0.009 without that record (the floor 0.007 / 0.008).
 
     ``memo`` (a dict shared by the residual functions of one polish): the simulations per
-    parameter vector, so that a horizon's least squares starts (value and finite-difference
-    Jacobian) from the last one's simulations instead of running them again. Every horizon
-    simulates the whole record (the zero-phase filter needs it) and truncates the error, so
-    the memo gives the same numbers.
+    parameter vector, so that a horizon's least squares starts (value, and with
+    ``jac="2-point"`` the finite-difference Jacobian) from the last one's simulations instead of
+    running them again. Every horizon simulates the whole record (the zero-phase filter needs
+    it) and truncates the error, so the memo gives the same numbers.
     """
     prepared = [(r, r.x[:, r.window[0]:r.window[1]][:, :keep], norm) for r, keep, norm in _weights(records, horizon)]
 
