@@ -42,7 +42,7 @@ from eddi.conditioning import ConditionedSignal, condition
 from eddi.energy import noise_level
 from eddi.errors import IdentificationError, SignalError
 from eddi.identify import IdentifiedModel, identify
-from eddi.intervals import sampling_kernel_warning
+from eddi.intervals import loose_coefficient_warnings, sampling_kernel_warning
 from eddi.model import EquationOfMotion
 from eddi.stability import model_warnings, poor_fit_warnings
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, coefficient_unit, parse_terms
@@ -385,6 +385,7 @@ class Pipeline:
         if coarse:
             warnings.append(coarse)
         warnings += sampling_kernel_warning(eom, ci95, cond.rate_hz, f_hi, cond.sample_kernel_var)
+        warnings += loose_coefficient_warnings(eom, ci95)
         unsound = model_warnings(eom, cond.x[w0:w1], cond.v[w0:w1])
         warnings += unsound
         warnings += [f"fit record: {w}" for w in val.warnings]

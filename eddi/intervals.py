@@ -106,6 +106,28 @@ def sampling_kernel_warning(eom: EquationOfMotion, ci95: dict[str, dict[str, flo
             "give its order (adc_sinc_order; `station identify --adc-filter sincK[:R]`)",)
 
 
+#: A kept coefficient whose 95 % interval is wider than this fraction of its value is reported
+#: as poorly determined (the record holds too little of its effect: fewer than ~8 standard
+#: errors from zero). Its interval is honest (it may hold the truth 20-30 % away), but a printed
+#: value with no sentence invites trust it does not deserve.
+LOOSE_FRACTION = 0.25
+
+
+def loose_coefficient_warnings(eom: EquationOfMotion, ci95: dict[str, dict[str, float]]) -> tuple[str, ...]:
+    """One sentence per coefficient whose 95 % interval is wider than :data:`LOOSE_FRACTION`
+    of its value (unbounded intervals are left to the divergence warnings)."""
+    out = []
+    for kind, coefs in (("damping", eom.damping), ("stiffness", eom.stiffness)):
+        for term, c in coefs.items():
+            half = ci95.get(kind, {}).get(term)
+            if half is None or not math.isfinite(half) or c == 0 or abs(half) <= LOOSE_FRACTION * abs(c):
+                continue
+            out.append(f"{kind} coefficient {term} = {c:.4g} is poorly determined by this record: its 95 % "
+                       f"interval is +-{100 * abs(half / c):.0f} % of the value (a larger or longer blow, "
+                       f"several records, or a library without the term would pin it down)")
+    return tuple(out)
+
+
 def sampling_curvature(block: int, kernel_var: float = 0.0) -> float:
     """Weight of the second difference (on the grid of block centres) in a compared value.
 

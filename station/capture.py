@@ -24,6 +24,7 @@ from drivers.channels import ChannelInfo
 from drivers.errors import DriverError
 from station.config import BenchConfig
 from station.errors import ConfigError, StationError
+from station.interrupts import held_interrupt
 from station.storage import CaptureWriter
 from station.trigger import Capture, Trigger, TriggerSettings
 
@@ -291,16 +292,20 @@ class _AcquisitionRun:
         origin = self.origin
         t0 = origin[0] + (cap.first_sample - origin[1]) / self.rate if len(origin) == 2 else None
         peak = float(np.nanmax(np.abs(cap.si[:, self.settings.channel]))) if cap.n_samples else 0.0
-        idx = self.writer.append(
+        with held_interrupt():  # a Ctrl-C inside h5py's writes would print a traceback: held till saved
+            idx = self._append(cap, rig, t0, peak)
+            self.result.indices.append(idx)
+            if cap.partial:
+                self.result.partial_index = idx
+            self.message = f"capture {idx} saved" + (" (partial)" if cap.partial else "")
+
+    def _append(self, cap: Capture, rig: dict | None, t0: float | None, peak: float) -> int:
+        return self.writer.append(
             cap, device=self.dev, rig=rig, notes=self.config.notes, mass_kg=self.config.specimen.mass_kg,
             t0_unix_s=t0, sensors=self.sensors, source=str(self.dev.get("url", "")),
             dropped_before_total=self.trig.dropped_total,
             extra={"peak_force": peak, **({"driving_point": self.driving_point} if self.driving_point else {})},
         )
-        self.result.indices.append(idx)
-        if cap.partial:
-            self.result.partial_index = idx
-        self.message = f"capture {idx} saved" + (" (partial)" if cap.partial else "")
 
     def execute(self, *, idle_timeout_s: float | None, read_timeout_s: float,
                 wall_clock: Callable[[], float]) -> AcquireResult:
