@@ -246,14 +246,19 @@ class CaptureSpan:
 def capture_span(records: Sequence, channels: Sequence[str], driving_point: str) -> CaptureSpan:
     """Peak driving-point acceleration per capture and how far leave-one-out extrapolates."""
     d = list(channels).index(driving_point)
-    peaks = [float(np.max(np.abs(r.a[d]))) for r in records]
+    return span_of([float(np.max(np.abs(r.a[d]))) for r in records], driving_point)
+
+
+def span_of(peaks: Sequence[float], channel: str) -> CaptureSpan:
+    """:class:`CaptureSpan` of captures with these peak accelerations [m/s^2] on ``channel``:
+    how far leave-one-out extrapolates up and down in amplitude."""
     up = down = 1.0
     for j, p in enumerate(peaks):
         rest = [q for k, q in enumerate(peaks) if k != j]
         if rest:
             up = max(up, p / max(rest))
             down = max(down, min(rest) / p)
-    return CaptureSpan(driving_point, tuple(peaks), up, down, max(up, down) >= SPAN_MIN)
+    return CaptureSpan(channel, tuple(float(p) for p in peaks), up, down, max(up, down) >= SPAN_MIN)
 
 
 def amplitude_symptoms(modes: Sequence[ModeBackbone], floors: dict[str, float], factor: float) -> list[dict]:

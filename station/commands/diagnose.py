@@ -253,16 +253,12 @@ def capture_span(records: list[Record], scheme: str) -> Any:
     amplitude-band scheme (its bands are held out by amplitude, so it tests extrapolation)."""
     import numpy as np
 
-    from eddi.mdof.amplitude import SPAN_MIN, CaptureSpan
+    from eddi.mdof.amplitude import span_of
 
     if scheme != "leave-one-record-out" or len(records) < 2:
         return None
-    peaks = [float(np.max(np.abs(r.a[r.free_start:r.free_stop]))) for r in records]
-    up = down = 1.0
-    for j, p in enumerate(peaks):
-        rest = [q for k, q in enumerate(peaks) if k != j]
-        up, down = max(up, p / max(rest)), max(down, min(rest) / p)
-    return CaptureSpan("the response (free part)", tuple(peaks), up, down, max(up, down) >= SPAN_MIN)
+    return span_of([float(np.max(np.abs(r.a[r.free_start:r.free_stop]))) for r in records],
+                   "the response (free part)")
 
 
 def model_flags(diag: Diagnosis, pipe_obj: dict[str, Any] | None) -> tuple[str, ...]:
