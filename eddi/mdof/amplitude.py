@@ -255,7 +255,7 @@ def span_of(peaks: Sequence[float], channel: str) -> CaptureSpan:
     up = down = 1.0
     for j, p in enumerate(peaks):
         rest = [q for k, q in enumerate(peaks) if k != j]
-        if rest:
+        if rest and p > 0 and min(rest) > 0:  # a flat record has no amplitude to compare
             up = max(up, p / max(rest))
             down = max(down, min(rest) / p)
     return CaptureSpan(channel, tuple(float(p) for p in peaks), up, down, max(up, down) >= SPAN_MIN)
