@@ -271,21 +271,16 @@ def predict_sensitivities(model: MdofModel, record, directions: np.ndarray | Non
     """
     from eddi.mdof.signals import highpass
 
+    from eddi.mdof.validate import simulation_start
+
     phi = model.phi
-    proj = np.linalg.pinv(phi)
     w0, w1 = record.window
     n = record.t.size
     rate = 1.0 / float(record.t[1] - record.t[0])
-    if record.force is not None and record.impact[1] > record.impact[0]:
-        s = record.impact[0]
-        scale = np.max(np.abs(proj @ record.x[:, s:w1]), axis=1)
-        xs, dx, div = simulate_sensitivities(model, record.t[s:], record.force[s:], x_scale=scale,
-                                             directions=directions)
-    else:
-        s = w0
-        scale = np.max(np.abs(proj @ record.x[:, s:w1]), axis=1)
-        xs, dx, div = simulate_sensitivities(model, record.t[s:], None, x0=proj @ record.x[:, s],
-                                             v0=proj @ record.v[:, s], x_scale=scale, directions=directions)
+    st = simulation_start(model, record)
+    s = st.sample
+    xs, dx, div = simulate_sensitivities(model, record.t[s:], st.force, x0=st.x0, v0=st.v0, x_scale=st.x_scale,
+                                         directions=directions)
     n_theta = dx.shape[0]
     if div or not (np.all(np.isfinite(xs)) and np.all(np.isfinite(dx))):
         return (np.full((phi.shape[0], w1 - w0), np.nan), np.zeros((n_theta, phi.shape[0], w1 - w0)), True)

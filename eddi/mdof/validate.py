@@ -52,6 +52,46 @@ class MdofValidation:
     simulated: np.ndarray
 
 
+@dataclass(frozen=True)
+class SimulationStart:
+    """Where and how a record's held-out simulation starts (:func:`simulation_start`).
+
+    Attributes
+    ----------
+    sample : int
+        First simulated sample (the impact's start, or the free window's).
+    force : ndarray or None
+        The measured force from ``sample`` on [N], or None (free response from a state).
+    x0, v0 : ndarray or None
+        Modal initial state (None when driven by the force from rest).
+    x_scale : ndarray
+        Largest modal displacement over the simulated part (the divergence scale).
+    driven_by : str
+        ``"force"`` or ``"initial state"``.
+    """
+
+    sample: int
+    force: np.ndarray | None
+    x0: np.ndarray | None
+    v0: np.ndarray | None
+    x_scale: np.ndarray
+    driven_by: str
+
+
+def simulation_start(model: MdofModel, record: ChannelRecord) -> SimulationStart:
+    """From rest driven by the measured force when the record holds the impact, else from the
+    free window's first state projected on the model's coordinates (the one rule that
+    :func:`predict_channels` and :func:`eddi.mdof.sensitivity.predict_sensitivities` share)."""
+    proj = np.linalg.pinv(model.phi)
+    w0, w1 = record.window
+    if record.force is not None and record.impact[1] > record.impact[0]:
+        s = record.impact[0]
+        scale = np.max(np.abs(proj @ record.x[:, s:w1]), axis=1)
+        return SimulationStart(s, record.force[s:], None, None, scale, "force")
+    scale = np.max(np.abs(proj @ record.x[:, w0:w1]), axis=1)
+    return SimulationStart(w0, None, proj @ record.x[:, w0], proj @ record.v[:, w0], scale, "initial state")
+
+
 def predict_channels(model: MdofModel, record: ChannelRecord
                      ) -> tuple[np.ndarray, np.ndarray, str, bool]:
     """Simulated displacement of every channel and coordinate over the record's free window.
@@ -68,21 +108,12 @@ def predict_channels(model: MdofModel, record: ChannelRecord
     diverged : bool
     """
     phi = model.phi
-    proj = np.linalg.pinv(phi)
     w0, w1 = record.window
     n = record.t.size
     rate = 1.0 / float(record.t[1] - record.t[0])
-    if record.force is not None and record.impact[1] > record.impact[0]:
-        s = record.impact[0]
-        scale = np.max(np.abs(proj @ record.x[:, s:w1]), axis=1)
-        sim = simulate_mdof(model, record.t[s:], record.force[s:], x_scale=scale)
-        how = "force"
-    else:
-        s = w0
-        scale = np.max(np.abs(proj @ record.x[:, s:w1]), axis=1)
-        sim = simulate_mdof(model, record.t[s:], None, x0=proj @ record.x[:, s], v0=proj @ record.v[:, s],
-                            x_scale=scale)
-        how = "initial state"
+    st = simulation_start(model, record)
+    s, how = st.sample, st.driven_by
+    sim = simulate_mdof(model, record.t[s:], st.force, x0=st.x0, v0=st.v0, x_scale=st.x_scale)
     if sim.diverged or not np.all(np.isfinite(sim.x)):
         return np.full((phi.shape[0], w1 - w0), np.nan), np.full((model.n_coords, w1 - w0), np.nan), how, True
     q = np.zeros((model.n_coords, n))
