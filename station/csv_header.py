@@ -44,7 +44,7 @@ _SENSOR_STEMS = {"acc": "acc", "accel": "acc", "acceleration": "acc", "vel": "ve
 _SUFFIXED = re.compile(r"^(acceleration|accel|acc|velocity|vel|displacement|disp)(?:_?([0-9]+)|_([a-z][a-z0-9_]*))$")
 
 #: Factor to SI of each unit a column may be in, per quantity (unit spellings normalised by
-#: :func:`_unit_key`). g is the standard gravity 9.80665 m/s^2 (ISO 80000-3); lbf = 4.4482216152605 N
+#: :func:`unit_key`). g is the standard gravity 9.80665 m/s^2 (ISO 80000-3); lbf = 4.4482216152605 N
 #: and in = 0.0254 m exactly (international yard and pound, 1959).
 UNITS: Mapping[str, Mapping[str, float]] = MappingProxyType({
     "t": MappingProxyType({"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6}),
@@ -111,7 +111,8 @@ def _is_number(cell: str) -> bool:
     return True
 
 
-def _unit_key(unit: str) -> str:
+def unit_key(unit: str) -> str:
+    """A unit as written, normalised for :data:`UNITS` (blanks out, lower case, ² -> ^2, µ -> u)."""
     u = unit.strip().replace("²", "^2").replace("**", "^").replace("µ", "u").replace("μ", "u")
     return re.sub(r"\s+", "", u).lower()
 
@@ -142,7 +143,7 @@ def column_name(cell: str, where: str) -> tuple[str, float]:
     quantity = name if name in UNITS else next(q for q in ("acc", "vel", "disp") if name.startswith(q))
     if unit is None or not unit.strip():
         return name, 1.0
-    u = _unit_key(unit)
+    u = unit_key(unit)
     if u in ("v", "mv", "volt", "volts"):
         raise InputFileError(
             f"{where}: column {cell.strip()!r} is in volts: scale it to SI with the sensor's sensitivity "

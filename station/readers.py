@@ -3,14 +3,15 @@
 :func:`read_measurement` takes ``FILE`` or ``FILE:CAPTURE`` and dispatches on the suffix of
 ``FILE`` through :data:`READERS`, an immutable mapping ``suffix -> "module:function"``. Each
 reader is called as ``function(path, capture)`` and returns a :class:`Measurement` in SI
-units. ``.csv`` is read here (:func:`read_csv`); ``.h5`` / ``.hdf5`` captures are read by
-``station.storage.read_measurement``.
+units. ``.csv`` (``.tsv``, ``.txt``) is read here (:func:`read_csv`); ``.h5`` / ``.hdf5`` captures are
+read by ``station.storage.read_measurement``, ``.uff`` / ``.unv`` by ``station.uff_reader.read_uff``.
 
 CSV format: a header line naming the columns among ``t``, ``force``, ``acc``, ``vel``,
 ``disp`` (SI units: s, N, m/s^2, m/s, m), then one row per sample, comma-separated, uniform
 sampling. Other tools' exports are read too (:mod:`station.csv_header`: tab, semicolon or blank
 delimiters, a decimal comma, ``#`` notes before the header, names such as ``Time [s]`` or
-``Acceleration (g)`` with their units converted to SI; ``.tsv`` and ``.txt`` files alike). At least ``t`` and one of ``acc``, ``vel``, ``disp``. Several response channels
+``Acceleration (g)`` with their units converted to SI; ``.tsv`` and ``.txt`` files alike).
+``.uff`` / ``.unv`` time responses (UFF58) are read by :func:`station.uff_reader.read_uff`. At least ``t`` and one of ``acc``, ``vel``, ``disp``. Several response channels
 (several sensors) are named by a quantity and a suffix: ``acc1, acc2, ...`` or
 ``acc_tip, vel_root`` (:data:`MULTI_COLUMN`); :func:`response_channels` lists them.
 """
@@ -37,6 +38,8 @@ READERS: Mapping[str, str] = MappingProxyType({
     ".csv": "station.readers:read_csv",
     ".tsv": "station.readers:read_csv",
     ".txt": "station.readers:read_csv",
+    ".uff": "station.uff_reader:read_uff",
+    ".unv": "station.uff_reader:read_uff",
     ".h5": "station.storage:read_measurement",
     ".hdf5": "station.storage:read_measurement",
 })
