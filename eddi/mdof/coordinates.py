@@ -18,6 +18,7 @@ import numpy as np
 from eddi.mdof.early import era_windows
 from eddi.mdof.modal import LinearModes
 from eddi.mdof.records import ChannelRecord
+from eddi.mdof.signals import EDGE_PERIODS
 
 
 #: A mode beyond the channels counts (evidence of a motion no linear mode basis holds) when it
@@ -59,8 +60,16 @@ def linear_modes(records: Sequence[ChannelRecord], *, tail_fraction: float = 0.2
             f = np.zeros_like(r.force)
             f[r.impact[0]:r.impact[1]] = r.force[r.impact[0]:r.impact[1]]
             forces.append(f)
-    return era_windows([(r.a, r.window[0], r.window[1]) for r in records], rate, tail_fraction=tail_fraction,
+    return era_windows([(r.a, r.window[0], _acc_stop(r, rate)) for r in records], rate, tail_fraction=tail_fraction,
                        max_freq_hz=max_freq_hz or 0.2 * rate, driving_point=driving_point, forces=forces)
+
+
+def _acc_stop(r: ChannelRecord, rate: float) -> int:
+    """End of the free response in the measured accelerations: the record's end where the window
+    stops only for the drift filter's end transient (:data:`eddi.mdof.signals.EDGE_PERIODS`: it
+    is in ``x`` and ``v``, not in the unfiltered ``a`` ERA reads), else the window's end."""
+    edge = r.t.size - int(EDGE_PERIODS * rate / r.highpass_hz)
+    return r.t.size if r.window[1] >= edge - 2 else r.window[1]
 
 
 def choose_coordinates(records: Sequence[ChannelRecord], modes: LinearModes, *, max_shape_condition: float = 8.0,

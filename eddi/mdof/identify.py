@@ -14,8 +14,9 @@ and the impact force at the driving point). Steps:
    dropped when the physical equations close (force balance) twice as well; with coupling
    terms the identification is then also run in physical coordinates, in physical coordinates
    with drift-filtered equations (:func:`eddi.mdof.equations._design`) and, with a force, as lumped masses,
-   springs and dashpots (:mod:`eddi.mdof.lumped`); the candidate whose model reproduces the
-   training records best (mean simulated nrmse) is kept.
+   springs and dashpots (:mod:`eddi.mdof.lumped`); of the candidates whose models reproduce the
+   training records (mean simulated nrmse) within the noise floor of the best, the one with the
+   fewest coefficients is kept (:mod:`eddi.mdof.candidates`).
 3. **Per coordinate, EDDI with coupling terms** (per unit mass). Library of equation ``i``:
    damping ``v_1..v_n``; own stiffness ``x_i, x_i^3``; coupling stiffness ``x_j`` and every cubic
    monomial but ``x_i^3``. *Phase one* (paper Eq. 7) at the zero crossings ``gamma_k`` of
@@ -46,7 +47,6 @@ No I/O: arrays in, frozen results out.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -55,6 +55,7 @@ import numpy as np
 
 from eddi.threads import one_blas_thread
 from eddi.errors import IdentificationError
+from eddi.mdof.candidates import choose_candidate
 from eddi.mdof.coordinates import (EXTRA_MODE_SHARE, RESIDUE_SPREAD_MAX, UNEXPLAINED_TAIL, choose_coordinates,
                                    linear_modes, modal_evidence, residue_masses)
 from eddi.mdof.equations import (FILTERED_NOTE, PREFILTER_PASSES, EquationFit, Library, default_library,
@@ -183,13 +184,9 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
                                               tail_fraction=tail_fraction))
         except (IdentificationError, np.linalg.LinAlgError, ValueError):
             pass
-    errors = [_training_error(c, records) for c in candidates]
-    best = int(np.argmin(errors))
-    names = [_candidate_name(c) for c in candidates]
-    note = (f"{names[best]} kept: training nrmse {errors[best]:.3g}"
-            + "".join(f"; {nm} {e:.3g}" for k, (nm, e) in enumerate(zip(names, errors)) if k != best))
-    keep = candidates[best]
-    return replace(keep, notes=tuple(dict.fromkeys(keep.notes + (note,))), modal_basis=chosen.modal_basis,
+    choice = choose_candidate(candidates, [_candidate_name(c) for c in candidates], records)
+    keep = candidates[choice.index]
+    return replace(keep, notes=tuple(dict.fromkeys(keep.notes + (choice.note,))), modal_basis=chosen.modal_basis,
                    unresolved=chosen.unresolved)
 
 
@@ -218,14 +215,6 @@ def _identify_twice(records: Sequence[ChannelRecord], channels: tuple[str, ...],
     extra = (FILTERED_NOTE,) if prefilter else ()
     return replace(second, notes=tuple(dict.fromkeys(first.notes + second.notes + extra)),
                    modal_basis=first.modal_basis, unresolved=first.unresolved)
-
-
-def _training_error(ident: MdofIdentification, records: Sequence[ChannelRecord]) -> float:
-    """Mean per-channel nrmse of the model's simulation of the records (inf when it diverges)."""
-    from eddi.mdof.validate import validate_mdof  # validation imports this module
-
-    errs = [validate_mdof(ident.model, r).nrmse for r in records]
-    return float(np.mean(errs)) if all(np.isfinite(errs)) else math.inf
 
 
 def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], driving_point: str, d: int,
