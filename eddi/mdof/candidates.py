@@ -80,7 +80,11 @@ def parameter_count(ident) -> int:
 def choose_candidate(candidates: Sequence, names: Sequence[str], records: Sequence[ChannelRecord]
                      ) -> CandidateChoice:
     """The candidate to keep (module docstring) and a note listing every candidate."""
-    errors = tuple(training_error(c.model, records) for c in candidates)
+    own = tuple(training_error(c.model, records) for c in candidates)
+    # a form that tried variants (the lumped fit's rows' starts) is judged by the best it reached:
+    # which variant it then keeps is an estimation choice inside the form (eddi.mdof.physical)
+    errors = tuple(min(e, f) if math.isfinite(f := getattr(c, "form_error", math.nan)) else e
+                   for c, e in zip(candidates, own))
     params = tuple(parameter_count(c) for c in candidates)
     best = float(min(errors))
     tol = best + records_floor(records) if math.isfinite(best) else math.inf
@@ -88,7 +92,8 @@ def choose_candidate(candidates: Sequence, names: Sequence[str], records: Sequen
     keep = min(fair, key=lambda k: (params[k], errors[k]))
     why = "" if errors[keep] == best else (
         f" (within the noise floor of the best, {best:.3g} + floor = {tol:.3g}, with the fewest coefficients)")
-    note = (f"{names[keep]} kept: training nrmse {errors[keep]:.3g}, {params[keep]} coefficients{why}"
+    form = "" if own[keep] == errors[keep] else f" (the form's best; this variant {own[keep]:.3g})"
+    note = (f"{names[keep]} kept: training nrmse {errors[keep]:.3g}{form}, {params[keep]} coefficients{why}"
             + "".join(f"; {nm} {e:.3g} ({p})" for k, (nm, e, p) in enumerate(zip(names, errors, params))
                       if k != keep))
     return CandidateChoice(keep, errors, params, tol, note)

@@ -47,6 +47,7 @@ No I/O: arrays in, frozen results out.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -100,6 +101,9 @@ class MdofIdentification:
     lumped : LumpedFit or None
         The element fit (:mod:`eddi.mdof.lumped`) when the model is the lumped-element
         candidate (for :func:`eddi.mdof.refine.refine_lumped`).
+    form_error : float
+        The smallest training nrmse the lumped form reached over the variants it tried (rows'
+        starts, slow band), NaN otherwise: :mod:`eddi.mdof.candidates` judges the form by it.
     """
 
     model: MdofModel
@@ -111,6 +115,7 @@ class MdofIdentification:
     modal_basis: bool = True
     unresolved: bool = False
     lumped: Any = None
+    form_error: float = math.nan
 
 
 @one_blas_thread()

@@ -67,10 +67,12 @@ def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], d
         tried.append((training_error(lumped_model(fit, channels, driving_point, d, len(records)), records), fit,
                       f"rows from {settle:g} periods of the column filter after the blow"))
     err, fit, rows_note = _pick(tried, floor)
+    form_error = min(t[0] for t in tried)
     slow_note = ""
     if slow_band:
         slow, before, after = _slow_fit(records, fit, n, d, prune)
         err_slow = training_error(lumped_model(slow, channels, driving_point, d, len(records)), records)
+        form_error = min(form_error, err_slow)
         slow_note = (f"; slow band restored (force balance {np.sqrt(before):.3g} -> {np.sqrt(after):.3g} of the "
                      f"inertia RMS; training nrmse {err_slow:.3g}, prefiltered {err:.3g}")
         if _pick([(err, fit, rows_note), (err_slow, slow, "rows from the blow, slow band restored")],
@@ -86,7 +88,8 @@ def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], d
     if all(r.force is None for r in records):
         notes.append("no force: every mass per unit driven mass")
     eqs = tuple(_equation(model, fit, i) for i in range(n))
-    return MdofIdentification(model, modes, "physical", eqs, 0.0, tuple(notes), True, lumped=fit)
+    return MdofIdentification(model, modes, "physical", eqs, 0.0, tuple(notes), True, lumped=fit,
+                              form_error=float(form_error))
 
 
 def _informative(fit: LumpedFit) -> float:
