@@ -166,6 +166,7 @@ class FoldResults:
     base_sims: list[np.ndarray] = field(default_factory=list)
     base_vsims: list[np.ndarray] = field(default_factory=list)
     base_coefs: list[dict[str, float]] = field(default_factory=list)
+    base_models: list[EquationOfMotion] = field(default_factory=list)  # the judged fold models
     ee_ref: list[float] = field(default_factory=list)
     cand_fold: dict[str, list[float]] = field(default_factory=dict)
     cand_params: dict[str, list[dict[str, float]]] = field(default_factory=dict)
@@ -220,6 +221,7 @@ def judge_baseline(records: Sequence[Record], setup: Setup, parts: Sequence[Part
         res.base_nmte.append(nmte(vb, rec.v[part.start:part.stop]))
         res.base_sims.append(xb)
         res.base_vsims.append(vb)
+        res.base_models.append(bfit.eom)
         res.base_coefs.append({**{f"b[{k}]": v for k, v in bfit.eom.damping.items()},
                                **{f"k[{k}]": v for k, v in bfit.eom.stiffness.items()}})
     return res, fits
