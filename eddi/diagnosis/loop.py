@@ -28,9 +28,11 @@ from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.lookalike import attach
 from eddi.diagnosis.mapping import Mapper
 from eddi.diagnosis.measure import noise_floor
-from eddi.diagnosis.name import (
-    UNREFINED, Decision, Fitter, FoldFitter, FoldResults, all_masks, build_candidates, check_trainable, decide,
-    final_fits, judge_baseline, judge_candidates, rank, refine_candidates, spread_of, within_floor,
+from eddi.diagnosis.candidates import UNREFINED, build_candidates, rank, spread_of
+from eddi.diagnosis.decide import Decision, decide, within_floor
+from eddi.diagnosis.fitter import Fitter, FoldFitter, all_masks
+from eddi.diagnosis.folds import (
+    FoldResults, check_trainable, final_fits, judge_baseline, judge_candidates, refine_candidates,
 )
 from eddi.diagnosis.settings import REFINE_CANDIDATES
 from eddi.diagnosis.observed import Observed, observed_second_mode

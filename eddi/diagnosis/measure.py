@@ -28,7 +28,7 @@ import numpy as np
 
 from eddi.diagnosis.extend import Setup
 from eddi.diagnosis.mapping import Mapper, serial_map
-from eddi.diagnosis.name import Fitter
+from eddi.diagnosis.fitter import Fitter
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.results import NoiseFloor
 from eddi.diagnosis.settings import MIN_FLOOR, NRMSE_CAP
