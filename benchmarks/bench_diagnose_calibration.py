@@ -122,6 +122,18 @@ def _records(truth, forces, cfg: dict, seed: int, sensors=None, **rig):
     return recs
 
 
+def _noise_only(d):
+    """``d`` with the floor of the noise and conditioning alone (before session 9's chain share):
+    every candidate is fitted either way (none factor 0), so the verdicts of the session-8 floor
+    follow from the same diagnosis."""
+    fl = d.noise_floor
+    if not fl.noise_fold_nrmse:
+        return d
+    nf = dataclasses.replace(fl, fold_nrmse=fl.noise_fold_nrmse, nrmse=float(np.mean(fl.noise_fold_nrmse)),
+                             chain_nrmse=())
+    return dataclasses.replace(d, noise_floor=nf)
+
+
 def _verdicts(d, factors) -> tuple[dict[str, str], dict[str, str]]:
     """The cause ``diagnose`` gives at each ``none`` factor (see the module notes), and the one
     :func:`eddi.diagnosis.name.decide` gave before :func:`eddi.diagnosis.earn.earn` heard the
@@ -170,6 +182,8 @@ def _named_verdicts(d) -> dict[str, str]:
 #: library call without it, as before session 4); ``chain``: the measurement chain's tolerance
 #: in the noise floor (session 9; ``--no-chain``: the floor of noise and conditioning only, as before).
 PIPELINE = {"on": True, "chain": True}
+#: ``--summary --nochain``: the verdicts of the session-8 floor, stored beside the others.
+NOCHAIN = {"on": False}
 
 
 def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple[dict, float]:
@@ -190,7 +204,10 @@ def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple
     d = diagnose(recs, mass, none_factor=0.0,  # every candidate fitted; the verdicts come after
                  stiffness=stiffness or DEFAULT_STIFFNESS, pipeline=pipe,
                  chain=ChainTolerance() if PIPELINE["chain"] else None)
+    before = _noise_only(d)
     return {"ratio": d.judging.nrmse / d.noise_floor.nrmse, "baseline_nrmse": d.judging.nrmse,
+            "ratio_nochain": d.judging.nrmse / before.noise_floor.nrmse,
+            "causes_nochain": _verdicts(before, factors)[0], "named_causes_nochain": _named_verdicts(before),
             "pipeline_nrmse": d.pipeline.nrmse if d.pipeline is not None else None,
             "floor": d.noise_floor.nrmse, "partial": d.partial,
             "chain_nrmse": list(d.noise_floor.chain_nrmse),
@@ -392,6 +409,9 @@ def rejudge(row: dict) -> dict:
 
 def summary(path: str, factor: float, strong: float | None, again: bool = False) -> None:
     rows = [json.loads(s) for s in open(path) if s.strip()]
+    if NOCHAIN["on"]:  # the session-8 floor's verdicts of the same diagnoses
+        rows = [{**r, "causes": r["causes_nochain"], "named_causes": r["named_causes_nochain"],
+                 "ratio": r["ratio_nochain"]} if "causes_nochain" in r else r for r in rows]
     if again:
         rows = [rejudge(r) for r in rows if "error" not in r] + [r for r in rows if "error" in r]
     key = f"{factor:g}|{strong}"
@@ -538,6 +558,9 @@ def main() -> None:
     ap.add_argument("--ladder-seeds", type=int, default=None, metavar="N",
                     help="a reduced run: only the first N seeds of each rung (default: all)")
     ap.add_argument("--summary", metavar="FILE", help="print the rates of earlier runs")
+    ap.add_argument("--nochain", action="store_true",
+                    help="with --summary: the verdicts with the floor of noise and conditioning alone (the "
+                         "session-8 floor; computed from the same diagnoses, stored as causes_nochain)")
     ap.add_argument("--rejudge", action="store_true",
                     help="with --summary: apply the current eddi.diagnosis.earn rule to the stored verdicts")
     ap.add_argument("--factor", type=float, default=None,
@@ -552,6 +575,7 @@ def main() -> None:
         from eddi.diagnosis.settings import STRONG_MARGIN
 
         strong = STRONG_MARGIN if args.strong == "default" else (None if args.strong == "None" else float(args.strong))
+        NOCHAIN["on"] = args.nochain
         summary(args.summary, args.factor if args.factor is not None else NONE_FACTOR, strong, args.rejudge)
         return
     if not args.set:

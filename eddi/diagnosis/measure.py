@@ -146,6 +146,7 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
               "sqrt(d_cond^2 + d_pred^2) (module notes)")
     chain_parts: tuple[float, ...] = ()
     info: dict = {}
+    noise_only = tuple(max(MIN_FLOOR, f) for f in fold)
     if chain is not None:
         chain_parts, info = tuple(float(c) for c in chain[0]), dict(chain[1])
         fold = [float(np.hypot(f, c)) for f, c in zip(fold, chain_parts)]
@@ -155,4 +156,4 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
     return NoiseFloor(nrmse=float(np.mean(fold)), fold_nrmse=tuple(fold),
                       noise_rms=tuple(float(r.noise_rms) for r in records),
                       conditioning_nrmse=tuple(cond), prediction_nrmse=tuple(preds),
-                      method=method, chain_nrmse=chain_parts, chain=info)
+                      method=method, chain_nrmse=chain_parts, chain=info, noise_fold_nrmse=noise_only)

@@ -64,6 +64,9 @@ class NoiseFloor:
         The tolerances used: ``gain_tolerance`` (relative), ``clock_ppm``, ``gain_per_part``
         (the gain assumed for each part: the tolerance, or the smaller difference the
         impulse/momentum ratios measured), ``source``.
+    noise_fold_nrmse : tuple of float
+        Per held-out part: the floor of the noise and conditioning alone (the session-8 floor,
+        at least :data:`~eddi.diagnosis.settings.MIN_FLOOR`), before the chain's share joined.
     """
 
     nrmse: float
@@ -74,12 +77,13 @@ class NoiseFloor:
     prediction_nrmse: tuple[float, ...] = ()
     chain_nrmse: tuple[float, ...] = ()
     chain: dict[str, Any] = field(default_factory=dict)
+    noise_fold_nrmse: tuple[float, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         return {"nrmse": self.nrmse, "fold_nrmse": list(self.fold_nrmse),
                 "noise_rms": list(self.noise_rms), "conditioning_nrmse": list(self.conditioning_nrmse),
                 "prediction_nrmse": list(self.prediction_nrmse), "chain_nrmse": list(self.chain_nrmse),
-                "chain": dict(self.chain), "method": self.method}
+                "chain": dict(self.chain), "noise_fold_nrmse": list(self.noise_fold_nrmse), "method": self.method}
 
 
 @dataclass(frozen=True)

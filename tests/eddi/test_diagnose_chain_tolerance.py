@@ -117,3 +117,29 @@ def test_gain_leaves_a_linear_model_alone_and_the_clock_does_not():
     assert lc100 / lc50 == pytest.approx(2.0, rel=0.1) and cc100 / cc50 == pytest.approx(2.0, rel=0.1)
     with pytest.raises(ValueError):
         ChainTolerance(gain=-0.01)
+
+
+def test_station_diagnose_states_the_tolerances_and_refuses_bad_ones(tmp_path, capsys):
+    import json
+
+    from station.cli import main
+
+    eom, top = _system()
+    caps = []
+    for i, rec in enumerate(_two_sessions(eom, top, seed=3)[:3]):
+        p = tmp_path / f"c{i}.csv"
+        np.savetxt(p, np.column_stack((rec.t, rec.force, rec.a)), delimiter=",", header="t,force,acc",
+                   comments="", fmt="%.10g")
+        caps.append(str(p))
+    for bad in (["--gain-tolerance", "-1"], ["--gain-tolerance", "60"], ["--clock-ppm", "abc"]):
+        code = main(["diagnose", *caps, "--mass", "0.2", *bad])
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    code = main(["diagnose", *caps, "--mass", "0.2", "--mechanisms", "coulomb_friction", "--no-refine",
+                 "--gain-tolerance", "0.5", "--gain-as-stated", "--clock-ppm", "100", "--json"])
+    obj = json.loads(capsys.readouterr().out)
+    assert code == 0
+    chain = obj["noise_floor"]["chain"]
+    assert chain["gain_tolerance"] == 0.005 and chain["clock_ppm"] == 100.0
+    assert chain["gain_per_part"] == [0.005] * 3  # as stated: not lowered by the ratios
+    assert len(obj["noise_floor"]["chain_nrmse"]) == 3
