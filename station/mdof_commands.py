@@ -76,7 +76,8 @@ def validate_mdof_text(obj: dict[str, Any]) -> str:
 def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = None, margin: float = 0.1,
                          save_model: str | None = None, refine: bool = False) -> dict[str, Any]:
     """Baseline (uncoupled) vs coupled, held out; the cause named (module docstring)."""
-    meas, rate_note = reduce_rate(_read(specs))
+    raw = _read(specs)
+    meas, rate_note = reduce_rate(raw)  # the working rate (eddi.mdof.rate)
     records, names, dp = condition_all(meas, driving_point)
     if len(records) < 2:
         raise InputFileError("diagnose on multi-channel captures needs at least 2 captures (one is held out)")
@@ -102,7 +103,9 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         model, _b, _a = refine_identified(final, records)
     verdict, amp, modes, amp_span = _earned(cause, per_channel["coupled" if gain > margin else "baseline"], records,
                                         names, model, dp)
-    verdict = _chain_heard(verdict, meas, records, names, dp, model)
+    # the measurement chain (clipping, double hit, base motion) is heard on the captures as recorded
+    verdict = _chain_heard(verdict, raw, records if rate_note is None else condition_all(raw, dp)[0], names, dp,
+                           model)
     cause, symptoms = verdict.cause, list(verdict.symptoms) + amp
     if verdict.note:
         notes.append(verdict.note)
