@@ -239,8 +239,9 @@ def chain_null_recipe(seed: int) -> tuple[list, dict]:
     gain 0.1-1 %, force gain a third of that, clock 10-100 ppm, DC offsets, trigger jitter,
     pretrigger 0.05-0.3 s; half of the sessions read without the pretrigger length, as a
     CSV is). Mass 0.01-100 kg, 10-80 Hz, damping ratio 0.001-0.01, a soft, hard or
-    asymmetric spring, weakly (tangent stiffness 2-10 % off at the largest peak) or strongly
-    (30-100 %; soft 3-15 %) nonlinear, 20-120 cycles (at most 64k samples), 2-40 kHz,
+    asymmetric spring, weakly (tangent stiffness 2-10 % off at the largest blow's linear peak)
+    or strongly (50-200 %: 30-100 % at the peak the nonlinear system reaches; soft 3-15 %)
+    nonlinear, 20-120 cycles (at most 64k samples), 2-40 kHz,
     30-60 dB, 3 captures per session at amplitudes spread 1.2-2x."""
     from eddi.conditioning import condition
     from eddi.diagnosis import Record
@@ -255,7 +256,7 @@ def chain_null_recipe(seed: int) -> tuple[list, dict]:
     spring = str(rng.choice(["soft", "hard", "asymmetric"]))
     strong = bool(rng.random() < 0.5)
     rise = (float(rng.uniform(0.03, 0.15)) if spring == "soft" else
-            float(rng.uniform(0.3, 1.0)) if strong else float(rng.uniform(0.02, 0.1)))
+            float(rng.uniform(0.5, 2.0)) if strong else float(rng.uniform(0.02, 0.1)))
     rate = float(rng.choice([2000.0, 5000.0, 10000.0, 16000.0, 20000.0, 40000.0]))
     snr = float(rng.uniform(30.0, 60.0))
     record_s = min(float(rng.uniform(20.0, 120.0)) / f1, 64_000 / rate)
