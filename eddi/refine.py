@@ -66,7 +66,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from eddi.errors import IdentificationError, SignalError
-from eddi.intervals import integration_shift, noise_covariance_of_fit, sampling_curvature
+from eddi.intervals import (integration_shift, noise_covariance_of_fit, sampling_curvature, sampling_quartic,
+                            through_sampling)
 from eddi.model import EquationOfMotion
 from eddi.simulate import local_angular_frequency, simulate
 from eddi.terms import evaluate
@@ -125,7 +126,8 @@ class Refinement:
 
 
 #: Largest ``omega_max * block * dt`` (rad) of a block: the block mean then differs from the
-#: curvature-corrected centre value by ~``(omega h)^4 / 1920`` (1e-6 relative at 0.2).
+#: curvature-corrected centre value by ~``(omega h)^4 / 339`` (4.7e-6 relative at 0.2), which
+#: the fourth difference's term removes (:func:`eddi.intervals.sampling_quartic`; 2e-8 left).
 BLOCK_H_OMEGA = 0.2
 #: Fewest block means compared (short records keep every sample).
 MIN_BLOCKS = 2000
@@ -182,7 +184,8 @@ def block_means(y: np.ndarray, block: int) -> np.ndarray:
     at ``1 / block`` of the cost. The model is compared through its value at the block's
     centre sample plus the curvature inside the block,
     ``mean = y_c + (block^2 - 1) / (24 block^2) (y_{c+1} - 2 y_c + y_{c-1})`` on the grid of
-    centres (exact for a quadratic; ``O((omega h)^4)`` otherwise).
+    centres (exact for a quadratic), plus a fourth difference's term
+    (:func:`eddi.intervals.sampling_quartic`; ``O((omega h)^6)`` left).
     """
     if block <= 1:
         return np.asarray(y, dtype=float)
@@ -224,6 +227,7 @@ class _OutputError:
         # block mean of samples that are themselves the DAQ's kernel-weighted means (variance
         # ``kernel_var`` sample intervals^2, see :func:`eddi.intervals.sampling_curvature`)
         self.curvature = sampling_curvature(self.block, kernel_var)
+        self.quartic = sampling_quartic(self.block, kernel_var)
         d_terms, k_terms = eom.damping_terms(), eom.stiffness_terms()
         self.names = [("damping", tm.text) for tm in d_terms] + [("stiffness", tm.text) for tm in k_terms]
         c0 = np.array([eom.damping[tm.text] for tm in d_terms] + [eom.stiffness[tm.text] for tm in k_terms])
@@ -317,11 +321,8 @@ class _OutputError:
         self.diverged = bool(diverged or not np.all(np.isfinite(out)))
         if self.diverged:
             return np.full(stop, 1e6 * float(np.max(np.abs(self.y))))
-        if self.curvature and stop >= 3:  # the block mean of a smooth signal: centre + curvature
-            d2 = np.empty_like(out)
-            d2[1:-1] = out[2:] - 2.0 * out[1:-1] + out[:-2]
-            d2[0], d2[-1] = d2[1], d2[-2]
-            out = out + self.curvature * d2
+        # the block mean of a smooth signal: centre + curvature (+ the fourth difference's term)
+        out = through_sampling(out, self.curvature, self.quartic)
         return out + float(p[-1] * self.scale[-1])
 
     def _key(self, p: np.ndarray) -> bytes:
@@ -355,11 +356,7 @@ class _OutputError:
         if div or not np.all(np.isfinite(j)):
             return None
         j = np.column_stack((j, np.ones(stop)))
-        if self.curvature and stop >= 3:
-            d2 = np.empty_like(j)
-            d2[1:-1] = j[2:] - 2.0 * j[1:-1] + j[:-2]
-            d2[0], d2[-1] = d2[1], d2[-2]
-            j = j + self.curvature * d2
+        j = through_sampling(j, self.curvature, self.quartic)
         return j * self.scale[self.active + [-3, -2, -1]]
 
     def fit(self, p: np.ndarray, stop: int, max_nfev: int, free: np.ndarray | None = None):
