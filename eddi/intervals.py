@@ -257,10 +257,11 @@ def noise_covariance_of_fit(jac: np.ndarray, r: np.ndarray, dof: int, jtj: np.nd
     return np.real((fj.conj().T * (weight * dens)) @ fj) / n
 
 
-#: Step refinements of the reference simulations: the fit's RK4 error, ``a h^4 + b h^5 + ...``
-#: (phase ``h^4``: stiffness; amplitude ``h^5``: damping), extrapolated from each (Richardson
-#: with ``2^4``).
-FINER = (2, 4)
+#: The reference simulation has this many times the fit's RK4 steps.
+FINER = 2
+#: What the Richardson extrapolation (for an ``h^4`` error) leaves of an error of order ``h^5``
+#: (RK4's amplitude error: 3.3 %), bounded: the correction's uncertainty is this fraction of it.
+RICHARDSON_LEFT = 1.0 / 25.0
 
 
 def _simulated_finer(prob, p: np.ndarray, factor: int) -> np.ndarray | None:
@@ -268,7 +269,7 @@ def _simulated_finer(prob, p: np.ndarray, factor: int) -> np.ndarray | None:
     saved = (prob.steps, prob.substeps, prob._last, prob._memo, prob.count, prob.diverged)
     try:
         prob.steps, prob.substeps = prob.steps * factor, prob.substeps * factor
-        out = prob._simulated(p, prob.n)
+        out = prob._simulated(p, prob.n, sensitivities=False)
         ok = not prob.diverged and bool(np.all(np.isfinite(out)))
     finally:
         prob.steps, prob.substeps, prob._last, prob._memo, prob.count, prob.diverged = saved
@@ -281,17 +282,17 @@ def integration_shift(prob, p: np.ndarray, jac: np.ndarray | None = None) -> tup
     The output-error fit (:mod:`eddi.refine`) simulates the model with RK4 at ``omega h <=
     0.1``. RK4's frequency is ``(omega h)^4 / 120`` low there and its amplitude decays a
     little too fast, and the fit moves the coefficients to make up for both: on an exact
-    free response at ``omega h = 0.095`` (``tests/eddi/test_integration_floor.py``) ``k1``
+    free response at ``omega h = 0.095`` (``tests/eddi/test_refine_floor.py``) ``k1``
     ended 1.3e-6 high and ``b1`` 2.2e-5 low, 2000 and 140 of their 95 % half widths at
     120 dB; the 55-60 dB records of ``benchmarks/bench_ci_coverage_chain.py`` had ``k1``
-    1e-6 off (coverage 0.10, session 8). With the simulation at ``q`` times the steps,
-    ``e_q = (y_q - y) / (1 - q^-4)`` (Richardson for an ``h^4`` error) is the coarse
-    simulation's error, and to first
-    order the fit with an exact integrator is ``p - pinv(J) e_q``. The correction uses
-    ``q = 4`` (an ``h^5`` part is left at ~0.3 %); the 95 % half widths get the difference
-    between the ``q = 2`` and ``q = 4`` corrections added (an upper bound of what is left:
-    the ``q = 2`` one leaves ~3 % of an ``h^5`` part). Two simulations at 2x and 4x the
-    steps and a least-squares solve with the Jacobian at ``p``.
+    1e-6 off (coverage 0.10, session 8). With the simulation at twice the steps,
+    ``e = (y_2 - y) / (1 - 2^-4)`` (Richardson for an ``h^4`` error: the phase) is the
+    coarse simulation's error, and to first order the fit with an exact integrator is ``p -
+    pinv(J) e``. Of RK4's ``h^5`` amplitude error that leaves 3.3 % (``b1`` 8e-7 on that
+    record), bounded by :data:`RICHARDSON_LEFT` of the correction and added to the 95 % half
+    widths (a second reference at 4x the steps pinned it down, at three times the cost).
+    Cost: one simulation without sensitivities at twice the steps, and a solve with the
+    Jacobian the fit has at ``p``.
 
     Parameters
     ----------
@@ -313,11 +314,11 @@ def integration_shift(prob, p: np.ndarray, jac: np.ndarray | None = None) -> tup
     coarse = prob.simulated(p, prob.n)
     if prob.diverged:
         return zero
-    finer = [_simulated_finer(prob, p, q) for q in FINER]
-    if any(y is None for y in finer):
+    fine = _simulated_finer(prob, p, FINER)
+    if fine is None:
         return zero
     if jac is None:
         jac = prob.jacobian(p)
-    errs = np.column_stack([(y - coarse) / (1.0 - float(q) ** -4) for q, y in zip(FINER, finer)])
-    dp = -np.linalg.lstsq(jac, errs, rcond=None)[0][:k]
-    return dp[:, -1], np.abs(dp[:, 0] - dp[:, -1])
+    err = (fine - coarse) / (1.0 - float(FINER) ** -4)
+    dp = -(np.linalg.pinv(jac.T @ jac) @ (jac.T @ err))[:k]
+    return dp, RICHARDSON_LEFT * np.abs(dp)

@@ -300,7 +300,9 @@ class _OutputError:
         self._memo = (key, out.copy(), self.diverged)
         return out
 
-    def _simulated(self, p: np.ndarray, stop: int) -> np.ndarray:
+    def _simulated(self, p: np.ndarray, stop: int, sensitivities: bool = True) -> np.ndarray:
+        """The compared values at ``p`` (``sensitivities=False``: not integrating the Jacobian
+        along, nor keeping it)."""
         x0, v0 = self.state(p)
         eom = self.model_of(p)
         if eom.effects:
@@ -313,7 +315,7 @@ class _OutputError:
             # accepts a step (most steps): the sensitivities are integrated with the response
             # (the response is the same bit for bit with or without them) and kept for
             # :meth:`sensitivities`, one pass instead of two
-            smooth = smooth_model(eom)
+            smooth = smooth_model(eom) and sensitivities
             resp, jac, diverged = free_response_sensitivities(eom, float(self.t[1] - self.t[0]), stop, x0, v0,
                                                               self.steps, jacobian=smooth)
             self._last = (self._key(p), stop, jac, bool(diverged)) if smooth else None
