@@ -71,9 +71,9 @@ RUNGS = {"coulomb_friction": (0.003, 0.01, 0.03), "quadratic_damping": (0.02, 0.
          "mass_error": (0.05, 0.1, 0.2), "clipping": (0.1, 0.3, 0.5), "double_hit": (0.05, 0.15, 0.3),
          "base_motion": (0.033, 0.1, 0.33)}
 SETS = {
-    "tuning": {"null_seeds": range(1000, 1060), "ladder_seeds": (0, 1, 2), "mass": 0.1, "k1": 600.0,
+    "tuning": {"null_seeds": range(1000, 1060), "chain_seeds": range(3000, 3030), "ladder_seeds": (0, 1, 2), "mass": 0.1, "k1": 600.0,
                "k3": 2e7, "zeta": 0.004, "rate": 5000.0, "snr": 40.0, "record_s": 4.0, "mode_ratio": 2.7},
-    "heldout": {"null_seeds": range(2000, 2120), "ladder_seeds": (10, 11, 12), "mass": 0.3, "k1": 600.0,
+    "heldout": {"null_seeds": range(2000, 2120), "chain_seeds": range(4000, 4060), "ladder_seeds": (10, 11, 12), "mass": 0.3, "k1": 600.0,
                 "k3": -3e5, "zeta": 0.006, "rate": 20000.0, "snr": 35.0, "record_s": 4.0, "mode_ratio": 2.2},
 }
 
@@ -122,6 +122,18 @@ def _records(truth, forces, cfg: dict, seed: int, sensors=None, **rig):
     return recs
 
 
+def _noise_only(d):
+    """``d`` with the floor of the noise and conditioning alone (before session 9's chain share):
+    every candidate is fitted either way (none factor 0), so the verdicts of the session-8 floor
+    follow from the same diagnosis."""
+    fl = d.noise_floor
+    if not fl.noise_fold_nrmse:
+        return d
+    nf = dataclasses.replace(fl, fold_nrmse=fl.noise_fold_nrmse, nrmse=float(np.mean(fl.noise_fold_nrmse)),
+                             chain_nrmse=())
+    return dataclasses.replace(d, noise_floor=nf)
+
+
 def _verdicts(d, factors) -> tuple[dict[str, str], dict[str, str]]:
     """The cause ``diagnose`` gives at each ``none`` factor (see the module notes), and the one
     :func:`eddi.diagnosis.name.decide` gave before :func:`eddi.diagnosis.earn.earn` heard the
@@ -167,8 +179,11 @@ def _named_verdicts(d) -> dict[str, str]:
 
 
 #: Give the loop the pipeline's baseline, as ``station diagnose`` does (``--no-pipeline``: the
-#: library call without it, as before session 4).
-PIPELINE = {"on": True}
+#: library call without it, as before session 4); ``chain``: the measurement chain's tolerance
+#: in the noise floor (session 9; ``--no-chain``: the floor of noise and conditioning only, as before).
+PIPELINE = {"on": True, "chain": True}
+#: ``--summary --nochain``: the verdicts of the session-8 floor, stored beside the others.
+NOCHAIN = {"on": False}
 
 
 def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple[dict, float]:
@@ -184,11 +199,19 @@ def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple
         from eddi.diagnosis.pipeline_base import pipeline_baseline
 
         pipe = pipeline_baseline(recs, mass, stiffness=stiffness or DEFAULT_STIFFNESS)
+    from eddi.diagnosis.tolerance import ChainTolerance
+
     d = diagnose(recs, mass, none_factor=0.0,  # every candidate fitted; the verdicts come after
-                 stiffness=stiffness or DEFAULT_STIFFNESS, pipeline=pipe)
+                 stiffness=stiffness or DEFAULT_STIFFNESS, pipeline=pipe,
+                 chain=ChainTolerance() if PIPELINE["chain"] else None)
+    before = _noise_only(d)
     return {"ratio": d.judging.nrmse / d.noise_floor.nrmse, "baseline_nrmse": d.judging.nrmse,
+            "ratio_nochain": d.judging.nrmse / before.noise_floor.nrmse,
+            "causes_nochain": _verdicts(before, factors)[0], "named_causes_nochain": _named_verdicts(before),
             "pipeline_nrmse": d.pipeline.nrmse if d.pipeline is not None else None,
-            "floor": d.noise_floor.nrmse, "partial": d.partial, **dict(zip(("causes", "decided"), _verdicts(d, factors))),
+            "floor": d.noise_floor.nrmse, "partial": d.partial,
+            "chain_nrmse": list(d.noise_floor.chain_nrmse),
+            "gain_per_part": list(d.noise_floor.chain.get("gain_per_part", [])), **dict(zip(("causes", "decided"), _verdicts(d, factors))),
             "named_causes": _named_verdicts(d),
             # every symptom (kind, numbers, notable), and the raw impulse/momentum mass ratio (median,
             # spread, captures): a rule on them can be re-judged on these rows (summary)
@@ -208,6 +231,78 @@ def null_case(args: tuple) -> dict:
     recs, info = null_recipe(seed)
     row, cpu = _diagnose(recs, info["mass_kg"], factors)
     return {"kind": "null", "set": set_name, "seed": seed, **info, **row, "cpu_s": cpu}
+
+
+def chain_null_recipe(seed: int) -> tuple[list, dict]:
+    """Records of one chain-difference null (session 9): nothing hidden, captures from 2-3
+    acquisition sessions whose chains differ (:mod:`simulated_rig.sessions`: accelerometer
+    gain 0.1-1 %, force gain a third of that, clock 10-100 ppm, DC offsets, trigger jitter,
+    pretrigger 0.05-0.3 s; half of the sessions read without the pretrigger length, as a
+    CSV is). Mass 0.01-100 kg, 10-80 Hz, damping ratio 0.001-0.01, a soft, hard or
+    asymmetric spring, weakly (tangent stiffness 2-10 % off at the largest peak) or strongly
+    (30-100 %; soft 3-15 %) nonlinear, 20-120 cycles (at most 64k samples), 2-40 kHz,
+    30-60 dB, 3 captures per session at amplitudes spread 1.2-2x."""
+    from eddi.conditioning import condition
+    from eddi.diagnosis import Record
+    from eddi.model import EquationOfMotion
+    from simulated_rig.bench import impact_test
+    from simulated_rig.sessions import draw_chains, session_test
+
+    rng = np.random.default_rng(30_000 + seed)
+    mass = float(np.exp(rng.uniform(np.log(0.01), np.log(100.0))))
+    f1 = float(rng.uniform(10.0, 80.0))
+    zeta = float(np.exp(rng.uniform(np.log(0.001), np.log(0.01))))
+    spring = str(rng.choice(["soft", "hard", "asymmetric"]))
+    strong = bool(rng.random() < 0.5)
+    rise = (float(rng.uniform(0.03, 0.15)) if spring == "soft" else
+            float(rng.uniform(0.3, 1.0)) if strong else float(rng.uniform(0.02, 0.1)))
+    rate = float(rng.choice([2000.0, 5000.0, 10000.0, 16000.0, 20000.0, 40000.0]))
+    snr = float(rng.uniform(30.0, 60.0))
+    record_s = min(float(rng.uniform(20.0, 120.0)) / f1, 64_000 / rate)
+    sessions = 2 if rng.random() < 0.6 else 3
+    spread = float(rng.uniform(1.2, 2.0))
+    k1 = mass * (2 * math.pi * f1) ** 2
+    c = 2 * zeta * math.sqrt(k1 * mass)
+    top = 30.0 * mass / 0.1
+    lin = EquationOfMotion.create(mass=mass, damping={"v": c}, stiffness={"x": k1})
+    amp = float(np.max(np.abs(impact_test(lin, top, rate_hz=rate, pretrigger_s=0.01, record_s=min(0.5, 5 / f1),
+                                          snr_db=None, seed=0).truth_x)))
+    if spring == "soft":
+        k = {"x": k1, "x^3": -rise * k1 / (3 * amp ** 2)}
+    elif spring == "hard":
+        k = {"x": k1, "x^3": rise * k1 / (3 * amp ** 2)}
+    else:  # half of the rise from x^2 at the positive peak (the negative side still stiffens)
+        k = {"x": k1, "x^2": 0.5 * rise * k1 / (2 * amp), "x^3": rise * k1 / (3 * amp ** 2)}
+    eom = EquationOfMotion.create(mass=mass, damping={"v": c}, stiffness=k)
+    peak_acc = top / mass
+    chains = draw_chains(rng, sessions, acc_offset=0.01 * peak_acc, force_offset=0.005 * top)
+    levels = list(np.geomspace(1.0 / spread, 1.0, 3 * sessions))
+    rng.shuffle(levels)
+    recs = []
+    for i, lev in enumerate(levels):
+        ch = chains[i // 3]
+        r = session_test(eom, top * float(lev), ch, rate_hz=rate, record_s=record_s, snr_db=snr,
+                         seed=1000 * seed + 10 * i + 5)
+        known = (i // 3) % 2 == 0  # the second session read as a CSV (pretrigger unknown)
+        cnd = condition(r.t, acc=r.acc_m_s2, force=r.force_n,
+                        pretrigger_samples=r.pretrigger_samples if known else None)
+        recs.append(Record.from_conditioned(cnd, label=f"session {i // 3 + 1} impact {i % 3 + 1}",
+                                            pretrigger_samples=r.pretrigger_samples if known else None))
+    return recs, {"mass_kg": mass, "f1_hz": f1, "spring": spring, "strong": strong, "rise": rise,
+                  "zeta": zeta, "rate_hz": rate, "snr_db": snr, "record_s": record_s, "sessions": sessions,
+                  "spread": spread, "captures": len(recs),
+                  "chains": [[ch.acc_gain, ch.force_gain, ch.clock_ppm] for ch in chains]}
+
+
+def chain_null_case(args: tuple) -> dict:
+    set_name, seed, factors = args
+    try:
+        recs, info = chain_null_recipe(seed)
+        row, cpu = _diagnose(recs, info["mass_kg"], factors)
+    except Exception as exc:  # a case the chain refuses is reported, not hidden
+        return {"kind": "null", "family": "chain", "set": set_name, "seed": seed,
+                "error": f"{type(exc).__name__}: {exc}"}
+    return {"kind": "null", "family": "chain", "set": set_name, "seed": seed, **info, **row, "cpu_s": cpu}
 
 
 def ladder_case(args: tuple) -> dict:
@@ -264,11 +359,13 @@ def _chain_fault(name: str, magnitude: float, eom, forces, cfg: dict) -> tuple:
 
 
 def run(set_name: str, out: str | None, jobs: int, factors, nulls: bool, ladders: bool, names,
-        max_nulls: int | None = None, ladder_seeds: int | None = None) -> None:
+        max_nulls: int | None = None, ladder_seeds: int | None = None, chain_nulls: bool = False) -> None:
     cfg = SETS[set_name]
     tasks = []
     if nulls:
         tasks += [(null_case, (set_name, s, factors)) for s in list(cfg["null_seeds"])[:max_nulls]]
+    if chain_nulls:
+        tasks += [(chain_null_case, (set_name, s, factors)) for s in list(cfg["chain_seeds"])[:max_nulls]]
     if ladders:
         tasks += [(ladder_case, (set_name, n, m, s, factors)) for n in names for m in RUNGS[n]
                   for s in cfg["ladder_seeds"][:ladder_seeds]]
@@ -312,11 +409,20 @@ def rejudge(row: dict) -> dict:
 
 def summary(path: str, factor: float, strong: float | None, again: bool = False) -> None:
     rows = [json.loads(s) for s in open(path) if s.strip()]
+    if NOCHAIN["on"]:  # the session-8 floor's verdicts of the same diagnoses
+        rows = [{**r, "causes": r["causes_nochain"], "named_causes": r["named_causes_nochain"],
+                 "ratio": r["ratio_nochain"]} if "causes_nochain" in r else r for r in rows]
     if again:
         rows = [rejudge(r) for r in rows if "error" not in r] + [r for r in rows if "error" in r]
     key = f"{factor:g}|{strong}"
     for set_name in SETS:
-        nulls = [r for r in rows if r.get("kind") == "null" and r["set"] == set_name]
+        failed = [r for r in rows if r.get("kind") == "null" and r["set"] == set_name and "error" in r]
+        if failed:
+            print(f"[{set_name}] nulls refused: {len(failed)} (" + "; ".join(f"seed {r['seed']}: {r['error']}"
+                                                                          for r in failed) + ")")
+        nulls = [r for r in rows if r.get("kind") == "null" and r["set"] == set_name and "error" not in r]
+        for fam in ("", "chain"):
+            _family_line(set_name, [r for r in nulls if r.get("family", "") == fam], key, fam)
         if nulls:
             ratios = sorted(r["ratio"] for r in nulls)
             multi = sum(r["captures"] >= 6 for r in nulls)
@@ -357,6 +463,31 @@ def summary(path: str, factor: float, strong: float | None, again: bool = False)
         cpu = [r["cpu_s"] for r in rows if r.get("set") == set_name and "cpu_s" in r]
         if cpu:
             print(f"[{set_name}] CPU per case median {np.median(cpu):.1f} s, max {max(cpu):.1f} s")
+
+
+def _family_line(set_name: str, nulls: list, key: str, family: str) -> None:
+    """One line per null family: false alarms at the table's factor, the baseline/floor ratio
+    and (chain family) the chain's share of the floor and what the sets spanned."""
+    if not nulls:
+        return
+    bad = [r for r in nulls if r["causes"].get(key, "none") != "none"]
+    ratios = sorted(r["ratio"] for r in nulls)
+    line = (f"[{set_name}] {family or 'rig-seed'} nulls: {len(nulls)}, false alarms {len(bad)} at {key}"
+            + (" (" + ", ".join(f"seed {r['seed']} {r['causes'][key]} {r['ratio']:.2f}x" for r in bad) + ")" if bad else "")
+            + f"; baseline/floor median {ratios[len(ratios) // 2]:.2f}, max {ratios[-1]:.2f}")
+    if family == "chain":
+        ch = [max(r.get("chain_nrmse") or [0.0]) for r in nulls]
+        gains = [100 * abs(c[0]) for r in nulls for c in r["chains"]]
+        clocks = [abs(c[2]) for r in nulls for c in r["chains"]]
+        m = [r["mass_kg"] for r in nulls]
+        kinds = {k: sum(r["spring"] == k for r in nulls) for k in ("soft", "hard", "asymmetric")}
+        line += (f"; chain share of the floor max per set median {np.median(ch):.3f}, max {max(ch):.3f}; "
+                 f"{kinds}, strong {sum(r['strong'] for r in nulls)}; masses {min(m):.3g}-{max(m):.3g} kg; "
+                 f"gains up to {max(gains):.2f} %, clocks up to {max(clocks):.0f} ppm; "
+                 f"captures {min(r['captures'] for r in nulls)}-{max(r['captures'] for r in nulls)}; "
+                 f"cycles {min(r['record_s'] * r['f1_hz'] for r in nulls):.0f}-"
+                 f"{max(r['record_s'] * r['f1_hz'] for r in nulls):.0f}")
+    print(line)
 
 
 def _null_ranges(nulls: list) -> None:
@@ -409,7 +540,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     ap.add_argument("--set", choices=tuple(SETS), help="run this set's cases")
-    ap.add_argument("--only", choices=("nulls", "ladders"), help="run only the nulls or the ladders")
+    ap.add_argument("--only", choices=("nulls", "ladders", "chainnulls"),
+                    help="run only the nulls, the ladders, or the chain-difference nulls (session 9; "
+                         "default: nulls and ladders and chain-difference nulls)")
+    ap.add_argument("--no-chain", action="store_true",
+                    help="the noise floor without the measurement chain's tolerance (as before session 9)")
     ap.add_argument("--mechanisms", default=",".join(MECHANISMS + tuple(CHAIN_FAULTS)),
                     help="ladders of these (default: all, chain faults included)")
     ap.add_argument("--factors", default=",".join(f"{f:g}" for f in FACTORS),
@@ -423,6 +558,9 @@ def main() -> None:
     ap.add_argument("--ladder-seeds", type=int, default=None, metavar="N",
                     help="a reduced run: only the first N seeds of each rung (default: all)")
     ap.add_argument("--summary", metavar="FILE", help="print the rates of earlier runs")
+    ap.add_argument("--nochain", action="store_true",
+                    help="with --summary: the verdicts with the floor of noise and conditioning alone (the "
+                         "session-8 floor; computed from the same diagnoses, stored as causes_nochain)")
     ap.add_argument("--rejudge", action="store_true",
                     help="with --summary: apply the current eddi.diagnosis.earn rule to the stored verdicts")
     ap.add_argument("--factor", type=float, default=None,
@@ -437,14 +575,16 @@ def main() -> None:
         from eddi.diagnosis.settings import STRONG_MARGIN
 
         strong = STRONG_MARGIN if args.strong == "default" else (None if args.strong == "None" else float(args.strong))
+        NOCHAIN["on"] = args.nochain
         summary(args.summary, args.factor if args.factor is not None else NONE_FACTOR, strong, args.rejudge)
         return
     if not args.set:
         ap.error("give --set tuning|heldout, or --summary FILE")
     factors = tuple(float(f) for f in args.factors.split(","))
     PIPELINE["on"] = not args.no_pipeline
-    run(args.set, args.out, args.jobs, factors, args.only != "ladders", args.only != "nulls",
-        args.mechanisms.split(","), args.max_nulls, args.ladder_seeds)
+    PIPELINE["chain"] = not args.no_chain
+    run(args.set, args.out, args.jobs, factors, args.only in (None, "nulls"), args.only in (None, "ladders"),
+        args.mechanisms.split(","), args.max_nulls, args.ladder_seeds, args.only in (None, "chainnulls"))
 
 
 if __name__ == "__main__":

@@ -220,8 +220,8 @@ def noise_covariance_of_fit(jac: np.ndarray, r: np.ndarray, dof: int, jtj: np.nd
     ``S``), so only the noise density in the band of the Jacobian counts. (A Toeplitz
     covariance from 10 residual lags smeared a drift's low-frequency power into that band and
     widened the intervals of drifting records 1.8x: RMS z 0.57.) The caller
-    (``_OutputError.ci95``) keeps the wider of this and the white ``s^2 (J^T J)^-1`` per
-    coefficient: a slow drift leaks into the coefficients a little, which the white ``s^2``
+    (``eddi.output_error.OutputErrorProblem.ci95``) keeps the wider of this and the white
+    ``s^2 (J^T J)^-1`` per coefficient: a slow drift leaks into the coefficients a little, which the white ``s^2``
     (raised by the drift) held (drifting records: RMS z 1.35 with the band density alone,
     1.04 with the wider one).
 

@@ -55,6 +55,22 @@ def positive_seconds(text: str) -> float:
     return v
 
 
+def percent_tolerance(text: str) -> float:
+    """A tolerance in percent, 0 <= v < 50."""
+    v = _number(text)
+    if not 0 <= v < 50:
+        raise argparse.ArgumentTypeError(f"expected a tolerance in 0..50 %, got {text!r}")
+    return v
+
+
+def ppm_tolerance(text: str) -> float:
+    """A tolerance in ppm, 0 <= v < 10000."""
+    v = _number(text)
+    if not 0 <= v < 1e4:
+        raise argparse.ArgumentTypeError(f"expected a tolerance in 0..10000 ppm, got {text!r}")
+    return v
+
+
 def fraction(text: str) -> float:
     """A number in [0, 1]."""
     v = _number(text)

@@ -124,3 +124,36 @@ def condition_all(measurements: Sequence[Measurement], driving_point: str | None
             raise InputFileError(f"{m.source}: sample rate {m.rate_hz:g} Hz differs from {rate:g} Hz")
     dp = resolve_driving_point(measurements[0], driving_point)
     return [condition_multichannel(m, dp) for m in measurements], names, dp
+
+
+def reduce_rate(measurements: Sequence[Measurement], samples_per_period: float | None = None
+                ) -> tuple[list[Measurement], str | None]:
+    """The captures at the working rate of a multi-DOF diagnosis (:mod:`eddi.mdof.rate`) and the
+    note that says so (None when the rate is kept).
+
+    One factor for every capture (the highest mode over all of them): block means of every
+    channel, times at the blocks' centres, the pre-trigger count in whole blocks.
+    """
+    from dataclasses import replace
+
+    from eddi.mdof.rate import SAMPLES_PER_PERIOD, block_mean, highest_mode_hz, reduction_factor
+
+    spp = SAMPLES_PER_PERIOD if samples_per_period is None else samples_per_period
+    rate = float(measurements[0].rate_hz)
+    top = 0.0
+    for m in measurements:
+        rest = int(m.pretrigger_samples or 0) or int(np.sum(np.asarray(m.t) < 0))
+        for qty, y in response_channels(m.channels).values():
+            top = max(top, highest_mode_hz(np.asarray(y, float)[None, rest:], rate, qty))
+    d = reduction_factor(rate, top, spp)
+    if d == 1:
+        return list(measurements), None
+    out = []
+    for m in measurements:
+        rest = int(m.pretrigger_samples or 0) or int(np.sum(np.asarray(m.t) < 0))
+        out.append(replace(m, t=block_mean(m.t, d), channels={k: block_mean(v, d) for k, v in m.channels.items()},
+                           rate_hz=rate / d, pretrigger_samples=rest // d))
+    note = (f"captures at {rate:g} Hz diagnosed at {rate / d:g} Hz (means of {d} samples): the highest mode "
+            f"({top:.4g} Hz) keeps {rate / d / top:.0f} samples per period; every stage costs per sample "
+            f"(eddi.mdof.rate)")
+    return out, note

@@ -49,6 +49,27 @@ def _sets(path: Path) -> list[dict[str, Any]]:
     return [got] if isinstance(got, dict) else list(got)
 
 
+def load_cases(path: str | Path) -> list[int]:
+    """The load cases of a UFF file that hold time responses, sorted (headers only: no data read).
+
+    Raises
+    ------
+    InputFileError
+        Not a readable UFF file.
+    """
+    import pyuff
+
+    path = Path(path)
+    try:
+        uff = pyuff.UFF(str(path))
+        got = uff.read_sets(header_only=True) if list(uff.get_set_types()) else []
+    except Exception as exc:  # pyuff raises bare Exception on a malformed file
+        raise InputFileError(f"{path}: not a readable UFF file ({type(exc).__name__})") from None
+    sets = [got] if isinstance(got, dict) else list(got)
+    return sorted({int(s.get("load_case_id", 0)) for s in sets
+                   if s.get("type") == 58 and int(s.get("func_type", 0)) == 1})
+
+
 def _si_factor(s: dict[str, Any], units164: dict[str, Any] | None, quantity: str, where: str) -> float:
     label = str(s.get("ordinate_axis_units_lab", "") or "").strip()
     if label:

@@ -459,6 +459,20 @@ def impulse_mass_ratio(records: Sequence[Record], mass: float, f1: float | None 
     return float(np.median(ratios)), spread, int(ratios.size)
 
 
+def capture_ratios(records: Sequence[Record], mass: float, f1: float | None = None) -> list[float | None]:
+    """Per record, the hammer impulse over the momentum change (:func:`_impulse_mass`), None
+    without a force pulse: the force sensor's sensitivity over the accelerometer's times the
+    mass error, so its differences between captures are their chains' gain differences
+    (:mod:`eddi.diagnosis.tolerance`)."""
+    f1 = measured_frequency(records) if f1 is None else f1
+    out: list[float | None] = []
+    for r in records:
+        p = _impulse_mass(r, mass, f1)
+        q = p[0] / p[1] if p is not None and p[1] != 0 else float("nan")
+        out.append(q if math.isfinite(q) and q > 0 else None)
+    return out
+
+
 def inspect(records: Sequence[Record], mass: float | None, f1: float, measured_f1: bool = True) -> list[Symptom]:
     """Measurement-chain findings (module notes), one symptom per finding.
 

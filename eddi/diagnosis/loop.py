@@ -28,19 +28,22 @@ from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.lookalike import attach
 from eddi.diagnosis.mapping import Mapper
 from eddi.diagnosis.measure import noise_floor
-from eddi.diagnosis.name import (
-    UNREFINED, Decision, Fitter, FoldFitter, FoldResults, all_masks, build_candidates, check_trainable, decide,
-    final_fits, judge_baseline, judge_candidates, rank, refine_candidates, spread_of, within_floor,
+from eddi.diagnosis.candidates import UNREFINED, build_candidates, rank, spread_of
+from eddi.diagnosis.decide import Decision, decide, within_floor
+from eddi.diagnosis.fitter import Fitter, FoldFitter, all_masks
+from eddi.diagnosis.folds import (
+    FoldResults, check_trainable, final_fits, judge_baseline, judge_candidates, refine_candidates,
 )
 from eddi.diagnosis.settings import REFINE_CANDIDATES
 from eddi.diagnosis.observed import Observed, observed_second_mode
 from eddi.diagnosis.records import Part, Record, split
 from eddi.diagnosis.results import Candidate, Diagnosis, HeldOut, NoiseFloor, PipelineBaseline, Score, Symptom
 from eddi.diagnosis.settings import (
-    DEFAULT_CONSISTENCY, DEFAULT_MARGIN, FITS, MODAL_DIAGNOSE_STIFFNESS, NAMED_FACTOR, NONE_FACTOR,
+    DEFAULT_CONSISTENCY, DEFAULT_MARGIN, FITS, MIN_FLOOR, MODAL_DIAGNOSE_STIFFNESS, NAMED_FACTOR, NONE_FACTOR,
     STRONG_MARGIN,
 )
 from eddi.diagnosis.symptoms import baseline_symptoms, notable
+from eddi.diagnosis.tolerance import ChainTolerance, chain_floor, chain_text
 from eddi.threads import one_blas_thread
 from eddi.errors import ModelError, SignalError, TermError
 from eddi.model import EquationOfMotion
@@ -63,6 +66,7 @@ def diagnose(
     strong_margin: float | None = STRONG_MARGIN,
     pipeline: PipelineBaseline | None = None,
     mapper: Mapper | None = None,
+    chain: ChainTolerance | None = ChainTolerance(),
 ) -> Diagnosis:
     """Find what the baseline model gets wrong, name the mechanism, extend and measure the gain.
 
@@ -103,6 +107,10 @@ def diagnose(
         ``mapper(fn, items) -> [fn(item) for item in items]``: how the independent per-fold
         fits run (:mod:`eddi.diagnosis.mapping`; default in this process, in turn). The
         result does not depend on it.
+    chain : ChainTolerance or None
+        How far the captures' measurement chains may differ (sensor gain, sample clock):
+        the noise floor gains the held-out simulations' change under those differences
+        (:mod:`eddi.diagnosis.tolerance`); None for none.
 
     Returns
     -------
@@ -129,7 +137,7 @@ def diagnose(
         skipped = {m.name: m.skip_reason(setup.damping, setup.stiffness, effects) for m in cat}
         check_trainable(records)
         shown = _show(records, setup, n_bands, none_factor, strong_margin,
-                      pipeline is not None and pipeline.choices.get("refinement") == "kept", mapper)
+                      pipeline is not None and pipeline.choices.get("refinement") == "kept", mapper, chain)
         if shown.quiet:
             # nothing to explain: no candidate can change the verdict, none is fitted
             why = f"not tried: the baseline is within {none_factor:g}x the noise floor"
@@ -161,7 +169,8 @@ class _Shown:
 
 
 def _show(records: list[Record], setup: Setup, n_bands: int, none_factor: float,
-          strong_margin: float | None, refine: bool = False, mapper: Mapper | None = None) -> _Shown:
+          strong_margin: float | None, refine: bool = False, mapper: Mapper | None = None,
+          chain: ChainTolerance | None = None) -> _Shown:
     """Show and measure: per fold, the baseline judged on the held-out part (refined as the
     pipeline refines when ``refine``); the floor (by the same procedure)."""
     scheme, parts, fold_masks = split(records, n_bands)
@@ -173,10 +182,24 @@ def _show(records: list[Record], setup: Setup, n_bands: int, none_factor: float,
         raise ModelError("the baseline could not be fitted on all the data")
     baseline = Score(model=bfit_all.eom, nrmse=float(np.mean(res.base_fold)),
                      fold_nrmse=tuple(res.base_fold), nmte=float(np.mean(res.base_nmte)))
-    floor = noise_floor(records, setup, parts, fold_masks, res.base_sims, refine=refine, mapper=fitter.map)
+    floor = noise_floor(records, setup, parts, fold_masks, res.base_sims, refine=refine, mapper=fitter.map,
+                        chain=_chain_component(records, setup, parts, res, chain, fitter.map))
     return _Shown(records, setup, scheme, parts, fold_masks, fitter, res, fold_fits, fit_all, bfit_all,
                   baseline, floor, strong_margin is None and within_floor(res.base_fold, floor, none_factor),
                   refine)
+
+
+def _chain_component(records: list[Record], setup: Setup, parts: list[Part], res: FoldResults,
+                     tol: ChainTolerance | None, mapper: Mapper) -> tuple[tuple[float, ...], dict] | None:
+    """The measurement chain's share of the floor per part and the tolerances used (None: off)."""
+    if tol is None:
+        return None
+    models = res.base_models if len(res.base_models) == len(parts) else [None] * len(parts)
+    comp, gains = chain_floor(records, parts, models, res.base_sims, setup.mass, tol, mapper)
+    return comp, {"gain_tolerance": tol.gain, "clock_ppm": tol.clock_ppm, "gain_per_part": list(gains),
+                  "source": ("stated tolerances" + (", the gain per part the smaller of the tolerance and the "
+                                                     "impulse/momentum ratio's difference from the other captures'"
+                                                     if tol.from_data else ""))}
 
 
 def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skipped: dict[str, str | None],
@@ -272,6 +295,9 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
     notes = notes + _floor_note(dec, candidates, floor, baseline.nrmse, margin)
+    if floor.chain_nrmse and max(floor.chain_nrmse) > 0.5 * MIN_FLOOR:
+        # the floor says what the chain's calibration allows, in the verdict too (session 9)
+        verdict += f" The noise floor includes {chain_text(floor)}."
     if pipeline is not None:
         how = "held-out nrmse" if pipeline.held_out else "nrmse on its own fit record (nothing held out)"
         verdict += (f" The pipeline's model (as station identify gives it) has {how} "

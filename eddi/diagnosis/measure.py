@@ -28,7 +28,7 @@ import numpy as np
 
 from eddi.diagnosis.extend import Setup
 from eddi.diagnosis.mapping import Mapper, serial_map
-from eddi.diagnosis.name import Fitter
+from eddi.diagnosis.fitter import Fitter
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.results import NoiseFloor
 from eddi.diagnosis.settings import MIN_FLOOR, NRMSE_CAP
@@ -72,14 +72,17 @@ def perturbed_record(rec: Record, seed: int) -> Record:
 
 def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
                 fold_masks: Sequence[Sequence[np.ndarray]], base_sims: Sequence[np.ndarray],
-                seed: int = 1, refine: bool = False, mapper: Mapper | None = None) -> NoiseFloor:
+                seed: int = 1, refine: bool = False, mapper: Mapper | None = None,
+                chain: tuple[Sequence[float], dict] | None = None) -> NoiseFloor:
     """The floor of the module notes, per held-out part (``base_sims``: the baseline's
     held-out simulations on the records as measured).
 
     On a part where the baseline (or its perturbed refit) is lost (nrmse >= :data:`LOST`)
     only ``d_cond`` counts. A part whose perturbed fit fails or diverges gets the smallest floor of the others (or
     :data:`MIN_FLOOR`); floors below :data:`MIN_FLOOR` are raised to it. The parts' refits
-    run through ``mapper`` (:mod:`eddi.diagnosis.mapping`).
+    run through ``mapper`` (:mod:`eddi.diagnosis.mapping`). ``chain``: per part the
+    measurement chain's component (:func:`eddi.diagnosis.tolerance.chain_floor`) and the
+    tolerances used; it joins each part's noise floor in quadrature.
     """
     m = len(records)
     # every record of every draw conditioned again: independent, through ``mapper`` too (in
@@ -137,10 +140,20 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
         preds.append(float(np.median([g[1] for g in ok])) if ok else float("nan"))
     known = [f for f in fold if np.isfinite(f) and f < NRMSE_CAP]
     fill = min(known) if known else MIN_FLOOR
-    fold = [max(MIN_FLOOR, f if (np.isfinite(f) and f < NRMSE_CAP) else fill) for f in fold]
+    fold = [f if (np.isfinite(f) and f < NRMSE_CAP) else fill for f in fold]
+    method = (f"{DRAWS} more draws of each record's measured noise on its response channel, "
+              "each conditioned again; per part the median over the draws of "
+              "sqrt(d_cond^2 + d_pred^2) (module notes)")
+    chain_parts: tuple[float, ...] = ()
+    info: dict = {}
+    noise_only = tuple(max(MIN_FLOOR, f) for f in fold)
+    if chain is not None:
+        chain_parts, info = tuple(float(c) for c in chain[0]), dict(chain[1])
+        fold = [float(np.hypot(f, c)) for f, c in zip(fold, chain_parts)]
+        method += ("; joined in quadrature by the measurement chain's tolerance, the change of the part's "
+                   "held-out simulation under the stated gain and clock differences (eddi.diagnosis.tolerance)")
+    fold = [max(MIN_FLOOR, f) for f in fold]
     return NoiseFloor(nrmse=float(np.mean(fold)), fold_nrmse=tuple(fold),
                       noise_rms=tuple(float(r.noise_rms) for r in records),
                       conditioning_nrmse=tuple(cond), prediction_nrmse=tuple(preds),
-                      method=(f"{DRAWS} more draws of each record's measured noise on its response channel, "
-                              "each conditioned again; per part the median over the draws of "
-                              "sqrt(d_cond^2 + d_pred^2) (module notes)"))
+                      method=method, chain_nrmse=chain_parts, chain=info, noise_fold_nrmse=noise_only)

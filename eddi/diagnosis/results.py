@@ -55,6 +55,18 @@ class NoiseFloor:
         Per held-out part: ``d_pred``, how far the baseline's refit simulation moves under
         a draw (the median over the draws; NaN where the refit failed). When it dominates, the floor is mostly the
         refit's sensitivity to one noise draw (see the "uncertain none" note of the loop).
+    chain_nrmse : tuple of float
+        Per held-out part: how far the baseline's held-out simulation moves when the record is
+        measured through a chain off by the stated tolerances (sensor gain, sample clock),
+        ``sqrt(d_gain^2 + d_clock^2)`` (:mod:`eddi.diagnosis.tolerance`); it joins the noise's
+        share in quadrature in :attr:`fold_nrmse`. Empty when not measured.
+    chain : dict
+        The tolerances used: ``gain_tolerance`` (relative), ``clock_ppm``, ``gain_per_part``
+        (the gain assumed for each part: the tolerance, or the smaller difference the
+        impulse/momentum ratios measured), ``source``.
+    noise_fold_nrmse : tuple of float
+        Per held-out part: the floor of the noise and conditioning alone (the session-8 floor,
+        at least :data:`~eddi.diagnosis.settings.MIN_FLOOR`), before the chain's share joined.
     """
 
     nrmse: float
@@ -63,11 +75,15 @@ class NoiseFloor:
     conditioning_nrmse: tuple[float, ...]
     method: str
     prediction_nrmse: tuple[float, ...] = ()
+    chain_nrmse: tuple[float, ...] = ()
+    chain: dict[str, Any] = field(default_factory=dict)
+    noise_fold_nrmse: tuple[float, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         return {"nrmse": self.nrmse, "fold_nrmse": list(self.fold_nrmse),
                 "noise_rms": list(self.noise_rms), "conditioning_nrmse": list(self.conditioning_nrmse),
-                "prediction_nrmse": list(self.prediction_nrmse), "method": self.method}
+                "prediction_nrmse": list(self.prediction_nrmse), "chain_nrmse": list(self.chain_nrmse),
+                "chain": dict(self.chain), "noise_fold_nrmse": list(self.noise_fold_nrmse), "method": self.method}
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,7 @@ worst cubic coefficient of 1.8 %; half a period of the filter's cut-off later, 0
 and 0.4 %).
 
 Conditioning: the columns (and the force) pass through the drift high-pass of the
-conditioning before the windows are cut (:func:`eddi.mdof.identify._design`): the conditioned
+conditioning before the windows are cut (:func:`eddi.mdof.equations._design`): the conditioned
 displacement lacks its slow part, where a cubic spring puts ``2 f_1 - f_2`` and other
 combination tones; filtered alike, both sides of the equation lose that band.
 

@@ -70,6 +70,21 @@ def register(subparsers: Any) -> None:
     from station.argtypes import add_refine_option
 
     add_refine_option(p)
+    from eddi.diagnosis.tolerance import CLOCK_PPM, GAIN_TOLERANCE
+    from station.argtypes import percent_tolerance, ppm_tolerance
+
+    p.add_argument("--gain-tolerance", type=percent_tolerance, default=100 * GAIN_TOLERANCE, metavar="PCT",
+                   help="how far the accelerometer's sensitivity may differ between captures [%%] "
+                        "(remounted or recalibrated between sessions; ISO 16063-21 back-to-back "
+                        "calibration: about 1 %%); the noise floor includes what that does to the "
+                        "held-out predictions. With a force channel the captures' impulse/momentum "
+                        "ratios measure it and the smaller is used (default: %(default)g)")
+    p.add_argument("--gain-as-stated", action="store_true",
+                   help="use --gain-tolerance as given, not lowered by the impulse/momentum ratios "
+                        "(e.g. when the hammer was recalibrated together with the accelerometer)")
+    p.add_argument("--clock-ppm", type=ppm_tolerance, default=CLOCK_PPM, metavar="PPM",
+                   help="how far the DAQ's sample clock may differ between captures [ppm] (a DAQ "
+                        "timebase: +-50 ppm; two DAQs: give 100) (default: %(default)g)")
     p.add_argument("--driving-point", metavar="CHANNEL",
                    help="multi-channel captures: the response channel at the hammer (default: the first)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -217,7 +232,7 @@ def handle(args: argparse.Namespace) -> int:
     # the folds' fits are independent: in forked workers when cores are free (same result)
     diag = diagnose(records, mass, damping=args.damping, stiffness=args.stiffness, base=base,
                     mechanisms=mechanisms, margin=args.margin, fit=args.fit, pipeline=baseline,
-                    mapper=ForkMap(jobs_wanted()))
+                    mapper=ForkMap(jobs_wanted()), chain=_tolerance(args))
     obj = diag.to_dict()
     obj["captures"] = [r.label for r in records]
     obj["resampled"] = resampled
@@ -245,6 +260,14 @@ def handle(args: argparse.Namespace) -> int:
 
         return flagged("diagnose", "the diagnosed model is unstable or its simulation diverges")
     return 0
+
+
+def _tolerance(args: argparse.Namespace) -> Any:
+    """The measurement chain's tolerances of ``--gain-tolerance``, ``--gain-as-stated``, ``--clock-ppm``."""
+    from eddi.diagnosis.tolerance import ChainTolerance
+
+    return ChainTolerance(gain=args.gain_tolerance / 100.0, clock_ppm=args.clock_ppm,
+                          from_data=not args.gain_as_stated)
 
 
 def capture_span(records: list[Record], scheme: str) -> Any:
@@ -298,8 +321,12 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
                         if c.reference != "baseline" else ""))
     fl = diag.noise_floor
     if fl is not None:
-        lines.insert(1, f"Noise floor of the held-out nrmse (from the records' noise and conditioning): "
-                        f"{fl.nrmse:.3g} (per part " + ", ".join(f"{f:.3g}" for f in fl.fold_nrmse) + ")")
+        from eddi.diagnosis.tolerance import chain_text
+
+        lines.insert(1, f"Noise floor of the held-out nrmse (from the records' noise and conditioning"
+                        + (" and the chain's tolerance" if fl.chain_nrmse else "") + f"): "
+                        f"{fl.nrmse:.3g} (per part " + ", ".join(f"{f:.3g}" for f in fl.fold_nrmse) + ")"
+                        + (f"; {chain_text(fl)}" if fl.chain_nrmse else ""))
     lines += ["", diag.verdict, f"What the baseline got wrong: {diag.symptom}."]
     if diag.symptoms:
         lines.append("Symptoms (held-out parts, median; measurement chain):")

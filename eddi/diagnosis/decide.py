@@ -1,0 +1,169 @@
+"""The verdict: ``none``, a mechanism or ``unexplained``, judged against the noise floor.
+
+:func:`decide` applies the rules of docs/diagnosis.md (loop step 5) to the ranked candidates;
+:func:`lookalike_fails` says why a candidate is not told apart from its look-alikes. Split
+out of :mod:`eddi.diagnosis.name` (session 9).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from eddi.diagnosis.candidates import UNREFINED
+from eddi.diagnosis.results import Candidate, NoiseFloor
+from eddi.diagnosis.settings import FULL_REFERENCE_MARGIN, NRMSE_CAP, REFERENCE_MARGIN
+
+
+def within_floor(base_fold: Sequence[float], floor: NoiseFloor, none_factor: float) -> bool:
+    """The baseline's mean held-out nrmse within ``none_factor`` of the floor, no part lost."""
+    return float(np.mean(base_fold)) <= none_factor * floor.nrmse and max(base_fold) < NRMSE_CAP
+
+
+@dataclass(frozen=True)
+class Decision:
+    """The verdict: ``cause``, the winner (if named) and the best partial explanation."""
+
+    cause: str
+    winner: Candidate | None
+    partial: Candidate | None
+    within_floor: bool
+    reason: str
+
+
+def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: NoiseFloor,
+           margin: float, none_factor: float, named_factor: float,
+           reference_margin: float = REFERENCE_MARGIN, strong_margin: float | None = None,
+           eddi_fold: Sequence[float] | None = None, departs: str = "") -> Decision:
+    """``none`` when the baseline's mean held-out nrmse is within ``none_factor`` of the
+    floor's (the mean: one noise realisation per part makes a per-part floor noisy); a mechanism when it beats its reference on every part by more than ``margin``
+    (halves the error at 0.5), its strength agrees over folds, and its held-out nrmse is
+    within ``named_factor`` of the floor; otherwise ``unexplained`` with the best partial
+    explanation. A candidate judged against another reference than the baseline (refitted by
+    equation error, a modal sum) must also beat that reference by ``reference_margin``, so it
+    cannot win by its fitter. A baseline lost on any part (nrmse at the cap) is never
+    ``none``; nor is one within the factor when a candidate passes every test with the strong
+    cut except being told apart from its look-alikes (:func:`lookalike_fails`): that is
+    ``unexplained`` with it as the partial explanation. With ``strong_margin``, a candidate passing every test with a cut of at least
+    that much is named even within ``none_factor`` (``none`` otherwise there).
+
+    ``base_fold`` is the baseline judged as the pipeline fits it (refined when the pipeline
+    kept its refinement); ``eddi_fold`` the EDDI fit the candidates extend (default: the
+    same). The cut is measured against the latter (same fitter), and a named mechanism must
+    also beat the former. ``departs``: why the pipeline's own model is not within the factor
+    ('' when it is); then the baseline is not within the floor either (``none`` impossible,
+    the ordinary margin applies), and it is the reason of an ``unexplained``."""
+    base = float(np.mean(base_fold))
+    eddi = float(np.mean(eddi_fold)) if eddi_fold is not None and len(eddi_fold) else base
+    within = within_floor(base_fold, floor, none_factor) and not departs
+    tried = [c for c in candidates if not c.skipped and c.model is not None]
+    helpful = [c for c in tried if c.wins_every_part and c.gain > 0 and not c.contradicted]
+    partial = helpful[0] if helpful else None
+    if within and strong_margin is None:
+        return Decision("none", None, None, True, "within the noise floor")
+    why = []
+    need = strong_margin if within else margin  # within the floor only a strong cut names
+
+    def held_out_fails(c: Candidate) -> list[str]:
+        return _held_out_fails(c, base, eddi, need, max(margin, reference_margin)
+                               if c.name in FULL_REFERENCE_MARGIN else reference_margin)
+
+    # look-alikes that would pass the held-out tests themselves: a name must be told apart from them
+    rivals = {c.name: c for c in tried if not held_out_fails(c)}
+    # candidates no better than the judged baseline on any held-out part: each holds the
+    # baseline (its mechanism at zero strength), so its fit failed (the mechanism traded against
+    # near-collinear library terms), which is no evidence against the mechanism
+    unfitted = {c.name: c for c in tried if len(c.fold_nrmse) == len(base_fold)
+                and all(m >= b for m, b in zip(c.fold_nrmse, base_fold))}
+    ambiguous, ambiguous_fails = None, []  # the first candidate that fails only for its look-alikes
+    for c in tried:
+        fails = held_out_fails(c)
+        if not c.consistent:
+            fails.append("its strength changes from fold to fold")
+        if not c.nrmse <= named_factor * floor.nrmse:
+            fails.append(f"leaves nrmse {c.nrmse:.3g}, over {named_factor:g}x the floor {floor.nrmse:.3g}")
+        if not fails:
+            fails += lookalike_fails(c, rivals, unfitted)
+            if fails and ambiguous is None:
+                ambiguous, ambiguous_fails = c, list(fails)
+        if not fails:
+            return Decision(c.name, c, None, within, "")
+        why.append(f"{c.name}: " + ", ".join(fails))
+    if within and ambiguous is not None:
+        # a mechanism earns its cut on every test but cannot be told from a look-alike: the
+        # model lacks something of that family, so the verdict is not `none`
+        return Decision("unexplained", None, ambiguous, True,
+                        f"within {none_factor:g}x the floor, but {ambiguous.name} cuts the error by the strong "
+                        f"margin and passes every test except: " + "; ".join(ambiguous_fails))
+    if within:
+        return Decision("none", None, None, True, "within the noise floor")
+    return Decision("unexplained", None, partial, False, departs or "; ".join(why[:2]))
+
+
+def _held_out_fails(c: Candidate, base: float, eddi: float, need: float, ref_need: float) -> list[str]:
+    """Why ``c`` fails the held-out tests of :func:`decide`: the cut ``need`` against the baseline
+    as judged (the pipeline's procedure) and against the EDDI fit the mechanism extends (same
+    fitter: the gain is the mechanism's, and it stands against the best baseline the pipeline
+    gives), ``ref_need`` against another reference, every part won, no physical contradiction."""
+    fails = []
+    cut = min(1.0 - c.nrmse / base if base > 0 else 0.0, 1.0 - c.nrmse / eddi if eddi > 0 else 0.0)
+    if not cut >= need:
+        fails.append(f"cuts the error by {100 * cut:.0f} % (needs {100 * need:.0f} %)")
+    if c.reference not in ("baseline", UNREFINED) and not c.gain >= ref_need:
+        fails.append(f"beats its {c.reference} by {100 * c.gain:.0f} % (needs {100 * ref_need:.0f} %)")
+    if not c.wins_every_part:
+        fails.append("does not win on every held-out part")
+    if c.contradicted:  # the records rule it out physically: not named, nor a rival
+        fails.append(c.contradicted)
+    return fails
+
+
+def lookalike_fails(c: Candidate, rivals: dict[str, Candidate],
+                    unfitted: dict[str, Candidate] | None = None) -> list[str]:
+    """Why ``c`` is not told apart from its look-alikes among ``rivals`` (candidates that pass
+    the held-out tests themselves), or is beaten by one of them on every held-out part (then
+    it is not the best explanation, look-alike or not), or has a look-alike fitted the same way
+    in ``unfitted`` (no better than the judged baseline on any held-out part: a model that holds the baseline
+    and does worse everywhere is a failed fit, not a mechanism ruled out; session 8, tuning
+    ladder: hidden ``v |v|`` 0.06 k1 A, seed 2, its candidate traded the term against the
+    library's ``x^2 v`` and ``v^3`` and did worse than the baseline on all three parts, and
+    ``|x| v`` was named; on every correct name of the session 8 calibration ladders the
+    look-alike's held-out nrmse was below the baseline's). A look-alike fitted the same way must
+    lose to it within the cycle
+    (:func:`eddi.diagnosis.lookalike.told_apart`: the held-out displacement of two such models
+    can differ by the fit, not by the physics: hidden drag in the tests was reproduced better
+    on every part by ``|x| v``); one fitted another way must lose on every held-out part."""
+    from eddi.diagnosis.lookalike import Z_SEPARATED, told_apart
+
+    out = []
+    for name, wc in c.within_cycle.items():
+        other = (unfitted or {}).get(name)
+        # fitted the same way (the EDDI fit extending the same baseline): nested, so worse on
+        # every part is a failed fit; one fitted another way (hysteresis) can be genuinely worse
+        if other is not None and other is not c and wc.get("same_fitter"):
+            out.append(f"its look-alike {name} could not be fitted (no better than the baseline on any "
+                       f"held-out part, {other.nrmse:.3g} held out), so it is not ruled out")
+    for name, other in rivals.items():
+        # any candidate that passes the held-out tests and reproduces every held-out part better:
+        # c is not the best explanation, whatever kept that one from being named (a held-out
+        # case: strong drag, not told from |x| v, then fell to sensor_highpass at 8x drag's error)
+        if (other is not c and len(other.fold_nrmse) == len(c.fold_nrmse)
+                and all(o < m for o, m in zip(other.fold_nrmse, c.fold_nrmse))):
+            out.append(f"{name}, which passes the held-out tests too, reproduces every held-out part better "
+                       f"({other.nrmse:.3g} against {c.nrmse:.3g})")
+    for name, wc in c.within_cycle.items():
+        other = rivals.get(name)
+        if other is None or other is c:
+            continue
+        if wc.get("same_fitter"):
+            if not told_apart(wc):
+                out.append(f"not told apart from its look-alike {name} ({other.nrmse:.3g} held out; within the "
+                           f"cycle z {wc['z']:.2g}, needs {Z_SEPARATED:g} and every part, won "
+                           f"{wc['parts_won']:.0f} of {wc['parts']:.0f})")
+        elif len(other.fold_nrmse) != len(c.fold_nrmse) or any(
+                o <= m for o, m in zip(other.fold_nrmse, c.fold_nrmse)):
+            out.append(f"its look-alike {name}, fitted another way, reproduces some held-out part as well or "
+                       f"better ({other.nrmse:.3g} against {c.nrmse:.3g})")
+    return out

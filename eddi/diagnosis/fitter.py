@@ -1,0 +1,150 @@
+"""Fitting per fold: the baseline and a mechanism fitted on a fold's training samples.
+
+:class:`Fitter` holds what every fold shares (the records' signals, the setup, the energy
+cache); ``Fitter(...)(masks)`` is a :class:`FoldFitter`, the fits of one fold. When the
+pipeline kept its output-error refinement, a fold's baseline is refined the same way
+(:func:`refined_baseline`). Split out of :mod:`eddi.diagnosis.name` (session 9).
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from eddi.diagnosis.catalogue import Mechanism
+from eddi.diagnosis.extend import EddiFold, Fit, Setup, fit_ee, fit_eddi
+from eddi.diagnosis.mapping import Mapper, serial_map
+from eddi.diagnosis.records import Part, Record
+from eddi.diagnosis.settings import REFINE_FOLDS
+from eddi.diagnosis.show import nrmse, simulate_part
+from eddi.errors import IdentificationError, ModelError, SignalError
+from eddi.model import EquationOfMotion
+
+
+class Fitter:
+    """Fitting functions for given training masks, sharing the segments' energy cache.
+
+    ``Fitter(sigs, setup)(masks)`` returns a :class:`FoldFitter`: ``fit(mech, base_fit)``
+    fits the baseline (``mech`` None) or the baseline plus ``mech`` on the samples ``masks``.
+    With ``records`` and ``refine`` (the pipeline kept its refinement), the baseline a fold
+    judges with is refined as the pipeline refines (:func:`refined_baseline`). ``mapper``
+    runs the independent per-fold work (:mod:`eddi.diagnosis.mapping`; default: here, in turn).
+    """
+
+    def __init__(self, sigs: Sequence, setup: Setup, records: Sequence[Record] = (),
+                 refine: bool = False, mapper: Mapper | None = None) -> None:
+        self.sigs = list(sigs)
+        self.setup = setup
+        self.cache: dict = {}
+        self.records = list(records)
+        self.refine = bool(refine) and bool(self.records) and setup.base is None
+        self.map: Mapper = mapper or serial_map
+
+    def __call__(self, masks: Sequence[np.ndarray]) -> "FoldFitter":
+        return FoldFitter(self, masks)
+
+
+class FoldFitter:
+    """The fits of one fold (training masks); the equation-error baseline is fitted once."""
+
+    def __init__(self, fitter: Fitter, masks: Sequence[np.ndarray]) -> None:
+        self.sigs, self.setup, self.masks = fitter.sigs, fitter.setup, masks
+        self.records, self.refine = fitter.records, fitter.refine
+        self.fold = EddiFold(self.sigs, masks, self.setup, fitter.cache) if self.setup.fit == "eddi" else None
+        self._ee: list[Fit | None] = []
+
+    def ee_base(self) -> Fit | None:
+        """The baseline refitted by equation error (the reference of non-native mechanisms)."""
+        if not self._ee:
+            st = self.setup
+            ee = Setup(mass=st.mass, damping=st.damping, stiffness=st.stiffness, base=st.base,
+                       coordinate=st.coordinate, fit="equation-error")
+            self._ee.append(fit_ee(self.sigs, self.masks, ee, None))
+        return self._ee[0]
+
+    def judged_baseline(self) -> tuple[Fit | None, Fit | None]:
+        """EDDI's fit of the baseline (what the candidates extend and are measured against)
+        and the baseline the fold is judged with: the same, refined as the pipeline refines
+        when the pipeline kept its refinement (:func:`refined_baseline`)."""
+        fit = self(None, None)
+        return fit, self.refined(fit)
+
+    def refined(self, fit: Fit | None) -> Fit | None:
+        """``fit`` (EDDI's fit of the baseline) as the fold judges it: refined as the pipeline
+        refines when the pipeline kept its refinement, else ``fit`` itself."""
+        if fit is None or not self.refine:
+            return fit
+        return refined_baseline(fit, self.records, self.masks, self.setup)
+
+    def __call__(self, mech: Mechanism | None, base_fit: Fit | None = None) -> Fit | None:
+        if self.fold is None:
+            return fit_ee(self.sigs, self.masks, self.setup, mech, base_fit=base_fit)
+        return fit_eddi(self.fold, self.sigs, self.masks, self.setup, mech, base_fit=base_fit,
+                        ee_base=self.ee_base)
+
+
+def refined_baseline(fit: Fit, records: Sequence[Record], masks: Sequence[np.ndarray], setup: Setup) -> Fit:
+    """The pipeline's refinement policy on a fold's training records.
+
+    :class:`eddi.fit_record.Pipeline` refines EDDI's model by output error on its fit record
+    (the median blow) and keeps the refinement only when it lowers the displacement nrmse of
+    the records it did not fit. Here: the training record of the median peak force (the
+    largest training run of a record split into bands) is the fit record, the other training
+    records judge (the fit record itself, simulated over its training run, when it is the
+    only one); the refined model is kept only when it lowers that error.
+    """
+    from eddi.fit_record import REFINE_CHANNEL
+    from eddi.refine import refine_output_error
+
+    from eddi.diagnosis.extend import runs
+
+    train = [(i, max(runs(m), key=lambda ab: ab[1] - ab[0])) for i, m in enumerate(masks) if np.any(m)]
+    if not train:
+        return fit
+    forces = [float(np.max(np.abs(records[i].force))) if records[i].force is not None else 0.0 for i, _ in train]
+    order = sorted(range(len(train)), key=lambda j: forces[j])
+    k, (a, b) = train[order[(len(order) - 1) // 2]]
+    rec = records[k]
+    try:
+        eom, _ = refine_output_error(refine_start(fit.eom, records, masks, setup), rec.t[a:b], rec.x[a:b],
+                                     rec.v[a:b], rec.a[a:b], channel=REFINE_CHANNEL.get(rec.response, "x"),
+                                     min_gain=REFINE_FOLDS["min_gain"])
+    except (IdentificationError, SignalError, ModelError, ValueError):
+        return fit
+    judges = [(i, ab) for i, ab in train if i != k] or [(k, (a, b))]
+
+    def error(model) -> float:
+        errs = []
+        for i, (s0, s1) in judges:
+            r = records[i]
+            part = Part(i, s0, s1, r.force is not None and r.free_start > 0 and s0 == r.free_start, r.label)
+            errs.append(nrmse(simulate_part(model, r, part), r.x[s0:s1]))
+        return float(np.mean(errs))
+
+    return Fit(eom=eom, mech=None, residual=fit.residual) if error(eom) < error(fit.eom) else fit
+
+
+def refine_start(eom: EquationOfMotion, records: Sequence[Record], masks: Sequence[np.ndarray],
+                 setup: Setup) -> EquationOfMotion:
+    """Where a fold's refinement of ``eom`` starts (settings.REFINE_FOLDS): ``eom`` with the
+    coefficients of the pipeline's refined model (``setup.refine_start``) for the terms both
+    have, when the pipeline's fit record is wholly in the fold's training masks; else ``eom``."""
+    warm, k = setup.refine_start, setup.refine_start_record
+    if warm is None or not REFINE_FOLDS["warm"] or not 0 <= k < len(records):
+        return eom
+    r = records[k]
+    if not (r.free_stop > r.free_start and np.all(masks[k][r.free_start:r.free_stop])):
+        return eom  # the pipeline's model saw (part of) this fold's held-out data
+    return eom.model_copy(update={"damping": {t: warm.damping.get(t, c) for t, c in eom.damping.items()},
+                                  "stiffness": {t: warm.stiffness.get(t, c) for t, c in eom.stiffness.items()}})
+
+
+def all_masks(records: Sequence[Record]) -> list[np.ndarray]:
+    """The free response of every record (the training samples of the final fit)."""
+    out = []
+    for r in records:
+        m = np.zeros(r.t.size, bool)
+        m[r.free_start:r.free_stop] = True
+        out.append(m)
+    return out
