@@ -1,7 +1,8 @@
 """Term selection of the output-error refinement: which candidate terms the data support.
 
-Two paths over the output-error problem of :mod:`eddi.refine` (:class:`eddi.output_error.OutputErrorProblem`), judged
-by the Bayesian information criterion ``BIC = n ln(RSS / n) + p ln(N)``:
+Two paths over the output-error problem of :mod:`eddi.refine`
+(:class:`eddi.output_error.OutputErrorProblem`), judged by the Bayesian information criterion
+``BIC = n ln(RSS / n) + p ln(N)``:
 
 * backward elimination from the full fit (:func:`_select`): the term with the smallest
   ``|c| / se`` first, each removal refitted and kept when it lowers the BIC (see
