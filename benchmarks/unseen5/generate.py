@@ -106,7 +106,7 @@ def record(system, c, s, level_force, x_scale, rng, *, chans=(0,), names=("acc",
     cols = {"t": np.round((np.arange(n) - n_pre) / fs_st, 9)}
     fa = sensors.convert(sensors.analog(force, ts), n, c["adc"])
     cols["force"] = sensors.digitise(fa, rng, peak=np.max(np.abs(fa)), snr_db=c["snr"] + 12, bits=c["bits"],
-                                     range_x=1.25, gain=1 + rng.uniform(-0.01, 0.01),
+                                     range_x=1.25, gain=1 + rng.uniform(-0.005, 0.005),
                                      offset_frac=rng.uniform(-2e-4, 2e-4))
     for ch, name in zip(chans, names):
         ya = sensors.convert(sensors.analog(acc[:, ch], ts, **(sens or {})), n, c["adc"])
@@ -123,8 +123,17 @@ def write_csv(path, cols, order):
     np.savetxt(path, data, delimiter=",", header=",".join(order), comments="", fmt=fmt)
 
 
-def _session(r, stamp=1.0):
-    return dict(stamp=stamp, ppm=float(r.uniform(-90, 90)), gain=1 + float(r.uniform(-0.025, 0.025)),
+def _device(r):
+    """One DAQ and sensor set: its clock's true offset from the stamped rate and the accelerometer's
+    calibration error (a lab's calibrated chain: +-1 %)."""
+    return dict(ppm=float(r.uniform(-60, 60)), gain=1 + float(r.uniform(-0.01, 0.01)))
+
+
+def _session(r, dev):
+    """A session on a device: the clock drifts a few ppm, the sensor re-mounted (gain +-0.3 %), its
+    own range, offset and hammer width (+-15 %)."""
+    return dict(stamp=1.0, ppm=dev["ppm"] + float(r.uniform(-2, 2)),
+                gain=dev["gain"] * (1 + float(r.uniform(-0.003, 0.003))),
                 range_x=float(r.uniform(1.4, 2.8)), offset=float(r.uniform(-3e-3, 3e-3)),
                 width=float(r.uniform(0.85, 1.15)))
 
@@ -133,9 +142,15 @@ def gen_sdof_set(out, seed, cid, c, levels, n_sessions):
     """Captures of one single-DOF case at the given levels (sessions interleaved)."""
     r = cases.rng(seed, cid)
     tr, hidden = c["sys"], c.get("hidden")
-    sessions = [_session(r)]
-    for _ in range(n_sessions - 1):  # another DAQ session: its own calibrated rate, gain, offset
-        sessions.append(_session(r, 1 + float(r.choice([-1, 1]) * r.uniform(30, 120)) * 1e-6))
+    dev = _device(r)
+    sessions = [_session(r, dev)]
+    for _ in range(n_sessions - 1):  # the same DAQ again, or (hidden "twodaq") another one
+        if hidden and hidden[0] == "twodaq":
+            other = _device(r)
+            other["ppm"] = dev["ppm"] + float(r.choice([-1, 1])) * hidden[1]
+            sessions.append(_session(r, other))
+        else:
+            sessions.append(_session(r, dev))
     files = []
     width0 = c["width"] / tr["fn"]
     for k, level in enumerate(levels):
@@ -151,11 +166,11 @@ def gen_sdof_set(out, seed, cid, c, levels, n_sessions):
 
 
 def gen_diag(out, seed, cid, c):
-    null = c.get("hidden") is None
+    null = c.get("hidden") is None or c["hidden"][0] == "twodaq"
     files, sessions = gen_sdof_set(out, seed, cid, c, cases.NULL_LEVELS if null else cases.EFFECT_LEVELS,
                                    2 if null else 1)
     return {"id": cid, "truth": c["sys"], "files": files, "hidden": c.get("hidden"),
-            "expect": ["none"] if null else c["expect"], "near": c.get("near", []),
+            "expect": c.get("expect", ["none"]), "near": c.get("near", []),
             "given_mass": c["sys"]["mass"], "sessions": sessions}
 
 
@@ -177,8 +192,8 @@ def gen_mdof(out, seed, cid, c):
     fr = system.linear_frequencies()
     width_s = c["width"] / fr[0]
     f_ref = pilot_force(system, width_s, cases.TIPS[c["tip"]], D, rel=(i, j))
-    s = _session(r)
-    chan_gain = [1 + float(r.uniform(-0.02, 0.02)) for _ in c["columns"]]
+    s = _session(r, _device(r))
+    chan_gain = [1 + float(r.uniform(-0.01, 0.01)) for _ in c["columns"]]
     order = {"acc_main": 0, "acc_tmd": 1, "acc_hub": 0, "acc_arm1": 1, "acc_arm2": 2}
     chans = [order[n] for n in c["columns"]]
     files = {"train": [], "held": None}
