@@ -151,6 +151,6 @@ MDOF = {
                      dur=5.0, adc="avg", columns=["acc_main", "acc_tmd"], driving="acc_main",
                      quick=True),
     "mdof-star": dict(kind="star", fs=2500, snr=45, bits=24, tip="steel", width=0.06, pre=0.1,
-                      dur=4.0, adc="point", columns=["acc_arm1", "acc_hub", "acc_arm2"],
+                      dur=6.0, adc="point", columns=["acc_arm1", "acc_hub", "acc_arm2"],
                       driving="acc_hub", quick=True),
 }

@@ -126,10 +126,17 @@ def main(argv=None):
 
 
 def _git():
-    root = (os.environ.get("PYTHONPATH") or "").split(os.pathsep)[0] or "."
+    """The commit of the checkout whose station runs: the first PYTHONPATH entry, else where the
+    `station` package imports from in this environment (an editable install's checkout)."""
+    root = (os.environ.get("PYTHONPATH") or "").split(os.pathsep)[0]
     try:
-        return subprocess.run(["git", "-C", root, "log", "-1", "--format=%h %cI %s"], capture_output=True,
+        if not root:
+            root = subprocess.run([sys.executable, "-c", "import os, station; print(os.path.dirname("
+                                   "os.path.dirname(os.path.abspath(station.__file__))))"],
+                                  capture_output=True, text=True, timeout=60).stdout.strip() or "."
+        head = subprocess.run(["git", "-C", root, "log", "-1", "--format=%h %cI %s"], capture_output=True,
                               text=True, timeout=10).stdout.strip()
+        return f"{root}: {head}"
     except (OSError, subprocess.SubprocessError):
         return ""
 
