@@ -23,12 +23,17 @@ CATALOGUE = {"coulomb_friction", "quadratic_damping", "cubic_damping", "clearanc
 
 class Runner:
     """Runs ``station ...`` in the data folder: exit code, wall and CPU time (the process and the
-    workers it waited for, from wait4), stdout kept in ``out/``."""
+    workers it waited for, from wait4), stdout kept in ``out/``.
 
-    def __init__(self, station_cmd, data, timeout_scale=1.0):
+    The time limit is judged on CPU time (the same on a busy machine as on a quiet one):
+    ``over_limit`` when the command used more CPU than ``limit * scale``. The wall clock only kills a
+    command that runs past ``limit * scale * wall_factor`` (then ``rc`` is ``"timeout"``)."""
+
+    def __init__(self, station_cmd, data, timeout_scale=1.0, wall_factor=3.0):
         self.cmd = shlex.split(station_cmd)
         self.data = data
         self.scale = timeout_scale
+        self.wall_factor = wall_factor
         self.lock = threading.Lock()
         self.count = 0
 
@@ -54,7 +59,7 @@ class Runner:
             except OSError:
                 pass
 
-        timer = threading.Timer(timeout * self.scale, kill)
+        timer = threading.Timer(timeout * self.scale * self.wall_factor, kill)
         timer.start()
         _, status, ru = os.wait4(p.pid, 0)
         timer.cancel()
@@ -67,7 +72,8 @@ class Runner:
         rc = "timeout" if killed else p.returncode
         rec = {"cmd": "station " + " ".join(shlex.quote(a) for a in argv), "rc": rc,
                "wall_s": round(time.time() - t0, 1), "cpu_s": round(ru.ru_utime + ru.ru_stime, 1),
-               "stderr_tail": err.strip().splitlines()[-3:]}
+               "limit_cpu_s": timeout * self.scale, "stderr_tail": err.strip().splitlines()[-3:]}
+        rec["over_limit"] = rec["cpu_s"] > rec["limit_cpu_s"]
         with self.lock:
             self.count += 1
             rec["stdout_file"] = os.path.join("out", f"{self.count:03d}-{argv[0]}.txt")
@@ -75,6 +81,13 @@ class Runner:
         with open(os.path.join(self.data, rec["stdout_file"]), "w") as fh:
             fh.write(rec["cmd"] + "\n" + out + "\n--- stderr ---\n" + err)
         return rec, out, err
+
+
+def slow(res):
+    """Append SLOW to a verdict when a command used more CPU than its limit (a failure)."""
+    if any(c.get("over_limit") for c in res.get("commands", [])) and "TIMEOUT" not in res["verdict"]:
+        res["verdict"] = ("" if res["verdict"] in ("ok", "correct") else res["verdict"] + "+") + "SLOW"
+    return res
 
 
 def parse_json(out):

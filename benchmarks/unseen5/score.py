@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Score the station on the fifth blind scorecard (data from ``generate.py``).
 
-Runs the ``station`` command line (subprocesses in the data folder, a time limit per command, CPU
-time from wait4) on every case of ``DATA/manifest.json``; the station never sees the manifest.
+Runs the ``station`` command line (subprocesses in the data folder, a time limit per command judged
+on its CPU time from wait4, a wall-clock kill at --wall-factor times the limit) on every case of
+``DATA/manifest.json``; the station never sees the manifest.
 
 (a) nulls     ``diagnose`` on 6 captures (two DAQ sessions) of systems inside the default
               libraries -> ``none``.
@@ -55,6 +56,9 @@ def main(argv=None):
     p.add_argument("--jobs", type=int, default=2, help="cases scored at once (default 2)")
     p.add_argument("--station-cmd", default="station", help="the station command (default: station on PATH)")
     p.add_argument("--timeout-scale", type=float, default=1.0, help="multiply every command's time limit")
+    p.add_argument("--wall-factor", type=float, default=3.0,
+                   help="kill a command after this many times its limit in wall time (default 3; the limit "
+                        "itself is judged on CPU time)")
     p.add_argument("--only", default="", help="comma-separated case ids (or prefixes; bad inputs: bad-...)")
     p.add_argument("--json-out", default=None, help="results JSON (default DATA/scorecard.json)")
     p.add_argument("--md-out", default=None, help="also write the Markdown scorecard here")
@@ -83,7 +87,7 @@ def main(argv=None):
               f"{'without' if a.quick else 'with'} --quick", file=sys.stderr)
         return 2
     data = os.path.abspath(a.data)
-    run = judge.Runner(a.station_cmd, data, a.timeout_scale)
+    run = judge.Runner(a.station_cmd, data, a.timeout_scale, a.wall_factor)
     judge.DIAG_TIMEOUT = 300 if a.quick else 600
     tasks = _tasks(man)
     if a.only:
@@ -97,7 +101,7 @@ def main(argv=None):
     def one(task):
         fn, case = task
         try:
-            out = fn(case, run)
+            out = judge.slow(fn(case, run))
         except Exception as e:  # a scorer bug must not hide the other cases
             out = {"id": case["id"], "kind": KIND[fn], "verdict": "SCORER-ERROR",
                    "error": f"{type(e).__name__}: {e}", "commands": []}
@@ -112,7 +116,7 @@ def main(argv=None):
     meta = {"data": data, "seed": man["seed"], "quick": man["quick"], "wall_s": round(time.time() - t0),
             "cpu_children_s": round(cpu1.children_user + cpu1.children_system
                                     - cpu0.children_user - cpu0.children_system, 1),
-            "jobs": a.jobs, "date_utc": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+            "jobs": a.jobs, "wall_factor": a.wall_factor, "timeout_scale": a.timeout_scale, "date_utc": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
             "load": os.getloadavg(), "station": a.station_cmd, "git": _git(),
             "pythonpath": os.environ.get("PYTHONPATH", "")}
     md = table.scorecard(results, meta)
@@ -133,7 +137,7 @@ def _git():
         if not root:
             root = subprocess.run([sys.executable, "-c", "import os, station; print(os.path.dirname("
                                    "os.path.dirname(os.path.abspath(station.__file__))))"],
-                                  capture_output=True, text=True, timeout=60).stdout.strip() or "."
+                                  capture_output=True, text=True, timeout=60, cwd="/").stdout.strip() or "."
         head = subprocess.run(["git", "-C", root, "log", "-1", "--format=%h %cI %s"], capture_output=True,
                               text=True, timeout=10).stdout.strip()
         return f"{root}: {head}"
