@@ -177,7 +177,8 @@ def gen_diag(out, seed, cid, c):
 def gen_ident(out, seed, cid, c):
     files, sessions = gen_sdof_set(out, seed, cid, c, [1.0, 0.65], 2)
     return {"id": cid, "truth": c["sys"], "files": {"fit": files[0], "held": files[1]},
-            "ppm": [s["ppm"] + 1e6 * (s["stamp"] - 1) for s in sessions], "fs": c["fs"]}
+            "ppm": [s["ppm"] + 1e6 * (s["stamp"] - 1) for s in sessions], "fs": c["fs"],
+            "fit_gain": sessions[0]["gain"], "sessions": sessions}
 
 
 def gen_mdof(out, seed, cid, c):

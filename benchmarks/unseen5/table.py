@@ -44,9 +44,11 @@ def summary(results):
     ident = [r for r in results if r["kind"] == "ident"]
     if ident:
         cov = [c for r in ident for c in r.get("covered", [])]
+        nom = [c for r in ident for c in r.get("covered_nominal", [])]
         lines.append(f"- (c) identification: {sum(passed(r) for r in ident)}/{len(ident)} passed "
                      f"({count(ident, 'ok')} ok, {count(ident, 'warned')} warned); truth inside the printed "
-                     f"95 % interval for {sum(cov)}/{len(cov)} coefficients")
+                     f"95 % interval for {sum(cov)}/{len(cov)} coefficients (gain-scaled truth; "
+                     f"{sum(nom)}/{len(nom)} for the nominal truth)")
     md = [r for r in results if r["kind"] == "mdof"]
     if md:
         worst = [max((r.get("held_nrmse") or {"-": float("inf")}).values()) for r in md]
