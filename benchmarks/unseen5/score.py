@@ -62,13 +62,22 @@ def main(argv=None):
     p.add_argument("--only", default="", help="comma-separated case ids (or prefixes; bad inputs: bad-...)")
     p.add_argument("--json-out", default=None, help="results JSON (default DATA/scorecard.json)")
     p.add_argument("--md-out", default=None, help="also write the Markdown scorecard here")
-    p.add_argument("--render", default=None, metavar="SCORECARD.json",
-                   help="only re-render the Markdown card of an earlier run's JSON (no station run)")
+    p.add_argument("--render", default=None, nargs="+", metavar="SCORECARD.json",
+                   help="only re-render the Markdown card of an earlier run's JSON (no station run); with "
+                        "several, a later file's cases replace the earlier ones' (a partial re-run, --only)")
     a = p.parse_args(argv)
     if a.render:
-        with open(a.render) as fh:
-            saved = json.load(fh)
-        md = table.scorecard(saved["results"], saved["meta"])
+        saved, merged = None, {}
+        for path in a.render:
+            with open(path) as fh:
+                part = json.load(fh)
+            saved = saved or part
+            merged.update({r["id"]: r for r in part["results"]})
+            if part is not saved:
+                saved["meta"].setdefault("merged", []).append(
+                    f"{path}: {', '.join(r['id'] for r in part['results'])} ({part['meta']['date_utc']}, "
+                    f"load {part['meta']['load'][0]:.1f}, {part['meta']['git']})")
+        md = table.scorecard(list(merged.values()), saved["meta"])
         print(md)
         if a.md_out:
             with open(a.md_out, "w") as fh:

@@ -69,7 +69,9 @@ def scorecard(results, meta):
            f"load average {', '.join(f'{x:.1f}' for x in meta['load'])} at the end",
            f"station: `{meta['station']}`, PYTHONPATH `{meta['pythonpath']}`, commit `{meta['git']}`",
            f"time limits judged on each command's CPU time (x{meta.get('timeout_scale', 1)}); wall-clock kill at "
-           f"{meta.get('wall_factor', '-')}x the limit; station CPU in all: {meta.get('cpu_children_s', '-')} s", "",
+           f"{meta.get('wall_factor', '-')}x the limit; station CPU in all: {meta.get('cpu_children_s', '-')} s"]
+    out += [f"re-scored in a later run (replacing the cases above): {m}" for m in meta.get("merged", [])]
+    out += ["",
            "## Summary", ""] + summary(results) + [""]
     by = {k: [r for r in results if r["kind"] == k] for k in TITLES}
     if by["diagnose"]:
