@@ -73,7 +73,7 @@ RUNGS = {"coulomb_friction": (0.003, 0.01, 0.03), "quadratic_damping": (0.02, 0.
 SETS = {
     "tuning": {"null_seeds": range(1000, 1060), "chain_seeds": range(3000, 3030), "ladder_seeds": (0, 1, 2), "mass": 0.1, "k1": 600.0,
                "k3": 2e7, "zeta": 0.004, "rate": 5000.0, "snr": 40.0, "record_s": 4.0, "mode_ratio": 2.7},
-    "heldout": {"null_seeds": range(2000, 2120), "chain_seeds": range(4000, 4060), "ladder_seeds": (10, 11, 12), "mass": 0.3, "k1": 600.0,
+    "heldout": {"null_seeds": range(2000, 2120), "chain_seeds": [*range(5000, 5030), *range(4000, 4060)], "ladder_seeds": (10, 11, 12), "mass": 0.3, "k1": 600.0,
                 "k3": -3e5, "zeta": 0.006, "rate": 20000.0, "snr": 35.0, "record_s": 4.0, "mode_ratio": 2.2},
 }
 
@@ -233,15 +233,18 @@ def null_case(args: tuple) -> dict:
     return {"kind": "null", "set": set_name, "seed": seed, **info, **row, "cpu_s": cpu}
 
 
-def chain_null_recipe(seed: int) -> tuple[list, dict]:
+def chain_null_recipe(seed: int, stiff: bool = False) -> tuple[list, dict]:
     """Records of one chain-difference null (session 9): nothing hidden, captures from 2-3
     acquisition sessions whose chains differ (:mod:`simulated_rig.sessions`: accelerometer
     gain 0.1-1 %, force gain a third of that, clock 10-100 ppm, DC offsets, trigger jitter,
     pretrigger 0.05-0.3 s; half of the sessions read without the pretrigger length, as a
     CSV is). Mass 0.01-100 kg, 10-80 Hz, damping ratio 0.001-0.01, a soft, hard or
-    asymmetric spring, weakly (tangent stiffness 2-10 % off at the largest peak) or strongly
-    (30-100 %; soft 3-15 %) nonlinear, 20-120 cycles (at most 64k samples), 2-40 kHz,
-    30-60 dB, 3 captures per session at amplitudes spread 1.2-2x."""
+    asymmetric spring, weakly (tangent stiffness 2-10 % off at the largest blow's linear peak)
+    or strongly (50-200 %: 30-100 % at the peak the nonlinear system reaches; soft 3-15 %)
+    nonlinear, 20-120 cycles (at most 64k samples), 2-40 kHz,
+    30-60 dB, 3 captures per session at amplitudes spread 1.2-2x. ``stiff``: the regime of the
+    blind false alarm only (hard or asymmetric, strong, damping ratio 0.001-0.003, 60-120
+    cycles, 45-60 dB, accelerometer gains 0.2-1 %)."""
     from eddi.conditioning import condition
     from eddi.diagnosis import Record
     from eddi.model import EquationOfMotion
@@ -252,13 +255,15 @@ def chain_null_recipe(seed: int) -> tuple[list, dict]:
     mass = float(np.exp(rng.uniform(np.log(0.01), np.log(100.0))))
     f1 = float(rng.uniform(10.0, 80.0))
     zeta = float(np.exp(rng.uniform(np.log(0.001), np.log(0.01))))
-    spring = str(rng.choice(["soft", "hard", "asymmetric"]))
-    strong = bool(rng.random() < 0.5)
+    spring = str(rng.choice(["hard", "asymmetric"] if stiff else ["soft", "hard", "asymmetric"]))
+    strong = stiff or bool(rng.random() < 0.5)
+    if stiff:
+        zeta = float(np.exp(rng.uniform(np.log(0.001), np.log(0.003))))
     rise = (float(rng.uniform(0.03, 0.15)) if spring == "soft" else
-            float(rng.uniform(0.3, 1.0)) if strong else float(rng.uniform(0.02, 0.1)))
+            float(rng.uniform(0.5, 2.0)) if strong else float(rng.uniform(0.02, 0.1)))
     rate = float(rng.choice([2000.0, 5000.0, 10000.0, 16000.0, 20000.0, 40000.0]))
-    snr = float(rng.uniform(30.0, 60.0))
-    record_s = min(float(rng.uniform(20.0, 120.0)) / f1, 64_000 / rate)
+    snr = float(rng.uniform(45.0, 60.0) if stiff else rng.uniform(30.0, 60.0))
+    record_s = min(float(rng.uniform(60.0, 120.0) if stiff else rng.uniform(20.0, 120.0)) / f1, 64_000 / rate)
     sessions = 2 if rng.random() < 0.6 else 3
     spread = float(rng.uniform(1.2, 2.0))
     k1 = mass * (2 * math.pi * f1) ** 2
@@ -275,7 +280,8 @@ def chain_null_recipe(seed: int) -> tuple[list, dict]:
         k = {"x": k1, "x^2": 0.5 * rise * k1 / (2 * amp), "x^3": rise * k1 / (3 * amp ** 2)}
     eom = EquationOfMotion.create(mass=mass, damping={"v": c}, stiffness=k)
     peak_acc = top / mass
-    chains = draw_chains(rng, sessions, acc_offset=0.01 * peak_acc, force_offset=0.005 * top)
+    chains = draw_chains(rng, sessions, gain=(0.002, 0.01) if stiff else (0.001, 0.01),
+                         acc_offset=0.01 * peak_acc, force_offset=0.005 * top)
     levels = list(np.geomspace(1.0 / spread, 1.0, 3 * sessions))
     rng.shuffle(levels)
     recs = []
@@ -288,7 +294,7 @@ def chain_null_recipe(seed: int) -> tuple[list, dict]:
                         pretrigger_samples=r.pretrigger_samples if known else None)
         recs.append(Record.from_conditioned(cnd, label=f"session {i // 3 + 1} impact {i % 3 + 1}",
                                             pretrigger_samples=r.pretrigger_samples if known else None))
-    return recs, {"mass_kg": mass, "f1_hz": f1, "spring": spring, "strong": strong, "rise": rise,
+    return recs, {"mass_kg": mass, "f1_hz": f1, "spring": spring, "strong": strong, "rise": rise, "stiff": stiff,
                   "zeta": zeta, "rate_hz": rate, "snr_db": snr, "record_s": record_s, "sessions": sessions,
                   "spread": spread, "captures": len(recs),
                   "chains": [[ch.acc_gain, ch.force_gain, ch.clock_ppm] for ch in chains]}
@@ -296,13 +302,19 @@ def chain_null_recipe(seed: int) -> tuple[list, dict]:
 
 def chain_null_case(args: tuple) -> dict:
     set_name, seed, factors = args
+    stiff = seed in STIFF_SEEDS
     try:
-        recs, info = chain_null_recipe(seed)
+        recs, info = chain_null_recipe(seed, stiff)
         row, cpu = _diagnose(recs, info["mass_kg"], factors)
     except Exception as exc:  # a case the chain refuses is reported, not hidden
-        return {"kind": "null", "family": "chain", "set": set_name, "seed": seed,
+        return {"kind": "null", "family": "chain-stiff" if stiff else "chain", "set": set_name, "seed": seed,
                 "error": f"{type(exc).__name__}: {exc}"}
-    return {"kind": "null", "family": "chain", "set": set_name, "seed": seed, **info, **row, "cpu_s": cpu}
+    return {"kind": "null", "family": "chain-stiff" if stiff else "chain", "set": set_name, "seed": seed, **info,
+            **row, "cpu_s": cpu}
+
+
+#: Seeds of the chain-difference nulls drawn in the blind false alarm's regime (held out).
+STIFF_SEEDS = range(5000, 5030)
 
 
 def ladder_case(args: tuple) -> dict:
@@ -421,7 +433,7 @@ def summary(path: str, factor: float, strong: float | None, again: bool = False)
             print(f"[{set_name}] nulls refused: {len(failed)} (" + "; ".join(f"seed {r['seed']}: {r['error']}"
                                                                           for r in failed) + ")")
         nulls = [r for r in rows if r.get("kind") == "null" and r["set"] == set_name and "error" not in r]
-        for fam in ("", "chain"):
+        for fam in ("", "chain", "chain-stiff"):
             _family_line(set_name, [r for r in nulls if r.get("family", "") == fam], key, fam)
         if nulls:
             ratios = sorted(r["ratio"] for r in nulls)
@@ -475,7 +487,7 @@ def _family_line(set_name: str, nulls: list, key: str, family: str) -> None:
     line = (f"[{set_name}] {family or 'rig-seed'} nulls: {len(nulls)}, false alarms {len(bad)} at {key}"
             + (" (" + ", ".join(f"seed {r['seed']} {r['causes'][key]} {r['ratio']:.2f}x" for r in bad) + ")" if bad else "")
             + f"; baseline/floor median {ratios[len(ratios) // 2]:.2f}, max {ratios[-1]:.2f}")
-    if family == "chain":
+    if family.startswith("chain"):
         ch = [max(r.get("chain_nrmse") or [0.0]) for r in nulls]
         gains = [100 * abs(c[0]) for r in nulls for c in r["chains"]]
         clocks = [abs(c[2]) for r in nulls for c in r["chains"]]

@@ -19,6 +19,7 @@ given) the captures are written as CSV and ``station diagnose FILES --json --sav
 
     PYTHONPATH=. nice -n 5 python benchmarks/bench_mdof_diagnose_cost.py
     PYTHONPATH=. python benchmarks/bench_mdof_diagnose_cost.py --systems benchmarks/mdof_speed/tune-two-mass-5k.toml --profile 30
+    PYTHONPATH=. python benchmarks/bench_mdof_diagnose_cost.py --keep-rate --no-refine   # the same at the captures' rate
 """
 
 from __future__ import annotations
@@ -125,7 +126,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=10, help="noise seed of the first capture (then +1, +2, ...)")
     ap.add_argument("--no-refine", dest="refine", action="store_false", help="diagnose with --no-refine")
     ap.add_argument("--profile", type=int, default=0, help="print the N most expensive functions (cProfile)")
+    ap.add_argument("--keep-rate", action="store_true",
+                    help="diagnose at the captures' own rate (no working-rate reduction: the comparison run)")
     args = ap.parse_args(argv)
+    if args.keep_rate:
+        import eddi.mdof.rate as rate
+
+        rate.SAMPLES_PER_PERIOD = rate.MIN_SAMPLES_PER_PERIOD = float("inf")
+        rate.MAX_SAMPLES = 1 << 62
     with tempfile.TemporaryDirectory() as tmp:
         for path in args.systems.split(","):
             _one(path.strip(), args, Path(tmp))

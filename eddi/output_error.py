@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from eddi.intervals import noise_covariance_of_fit, sampling_curvature
+from eddi.intervals import noise_covariance_of_fit, sampling_curvature, sampling_quartic, through_sampling
 from eddi.model import EquationOfMotion
 from eddi.refine_grid import block_means, block_size, local_substeps, smooth_model
 from eddi.simulate import local_angular_frequency, simulate
@@ -52,6 +52,7 @@ class OutputErrorProblem:
         # block mean of samples that are themselves the DAQ's kernel-weighted means (variance
         # ``kernel_var`` sample intervals^2, see :func:`eddi.intervals.sampling_curvature`)
         self.curvature = sampling_curvature(self.block, kernel_var)
+        self.quartic = sampling_quartic(self.block, kernel_var)
         d_terms, k_terms = eom.damping_terms(), eom.stiffness_terms()
         self.names = [("damping", tm.text) for tm in d_terms] + [("stiffness", tm.text) for tm in k_terms]
         c0 = np.array([eom.damping[tm.text] for tm in d_terms] + [eom.stiffness[tm.text] for tm in k_terms])
@@ -124,7 +125,9 @@ class OutputErrorProblem:
         self._memo = (key, out.copy(), self.diverged)
         return out
 
-    def _simulated(self, p: np.ndarray, stop: int) -> np.ndarray:
+    def _simulated(self, p: np.ndarray, stop: int, sensitivities: bool = True) -> np.ndarray:
+        """The compared values at ``p`` (``sensitivities=False``: not integrating the Jacobian
+        along, nor keeping it)."""
         x0, v0 = self.state(p)
         eom = self.model_of(p)
         if eom.effects:
@@ -137,7 +140,7 @@ class OutputErrorProblem:
             # accepts a step (most steps): the sensitivities are integrated with the response
             # (the response is the same bit for bit with or without them) and kept for
             # :meth:`sensitivities`, one pass instead of two
-            smooth = smooth_model(eom)
+            smooth = smooth_model(eom) and sensitivities
             resp, jac, diverged = free_response_sensitivities(eom, float(self.t[1] - self.t[0]), stop, x0, v0,
                                                               self.steps, jacobian=smooth)
             self._last = (self._key(p), stop, jac, bool(diverged)) if smooth else None
@@ -145,11 +148,8 @@ class OutputErrorProblem:
         self.diverged = bool(diverged or not np.all(np.isfinite(out)))
         if self.diverged:
             return np.full(stop, 1e6 * float(np.max(np.abs(self.y))))
-        if self.curvature and stop >= 3:  # the block mean of a smooth signal: centre + curvature
-            d2 = np.empty_like(out)
-            d2[1:-1] = out[2:] - 2.0 * out[1:-1] + out[:-2]
-            d2[0], d2[-1] = d2[1], d2[-2]
-            out = out + self.curvature * d2
+        # the block mean of a smooth signal: centre + curvature (+ the fourth difference's term)
+        out = through_sampling(out, self.curvature, self.quartic)
         return out + float(p[-1] * self.scale[-1])
 
     def _key(self, p: np.ndarray) -> bytes:
@@ -183,11 +183,7 @@ class OutputErrorProblem:
         if div or not np.all(np.isfinite(j)):
             return None
         j = np.column_stack((j, np.ones(stop)))
-        if self.curvature and stop >= 3:
-            d2 = np.empty_like(j)
-            d2[1:-1] = j[2:] - 2.0 * j[1:-1] + j[:-2]
-            d2[0], d2[-1] = d2[1], d2[-2]
-            j = j + self.curvature * d2
+        j = through_sampling(j, self.curvature, self.quartic)
         return j * self.scale[self.active + [-3, -2, -1]]
 
     def fit(self, p: np.ndarray, stop: int, max_nfev: int, free: np.ndarray | None = None):

@@ -73,6 +73,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from eddi.errors import IdentificationError, SignalError
+from eddi.intervals import integration_shift
 from eddi.model import EquationOfMotion
 from eddi.output_error import DIRECT_NRMSE, NUISANCE, STAGES, OutputErrorProblem
 from eddi.refine_grid import (  # noqa: F401 - re-exported: the grid's rules, importable from here as before
@@ -242,14 +243,20 @@ def refine_output_error(
     norm = float(np.linalg.norm(prob.y)) or 1.0
     p, before, after, jac = _fit_in_stages(prob, max_nfev, norm)
     half, rss = prob.ci95(p, jac)
-    unselected = prob.model_of(p)
-    unselected_ci = prob.ci_dict(half)
+    # the fit's own RK4 error, corrected (eddi.intervals.integration_shift)
+    shift, spread = integration_shift(prob, p, jac)
+    unselected = prob.model_of(_shifted(p, shift))
+    unselected_ci = prob.ci_dict(half + spread * prob.scale[prob.active])
     dropped: dict[str, str] = {}
     if select:
         from eddi.selection import core_start, select_terms  # local: it builds on this module
         p, half, dropped = select_terms(prob, p, half, rss, max_nfev, core_start(prob, t, x, v, y),
                                         mapper)
         after = min(after, float(np.linalg.norm(prob.residual(p, n))) / norm)
+        if dropped:
+            shift, spread = integration_shift(prob, p)
+    p = _shifted(p, shift)
+    half = half + spread * prob.scale[prob.active]
     refined = prob.model_of(p).model_copy(update={"notes": (eom.notes + "; " if eom.notes else "")
                                                   + f"refined by output error on {channel}"})
     x0, v0 = prob.state(p)
@@ -258,6 +265,13 @@ def refine_output_error(
                                dropped=dropped, block=prob.block,
                                unselected={"damping": dict(unselected.damping), "stiffness": dict(unselected.stiffness)},
                                unselected_ci95=unselected_ci)
+
+
+def _shifted(p: np.ndarray, shift: np.ndarray) -> np.ndarray:
+    """``p`` with its active coefficients moved by ``shift`` (the nuisance parameters kept)."""
+    out = p.copy()
+    out[: shift.size] += shift
+    return out
 
 
 def confidence_intervals(eom: EquationOfMotion, t: np.ndarray, x: np.ndarray, v: np.ndarray,

@@ -22,7 +22,8 @@ from eddi.simulate import local_angular_frequency
 
 
 #: Largest ``omega_max * block * dt`` (rad) of a block: the block mean then differs from the
-#: curvature-corrected centre value by ~``(omega h)^4 / 1920`` (1e-6 relative at 0.2).
+#: curvature-corrected centre value by ~``(omega h)^4 / 339`` (4.7e-6 relative at 0.2), which
+#: the fourth difference's term removes (:func:`eddi.intervals.sampling_quartic`; 2e-8 left).
 BLOCK_H_OMEGA = 0.2
 #: Fewest block means compared (short records keep every sample).
 MIN_BLOCKS = 2000
@@ -79,7 +80,8 @@ def block_means(y: np.ndarray, block: int) -> np.ndarray:
     at ``1 / block`` of the cost. The model is compared through its value at the block's
     centre sample plus the curvature inside the block,
     ``mean = y_c + (block^2 - 1) / (24 block^2) (y_{c+1} - 2 y_c + y_{c-1})`` on the grid of
-    centres (exact for a quadratic; ``O((omega h)^4)`` otherwise).
+    centres (exact for a quadratic), plus a fourth difference's term
+    (:func:`eddi.intervals.sampling_quartic`; ``O((omega h)^6)`` left).
     """
     if block <= 1:
         return np.asarray(y, dtype=float)

@@ -76,15 +76,21 @@ def validate_mdof_text(obj: dict[str, Any]) -> str:
 def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = None, margin: float = 0.1,
                          save_model: str | None = None, refine: bool = False) -> dict[str, Any]:
     """Baseline (uncoupled) vs coupled, held out; the cause named (module docstring)."""
-    meas, rate_note = reduce_rate(_read(specs))
+    raw = _read(specs)
+    meas, rate_note = reduce_rate(raw)  # the working rate (eddi.mdof.rate)
     records, names, dp = condition_all(meas, driving_point)
     if len(records) < 2:
         raise InputFileError("diagnose on multi-channel captures needs at least 2 captures (one is held out)")
     from station.forkmap import ForkMap, jobs_wanted
 
     # the folds are independent: in forked workers when cores are free (the same results)
+    began = time.perf_counter()
     folds, per_channel, per_mode, span = _held_out_folds(records, names, dp, refine=refine, margin=margin,
                                                          mapper=ForkMap(jobs_wanted()))
+    if time.perf_counter() - began > PROGRESS_S:  # a long diagnosis is not silent until its end
+        print(f"station diagnose: {len(records)} held-out folds done in {time.perf_counter() - began:.0f} s; "
+              f"the final model on every capture next" + (" (identified and polished)" if refine else ""),
+              file=sys.stderr, flush=True)
     polished = folds.pop("polished")
     base = float(np.mean(folds["baseline"]))
     cpl = float(np.mean(folds["coupled"]))
@@ -102,7 +108,9 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         model, _b, _a = refine_identified(final, records)
     verdict, amp, modes, amp_span = _earned(cause, per_channel["coupled" if gain > margin else "baseline"], records,
                                         names, model, dp)
-    verdict = _chain_heard(verdict, meas, records, names, dp, model)
+    # the measurement chain (clipping, double hit, base motion) is heard on the captures as recorded
+    verdict = _chain_heard(verdict, raw, records if rate_note is None else condition_all(raw, dp)[0], names, dp,
+                           model)
     cause, symptoms = verdict.cause, list(verdict.symptoms) + amp
     if verdict.note:
         notes.append(verdict.note)
@@ -204,6 +212,10 @@ def _amplitude_heard(cause: str, amp: list[dict], span: Any, notes: list[str]) -
 #: minima; on the three-mass chain the polish took such baseline folds from 154 to 144 and from 44
 #: to 42 (the verdict the same) for ~8 s CPU. Same rule for both kinds (fair comparison).
 POLISH_MAX_NRMSE = 1.0
+
+#: Wall seconds of held-out folds past which a multi-channel diagnosis says on stderr that the
+#: final model comes next (progress, not a measurement).
+PROGRESS_S = 30.0
 
 #: CPU seconds past which a multi-channel diagnosis says on stderr how long it expects to take.
 BUDGET_CPU_S = 120.0

@@ -4,7 +4,8 @@
 ``FILE`` through :data:`READERS`, an immutable mapping ``suffix -> "module:function"``. Each
 reader is called as ``function(path, capture)`` and returns a :class:`Measurement` in SI
 units. ``.csv`` (``.tsv``, ``.txt``) is read here (:func:`read_csv`); ``.h5`` / ``.hdf5`` captures are
-read by ``station.storage.read_measurement``, ``.uff`` / ``.unv`` by ``station.uff_reader.read_uff``.
+read by ``station.storage.read_measurement``, ``.uff`` / ``.unv`` by ``station.uff_reader.read_uff``,
+``.mat`` by ``station.mat_reader.read_mat``.
 
 CSV format: a header line naming the columns among ``t``, ``force``, ``acc``, ``vel``,
 ``disp`` (SI units: s, N, m/s^2, m/s, m), then one row per sample, comma-separated, uniform
@@ -40,6 +41,7 @@ READERS: Mapping[str, str] = MappingProxyType({
     ".txt": "station.readers:read_csv",
     ".uff": "station.uff_reader:read_uff",
     ".unv": "station.uff_reader:read_uff",
+    ".mat": "station.mat_reader:read_mat",
     ".h5": "station.storage:read_measurement",
     ".hdf5": "station.storage:read_measurement",
 })
@@ -222,35 +224,59 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
     for name, scale in zip(names, hdr.scales):
         if scale != 1.0:  # a unit the header names (csv_header.UNITS); SI columns stay untouched
             cols[name] = cols[name] * scale
+    skip = hdr.skiprows
+    meta = {"format": "csv", "columns": names,
+            **({"header": list(hdr.cells), "converted": hdr.conversions()} if not hdr.plain else {})}
+    return checked_measurement(cols, str(path), lambda i: f"line {i + skip + 1} (data row {i + 1})",
+                               lambda i: f"from line {i + skip + 1}", meta)
+
+
+def unit_of(name: str) -> str:
+    """SI unit of a column (``acc2`` -> m/s^2)."""
+    if name in CSV_COLUMNS:
+        return CSV_COLUMNS[name]
+    m = MULTI_COLUMN.match(name)
+    return CSV_COLUMNS[m.group(1)] if m is not None else ""
+
+
+def checked_measurement(cols: dict[str, np.ndarray], where: str, at: Any, since: Any,
+                        metadata: dict[str, Any]) -> Measurement:
+    """A record's columns (``t`` and the channels, SI) checked and made a :class:`Measurement`.
+
+    ``at(i)`` / ``since(i)`` say where sample ``i`` is in the file (``line 9 (data row 8)``,
+    ``from line 9``). Every text or array reader ends here, so that all refuse alike.
+
+    Raises
+    ------
+    InputFileError
+        A value not finite or beyond :data:`MAX_VALUE` (:data:`MAX_TIME_S`), a time that is not a
+        uniform grid, a force with no impact, a constant response, a clipped channel.
+    """
     for name, col in cols.items():
         limit = MAX_TIME_S if name == "t" else MAX_VALUE
         ok = np.abs(col) <= limit
         if not ok.all():
             i = int(np.flatnonzero(~ok)[0])
-            what = "not a finite number" if not np.isfinite(col[i]) else f"{col[i]:g}, beyond +-{limit:g} {CSV_COLUMNS[name]}"
-            raise InputFileError(f"{path}: column {name!r} is {what} at line {i + 2} (data row {i + 1})")
-    rate, t = time_grid(cols.pop("t"), str(path))
+            what = "not a finite number" if not np.isfinite(col[i]) else f"{col[i]:g}, beyond +-{limit:g} {unit_of(name)}"
+            raise InputFileError(f"{where}: column {name!r} is {what} at {at(i)}")
+    rate, t = time_grid(cols.pop("t"), where)
     if "force" in cols:
-        check_force_impact(cols["force"], f"{path}: column 'force'")
+        check_force_impact(cols["force"], f"{where}: column 'force'")
     for name in RESPONSE_CHANNELS:
         if name in cols and not np.ptp(cols[name]) > 0:
-            raise InputFileError(f"{path}: column {name!r} is constant ({cols[name][0]:g}); expected a measured "
+            raise InputFileError(f"{where}: column {name!r} is constant ({cols[name][0]:g}); expected a measured "
                                  "response")
     from eddi.conditioning import clipped_run  # local: the engine (scipy) only once a file is read
 
     for name, col in cols.items():
-        where = clipped_run(col)
-        if where is not None:
+        c = clipped_run(col)
+        if c is not None:
             raise InputFileError(
-                f"{path}: column {name!r} looks clipped: flat at its extreme value {col[where]:g} "
-                f"from line {where + 2}; expected a signal within the sensor's range"
+                f"{where}: column {name!r} looks clipped: flat at its extreme value {col[c]:g} "
+                f"{since(c)}; expected a signal within the sensor's range"
             )
-    return Measurement(
-        t=t, channels=MappingProxyType(cols), rate_hz=rate, pretrigger_samples=None, mass=None,
-        source=str(path), metadata={"format": "csv", "columns": names,
-                                    **({"header": list(hdr.cells), "converted": hdr.conversions()}
-                                       if not hdr.plain else {})},
-    )
+    return Measurement(t=t, channels=MappingProxyType(cols), rate_hz=rate, pretrigger_samples=None, mass=None,
+                       source=where, metadata=metadata)
 
 
 def time_grid_rate(t: np.ndarray, where: str) -> float:

@@ -21,7 +21,7 @@ import numpy as np
 
 from eddi.energy import cumulative_energy, rate_interpolant, zero_crossings
 from eddi.errors import IdentificationError
-from eddi.mdof.intervals import JACKKNIFE_BLOCKS, block_jackknife_ci95
+from eddi.mdof.intervals import JACKKNIFE_BLOCKS, jackknife_lstsq_ci95
 from eddi.mdof.records import ChannelRecord
 from eddi.mdof.signals import highpass
 from eddi.mdof.terms import MultiTerm, monomial, parse_multi_term
@@ -208,9 +208,8 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
         cpl = [t for t in cpl if t not in small_s]
     nd = len(d_terms)
     ns = smat.shape[1]
-    k_ci = block_jackknife_ci95(  # of the final fit
-        (lambda rows: scaled_lstsq(np.hstack([dmat, smat, fcol])[rows], target[rows])[0][nd:nd + ns]) if joint
-        else (lambda rows: scaled_lstsq(np.hstack([smat, fcol])[rows], k_force[rows])[0][:ns]), blocks)
+    k_ci = (jackknife_lstsq_ci95(np.hstack([dmat, smat, fcol]), target, blocks, slice(nd, nd + ns)) if joint
+            else jackknife_lstsq_ci95(np.hstack([smat, fcol]), k_force, blocks, slice(0, ns)))  # of the final fit
     dissipated = float(np.sum(np.abs(dq[:, : len(d_terms)] @ b)))
     exchanged = float(np.sum(np.abs(dq[:, len(d_terms):] @ theta))) if theta.size else 0.0
     residual = float(np.sqrt(np.mean(((dq @ coef1 - dr) * w) ** 2)))

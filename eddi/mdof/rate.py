@@ -32,6 +32,13 @@ from scipy import signal
 #: MDOF methods were measured at (25-90, :mod:`eddi.mdof` cases at 1-4 kHz), so the repo's own
 #: cases are not reduced.
 SAMPLES_PER_PERIOD = 48.0
+#: Samples per capture past which the rate is reduced further (a stated bound on the cost, which
+#: is about linear in the samples: the repo's three-mass chain holds 6100 per capture, 3 s at
+#: 2048 Hz) ...
+MAX_SAMPLES = 16384
+#: ... but never below this many samples per period of the highest mode (the rig's internal-1-3
+#: system was measured at 27, :mod:`eddi.mdof` at 25-90).
+MIN_SAMPLES_PER_PERIOD = 32.0
 #: A spectral peak counts as a mode when its velocity power is at least this share of the largest.
 PEAK_REL = 1e-3
 
@@ -63,11 +70,19 @@ def highest_mode_hz(y: np.ndarray, rate_hz: float, quantity: str = "acc") -> flo
     return top
 
 
-def reduction_factor(rate_hz: float, top_hz: float, samples_per_period: float = SAMPLES_PER_PERIOD) -> int:
-    """Block length ``D`` (1: keep the rate) for a highest mode at ``top_hz``."""
+def reduction_factor(rate_hz: float, top_hz: float, samples_per_period: float = SAMPLES_PER_PERIOD,
+                     n_samples: int | None = None, max_samples: int = MAX_SAMPLES) -> int:
+    """Block length ``D`` (1: keep the rate) for a highest mode at ``top_hz``.
+
+    ``samples_per_period`` of the highest mode are kept; a capture of ``n_samples`` that would
+    still hold more than ``max_samples`` is reduced further, down to :data:`MIN_SAMPLES_PER_PERIOD`.
+    """
     if not (top_hz > 0 and math.isfinite(top_hz) and rate_hz > 0):
         return 1
     d = int(rate_hz // (samples_per_period * top_hz))
+    if n_samples is not None and n_samples > max(d, 1) * max_samples:
+        d_floor = int(rate_hz // (MIN_SAMPLES_PER_PERIOD * top_hz))
+        d = max(d, min(-(-n_samples // max_samples), d_floor))
     return d if d >= 2 else 1
 
 

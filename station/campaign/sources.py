@@ -16,7 +16,7 @@ from typing import Iterable, Iterator
 from station.errors import InputFileError
 
 #: Suffixes a campaign reads (the readers of :data:`station.readers.READERS`).
-SUFFIXES = (".csv", ".tsv", ".txt", ".uff", ".unv", ".h5", ".hdf5")
+SUFFIXES = (".csv", ".tsv", ".txt", ".uff", ".unv", ".mat", ".h5", ".hdf5")
 #: Suffixes a folder is searched for (not ``.txt``: a folder's notes are not records; name
 #: text records by a glob or one by one).
 FOLDER_SUFFIXES = tuple(s for s in SUFFIXES if s != ".txt")

@@ -108,7 +108,7 @@ def build_files(d: Path) -> dict[str, Path]:
     csv("acc_constant", rows=rows)
     text("semicolons", "t;force;acc\n" + "".join(f"{i / RATE};1;2\n" for i in range(40)))
     text("nul_bytes", "t,force,acc\n" + "0,1,2\n" + "\0" * 50)
-    text("wrong_suffix", "t,acc\n0,1\n", suffix=".mat")
+    text("wrong_suffix", "t,acc\n0,1\n", suffix=".xlsx")
     text("no_suffix", "t,acc\n0,1\n", suffix="")
     (d / "folder.csv").mkdir()
     files["folder"] = d / "folder.csv"
