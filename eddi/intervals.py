@@ -150,6 +150,51 @@ def sampling_curvature(block: int, kernel_var: float = 0.0) -> float:
     return (block**2 - 1 + 12.0 * kernel_var) / (24.0 * block**2)
 
 
+def sampling_quartic(block: int, kernel_var: float = 0.0) -> float:
+    """Weight of the fourth difference (on the grid of block centres) in a compared value.
+
+    The next term after :func:`sampling_curvature`: a compared value is ``y + (s2 / 2) y'' +
+    (m4 / 24) y''''`` (``s2, m4``: variance and fourth moment of the block's samples, each
+    the DAQ's kernel mean), and the second difference the curvature term uses is itself
+    ``H^2 y'' + H^4 y'''' / 12`` on the centres' grid (``H = block dt``). Left out, the
+    compared value was ``(omega H)^4 (1/288 - 1/1920)`` off for a large block: 4.7e-6 of the
+    signal at ``omega H = 0.2`` (a gain that grows with frequency: a weak nonlinear term of a
+    heavy, slow structure sampled at kHz, compared in blocks of hundreds of samples, moved
+    by ~1 of its 95 % half widths at 60 dB: ``benchmarks/bench_ci_coverage_cli.py``).
+    Returned: ``m4 / (24 H^4) - c2 / 12``, ``c2`` the curvature weight; ``m4`` of the block
+    ``(B^2 - 1)(3 B^2 - 7) / 240``, combined with a kernel's of variance ``kv`` as
+    independent parts, the kernel's fourth moment taken as ``3 kv^2`` (Gaussian).
+    """
+    c2 = sampling_curvature(block, kernel_var)
+    s2b = (block**2 - 1) / 12.0
+    m4 = (block**2 - 1) * (3 * block**2 - 7) / 240.0 + 6.0 * s2b * kernel_var + 3.0 * kernel_var**2
+    return m4 / (24.0 * block**4) - c2 / 12.0
+
+
+def through_sampling(y: np.ndarray, curvature: float, quartic: float) -> np.ndarray:
+    """``y`` on the grid of block centres as the compared values hold it (along axis 0):
+    ``y + curvature * second difference + quartic * fourth difference``. At the edges the
+    differences are extrapolated linearly from the interior: the nearest interior one alone
+    (as before) left the first compared value ``(omega H)^3 / 24`` off (3e-4 of the signal in
+    blocks of ``omega H = 0.2``), where the free response is largest; a 1 t, 1.4 Hz record at
+    20 kHz (blocks of 443 samples) had ``x^3`` 4e-5 off, noise-free."""
+    out = np.array(y, dtype=float, copy=True)
+    n = out.shape[0]
+    if curvature and n >= 3:
+        d2 = np.empty_like(out)
+        d2[1:-1] = out[2:] - 2.0 * out[1:-1] + out[:-2]
+        if n >= 4:
+            d2[0], d2[-1] = 2.0 * d2[1] - d2[2], 2.0 * d2[-2] - d2[-3]
+        else:
+            d2[0], d2[-1] = d2[1], d2[-2]
+        if quartic and n >= 6:
+            d4 = np.empty_like(out)
+            d4[2:-2] = out[4:] - 4.0 * out[3:-1] + 6.0 * out[2:-2] - 4.0 * out[1:-3] + out[:-4]
+            d4[:2], d4[-2:] = d4[2], d4[-3]
+            out += quartic * d4
+        out += curvature * d2
+    return out
+
 #: Lags of the residual autocorrelation the colour test looks at (compared values).
 COLOUR_LAGS = 10
 #: Ljung-Box statistic over :data:`COLOUR_LAGS` lags beyond which the residuals count as
@@ -175,8 +220,8 @@ def noise_covariance_of_fit(jac: np.ndarray, r: np.ndarray, dof: int, jtj: np.nd
     ``S``), so only the noise density in the band of the Jacobian counts. (A Toeplitz
     covariance from 10 residual lags smeared a drift's low-frequency power into that band and
     widened the intervals of drifting records 1.8x: RMS z 0.57.) The caller
-    (``_OutputError.ci95``) keeps the wider of this and the white ``s^2 (J^T J)^-1`` per
-    coefficient: a slow drift leaks into the coefficients a little, which the white ``s^2``
+    (``eddi.output_error.OutputErrorProblem.ci95``) keeps the wider of this and the white
+    ``s^2 (J^T J)^-1`` per coefficient: a slow drift leaks into the coefficients a little, which the white ``s^2``
     (raised by the drift) held (drifting records: RMS z 1.35 with the band density alone,
     1.04 with the wider one).
 
@@ -210,3 +255,70 @@ def noise_covariance_of_fit(jac: np.ndarray, r: np.ndarray, dof: int, jtj: np.nd
         weight[-1] = 1.0
     fj = np.fft.rfft(jac, axis=0)
     return np.real((fj.conj().T * (weight * dens)) @ fj) / n
+
+
+#: The reference simulation has this many times the fit's RK4 steps.
+FINER = 2
+#: What the Richardson extrapolation (for an ``h^4`` error) leaves of an error of order ``h^5``
+#: (RK4's amplitude error: 3.3 %), bounded: the correction's uncertainty is this fraction of it.
+RICHARDSON_LEFT = 1.0 / 25.0
+
+
+def _simulated_finer(prob, p: np.ndarray, factor: int) -> np.ndarray | None:
+    """The fit's simulation at ``p`` with ``factor`` times the RK4 steps (None if it diverges)."""
+    saved = (prob.steps, prob.substeps, prob._last, prob._memo, prob.count, prob.diverged)
+    try:
+        prob.steps, prob.substeps = prob.steps * factor, prob.substeps * factor
+        out = prob._simulated(p, prob.n, sensitivities=False)
+        ok = not prob.diverged and bool(np.all(np.isfinite(out)))
+    finally:
+        prob.steps, prob.substeps, prob._last, prob._memo, prob.count, prob.diverged = saved
+    return out if ok else None
+
+
+def integration_shift(prob, p: np.ndarray, jac: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Correction of the fitted coefficients for the fit's own integration error, and its uncertainty.
+
+    The output-error fit (:mod:`eddi.refine`) simulates the model with RK4 at ``omega h <=
+    0.1``. RK4's frequency is ``(omega h)^4 / 120`` low there and its amplitude decays a
+    little too fast, and the fit moves the coefficients to make up for both: on an exact
+    free response at ``omega h = 0.095`` (``tests/eddi/test_refine_floor.py``) ``k1``
+    ended 1.3e-6 high and ``b1`` 2.2e-5 low, 2000 and 140 of their 95 % half widths at
+    120 dB; the 55-60 dB records of ``benchmarks/bench_ci_coverage_chain.py`` had ``k1``
+    1e-6 off (coverage 0.10, session 8). With the simulation at twice the steps,
+    ``e = (y_2 - y) / (1 - 2^-4)`` (Richardson for an ``h^4`` error: the phase) is the
+    coarse simulation's error, and to first order the fit with an exact integrator is ``p -
+    pinv(J) e``. Of RK4's ``h^5`` amplitude error that leaves 3.3 % (``b1`` 8e-7 on that
+    record), bounded by :data:`RICHARDSON_LEFT` of the correction and added to the 95 % half
+    widths (a second reference at 4x the steps pinned it down, at three times the cost).
+    Cost: one simulation without sensitivities at twice the steps, and a solve with the
+    Jacobian the fit has at ``p``.
+
+    Parameters
+    ----------
+    prob : eddi.refine._OutputError
+        The problem at its optimum ``p``.
+    p : ndarray
+        Scaled parameters (active coefficients, then the nuisance ones).
+    jac : ndarray, optional
+        Jacobian of the compared values at ``p`` (computed when None).
+
+    Returns
+    -------
+    shift, spread : ndarray
+        Shift of the active coefficients and its uncertainty, in the scaled units of ``p``
+        (zeros when a simulation diverges).
+    """
+    k = len(prob.active)
+    zero = (np.zeros(k), np.zeros(k))
+    coarse = prob.simulated(p, prob.n)
+    if prob.diverged:
+        return zero
+    fine = _simulated_finer(prob, p, FINER)
+    if fine is None:
+        return zero
+    if jac is None:
+        jac = prob.jacobian(p)
+    err = (fine - coarse) / (1.0 - float(FINER) ** -4)
+    dp = -(np.linalg.pinv(jac.T @ jac) @ (jac.T @ err))[:k]
+    return dp, RICHARDSON_LEFT * np.abs(dp)

@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from eddi.driven_validation import fused_impact_force, validate_conditioned
 from eddi.energy import noise_level
 from eddi.model import EquationOfMotion
 
@@ -88,8 +89,6 @@ def impulse_uncertainty(cond: "ConditionedSignal", eom: EquationOfMotion) -> flo
 
     0 when the validation is a free response (no force, or no rest before the impact).
     """
-    from eddi.fit_record import fused_impact_force  # local: fit_record imports this module
-
     if cond.impact_force is None or cond.impact_start <= 0 or cond.impact_end <= cond.impact_start:
         return 0.0
     s0, s1 = cond.impact_start, cond.impact_end
@@ -111,8 +110,6 @@ def _simulated(eom: EquationOfMotion, cond: "ConditionedSignal", scale: float, k
     ``val``: ``validate_conditioned(eom, cond)`` when the caller has it (``scale`` 1), so it
     is not simulated again.
     """
-    from eddi.fit_record import validate_conditioned  # local: fit_record imports this module
-
     if val is None or scale != 1.0:
         val, _ = validate_conditioned(eom, cond, drive_scale=scale)
     if not math.isfinite(val.nrmse) or not np.all(np.isfinite(val.x_simulated)):

@@ -33,6 +33,13 @@ of a simulation, instead of one simulation per parameter); models with effects o
 ``benchmarks/bench_identify_speed.py`` the refinement with term selection went from ~250
 whole-window simulations (~15 s) to ~35 passes on 14k block means (<1 s).
 
+Where the pieces are: this module fits and packages (:func:`refine_output_error`,
+:func:`confidence_intervals`, :func:`bounded_intervals`, :class:`Refinement`); the problem
+of one record (its parameters, simulations, Jacobian and covariance) is
+:class:`eddi.output_error.OutputErrorProblem`; the block means and RK4 steps it compares on
+are :mod:`eddi.refine_grid` (their names are importable from here too); the term selection
+is :mod:`eddi.selection`.
+
 This is an explicit option (``identify(..., refine=True)``), not part of the paper's method:
 the EDDI estimate before refinement is kept in :attr:`eddi.identify.IdentifiedModel.unrefined`.
 
@@ -66,18 +73,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from eddi.errors import IdentificationError, SignalError
-from eddi.intervals import noise_covariance_of_fit, sampling_curvature
+from eddi.intervals import integration_shift
 from eddi.model import EquationOfMotion
-from eddi.simulate import local_angular_frequency, simulate
-from eddi.terms import evaluate
+from eddi.output_error import DIRECT_NRMSE, NUISANCE, STAGES, OutputErrorProblem
+from eddi.refine_grid import (  # noqa: F401 - re-exported: the grid's rules, importable from here as before
+    BLOCK_H_OMEGA, LOCAL_H_OMEGA, MIN_BLOCKS, block_means, block_size, local_substeps, smooth_model,
+)
 
-#: Parameters after the coefficients: x0, v0 and the measured signal's offset.
-NUISANCE = 3
-#: Fractions of the record fitted in successive stages.
-STAGES = (0.125, 0.5, 1.0)
-#: Starts whose residual over the whole window is below this (relative to the signal, ~ the
-#: phase error in rad) are fitted on the whole window at once.
-DIRECT_NRMSE = 0.2
+#: The problem class under its name before the split into modules.
+_OutputError = OutputErrorProblem
+
+__all__ = ["BLOCK_H_OMEGA", "LOCAL_H_OMEGA", "MIN_BLOCKS", "NUISANCE", "Refinement", "block_means", "block_size",
+           "bounded_intervals", "confidence_intervals", "local_substeps", "refine_output_error", "smooth_model"]
 
 
 @dataclass(frozen=True)
@@ -124,330 +131,6 @@ class Refinement:
     unselected_ci95: dict[str, dict[str, float]] = field(default_factory=dict)
 
 
-#: Largest ``omega_max * block * dt`` (rad) of a block: the block mean then differs from the
-#: curvature-corrected centre value by ~``(omega h)^4 / 1920`` (1e-6 relative at 0.2).
-BLOCK_H_OMEGA = 0.2
-#: Fewest block means compared (short records keep every sample).
-MIN_BLOCKS = 2000
-
-
-def block_size(eom: EquationOfMotion, dt: float, x_amp: float, v_amp: float, n: int) -> int:
-    """Samples per block mean (odd, >= 1): ``omega_max * block * dt <= BLOCK_H_OMEGA``.
-
-    ``omega_max``: :func:`local_angular_frequency` over the record's amplitudes; at least
-    :data:`MIN_BLOCKS` blocks are kept.
-    """
-    omega = local_angular_frequency(eom, x_amp, v_amp)
-    if not (omega > 0 and math.isfinite(omega)):
-        return 1
-    b = min(int(BLOCK_H_OMEGA / (omega * dt)), n // MIN_BLOCKS)
-    b = b if b % 2 == 1 else b - 1
-    return max(1, b)
-
-
-#: ``omega h`` of an RK4 step where the response has decayed (:func:`local_substeps`): half the
-#: simulator's 0.1, so that a clean record is refitted as exactly as with the peak's step
-#: everywhere (paper Duffing: every coefficient within 1e-6).
-LOCAL_H_OMEGA = 0.05
-
-
-def local_substeps(eom: EquationOfMotion, h: float, x_abs: np.ndarray, v_abs: np.ndarray,
-                   most: int) -> np.ndarray:
-    """RK4 steps per interval of ``h`` so that ``omega h / steps <= LOCAL_H_OMEGA`` at the amplitude ahead.
-
-    ``omega``: :func:`eddi.simulate.local_angular_frequency` at the largest ``|x|, |v|`` the
-    record reaches from each interval on (a ring-down slows as it decays: a hardening spring's
-    first peak sets ~110 rad/s, its late cycles ~25), on 12 amplitude levels, interpolated;
-    at most ``most``.
-    """
-    ax = np.maximum.accumulate(np.asarray(x_abs, dtype=float)[::-1])[::-1]
-    av = np.maximum.accumulate(np.asarray(v_abs, dtype=float)[::-1])[::-1]
-    if ax.size < 2 or not (ax[0] > 0 and av[0] > 0):
-        return np.full(max(1, ax.size - 1), most, dtype=np.int64)
-    levels = np.geomspace(max(ax[0] * 1e-3, float(ax[-1]) or ax[0] * 1e-3), ax[0], 12)
-    ratio = av[0] / ax[0]
-    omega = np.array([local_angular_frequency(eom, a, a * ratio) for a in levels])
-    om = np.interp(ax[:-1], levels, omega)
-    # the next level up bounds the interpolation between levels
-    steps = np.ceil(h * np.maximum(om, np.interp(ax[:-1] * 1.2, levels, omega)) / LOCAL_H_OMEGA).astype(np.int64)
-    return np.clip(steps, 1, most)
-
-
-def block_means(y: np.ndarray, block: int) -> np.ndarray:
-    """Means of consecutive blocks of ``block`` samples (a shorter last block is dropped).
-
-    With white noise of variance ``s^2`` on ``y`` the block means carry white noise of
-    variance ``s^2 / block``: for a signal whose band is far below ``1 / (block dt)`` the
-    least-squares fit to the block means keeps (nearly) all the information of the samples,
-    at ``1 / block`` of the cost. The model is compared through its value at the block's
-    centre sample plus the curvature inside the block,
-    ``mean = y_c + (block^2 - 1) / (24 block^2) (y_{c+1} - 2 y_c + y_{c-1})`` on the grid of
-    centres (exact for a quadratic; ``O((omega h)^4)`` otherwise).
-    """
-    if block <= 1:
-        return np.asarray(y, dtype=float)
-    nb = y.size // block
-    return np.asarray(y[: nb * block], dtype=float).reshape(nb, block).mean(axis=1)
-
-
-def smooth_model(eom: EquationOfMotion) -> bool:
-    """True when the sensitivity equations give the Jacobian: no effects, no ``sign`` factor.
-
-    A ``sign(v)`` (dry friction) switches the force at every reversal: the response's
-    derivative then has jumps the sensitivity equations do not carry.
-    """
-    if eom.effects:
-        return False
-    return all(tm.exponents[4] % 2 == 0 and tm.exponents[5] % 2 == 0
-               for tm in eom.damping_terms() + eom.stiffness_terms())
-
-
-class _OutputError:
-    """The output-error problem of one record: parameters scaled, simulations counted.
-
-    The measured signal is compared as block means of ``block`` samples (odd), against the
-    simulation on the grid of the blocks' centre samples, corrected for the curvature
-    inside a block (see :func:`block_means`); ``block = 1`` on coarsely sampled records.
-    """
-
-    def __init__(self, eom: EquationOfMotion, t: np.ndarray, x: np.ndarray, v: np.ndarray, y: np.ndarray,
-                 channel: str, kernel_var: float = 0.0) -> None:
-        self.eom, self.channel = eom, channel
-        self.n_samples = t.size
-        dt = float(t[1] - t[0])
-        x_amp, v_amp = float(np.max(np.abs(x))), float(np.max(np.abs(v)))
-        self.block = block_size(eom, dt, x_amp, v_amp, t.size)
-        half = (self.block - 1) // 2
-        self.y = block_means(y, self.block)
-        nb = self.y.size
-        self.t = t[half: half + nb * self.block: self.block]
-        # block mean of samples that are themselves the DAQ's kernel-weighted means (variance
-        # ``kernel_var`` sample intervals^2, see :func:`eddi.intervals.sampling_curvature`)
-        self.curvature = sampling_curvature(self.block, kernel_var)
-        d_terms, k_terms = eom.damping_terms(), eom.stiffness_terms()
-        self.names = [("damping", tm.text) for tm in d_terms] + [("stiffness", tm.text) for tm in k_terms]
-        c0 = np.array([eom.damping[tm.text] for tm in d_terms] + [eom.stiffness[tm.text] for tm in k_terms])
-        # parameter scales: the coefficient itself, or (for ~0 coefficients) the value whose term
-        # would reach 1e-3 of the peak inertial force
-        f_scale = eom.mass * float(np.max(np.abs(y if channel == "a" else np.gradient(v, t))))
-        step = max(1, t.size // 20000)  # the peak of each term: every sample is not needed
-        peak = (np.max(np.abs(evaluate(d_terms + k_terms, x[::step], v[::step])), axis=0) if self.names
-                else np.zeros(0))
-        floor = 1e-3 * f_scale / np.where(peak > 0, peak, 1.0)
-        self.floor = floor
-        # nuisance parameters after the coefficients: the initial state (x0, v0) and a constant
-        # offset of the measured signal (what is left of the sensor's bias after the rest's
-        # mean was removed: unmodelled, it biases every coefficient a little, all the same way)
-        self.scale = np.concatenate((np.maximum(np.abs(c0), floor),
-                                     [max(x_amp, 1e-300), max(v_amp, 1e-300),
-                                      max(1e-3 * float(np.max(np.abs(y))), 1e-300)]))
-        self.p0 = np.concatenate((c0, [x[half], v[half], 0.0])) / self.scale
-        self.active = list(range(len(self.names)))
-        # RK4 steps of omega h <= 0.1 on the blocks' grid (the simulator's own rule): at the
-        # record's peak (self.substeps, for the simulator) and per block at the amplitude the
-        # record still reaches from that block on (self.steps, for the compiled kernel)
-        self.substeps = max(1, math.ceil(dt * self.block * local_angular_frequency(eom, x_amp, v_amp) / 0.1))
-        self.steps = local_substeps(eom, dt * self.block, block_means(np.abs(x), self.block) if self.block > 1
-                                    else np.abs(x), block_means(np.abs(v), self.block) if self.block > 1
-                                    else np.abs(v), self.substeps)
-        self.count = 0
-        self.diverged = False
-        #: a stage over ``stop`` values ends when a step lowers the RSS by less than
-        #: ``min_gain * RSS / stop`` (MINPACK's ``ftol``; None: 1e-12; see
-        #: :func:`refine_output_error`)
-        self.min_gain: float | None = None
-        self.x_scale: float | str = 1.0
-        # the sensitivity pass of the last simulation (see :meth:`simulated`)
-        self._last: tuple[bytes, int, np.ndarray, bool] | None = None
-        # the last simulated signal: ((parameters key, stop), signal, diverged)
-        self._memo: tuple[tuple[bytes, int], np.ndarray, bool] | None = None
-
-    @property
-    def n(self) -> int:
-        """Compared values (block means)."""
-        return self.y.size
-
-    def bic(self, rss: float, n_params: int) -> float:
-        """``n ln(RSS / n) + p ln(N)``: ``n`` block means, ``N`` samples (see the module notes)."""
-        return self.n * float(np.log(rss / self.n)) + n_params * float(np.log(self.n_samples))
-
-    def model_of(self, p: np.ndarray) -> EquationOfMotion:
-        """The model of the active terms' scaled coefficients ``p[:-NUISANCE]``."""
-        damping: dict[str, float] = {}
-        stiffness: dict[str, float] = {}
-        for k, i in enumerate(self.active):
-            group, name = self.names[i]
-            (damping if group == "damping" else stiffness)[name] = float(p[k] * self.scale[i])
-        return self.eom.model_copy(update={"damping": damping, "stiffness": stiffness})
-
-    def state(self, p: np.ndarray) -> tuple[float, float]:
-        return float(p[-3] * self.scale[-3]), float(p[-2] * self.scale[-2])
-
-    def simulated(self, p: np.ndarray, stop: int) -> np.ndarray:
-        self.count += 1
-        key = (self._key(p), stop)
-        memo = self._memo
-        if memo is not None and memo[0] == key:
-            # the same point again (the fit's last evaluation, then the nrmse and the covariance
-            # at the optimum): the same deterministic simulation, not run again
-            self.diverged = memo[2]
-            return memo[1].copy()
-        out = self._simulated(p, stop)
-        self._memo = (key, out.copy(), self.diverged)
-        return out
-
-    def _simulated(self, p: np.ndarray, stop: int) -> np.ndarray:
-        x0, v0 = self.state(p)
-        eom = self.model_of(p)
-        if eom.effects:
-            sim = simulate(eom, self.t[:stop] - self.t[0], x0=x0, v0=v0, substeps=self.substeps)
-            out, diverged = {"a": sim.a, "v": sim.v, "x": sim.x}[self.channel], sim.diverged
-        else:  # the same RK4, a kernel without the effects' branches
-            from eddi.sensitivity import free_response_sensitivities
-
-            # Levenberg-Marquardt asks for the Jacobian at the last point it evaluated whenever it
-            # accepts a step (most steps): the sensitivities are integrated with the response
-            # (the response is the same bit for bit with or without them) and kept for
-            # :meth:`sensitivities`, one pass instead of two
-            smooth = smooth_model(eom)
-            resp, jac, diverged = free_response_sensitivities(eom, float(self.t[1] - self.t[0]), stop, x0, v0,
-                                                              self.steps, jacobian=smooth)
-            self._last = (self._key(p), stop, jac, bool(diverged)) if smooth else None
-            out = resp[:, "xva".index(self.channel)]
-        self.diverged = bool(diverged or not np.all(np.isfinite(out)))
-        if self.diverged:
-            return np.full(stop, 1e6 * float(np.max(np.abs(self.y))))
-        if self.curvature and stop >= 3:  # the block mean of a smooth signal: centre + curvature
-            d2 = np.empty_like(out)
-            d2[1:-1] = out[2:] - 2.0 * out[1:-1] + out[:-2]
-            d2[0], d2[-1] = d2[1], d2[-2]
-            out = out + self.curvature * d2
-        return out + float(p[-1] * self.scale[-1])
-
-    def _key(self, p: np.ndarray) -> bytes:
-        """What a simulation depends on: the scaled parameters, the active terms and their scales."""
-        return (np.ascontiguousarray(p, dtype=float).tobytes() + np.asarray(self.active, dtype=np.int64).tobytes()
-                + self.scale.tobytes())
-
-    def residual(self, p: np.ndarray, stop: int) -> np.ndarray:
-        return self.simulated(p, stop) - self.y[:stop]
-
-    def sensitivities(self, p: np.ndarray, stop: int) -> np.ndarray | None:
-        """Jacobian of the residual over ``[0, stop)`` w.r.t. the scaled parameters ``p``.
-
-        From the forward sensitivity equations (:mod:`eddi.sensitivity`, one RK4 pass);
-        None for a model that is not :func:`smooth_model` or when the simulation diverged
-        (then: finite differences).
-        """
-        eom = self.model_of(p)
-        if not smooth_model(eom):
-            return None
-        from eddi.sensitivity import free_response_sensitivities
-
-        self.count += 1
-        last = self._last
-        if last is not None and last[1] == stop and last[0] == self._key(p):
-            jac, div = last[2], last[3]
-        else:
-            x0, v0 = self.state(p)
-            _, jac, div = free_response_sensitivities(eom, float(self.t[1] - self.t[0]), stop, x0, v0, self.steps)
-        j = jac["xva".index(self.channel)]
-        if div or not np.all(np.isfinite(j)):
-            return None
-        j = np.column_stack((j, np.ones(stop)))
-        if self.curvature and stop >= 3:
-            d2 = np.empty_like(j)
-            d2[1:-1] = j[2:] - 2.0 * j[1:-1] + j[:-2]
-            d2[0], d2[-1] = d2[1], d2[-2]
-            j = j + self.curvature * d2
-        return j * self.scale[self.active + [-3, -2, -1]]
-
-    def fit(self, p: np.ndarray, stop: int, max_nfev: int, free: np.ndarray | None = None):
-        """Levenberg-Marquardt from ``p`` over ``[0, stop)``; ``free`` masks the fitted parameters."""
-        from scipy.optimize import least_squares  # local: scipy.optimize only when refining
-
-        if free is None:
-            return least_squares(lambda q: self.residual(q, stop), p, jac=self._jac_function(stop), method="lm",
-                                 x_scale=self.x_scale, max_nfev=max_nfev, xtol=1e-12,
-                                 ftol=1e-12 if self.min_gain is None else max(1e-12, self.min_gain / stop))
-        fixed = p.copy()
-
-        def full(q: np.ndarray) -> np.ndarray:
-            out = fixed.copy()
-            out[free] = q
-            return out
-
-        jac_all = self._jac_function(stop)
-        jac = "2-point" if jac_all == "2-point" else (lambda q: jac_all(full(q))[:, free])  # type: ignore[operator]
-        sol = least_squares(lambda q: self.residual(full(q), stop), p[free], jac=jac, method="lm", x_scale=1.0,
-                            max_nfev=max_nfev)
-        out = fixed.copy()
-        out[free] = sol.x
-        sol.x = out
-        return sol
-
-    def _jac_function(self, stop: int):
-        """The Jacobian for :func:`scipy.optimize.least_squares`: sensitivities, else 2-point."""
-        if not smooth_model(self.eom):
-            return "2-point"
-
-        def jac(q: np.ndarray) -> np.ndarray:
-            j = self.sensitivities(q, stop)
-            return j if j is not None else self.jacobian(q, stop)
-
-        return jac
-
-    def ci95(self, p: np.ndarray, jac: np.ndarray | None = None) -> tuple[np.ndarray, float]:
-        """95 % half widths of the active coefficients (their units) and the RSS at ``p``.
-
-        ``inf`` where the data say nothing: a simulation that blows up at ``p``, or a
-        coefficient the simulated signal does not depend on (a zero Jacobian column).
-        """
-        n = self.n
-        r = self.residual(p, n)
-        rss = float(r @ r)
-        if self.diverged:
-            return np.full(len(self.active), math.inf), rss
-        if jac is None:
-            jac = self.jacobian(p)
-        dof = max(1, n - p.size)
-        jtj = jac.T @ jac
-        inv = np.linalg.pinv(jtj)
-        # the coloured-noise covariance only ever widens an interval: a drift's low-frequency
-        # power lies outside the response's band, but a slow ramp still leaks into the
-        # coefficients, which the white s^2 (raised by it) happened to hold (see
-        # noise_covariance_of_fit)
-        var = np.maximum((rss / dof) * np.diag(inv), np.diag(inv @ noise_covariance_of_fit(jac, r, dof, jtj) @ inv))
-        se = np.sqrt(np.clip(var[:-NUISANCE], 0.0, None)) * self.scale[self.active]
-        se[~(np.diag(jtj)[:-NUISANCE] > 0)] = math.inf
-        return 1.959964 * se, rss
-
-    def jacobian(self, p: np.ndarray, stop: int | None = None) -> np.ndarray:
-        """Jacobian of the simulated signal over ``[0, stop)`` (default: the whole window).
-
-        Sensitivity equations when the model allows, else forward differences.
-        """
-        n = self.n if stop is None else stop
-        sens = self.sensitivities(p, n)
-        if sens is not None:
-            return sens
-        base = self.simulated(p, n)
-        cols = []
-        for k in range(p.size):
-            h = 1e-6 * max(1.0, abs(float(p[k])))
-            q = p.copy()
-            q[k] += h
-            cols.append((self.simulated(q, n) - base) / h)
-        return np.column_stack(cols)
-
-    def ci_dict(self, half: np.ndarray) -> dict[str, dict[str, float]]:
-        out: dict[str, dict[str, float]] = {"damping": {}, "stiffness": {}}
-        for k, i in enumerate(self.active):
-            group, name = self.names[i]
-            out[group][name] = float(half[k])
-        return out
-
-
 def _check(t: np.ndarray, x: np.ndarray, v: np.ndarray, a: np.ndarray | None,
            channel: str | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, str]:
     t = np.asarray(t, dtype=float)
@@ -463,6 +146,31 @@ def _check(t: np.ndarray, x: np.ndarray, v: np.ndarray, a: np.ndarray | None,
                           + (" without a" if channel == "a" else ""))
     y = np.asarray({"a": a, "v": v, "x": x}[channel], dtype=float)
     return t, x, v, y, channel
+
+
+def _fit_in_stages(prob: OutputErrorProblem, max_nfev: int,
+                   norm: float) -> tuple[np.ndarray, float, float, np.ndarray | None]:
+    """Levenberg-Marquardt over growing windows (:data:`STAGES`) from the problem's start.
+
+    Returns the parameters, the nrmse (over ``norm``) before and after, and the Jacobian at
+    the returned parameters when the last fit evaluated it there (else None). A start worse
+    after than before is returned as it was.
+    """
+    n = prob.n
+    p = prob.p0.copy()
+    before = float(np.linalg.norm(prob.residual(p, n))) / norm
+    sol = None
+    # a start already within a fraction of a radian of the record over the whole window is in
+    # the whole window's basin: the growing stages are for starts that would slip a cycle
+    for frac in (STAGES if before > DIRECT_NRMSE else STAGES[-1:]):
+        sol = prob.fit(p, max(64, int(round(frac * n))), max_nfev)
+        p = sol.x
+    after = float(np.linalg.norm(prob.residual(p, n))) / norm
+    if not after <= before:  # never return a worse fit than the start
+        p, after, sol = prob.p0.copy(), before, None
+    # the Jacobian at the optimum: least_squares evaluated it there (the last stage is the whole window)
+    jac = sol.jac if sol is not None and sol.jac.shape == (n, p.size) else None
+    return p, before, after, jac
 
 
 def refine_output_error(
@@ -529,32 +237,26 @@ def refine_output_error(
         If ``channel`` is unknown, or ``"a"`` without ``a``.
     """
     t, x, v, y, channel = _check(t, x, v, a, channel)
-    prob = _OutputError(eom, t, x, v, y, channel, kernel_var)
+    prob = OutputErrorProblem(eom, t, x, v, y, channel, kernel_var)
     n = prob.n
     prob.min_gain = None if min_gain is None else float(min_gain)
-    p = prob.p0.copy()
     norm = float(np.linalg.norm(prob.y)) or 1.0
-    before = float(np.linalg.norm(prob.residual(p, n))) / norm
-    sol = None
-    # a start already within a fraction of a radian of the record over the whole window is in
-    # the whole window's basin: the growing stages are for starts that would slip a cycle
-    for frac in (STAGES if before > DIRECT_NRMSE else STAGES[-1:]):
-        sol = prob.fit(p, max(64, int(round(frac * n))), max_nfev)
-        p = sol.x
-    after = float(np.linalg.norm(prob.residual(p, n))) / norm
-    if not after <= before:  # never return a worse fit than the start
-        p, after, sol = prob.p0.copy(), before, None
-    # the Jacobian at the optimum: least_squares evaluated it there (the last stage is the whole window)
-    jac = sol.jac if sol is not None and sol.jac.shape == (n, p.size) else None
+    p, before, after, jac = _fit_in_stages(prob, max_nfev, norm)
     half, rss = prob.ci95(p, jac)
-    unselected = prob.model_of(p)
-    unselected_ci = prob.ci_dict(half)
+    # the fit's own RK4 error, corrected (eddi.intervals.integration_shift)
+    shift, spread = integration_shift(prob, p, jac)
+    unselected = prob.model_of(_shifted(p, shift))
+    unselected_ci = prob.ci_dict(half + spread * prob.scale[prob.active])
     dropped: dict[str, str] = {}
     if select:
         from eddi.selection import core_start, select_terms  # local: it builds on this module
         p, half, dropped = select_terms(prob, p, half, rss, max_nfev, core_start(prob, t, x, v, y),
                                         mapper)
         after = min(after, float(np.linalg.norm(prob.residual(p, n))) / norm)
+        if dropped:
+            shift, spread = integration_shift(prob, p)
+    p = _shifted(p, shift)
+    half = half + spread * prob.scale[prob.active]
     refined = prob.model_of(p).model_copy(update={"notes": (eom.notes + "; " if eom.notes else "")
                                                   + f"refined by output error on {channel}"})
     x0, v0 = prob.state(p)
@@ -563,6 +265,13 @@ def refine_output_error(
                                dropped=dropped, block=prob.block,
                                unselected={"damping": dict(unselected.damping), "stiffness": dict(unselected.stiffness)},
                                unselected_ci95=unselected_ci)
+
+
+def _shifted(p: np.ndarray, shift: np.ndarray) -> np.ndarray:
+    """``p`` with its active coefficients moved by ``shift`` (the nuisance parameters kept)."""
+    out = p.copy()
+    out[: shift.size] += shift
+    return out
 
 
 def confidence_intervals(eom: EquationOfMotion, t: np.ndarray, x: np.ndarray, v: np.ndarray,
@@ -580,7 +289,7 @@ def confidence_intervals(eom: EquationOfMotion, t: np.ndarray, x: np.ndarray, v:
         ``{"damping": {term: half width}, "stiffness": {...}}`` in the coefficients' units.
     """
     t, x, v, y, channel = _check(t, x, v, a, channel)
-    prob = _OutputError(eom, t, x, v, y, channel, kernel_var)
+    prob = OutputErrorProblem(eom, t, x, v, y, channel, kernel_var)
     free = np.zeros(prob.p0.size, dtype=bool)
     free[-NUISANCE:] = True
     p = prob.p0.copy()

@@ -1,7 +1,8 @@
 """Term selection of the output-error refinement: which candidate terms the data support.
 
-Two paths over the output-error problem of :mod:`eddi.refine` (``_OutputError``), judged
-by the Bayesian information criterion ``BIC = n ln(RSS / n) + p ln(N)``:
+Two paths over the output-error problem of :mod:`eddi.refine`
+(:class:`eddi.output_error.OutputErrorProblem`), judged by the Bayesian information criterion
+``BIC = n ln(RSS / n) + p ln(N)``:
 
 * backward elimination from the full fit (:func:`_select`): the term with the smallest
   ``|c| / se`` first, each removal refitted and kept when it lowers the BIC (see
@@ -28,7 +29,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from eddi.energy import noise_level
-from eddi.refine import DIRECT_NRMSE, NUISANCE, STAGES, _OutputError
+from eddi.output_error import DIRECT_NRMSE, NUISANCE, STAGES, OutputErrorProblem
 from eddi.terms import coefficient_unit, evaluate, parse_terms
 
 #: ``mapper(fn, items) -> [fn(item) for item in items]``, possibly in forked processes (the
@@ -53,7 +54,7 @@ BIC_TIE = 2.0
 MISFIT = 4.0
 
 
-def core_terms(prob: _OutputError) -> list[int]:
+def core_terms(prob: OutputErrorProblem) -> list[int]:
     """Indices (into ``prob.names``) of the terms every model keeps: ``x`` (else the first
     stiffness term) and ``v`` (else the first damping term)."""
     core = []
@@ -64,7 +65,7 @@ def core_terms(prob: _OutputError) -> list[int]:
     return sorted(core)
 
 
-def core_start(prob: _OutputError, t: np.ndarray, x: np.ndarray, v: np.ndarray,
+def core_start(prob: OutputErrorProblem, t: np.ndarray, x: np.ndarray, v: np.ndarray,
                y: np.ndarray) -> np.ndarray:
     """Coefficients of the core terms (:func:`core_terms`) by equation error:
     ``m a = -sum c_i term_i(x, v)`` in least squares over the window (``a`` measured, or
@@ -77,7 +78,7 @@ def core_start(prob: _OutputError, t: np.ndarray, x: np.ndarray, v: np.ndarray,
     return sol
 
 
-def select_terms(prob: _OutputError, p: np.ndarray, half: np.ndarray, rss: float, max_nfev: int,
+def select_terms(prob: OutputErrorProblem, p: np.ndarray, half: np.ndarray, rss: float, max_nfev: int,
                  core_coef: np.ndarray, mapper: Mapper | None = None) -> tuple[np.ndarray, np.ndarray, dict[str, str]]:
     """Backward elimination from the full fit, and forward selection from the core when needed.
 
@@ -133,7 +134,7 @@ def select_terms(prob: _OutputError, p: np.ndarray, half: np.ndarray, rss: float
     return pb, hb, dropped
 
 
-def _forward(prob: _OutputError, nuisance: np.ndarray, core: list[int], core_coef: np.ndarray,
+def _forward(prob: OutputErrorProblem, nuisance: np.ndarray, core: list[int], core_coef: np.ndarray,
              max_nfev: int, mapper: Mapper | None = None) -> tuple[np.ndarray, np.ndarray, float, dict[str, str]] | None:
     """Forward selection by BIC from the core terms (see :func:`select_terms`); each round's
     trials (one per term not yet in) through ``mapper`` (:mod:`eddi.diagnosis.mapping`).
@@ -194,7 +195,7 @@ def _forward(prob: _OutputError, nuisance: np.ndarray, core: list[int], core_coe
     return p, half, rss, why
 
 
-def _select(prob: _OutputError, p: np.ndarray, half: np.ndarray, rss: float,
+def _select(prob: OutputErrorProblem, p: np.ndarray, half: np.ndarray, rss: float,
             max_nfev: int) -> tuple[np.ndarray, np.ndarray, dict[str, str]]:
     """Backward elimination by BIC, smallest ``|c| / se`` first (see the module notes)."""
     n = prob.n

@@ -35,7 +35,7 @@ from eddi.mdof.identify import identify_mdof
 from eddi.mdof.model import MdofModel
 from eddi.mdof.validate import validate_mdof
 from station.errors import InputFileError
-from station.mdof_data import condition_all
+from station.mdof_data import condition_all, reduce_rate
 
 
 def _read(specs: Sequence[str]):
@@ -76,11 +76,21 @@ def validate_mdof_text(obj: dict[str, Any]) -> str:
 def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = None, margin: float = 0.1,
                          save_model: str | None = None, refine: bool = False) -> dict[str, Any]:
     """Baseline (uncoupled) vs coupled, held out; the cause named (module docstring)."""
-    meas = _read(specs)
+    raw = _read(specs)
+    meas, rate_note = reduce_rate(raw)  # the working rate (eddi.mdof.rate)
     records, names, dp = condition_all(meas, driving_point)
     if len(records) < 2:
         raise InputFileError("diagnose on multi-channel captures needs at least 2 captures (one is held out)")
-    folds, per_channel, per_mode, span = _held_out_folds(records, names, dp, refine=refine, margin=margin)
+    from station.forkmap import ForkMap, jobs_wanted
+
+    # the folds are independent: in forked workers when cores are free (the same results)
+    began = time.perf_counter()
+    folds, per_channel, per_mode, span = _held_out_folds(records, names, dp, refine=refine, margin=margin,
+                                                         mapper=ForkMap(jobs_wanted()))
+    if time.perf_counter() - began > PROGRESS_S:  # a long diagnosis is not silent until its end
+        print(f"station diagnose: {len(records)} held-out folds done in {time.perf_counter() - began:.0f} s; "
+              f"the final model on every capture next" + (" (identified and polished)" if refine else ""),
+              file=sys.stderr, flush=True)
     polished = folds.pop("polished")
     base = float(np.mean(folds["baseline"]))
     cpl = float(np.mean(folds["coupled"]))
@@ -89,7 +99,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         final = identify_mdof(records, names, dp, coupling=True)
     else:  # no coupling earns its place: the baseline
         final = _final_baseline(records, names, dp)
-    notes = list(final.notes)
+    notes = list(final.notes) + ([rate_note] if rate_note else [])
     cause = _first_cause(final, gain, margin, len(names), notes)
     model = final.model
     if refine:  # the verdict judges the model delivered (symptoms, backbones)
@@ -98,7 +108,9 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         model, _b, _a = refine_identified(final, records)
     verdict, amp, modes, amp_span = _earned(cause, per_channel["coupled" if gain > margin else "baseline"], records,
                                         names, model, dp)
-    verdict = _chain_heard(verdict, meas, records, names, dp, model)
+    # the measurement chain (clipping, double hit, base motion) is heard on the captures as recorded
+    verdict = _chain_heard(verdict, raw, records if rate_note is None else condition_all(raw, dp)[0], names, dp,
+                           model)
     cause, symptoms = verdict.cause, list(verdict.symptoms) + amp
     if verdict.note:
         notes.append(verdict.note)
@@ -201,16 +213,22 @@ def _amplitude_heard(cause: str, amp: list[dict], span: Any, notes: list[str]) -
 #: to 42 (the verdict the same) for ~8 s CPU. Same rule for both kinds (fair comparison).
 POLISH_MAX_NRMSE = 1.0
 
+#: Wall seconds of held-out folds past which a multi-channel diagnosis says on stderr that the
+#: final model comes next (progress, not a measurement).
+PROGRESS_S = 30.0
+
 #: CPU seconds past which a multi-channel diagnosis says on stderr how long it expects to take.
 BUDGET_CPU_S = 120.0
 
 
-def budget_line(done: int, total: int, spent_s: float, refine: bool, budget_s: float = BUDGET_CPU_S) -> str | None:
+def budget_line(done: int, total: int, spent_s: float, refine: bool, budget_s: float = BUDGET_CPU_S,
+                fold: int | None = None) -> str | None:
     """The stderr line once the projected CPU time exceeds ``budget_s`` (None within it).
 
     The projection: the mean CPU time of the ``done`` held-out folds so far times ``total``
     folds plus one for the final identification on every capture (a fold identifies twice
-    on one capture fewer, so the final one costs less than a fold: an upper estimate).
+    on one capture fewer, so the final one costs less than a fold: an upper estimate). ``fold``
+    (1-based): the line of that one fold (``done`` 1), as a forked worker that ran it says it.
     """
     if done <= 0 or total <= 0:
         return None
@@ -218,58 +236,45 @@ def budget_line(done: int, total: int, spent_s: float, refine: bool, budget_s: f
     if projected <= budget_s:
         return None
     hint = ("; most of it is the output-error polish of every fold, which --no-refine skips" if refine else "")
-    return (f"station diagnose: {done} of {total} held-out folds took {spent_s:.0f} s CPU; about "
-            f"{projected:.0f} s CPU in all{hint}")
+    which = f"held-out fold {fold} of {total} took" if fold is not None else f"{done} of {total} held-out folds took"
+    return f"station diagnose: {which} {spent_s:.0f} s CPU; about {projected:.0f} s CPU in all{hint}"
 
 
 def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, refine: bool = False,
                     say: Callable[[str], None] | None = None, clock: Callable[[], float] = time.process_time,
-                    margin: float = 0.1) -> tuple[dict[str, list], dict[str, dict[str, list]], dict[str, list], float]:
+                    margin: float = 0.1, mapper: Callable | None = None
+                    ) -> tuple[dict[str, list], dict[str, dict[str, list]], dict[str, list], float]:
     """Leave-one-out held-out errors of the coupled model and of the baseline (no nonlinear coupling).
 
     Returns per kind (``baseline``, ``coupled``) the fold nrmse, the per-channel and per-mode
     errors, and the largest span residual of the tail's shapes (``folds["polished"]``: per kind,
     which folds were polished). With ``refine`` the folds' models are polished on their
     training records (:func:`eddi.mdof.refine.refine_identified`) before they predict the
-    held-out capture, where the polish can change the verdict (:func:`_polish_folds`). Once the
-    projected CPU time (``clock``) exceeds :data:`BUDGET_CPU_S`, each finished fold is said
-    through ``say`` (default: a line on stderr) rather than running on silently
-    (:func:`budget_line`).
+    held-out capture, where the polish can change the verdict (:func:`_polish_folds`). The folds
+    are independent: ``mapper(fn, items)`` (default in turn; :class:`station.forkmap.ForkMap` runs
+    them in forked workers, the same results) computes them. Once a fold's CPU time (``clock``)
+    projects past :data:`BUDGET_CPU_S`, the process that ran it says so through ``say`` (default:
+    a line on stderr) rather than running on silently (:func:`budget_line`).
     """
     say = say if say is not None else (lambda line: print(line, file=sys.stderr, flush=True))
-    start = clock()
-    fits: list[dict[str, tuple]] = []
-    span = 0.0
-    for k in range(len(records)):
-        train = [r for j, r in enumerate(records) if j != k]
-        # the baseline has no nonlinear coupling: uncoupled modes, and when the coupled model is
-        # in physical coordinates also those coordinates joined by linear springs only (a
-        # linear chain is not "modal coupling"); the better held out
-        chosen = "auto"
-        fits.append({})
-        for kind in ("coupled", "baseline"):
-            variants: tuple[tuple[str, bool | str], ...] = (("auto", True),) if kind == "coupled" else (
-                (("auto", False),) + ((("physical", "linear"),) if chosen == "physical" else ()))
-            best = None
-            for coords, coupling in variants:
-                try:
-                    ident = identify_mdof(train, names, dp, coordinates=coords, coupling=coupling)
-                except IdentificationError as exc:
-                    if best is not None or (coords, coupling) != variants[-1]:
-                        continue
-                    raise InputFileError(f"identification failed with {records[k].label} held out: {exc}") from None
-                cand = (validate_mdof(ident.model, records[k]), ident)
-                if best is None or cand[0].nrmse < best[0].nrmse or not math.isfinite(best[0].nrmse):
-                    best = cand
-            if best is None:
-                raise InputFileError(f"identification failed with {records[k].label} held out")
-            chosen = best[1].coordinates if kind == "coupled" else chosen
-            span = max(span, best[1].span_residual)
-            fits[k][kind] = (best[0], best[1], train)
-        line = budget_line(k + 1, len(records), clock() - start, refine)
+    mapper = mapper if mapper is not None else (lambda fn, items: [fn(x) for x in items])
+
+    def fold(k: int) -> tuple[dict[str, tuple], float]:
+        start = clock()
+        fit = _fold_fits(records, names, dp, k)
+        line = budget_line(1, len(records), clock() - start, refine, fold=k + 1)
         if line:
             say(line)
-    polished = _polish_folds(fits, records, names, margin) if refine else {"baseline": [], "coupled": []}
+        return fit
+
+    fits: list[dict[str, tuple]] = []
+    span = 0.0
+    for k, (fit, s) in enumerate(mapper(fold, range(len(records)))):
+        train = [r for j, r in enumerate(records) if j != k]
+        fits.append({kind: (v, ident, train) for kind, (v, ident) in fit.items()})
+        span = max(span, s)
+    polished = (_polish_folds(fits, records, names, margin, mapper) if refine
+                else {"baseline": [], "coupled": []})
     folds: dict[str, list] = {"baseline": [], "coupled": []}
     per_channel = {kind: {c: [] for c in names} for kind in folds}
     per_mode: dict[str, list] = {kind: [] for kind in folds}
@@ -281,15 +286,44 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, ref
             for c, e in v.channel_nrmse.items():
                 per_channel[kind][c].append(e)
     folds["polished"] = polished
-    if refine:
-        line = budget_line(len(records), len(records), clock() - start, True)
-        if line:
-            say(line)
     return folds, per_channel, per_mode, span
 
 
+def _fold_fits(records: Sequence[Any], names: tuple[str, ...], dp: str, k: int
+               ) -> tuple[dict[str, tuple], float]:
+    """Fold ``k`` (capture ``k`` held out): per kind the held-out validation and the
+    identification; and the largest span residual of the tail's shapes."""
+    train = [r for j, r in enumerate(records) if j != k]
+    # the baseline has no nonlinear coupling: uncoupled modes, and when the coupled model is
+    # in physical coordinates also those coordinates joined by linear springs only (a
+    # linear chain is not "modal coupling"); the better held out
+    chosen = "auto"
+    out: dict[str, tuple] = {}
+    span = 0.0
+    for kind in ("coupled", "baseline"):
+        variants: tuple[tuple[str, bool | str], ...] = (("auto", True),) if kind == "coupled" else (
+            (("auto", False),) + ((("physical", "linear"),) if chosen == "physical" else ()))
+        best = None
+        for coords, coupling in variants:
+            try:
+                ident = identify_mdof(train, names, dp, coordinates=coords, coupling=coupling)
+            except IdentificationError as exc:
+                if best is not None or (coords, coupling) != variants[-1]:
+                    continue
+                raise InputFileError(f"identification failed with {records[k].label} held out: {exc}") from None
+            cand = (validate_mdof(ident.model, records[k]), ident)
+            if best is None or cand[0].nrmse < best[0].nrmse or not math.isfinite(best[0].nrmse):
+                best = cand
+        if best is None:
+            raise InputFileError(f"identification failed with {records[k].label} held out")
+        chosen = best[1].coordinates if kind == "coupled" else chosen
+        span = max(span, best[1].span_residual)
+        out[kind] = best
+    return out, span
+
+
 def _polish_folds(fits: list[dict[str, tuple]], records: Sequence[Any], names: tuple[str, ...],
-                  margin: float) -> dict[str, list[int]]:
+                  margin: float, mapper: Callable | None = None) -> dict[str, list[int]]:
     """Polish the folds (in place in ``fits``) where it can change the verdict; the indices polished.
 
     A polished fold is kept when it predicts its held-out capture better than the unpolished one
@@ -307,15 +341,18 @@ def _polish_folds(fits: list[dict[str, tuple]], records: Sequence[Any], names: t
     from eddi.mdof.verdict import channel_floor
 
     done: dict[str, list[int]] = {"baseline": [], "coupled": []}
+    mapper = mapper if mapper is not None else (lambda fn, items: [fn(x) for x in items])
 
     def polish(kind: str) -> None:
-        for k, fit in enumerate(fits):
-            v, ident, train = fit[kind]
-            if not (math.isfinite(v.nrmse) and v.nrmse <= POLISH_MAX_NRMSE):
-                continue
-            p = _polished_fold(ident, train, records[k], v)
+        todo = [k for k, fit in enumerate(fits)
+                if math.isfinite(fit[kind][0].nrmse) and fit[kind][0].nrmse <= POLISH_MAX_NRMSE]
+        # independent folds: ``mapper`` may run them in forked workers (each returns its validation)
+        got = mapper(lambda k: _polished_fold(fits[k][kind][1], fits[k][kind][2], records[k], fits[k][kind][0]),
+                     todo)
+        for k, p in zip(todo, got):
+            v, ident, train = fits[k][kind]
             if p.nrmse < v.nrmse:
-                fit[kind] = (p, ident, train)
+                fits[k][kind] = (p, ident, train)
             done[kind].append(k)
 
     polish("baseline")

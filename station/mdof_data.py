@@ -124,3 +124,43 @@ def condition_all(measurements: Sequence[Measurement], driving_point: str | None
             raise InputFileError(f"{m.source}: sample rate {m.rate_hz:g} Hz differs from {rate:g} Hz")
     dp = resolve_driving_point(measurements[0], driving_point)
     return [condition_multichannel(m, dp) for m in measurements], names, dp
+
+
+def reduce_rate(measurements: Sequence[Measurement], samples_per_period: float | None = None
+                ) -> tuple[list[Measurement], str | None]:
+    """The captures at the working rate of a multi-DOF diagnosis (:mod:`eddi.mdof.rate`) and the
+    note that says so (None when the rate is kept).
+
+    One factor for every capture (the highest mode over all of them): block means of every
+    channel, times at the blocks' centres, the pre-trigger count in whole blocks.
+    """
+    from dataclasses import replace
+
+    from eddi.mdof.rate import (MAX_SAMPLES, MIN_SAMPLES_PER_PERIOD, SAMPLES_PER_PERIOD, block_mean, highest_mode_hz,
+                                reduction_factor)
+
+    spp = SAMPLES_PER_PERIOD if samples_per_period is None else samples_per_period
+    rate = float(measurements[0].rate_hz)
+    top = 0.0
+    for m in measurements:
+        rest = int(m.pretrigger_samples or 0) or int(np.sum(np.asarray(m.t) < 0))
+        for qty, y in response_channels(m.channels).values():
+            top = max(top, highest_mode_hz(np.asarray(y, float)[None, rest:], rate, qty))
+    longest = max(np.asarray(m.t).size for m in measurements)
+    d = reduction_factor(rate, top, spp, n_samples=longest, max_samples=MAX_SAMPLES)
+    if d == 1:
+        return list(measurements), None
+    out = []
+    for m in measurements:
+        rest = int(m.pretrigger_samples or 0) or int(np.sum(np.asarray(m.t) < 0))
+        out.append(replace(m, t=block_mean(m.t, d), channels={k: block_mean(v, d) for k, v in m.channels.items()},
+                           rate_hz=rate / d, pretrigger_samples=rest // d))
+    kept = longest // d
+    note = (f"captures at {rate:g} Hz diagnosed at {rate / d:.6g} Hz (means of {d} samples; eddi.mdof.rate): the "
+            f"highest mode ({top:.4g} Hz) keeps {rate / d / top:.0f} samples per period")
+    if kept > MAX_SAMPLES:
+        note += (f"; {kept} samples per capture, over the budget of {MAX_SAMPLES} (the rate is not reduced below "
+                 f"{MIN_SAMPLES_PER_PERIOD:g} samples per period): the cost grows with the records' length")
+    elif d > reduction_factor(rate, top, spp):
+        note += f", fewer than {spp:g} to keep at most {MAX_SAMPLES} samples per capture (the cost is per sample)"
+    return out, note

@@ -31,7 +31,7 @@ import numpy as np
 import pyuff
 
 from station.errors import InputFileError, StationError
-from station.storage import iter_captures, list_captures
+from station.storage import iter_captures, list_captures, pretrigger_known
 
 #: UFF specific data type of each quantity (UFF58 record 8/9, field 1).
 SPEC_DATA_TYPE: dict[str, int] = {"force": 13, "acceleration": 12, "velocity": 11, "displacement": 8}
@@ -98,7 +98,9 @@ def export_uff58(
                     binary=1 if binary else 0,
                     id1=f"{src.stem} capture {cap.index} {name}",
                     id2=f"{q} [{ch.info.unit}]",
-                    id3=f"rate {cap.rate_hz:g} Hz, pretrigger {cap.pretrigger_samples} samples",
+                    id3=f"rate {cap.rate_hz:.17g} Hz, pretrigger "
+                        + (f"{cap.pretrigger_samples} samples" if pretrigger_known(cap.attrs, cap.pretrigger_samples)
+                           else "unknown"),
                     id4=str(cap.notes)[:80] or "NONE",
                     id5=str(cap.device.get("model", "")) or "NONE",
                     func_type=1,

@@ -31,7 +31,7 @@ worst cubic coefficient of 1.8 %; half a period of the filter's cut-off later, 0
 and 0.4 %).
 
 Conditioning: the columns (and the force) pass through the drift high-pass of the
-conditioning before the windows are cut (:func:`eddi.mdof.identify._design`): the conditioned
+conditioning before the windows are cut (:func:`eddi.mdof.equations._design`): the conditioned
 displacement lacks its slow part, where a cubic spring puts ``2 f_1 - f_2`` and other
 combination tones; filtered alike, both sides of the equation lose that band.
 
@@ -51,7 +51,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eddi.mdof.intervals import JACKKNIFE_BLOCKS, block_jackknife_ci95
+from eddi.mdof.intervals import JACKKNIFE_BLOCKS, jackknife_lstsq_ci95
 from eddi.mdof.signals import highpass
 from eddi.phase_one import scaled_lstsq
 
@@ -264,7 +264,7 @@ def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: in
     masses[[i for i in range(n) if i != d]] = p[: n - 1]
     consts = dict(zip(elements, ecoef))
     blocks = np.tile(_jackknife_blocks(lengths), n)  # the same blocks in every equation
-    ci = block_jackknife_ci95(lambda rows: scaled_lstsq(a_mat[rows], b[rows])[0][n - 1: n - 1 + ne], blocks)
+    ci = jackknife_lstsq_ci95(a_mat, b, blocks, slice(n - 1, n - 1 + ne))
     resid = a_mat @ p - b
     residual = np.array([float(np.sqrt(np.mean(resid[eq_of == i] ** 2))) for i in range(n)])
     scale = driven_mass(impacts, masses, consts, d)

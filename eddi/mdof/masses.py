@@ -1,7 +1,7 @@
 """Masses and input shares of an identified multi-DOF model, with no mass given.
 
 Over the impact, ``q_i'' + B_i + K_i = g_i F`` gives the force per unit mass ``g_i``
-(:func:`eddi.mdof.identify.fit_equation`). Modal coordinates: the force enters equation ``i``
+(:func:`eddi.mdof.equations.fit_equation`). Modal coordinates: the force enters equation ``i``
 as ``psi_di F`` (``d`` the driving point), so the modal mass is ``m_i = psi_di / g_i`` (the
 driving-point residue route). Physical coordinates: the driven mass is ``1 / g_d``; every
 other mass follows from the reciprocity of the coupling springs (a potential term
@@ -20,7 +20,7 @@ import numpy as np
 from eddi.mdof.terms import monomial, parse_multi_term
 
 if TYPE_CHECKING:
-    from eddi.mdof.identify import EquationFit
+    from eddi.mdof.equations import EquationFit
 
 
 def masses_and_inputs(kind: str, fits: tuple[EquationFit, ...], tmat: np.ndarray, d: int, n: int,
@@ -67,7 +67,7 @@ def _modal(gains: np.ndarray, tmat: np.ndarray, d: int, n: int, residue: np.ndar
     """Modal masses: from the driving-point residue where it is given, else ``psi_di / g_i``.
 
     ``residue`` is NaN where the records' residues disagree (a nonlinear mode, see
-    :data:`eddi.mdof.identify.RESIDUE_SPREAD_MAX`): there the impact fit's gain, fitted in the
+    :data:`eddi.mdof.coordinates.RESIDUE_SPREAD_MAX`): there the impact fit's gain, fitted in the
     same coordinates as the model's equations, predicts better (measured on the rig's
     two-mass-cubic: training nrmse of the modal candidate 0.057 with it, 0.28 with the residue's).
 

@@ -97,14 +97,22 @@ def tail_segments(y: np.ndarray, start: int, stop: int, fraction: float) -> np.n
     return y[:, tail_start(y, start, stop, fraction):stop]
 
 
+#: The tail is at least this share of the free window (its quietest end): a lightly damped record
+#: whose envelope never falls to the tail's fraction of its peak still has a low-amplitude end
+#: (session 9: a 0.2 %-damped pair, 2 s records, ERA had an empty tail and failed).
+MIN_TAIL_SHARE = 0.25
+
+
 def tail_start(y: np.ndarray, start: int, stop: int, fraction: float) -> int:
-    """Index of ``y`` where its envelope over ``[start, stop)`` has fallen below ``fraction`` of its peak for good."""
+    """Index of ``y`` where its envelope over ``[start, stop)`` has fallen below ``fraction`` of its peak for
+    good, at the latest :data:`MIN_TAIL_SHARE` of the window before ``stop``."""
     env = np.max(np.abs(y[:, start:stop]), axis=0)
     if env.size == 0:
         return start
     later_max = np.maximum.accumulate(env[::-1])[::-1]  # largest |y| from each sample on
     quiet = later_max <= fraction * float(env.max())
-    return start + (int(np.argmax(quiet)) if quiet.any() else env.size)
+    found = int(np.argmax(quiet)) if quiet.any() else env.size
+    return start + min(found, env.size - int(MIN_TAIL_SHARE * env.size))
 
 
 def era(

@@ -25,7 +25,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from scipy import optimize
+from scipy import optimize, signal
 
 from eddi.threads import one_blas_thread
 from eddi.mdof.identify import ChannelRecord
@@ -257,7 +257,9 @@ def _ci95_scales(jac: np.ndarray, fun: np.ndarray, sizes: list[int]) -> np.ndarr
         r = fun[start:start + size]
         start += size
         r = r - r.mean()
-        ac = np.correlate(r, r, "full")[r.size - 1:] / max(float(r @ r), 1e-300)
+        # by FFT: np.correlate is O(n^2) (45 s CPU for one 8 s record's 1e5 residuals at 10 kHz;
+        # the FFT 0.03 s, equal to 3e-16 relative)
+        ac = signal.correlate(r, r, "full", method="fft")[r.size - 1:] / max(float(r @ r), 1e-300)
         neg = np.nonzero(ac < 0)[0]
         taus.append(1.0 + 2.0 * float(np.sum(ac[1:neg[0] if neg.size else ac.size])))
     tau = max(1.0, float(np.mean(taus)))

@@ -109,10 +109,24 @@ def _accel_sens(x, v, sx, sv, f, eq, coef, fvar, fpow, fabs, inv_m, u, dptr, did
 
 
 @numba.njit(cache=True)
+def _stage_state(x, v, sx, sv, dx, dv, dsx, dsv, c, xt, vt, sxt, svt):  # pragma: no cover - compiled
+    """An RK stage's state: ``(x, v, S_x, S_v) + c * (dx, dv, dS_x, dS_v)`` (the last stage's slopes)."""
+    for k in range(x.shape[0]):
+        xt[k] = x[k] + c * dx[k]
+        vt[k] = v[k] + c * dv[k]
+        for th in range(sx.shape[0]):
+            sxt[th, k] = sx[th, k] + c * dsx[th, k]
+            svt[th, k] = sv[th, k] + c * dsv[th, k]
+
+
+@numba.njit(cache=True)
 def _rk4_sens(force, dt, substeps, x0, v0, eq, coef, fvar, fpow, fabs, inv_m, u, dptr, didx, dval,
               xs, sxs):  # pragma: no cover - compiled
     """RK4 of the state and its derivatives along ``dirs``; ``xs`` (n, n_out), ``sxs`` (n_dir, n, n_out).
-    Returns the first output index after a blow-up, or -1."""
+    Returns the first output index after a blow-up, or -1.
+
+    Stage ``s`` (2..4) is evaluated at ``state + c_s * slopes of stage s-1`` (:func:`_stage_state`,
+    ``c`` = h/2, h/2, h); its velocities ``v_s`` and ``S_v,s`` are the stage's ``x``-slopes."""
     n_out = xs.shape[1]
     n = x0.shape[0]
     n_theta = sxs.shape[0]
@@ -124,9 +138,9 @@ def _rk4_sens(force, dt, substeps, x0, v0, eq, coef, fvar, fpow, fabs, inv_m, u,
     a1 = np.empty(n); a2 = np.empty(n); a3 = np.empty(n); a4 = np.empty(n)
     s1 = np.empty((n_theta, n)); s2 = np.empty((n_theta, n)); s3 = np.empty((n_theta, n))
     s4 = np.empty((n_theta, n))
-    xt = np.empty(n); vt = np.empty(n); xt2 = np.empty(n); vt2 = np.empty(n)
-    sxt = np.empty((n_theta, n)); svt = np.empty((n_theta, n))
+    x2 = np.empty(n); x3 = np.empty(n); x4 = np.empty(n)
     v2 = np.empty(n); v3 = np.empty(n); v4 = np.empty(n)
+    sx2 = np.empty((n_theta, n)); sx3 = np.empty((n_theta, n)); sx4 = np.empty((n_theta, n))
     sv2 = np.empty((n_theta, n)); sv3 = np.empty((n_theta, n)); sv4 = np.empty((n_theta, n))
     jx = np.empty((n, n)); jv = np.empty((n, n))
     vals = np.empty(max(1, fvar.shape[1])); ders = np.empty(max(1, fvar.shape[1]))
@@ -146,41 +160,14 @@ def _rk4_sens(force, dt, substeps, x0, v0, eq, coef, fvar, fpow, fabs, inv_m, u,
             fb = f0 + (f1 - f0) * (s + 1.0) / substeps
             _accel_sens(x, v, sx, sv, fa, eq, coef, fvar, fpow, fabs, inv_m, u, dptr, didx, dval,
                         a1, s1, jx, jv, vals, ders)
-            for k in range(n):
-                xt[k] = x[k] + 0.5 * h * v[k]
-                vt[k] = v[k] + 0.5 * h * a1[k]
-                for th in range(n_theta):
-                    sxt[th, k] = sx[th, k] + 0.5 * h * sv[th, k]
-                    svt[th, k] = sv[th, k] + 0.5 * h * s1[th, k]
-            for k in range(n):
-                v2[k] = vt[k]
-                for th in range(n_theta):
-                    sv2[th, k] = svt[th, k]
-            _accel_sens(xt, vt, sxt, svt, fm, eq, coef, fvar, fpow, fabs, inv_m, u, dptr, didx, dval,
+            _stage_state(x, v, sx, sv, v, a1, sv, s1, 0.5 * h, x2, v2, sx2, sv2)
+            _accel_sens(x2, v2, sx2, sv2, fm, eq, coef, fvar, fpow, fabs, inv_m, u, dptr, didx, dval,
                         a2, s2, jx, jv, vals, ders)
-            for k in range(n):
-                xt2[k] = x[k] + 0.5 * h * v2[k]
-                vt2[k] = v[k] + 0.5 * h * a2[k]
-                for th in range(n_theta):
-                    sxt[th, k] = sx[th, k] + 0.5 * h * sv2[th, k]
-                    svt[th, k] = sv[th, k] + 0.5 * h * s2[th, k]
-            for k in range(n):
-                v3[k] = vt2[k]
-                for th in range(n_theta):
-                    sv3[th, k] = svt[th, k]
-            _accel_sens(xt2, vt2, sxt, svt, fm, eq, coef, fvar, fpow, fabs, inv_m, u, dptr, didx, dval,
+            _stage_state(x, v, sx, sv, v2, a2, sv2, s2, 0.5 * h, x3, v3, sx3, sv3)
+            _accel_sens(x3, v3, sx3, sv3, fm, eq, coef, fvar, fpow, fabs, inv_m, u, dptr, didx, dval,
                         a3, s3, jx, jv, vals, ders)
-            for k in range(n):
-                xt[k] = x[k] + h * v3[k]
-                vt[k] = v[k] + h * a3[k]
-                for th in range(n_theta):
-                    sxt[th, k] = sx[th, k] + h * sv3[th, k]
-                    svt[th, k] = sv[th, k] + h * s3[th, k]
-            for k in range(n):
-                v4[k] = vt[k]
-                for th in range(n_theta):
-                    sv4[th, k] = svt[th, k]
-            _accel_sens(xt, vt, sxt, svt, fb, eq, coef, fvar, fpow, fabs, inv_m, u, dptr, didx, dval,
+            _stage_state(x, v, sx, sv, v3, a3, sv3, s3, h, x4, v4, sx4, sv4)
+            _accel_sens(x4, v4, sx4, sv4, fb, eq, coef, fvar, fpow, fabs, inv_m, u, dptr, didx, dval,
                         a4, s4, jx, jv, vals, ders)
             for k in range(n):
                 x[k] += h / 6.0 * (v[k] + 2 * v2[k] + 2 * v3[k] + v4[k])

@@ -37,6 +37,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from scipy import sparse
 from scipy.interpolate import BSpline
 
 from eddi.mdof.lumped import Element, element_column
@@ -60,6 +61,29 @@ def slow_basis(n_samples: int, rate_hz: float, cutoff_hz: float) -> tuple[np.nda
     b = BSpline.design_matrix(t, knots, 3).toarray()
     bd = np.gradient(b, 1.0 / rate_hz, axis=0)
     return b, bd
+
+
+def _sparse_basis(n_samples: int, rate_hz: float, cutoff_hz: float) -> tuple[sparse.csr_matrix, sparse.csr_matrix]:
+    """:func:`slow_basis` as sparse matrices (each row has at most 4 non-zeros; the same values to
+    rounding). Dense, the joint fit's normal matrix cost ``rows x (n * n_basis)^2`` per step and
+    the basis grows with the record: cubic in its length (an 8 s record at 2 kHz: minutes)."""
+    span = n_samples / rate_hz
+    n_knots = max(2, int(np.ceil(span * KNOTS_PER_CUTOFF * cutoff_hz)) + 1)
+    inner = np.linspace(0.0, span, n_knots)
+    knots = np.concatenate([[0.0] * 3, inner, [span] * 3])
+    t = np.minimum(np.arange(n_samples) / rate_hz, span * (1 - 1e-12))
+    b = BSpline.design_matrix(t, knots, 3).tocsr()
+    h = 1.0 / rate_hz
+    if n_samples < 2:
+        return b, sparse.csr_matrix(b.shape)
+    # np.gradient along the rows: central inside, one-sided at both ends
+    lo = np.full(n_samples - 1, -0.5 / h)
+    up = np.full(n_samples - 1, 0.5 / h)
+    main = np.zeros(n_samples)
+    main[0], up[0] = -1.0 / h, 1.0 / h
+    main[-1], lo[-1] = 1.0 / h, -1.0 / h
+    grad = sparse.diags([lo, main, up], [-1, 0, 1], format="csr")
+    return b, (grad @ b).tocsr()
 
 
 def _sign(e: Element, i: int) -> float:
@@ -89,7 +113,7 @@ def _record_blocks(data: tuple, beta: np.ndarray, theta: np.ndarray, elements: l
                    scales: np.ndarray, driven_free: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Residual and Jacobian blocks (``theta`` columns, this record's ``beta`` columns)."""
     x, v, a, f, b, bd = data
-    xs, vs = x + beta @ b.T, v + beta @ bd.T
+    xs, vs = x + (b @ beta.T).T, v + (bd @ beta.T).T
     masses, free = _masses(theta, n, d, driven_free)
     nm = len(free)
     consts = theta[nm:]
@@ -101,7 +125,7 @@ def _record_blocks(data: tuple, beta: np.ndarray, theta: np.ndarray, elements: l
         jt_i = np.zeros((x.shape[1], theta.size))
         if i in free:
             jt_i[:, free.index(i)] = a[i]
-        jb_i = np.zeros((x.shape[1], n * nb))
+        blocks = [None] * n  # this equation's d r / d beta_j (sparse: the basis is local)
         for k, e in enumerate(elements):
             s = _sign(e, i)
             if s == 0.0:
@@ -111,11 +135,15 @@ def _record_blocks(data: tuple, beta: np.ndarray, theta: np.ndarray, elements: l
             for j in range(n):
                 gx, gv = _slope(e, xs, j)
                 if np.any(gx) or gv:
-                    jb_i[:, j * nb:(j + 1) * nb] += s * consts[k] * (np.asarray(gx)[..., None] * b + gv * bd)
+                    gxa = np.asarray(gx, float)
+                    g = (sparse.diags(gxa) @ b if gxa.ndim else float(gxa) * b) + gv * bd
+                    g = s * consts[k] * g
+                    blocks[j] = g if blocks[j] is None else blocks[j] + g
         res.append(r / scales[i])
         jt.append(jt_i / scales[i])
-        jb.append(jb_i / scales[i])
-    return np.concatenate(res), np.vstack(jt), np.vstack(jb)
+        jb.append(sparse.hstack([blk if blk is not None else sparse.csr_matrix((x.shape[1], nb)) for blk in blocks])
+                  * (1.0 / scales[i]))
+    return np.concatenate(res), np.vstack(jt), sparse.vstack(jb).tocsr()
 
 
 def _normal(data, betas, theta, elements, n, d, scales, free):
@@ -131,9 +159,9 @@ def _normal(data, betas, theta, elements, n, d, scales, free):
         r, jt, jb = _record_blocks(dat, bt, theta, elements, n, d, scales, free)
         sl = slice(off, off + sz)
         mat[:nt, :nt] += jt.T @ jt
-        mat[:nt, sl] = jt.T @ jb
+        mat[:nt, sl] = np.asarray(jb.T @ jt).T
         mat[sl, :nt] = mat[:nt, sl].T
-        mat[sl, sl] = jb.T @ jb
+        mat[sl, sl] = (jb.T @ jb).toarray()
         grad[:nt] += jt.T @ r
         grad[sl] = jb.T @ r
         cost += float(r @ r)
@@ -183,7 +211,7 @@ def restore_slow_band(records: Sequence[tuple], elements: list[Element], masses:
     data, spans = [], []
     for k, (x, v, a, f, (s0, s1), rate, fc) in enumerate(records):
         s0 = int(starts[k]) if driven_free else s0
-        b, bd = slow_basis(s1 - s0, rate, fc)
+        b, bd = _sparse_basis(s1 - s0, rate, fc)
         data.append((x[:, s0:s1], v[:, s0:s1], a[:, s0:s1], f[s0:s1] if (driven_free and f is not None) else None,
                      b, bd))
         spans.append((s0, s1))
@@ -220,7 +248,7 @@ def restore_slow_band(records: Sequence[tuple], elements: list[Element], masses:
     for rec, (s0, s1), dt, bt in zip(records, spans, data, betas):
         x, v, a, f, window, rate, fc = rec
         xr, vr = x.copy(), v.copy()
-        xr[:, s0:s1] += bt @ dt[4].T
-        vr[:, s0:s1] += bt @ dt[5].T
+        xr[:, s0:s1] += (dt[4] @ bt.T).T
+        vr[:, s0:s1] += (dt[5] @ bt.T).T
         out.append((xr, vr, a, f, window, rate, fc))
     return out, _masses(theta, n, d, driven_free)[0] * unit, first / rows, final / rows

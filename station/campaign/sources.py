@@ -1,4 +1,4 @@
-"""Expand campaign sources (HDF5 sessions, CSV files, folders, globs) into capture references.
+"""Expand campaign sources (HDF5 sessions, CSV and UFF files, folders, globs) into capture references.
 
 Only metadata is read here, on the client: the number of captures of each HDF5 session. The
 records themselves are read on the workers (:mod:`station.campaign.tasks`), so a reference
@@ -16,8 +16,13 @@ from typing import Iterable, Iterator
 from station.errors import InputFileError
 
 #: Suffixes a campaign reads (the readers of :data:`station.readers.READERS`).
-SUFFIXES = (".csv", ".h5", ".hdf5")
+SUFFIXES = (".csv", ".tsv", ".txt", ".uff", ".unv", ".mat", ".h5", ".hdf5")
+#: Suffixes a folder is searched for (not ``.txt``: a folder's notes are not records; name
+#: text records by a glob or one by one).
+FOLDER_SUFFIXES = tuple(s for s in SUFFIXES if s != ".txt")
 _HDF5 = (".h5", ".hdf5")
+#: Files of several records (captures, load cases): ``FILE:N`` names one.
+_MANY = _HDF5 + (".uff", ".unv")
 
 
 @dataclass(frozen=True, order=True)
@@ -65,9 +70,9 @@ def _files(source: str) -> list[Path]:
     p = Path(source)
     if p.is_dir():
         files = sorted(q for q in p.rglob("*")
-                       if q.is_file() and q.suffix.lower() in SUFFIXES and not q.name.startswith("."))
+                       if q.is_file() and q.suffix.lower() in FOLDER_SUFFIXES and not q.name.startswith("."))
         if not files:
-            raise InputFileError(f"{p}: the folder holds no {', '.join(SUFFIXES)} file")
+            raise InputFileError(f"{p}: the folder holds no {', '.join(FOLDER_SUFFIXES)} file")
         return files
     if not p.is_file():
         raise InputFileError(f"{p}: no such file, folder or pattern")
@@ -78,27 +83,35 @@ def _files(source: str) -> list[Path]:
 
 def _refs_of_file(path: Path, capture: int | None) -> Iterator[CaptureRef]:
     file = os.path.abspath(path)
-    if path.suffix.lower() not in _HDF5:
+    if path.suffix.lower() not in _MANY:
         yield CaptureRef(file, None)
         return
     if capture is not None:
         yield CaptureRef(file, capture)
         return
-    from station.storage import check_file  # h5py only when there is a session
-
     try:
-        n = check_file(path)
+        if path.suffix.lower() in _HDF5:
+            from station.storage import check_file  # h5py only when there is a session
+
+            indices = list(range(check_file(path)))
+        else:
+            from station.uff_reader import load_cases
+
+            indices = load_cases(path)
     except (InputFileError, OSError):
         yield CaptureRef(file, None)  # the worker's read reports the problem as a row
         return
-    for i in range(n):
+    if path.suffix.lower() not in _HDF5 and len(indices) == 1:
+        yield CaptureRef(file, None)  # a UFF file of one load case: read as the file
+        return
+    for i in indices:
         yield CaptureRef(file, i)
 
 
 def _split(source: str) -> tuple[str, int | None]:
     """``FILE.h5:N`` -> (FILE.h5, N); anything else unchanged."""
     head, sep, tail = source.rpartition(":")
-    if sep and head.lower().endswith(_HDF5) and tail.lstrip("-").isdigit() and not os.path.exists(source):
+    if sep and head.lower().endswith(_MANY) and tail.lstrip("-").isdigit() and not os.path.exists(source):
         return head, int(tail)
     return source, None
 
@@ -109,8 +122,10 @@ def expand_sources(sources: Iterable[str], exclude: str | os.PathLike[str] | Non
     Parameters
     ----------
     sources : iterable of str
-        ``FILE.csv``, ``FILE.h5`` (all its captures), ``FILE.h5:N``, a folder (every CSV and
-        HDF5 file below it) or a glob (``'runs/**/*.h5'``, quoted so that the shell leaves it).
+        ``FILE.csv`` (``.tsv``, ``.txt``), ``FILE.h5`` (all its captures), ``FILE.h5:N``,
+        ``FILE.uff`` (all its load cases), ``FILE.uff:N``, a folder (every file of
+        :data:`FOLDER_SUFFIXES` below it) or a glob (``'runs/**/*.h5'``, quoted so that the shell
+        leaves it).
     exclude : str or Path, optional
         A folder whose files are never sources (the campaign's own output folder, so that
         its ``results.csv`` is not read as a capture when it lies below a source folder).

@@ -54,3 +54,23 @@ def test_masses_from_reciprocity_go_through_the_real_springs_not_a_spurious_term
     fits = tuple(EquationFit({}, st, 1.0 if i == 0 else 0.0, 0.0, 0.0, 0) for i, st in enumerate(per_mass))
     masses, inputs, notes = masses_and_inputs("physical", fits, np.eye(3), 0, 3, np.array([1e-3, 1.6e-3, 2.2e-3]))
     assert np.allclose(masses, true_m, rtol=0.01) and inputs == [1.0, 0.0, 0.0] and not notes
+
+
+def test_the_qr_jackknife_equals_the_refits_it_replaces():
+    # columns of very different scales (as x, x^3 and a force are), correlated noise, uneven blocks
+    from eddi.mdof.intervals import block_jackknife_ci95, jackknife_lstsq_ci95
+    from eddi.phase_one import scaled_lstsq
+
+    rng = np.random.default_rng(7)
+    n = 3000
+    t = np.linspace(0.0, 3.0, n)
+    x = np.exp(-0.5 * t) * np.sin(2 * np.pi * 7 * t)
+    a = np.column_stack([x * 1e-3, (x * 1e-3) ** 3, np.cos(2 * np.pi * 7 * t), rng.standard_normal(n)])
+    y = a @ np.array([4e4, 3e9, 0.5, 0.01]) + np.convolve(rng.standard_normal(n), np.ones(25) / 25, "same")
+    blocks = np.minimum(np.arange(n) * 7 // n, 6)
+    blocks[::11] = 3  # uneven, interleaved
+    want = block_jackknife_ci95(lambda rows: scaled_lstsq(a[rows], y[rows])[0][1:3], blocks)
+    got = jackknife_lstsq_ci95(a, y, blocks, slice(1, 3))
+    assert got.shape == (2,) and np.all(got > 0)
+    assert np.allclose(got, want, rtol=1e-7, atol=0)
+    assert np.all(np.isinf(jackknife_lstsq_ci95(a, y, np.minimum(np.arange(n) * 2 // n, 1))))

@@ -12,7 +12,7 @@ import numpy as np
 
 import eddi.sensitivity as sensitivity
 from eddi.conditioning import condition
-from eddi.refine import _OutputError
+from eddi.output_error import OutputErrorProblem as _OutputError
 from tests.eddi.impact_cases import SYSTEMS, impact_record
 from eddi.model import EquationOfMotion
 

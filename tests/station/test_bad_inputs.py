@@ -65,7 +65,7 @@ def build_files(d: Path) -> dict[str, Path]:
     text("empty", "")
     text("header_only", "t,force,acc\n")
     text("blank_header", "   \n1,2,3\n")
-    csv("unknown_column", "t,force,accel")
+    csv("unknown_column", "t,force,pressure")
     csv("duplicate_column", "t,acc,acc", good[:, [0, 2, 2]])
     csv("no_time", "force,acc", good[:, 1:])
     csv("no_response", "t,force", good[:, :2])
@@ -108,7 +108,7 @@ def build_files(d: Path) -> dict[str, Path]:
     csv("acc_constant", rows=rows)
     text("semicolons", "t;force;acc\n" + "".join(f"{i / RATE};1;2\n" for i in range(40)))
     text("nul_bytes", "t,force,acc\n" + "0,1,2\n" + "\0" * 50)
-    text("wrong_suffix", "t,acc\n0,1\n", suffix=".txt")
+    text("wrong_suffix", "t,acc\n0,1\n", suffix=".xlsx")
     text("no_suffix", "t,acc\n0,1\n", suffix="")
     (d / "folder.csv").mkdir()
     files["folder"] = d / "folder.csv"

@@ -89,6 +89,31 @@ def test_sources_expand_sessions_folders_and_globs(captures):
     assert expand_sources([f"{h5}:2", h5]) == [CaptureRef(h5, 2)] + [CaptureRef(h5, i) for i in (0, 1, 3)]
 
 
+def test_sources_take_every_reader_uff_by_load_case(tmp_path):
+    """A folder's UFF files give one reference per load case (one-case files: the file), TSV files
+    are records, a folder's .txt notes are not (a glob may still name text records)."""
+    from station.uff import export_uff58
+
+    w = CaptureWriter(tmp_path / "s.h5")
+    for seed in (1, 2):
+        r = _record(80.0, seed)
+        w.append(Capture(counts=r.counts, si=np.column_stack([r.force_n, r.acc_m_s2]), channels=r.channels,
+                         rate_hz=r.rate_hz, first_sample=0, trigger_sample=r.pretrigger_samples,
+                         pretrigger_samples=r.pretrigger_samples), mass_kg=SYSTEM.eom.mass)
+    d = tmp_path / "runs"
+    d.mkdir()
+    assert export_uff58(tmp_path / "s.h5", d / "two.uff") == 4
+    assert export_uff58(tmp_path / "s.h5", d / "one.unv", [1]) == 2
+    _write_csv(d / "rec.tsv", _record(80.0, 3))
+    (d / "notes.txt").write_text("bench A, 24 Nov\n")
+    refs = expand_sources([str(d)])
+    f = {n: str(d / n) for n in ("one.unv", "rec.tsv", "two.uff", "notes.txt")}
+    assert refs == [CaptureRef(f["one.unv"]), CaptureRef(f["rec.tsv"]), CaptureRef(f["two.uff"], 0),
+                    CaptureRef(f["two.uff"], 1)]
+    assert expand_sources([str(d / "*.txt"), f"{f['two.uff']}:1"]) == [CaptureRef(f["notes.txt"]),
+                                                                      CaptureRef(f["two.uff"], 1)]
+
+
 def test_campaign_table_row_by_row_and_resume(captures, client, tmp_path):
     refs = expand_sources([str(captures)])
     opts = _mass_opts()

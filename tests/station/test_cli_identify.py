@@ -141,7 +141,7 @@ def _good_rows() -> np.ndarray:
         ("few_crossings", "zero crossings"),
         ("mass", "argument --mass: expected a finite number > 0"),
         ("term", "unknown term 'y'"),
-        ("suffix", "unknown file type '.txt'"),
+        ("suffix", "unknown file type '.xlsx'"),
         ("missing", "no such file"),
     ],
 )
@@ -187,7 +187,7 @@ def test_bad_input_is_one_line_exit_2(case: str, match: str, tmp_path: Path,
         _write(p, "t,force,acc", rows)
         extra = ["--stiffness", "x,y"]
     elif case == "suffix":
-        p = tmp_path / "rec.txt"
+        p = tmp_path / "rec.xlsx"
         p.write_text("t,acc\n0,1\n")
     elif case == "missing":
         p = tmp_path / "nope.csv"

@@ -1,0 +1,47 @@
+"""One conditioned multi-channel record (:class:`ChannelRecord`), the input of :mod:`eddi.mdof`.
+
+No I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from eddi.mdof.signals import HIGHPASS_HZ
+
+
+@dataclass(frozen=True)
+class ChannelRecord:
+    """One conditioned multi-channel record.
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,), [s]
+    x, v, a : ndarray, shape (n_channels, n)
+        Displacement [m], velocity [m/s], acceleration [m/s^2] of every response channel.
+    force : ndarray, shape (n,), [N], or None
+        Impact force at the driving point (zero outside the impact).
+    impact : (int, int)
+        ``[start, end)`` of the impact (``(0, 0)`` without force).
+    window : (int, int)
+        Free-response window ``[start, stop)``.
+    noise : ndarray, shape (n_channels,)
+        Noise RMS of each channel's displacement [m] (sets the zero-crossing dead band).
+    label : str
+    highpass_hz : float
+        Cut-off of the zero-phase drift high-pass ``x`` and ``v`` went through [Hz].
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    force: np.ndarray | None
+    impact: tuple[int, int]
+    window: tuple[int, int]
+    noise: np.ndarray
+    label: str = ""
+    highpass_hz: float = HIGHPASS_HZ
+

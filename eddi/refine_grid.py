@@ -1,0 +1,101 @@
+"""The grid the output-error refinement compares on (:mod:`eddi.refine`): block means and RK4 steps.
+
+A densely sampled record (19.2 kHz for a 4 Hz oscillator: thousands of samples per cycle) is
+compared as block means of ``block`` samples (:func:`block_means`, ``block`` set by
+:func:`block_size` so that a block spans at most :data:`BLOCK_H_OMEGA` rad of the fastest
+local oscillation): with white sensor noise the block means carry the same information about
+a signal whose band lies far below ``1 / (block dt)``, and every simulation runs on the grid
+of the blocks' centres (``1 / block`` of the cost), with RK4 steps of ``omega h <=``
+:data:`LOCAL_H_OMEGA` at the amplitude the record still reaches (:func:`local_substeps`).
+:func:`smooth_model` says when the forward sensitivity equations (:mod:`eddi.sensitivity`)
+give the Jacobian.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from eddi.model import EquationOfMotion
+from eddi.simulate import local_angular_frequency
+
+
+#: Largest ``omega_max * block * dt`` (rad) of a block: the block mean then differs from the
+#: curvature-corrected centre value by ~``(omega h)^4 / 339`` (4.7e-6 relative at 0.2), which
+#: the fourth difference's term removes (:func:`eddi.intervals.sampling_quartic`; 2e-8 left).
+BLOCK_H_OMEGA = 0.2
+#: Fewest block means compared (short records keep every sample).
+MIN_BLOCKS = 2000
+
+
+def block_size(eom: EquationOfMotion, dt: float, x_amp: float, v_amp: float, n: int) -> int:
+    """Samples per block mean (odd, >= 1): ``omega_max * block * dt <= BLOCK_H_OMEGA``.
+
+    ``omega_max``: :func:`local_angular_frequency` over the record's amplitudes; at least
+    :data:`MIN_BLOCKS` blocks are kept.
+    """
+    omega = local_angular_frequency(eom, x_amp, v_amp)
+    if not (omega > 0 and math.isfinite(omega)):
+        return 1
+    b = min(int(BLOCK_H_OMEGA / (omega * dt)), n // MIN_BLOCKS)
+    b = b if b % 2 == 1 else b - 1
+    return max(1, b)
+
+
+#: ``omega h`` of an RK4 step where the response has decayed (:func:`local_substeps`): half the
+#: simulator's 0.1, so that a clean record is refitted as exactly as with the peak's step
+#: everywhere (paper Duffing: every coefficient within 1e-6).
+LOCAL_H_OMEGA = 0.05
+
+
+def local_substeps(eom: EquationOfMotion, h: float, x_abs: np.ndarray, v_abs: np.ndarray,
+                   most: int) -> np.ndarray:
+    """RK4 steps per interval of ``h`` so that ``omega h / steps <= LOCAL_H_OMEGA`` at the amplitude ahead.
+
+    ``omega``: :func:`eddi.simulate.local_angular_frequency` at the largest ``|x|, |v|`` the
+    record reaches from each interval on (a ring-down slows as it decays: a hardening spring's
+    first peak sets ~110 rad/s, its late cycles ~25), on 12 amplitude levels, interpolated;
+    at most ``most``.
+    """
+    ax = np.maximum.accumulate(np.asarray(x_abs, dtype=float)[::-1])[::-1]
+    av = np.maximum.accumulate(np.asarray(v_abs, dtype=float)[::-1])[::-1]
+    if ax.size < 2 or not (ax[0] > 0 and av[0] > 0):
+        return np.full(max(1, ax.size - 1), most, dtype=np.int64)
+    levels = np.geomspace(max(ax[0] * 1e-3, float(ax[-1]) or ax[0] * 1e-3), ax[0], 12)
+    ratio = av[0] / ax[0]
+    omega = np.array([local_angular_frequency(eom, a, a * ratio) for a in levels])
+    om = np.interp(ax[:-1], levels, omega)
+    # the next level up bounds the interpolation between levels
+    steps = np.ceil(h * np.maximum(om, np.interp(ax[:-1] * 1.2, levels, omega)) / LOCAL_H_OMEGA).astype(np.int64)
+    return np.clip(steps, 1, most)
+
+
+def block_means(y: np.ndarray, block: int) -> np.ndarray:
+    """Means of consecutive blocks of ``block`` samples (a shorter last block is dropped).
+
+    With white noise of variance ``s^2`` on ``y`` the block means carry white noise of
+    variance ``s^2 / block``: for a signal whose band is far below ``1 / (block dt)`` the
+    least-squares fit to the block means keeps (nearly) all the information of the samples,
+    at ``1 / block`` of the cost. The model is compared through its value at the block's
+    centre sample plus the curvature inside the block,
+    ``mean = y_c + (block^2 - 1) / (24 block^2) (y_{c+1} - 2 y_c + y_{c-1})`` on the grid of
+    centres (exact for a quadratic), plus a fourth difference's term
+    (:func:`eddi.intervals.sampling_quartic`; ``O((omega h)^6)`` left).
+    """
+    if block <= 1:
+        return np.asarray(y, dtype=float)
+    nb = y.size // block
+    return np.asarray(y[: nb * block], dtype=float).reshape(nb, block).mean(axis=1)
+
+
+def smooth_model(eom: EquationOfMotion) -> bool:
+    """True when the sensitivity equations give the Jacobian: no effects, no ``sign`` factor.
+
+    A ``sign(v)`` (dry friction) switches the force at every reversal: the response's
+    derivative then has jumps the sensitivity equations do not carry.
+    """
+    if eom.effects:
+        return False
+    return all(tm.exponents[4] % 2 == 0 and tm.exponents[5] % 2 == 0
+               for tm in eom.damping_terms() + eom.stiffness_terms())
