@@ -135,9 +135,27 @@ def highpass_estimate(eom: EquationOfMotion, cond: ConditionedSignal, val: Valid
         wc = wc_new
     ys, z = _through(a_s, z0, wc, dt)
     sq1 = float(np.sum((ys - y) ** 2))
+    if not math.isfinite(sq1):
+        return None
     se = noise_level(y) / math.sqrt(float(np.sum(z * z))) / (2 * math.pi)
     fc = wc / (2 * math.pi)
     evident = bool(CORNER_RANGE_HZ[0] <= fc <= min(CORNER_RANGE_HZ[1], MAX_CORNER_SHARE * structure_hz)
                    and sq1 <= (1.0 - EXPLAINED) * sq0 and fc > CORNER_SIGMAS * se)
     return CouplingEstimate(corner_hz=fc, nrmse_as_is=math.sqrt(sq0 / norm2), nrmse_coupled=math.sqrt(sq1 / norm2),
                             corner_se_hz=se, evident=evident)
+
+
+def misfit_through(eom: EquationOfMotion, val: Validation, measured: ConditionedSignal, corner_hz: float) -> float:
+    """Acceleration nrmse of ``eom``'s driven validation ``val`` (on a record conditioned with
+    the coupling inverted) passed through the coupling ``corner_hz``, against the acceleration
+    of ``measured`` (the record as measured): like for like with the pipeline's drive judge.
+    ``inf`` when the windows differ or the simulation blew up."""
+    from eddi.simulate import internal_force
+
+    w0, w1 = val.window
+    if not np.all(np.isfinite(val.x_simulated)) or w1 > measured.a.size:
+        return math.inf
+    a_s = -internal_force(eom, val.x_simulated, val.v_simulated) / eom.mass
+    ys, _ = _through(a_s, float(val.v_simulated[0]), 2 * math.pi * corner_hz, 1.0 / measured.rate_hz)
+    y = measured.a[w0:w1]
+    return float(np.linalg.norm(ys - y) / (np.linalg.norm(y) or 1.0))

@@ -127,28 +127,24 @@ def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
     return obj
 
 
-def coupling_check(res: PipelineResult, obj: dict[str, Any]) -> None:
-    """Look for an undeclared accelerometer AC coupling (:func:`eddi.coupling_check.highpass_estimate`):
-    the estimate goes in ``obj["conditioning"]``, and a warning when it is evident."""
-    from eddi.coupling_check import highpass_estimate
-    from eddi.fit_record import highest_frequency
+def coupling_check(meas: Measurement, res: PipelineResult, args: argparse.Namespace, obj: dict[str, Any]) -> None:
+    """Look for an undeclared accelerometer AC coupling (:mod:`station.coupling`): what it found
+    goes in ``obj["conditioning"]``, and a warning when the coupling is evident."""
+    from station.coupling import check_coupling
 
-    if not res.driven_by_force:
+    chk = check_coupling(meas, res, args.damping, args.stiffness, args.route)
+    if chk is None:
         return
-    est = highpass_estimate(res.model.eom, res.conditioned, res.validation, highest_frequency(res.conditioned))
-    if est is None:
-        return
-    obj["conditioning"]["sensor_highpass_estimate_hz"] = est.corner_hz
-    obj["conditioning"]["sensor_highpass_check"] = {
-        "corner_hz": est.corner_hz, "corner_se_hz": est.corner_se_hz, "nrmse_as_is": est.nrmse_as_is,
-        "nrmse_through_coupling": est.nrmse_coupled, "evident": est.evident}
-    if est.evident:
-        fc = f"{est.corner_hz:.2g}"
+    obj["conditioning"]["sensor_highpass_check"] = chk.as_dict()
+    if chk.evident and chk.corner_hz is not None:
+        obj["conditioning"]["sensor_highpass_estimate_hz"] = chk.corner_hz
+        fc = f"{chk.corner_hz:.2g}"
         obj["warnings"].append(
             f"the record looks AC-coupled (first-order high-pass near {fc} Hz, IEPE?): the driven simulation "
-            f"matches the measured acceleration with nrmse {est.nrmse_as_is:.3g} as is, {est.nrmse_coupled:.3g} "
-            f"through that coupling; coefficients are biased: pass --sensor-highpass {fc} (the sensor's "
-            f"data-sheet corner) or use a DC accelerometer")
+            f"matches the measured acceleration with nrmse {chk.nrmse_as_is:.3g} as identified, "
+            f"{chk.nrmse_through_coupling:.3g} with that coupling inverted and refitted; coefficients are "
+            f"biased: pass --sensor-highpass {fc} (better: the sensor's data-sheet corner) or use a DC "
+            f"accelerometer")
 
 
 def _text(obj: dict[str, Any]) -> str:
@@ -199,7 +195,7 @@ def handler(args: argparse.Namespace) -> int:
         res = run_identify(meas, mass, args.damping, args.stiffness, args.route, args.refine)
         obj = result_object(meas, res)
         if not meas.metadata.get("ac_coupling_s") and args.sensor_highpass is None:
-            coupling_check(res, obj)
+            coupling_check(meas, res, args, obj)
         obj["unstable"] = res.unstable
         emit(args.json, _text(obj), obj)
         return _exit_code(res.unstable)
