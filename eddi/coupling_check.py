@@ -42,7 +42,8 @@ CORNER_RANGE_HZ = (0.05, 5.0)
 #: The corner must be below this share of the structure's frequency (above it the coupling is
 #: no longer a small phase lead, and the conditioning's drift removal takes part of it).
 MAX_CORNER_SHARE = 0.2
-#: Share of the drive misfit (squared) the fitted coupling must remove to be evident.
+#: Share of the drive misfit (squared, beyond the measured noise's) the fitted coupling must
+#: remove to be evident.
 EXPLAINED = 0.6
 #: The corner must exceed this many of its white-noise standard errors.
 CORNER_SIGMAS = 10.0
@@ -61,6 +62,8 @@ class CouplingEstimate:
         and through the fitted coupling.
     corner_se_hz : float
         White-noise standard error of ``corner_hz`` [Hz].
+    noise_nrmse : float
+        The share of either nrmse the measured noise accounts for (``sigma sqrt(n) / ||y||``).
     evident : bool
         True when the record looks AC-coupled (see the module notes).
     """
@@ -70,6 +73,7 @@ class CouplingEstimate:
     nrmse_coupled: float
     corner_se_hz: float
     evident: bool
+    noise_nrmse: float = 0.0
 
 
 def _through(a: np.ndarray, z0: float, wc: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -137,12 +141,13 @@ def highpass_estimate(eom: EquationOfMotion, cond: ConditionedSignal, val: Valid
     sq1 = float(np.sum((ys - y) ** 2))
     if not math.isfinite(sq1):
         return None
-    se = noise_level(y) / math.sqrt(float(np.sum(z * z))) / (2 * math.pi)
+    sigma = noise_level(y)
+    se = sigma / math.sqrt(float(np.sum(z * z))) / (2 * math.pi)
     fc = wc / (2 * math.pi)
     evident = bool(CORNER_RANGE_HZ[0] <= fc <= min(CORNER_RANGE_HZ[1], MAX_CORNER_SHARE * structure_hz)
                    and sq1 <= (1.0 - EXPLAINED) * sq0 and fc > CORNER_SIGMAS * se)
     return CouplingEstimate(corner_hz=fc, nrmse_as_is=math.sqrt(sq0 / norm2), nrmse_coupled=math.sqrt(sq1 / norm2),
-                            corner_se_hz=se, evident=evident)
+                            corner_se_hz=se, evident=evident, noise_nrmse=sigma * math.sqrt(y.size / norm2))
 
 
 def misfit_through(eom: EquationOfMotion, val: Validation, measured: ConditionedSignal, corner_hz: float) -> float:

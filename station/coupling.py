@@ -5,13 +5,16 @@ explains the pipeline's drive misfit (:func:`eddi.coupling_check.highpass_estima
 simulation). The identified model has absorbed part of the coupling (its phase lead leaks into
 the coefficients), so that corner is low (0.10 Hz for a 0.3 Hz coupling on a 5 Hz, 500 kg
 system): it is a *symptom*. Only when it stands far above its noise (:data:`SYMPTOM_SIGMAS`
-standard errors and :data:`SYMPTOM_HZ`) the expensive part runs: the record is conditioned again
-with the coupling inverted at trial corners and EDDI refitted (no refinement: 0.12 s CPU each on
-that 20 s, 5 kHz record), and the corner where the refit leaves no residual corner is found by
-secant steps (:data:`SECANT_STEPS` refits at most). The coupling is evident when that corner is
+standard errors, :data:`SYMPTOM_HZ` and :data:`SYMPTOM_PHASE`), or when the drive judge rejected
+the refinement on a structure slower than :data:`SLOW_HZ`, the expensive part runs: the record is conditioned again
+with the coupling inverted at the corners of :data:`CORNERS_HZ` (increasing, up to a fifth of
+the structure's frequency, stopping :data:`PATIENCE` corners past the best), EDDI refitted (no
+refinement: 0.12 s CPU each on a 20 s, 5 kHz record), and each refit simulated, passed through
+its corner and compared with the record *as measured* (like for like with the drive judge); a
+parabola in ``log f_c`` through the best three gives the corner (one more refit). The coupling is evident when that corner is
 plausible for a sensor and its model, simulated and passed through the coupling, reproduces the
-record *as measured* with at most ``1 - EXPLAINED`` of the as-is squared misfit (like for like
-with the drive judge). Then identify warns and reports the corner; coefficients are not changed
+record *as measured* with at most ``1 - EXPLAINED`` of the as-is squared misfit beyond the
+measured noise's share (like for like with the drive judge). Then identify warns and reports the corner; coefficients are not changed
 (the sensor's data-sheet corner, passed as ``--sensor-highpass``, is the better number).
 """
 
@@ -31,6 +34,14 @@ if TYPE_CHECKING:
 SYMPTOM_SIGMAS = 10.0
 #: ... and this corner [Hz].
 SYMPTOM_HZ = 0.02
+#: ... and this share of the structure's frequency (the phase lead ``f_c / f`` it stands for, in
+#: rad): a model's own phase error on a fast, light system gave symptoms of 0.007-0.012 Hz at
+#: 45-50 Hz (0.0002 rad), a 0.3-0.5 Hz coupling on a 2-8 Hz structure 0.009-0.1 rad.
+SYMPTOM_PHASE = 0.003
+#: ... or the drive judge rejected the refinement on a structure slower than this [Hz] (30x the
+#: highest usual IEPE corner): a 0.5 Hz coupling on a 3.2 Hz, 1 kHz record left the drive misfit
+#: at 0.12 with no phase-lead symptom (the model had taken the lead into its frequency).
+SLOW_HZ = 30.0
 #: Corners tried [Hz], as diagnose's ``sensor_highpass`` (:data:`eddi.diagnosis.chain.CORNERS_HZ`).
 CORNERS_HZ = (0.1, 0.14, 0.2, 0.28, 0.41, 0.58, 0.83, 1.2, 1.7, 2.5, 3.5, 5.0)
 #: The scan stops after this many corners in a row worse than the best.
@@ -67,7 +78,10 @@ def check_coupling(meas: Measurement, res: PipelineResult, damping: str, stiffne
     if est is None:
         return None
     out = CouplingCheck(est.corner_hz, est.corner_se_hz, est.nrmse_as_is)
-    if not (est.corner_hz > max(SYMPTOM_SIGMAS * est.corner_se_hz, SYMPTOM_HZ)):
+    ch = res.choices
+    rejected = ch is not None and ch.refinement == "rejected" and ch.judged_on == "fit record"
+    if not (est.corner_hz > max(SYMPTOM_SIGMAS * est.corner_se_hz, SYMPTOM_HZ, SYMPTOM_PHASE * f1)
+            or (rejected and f1 < SLOW_HZ)):
         return out
     hi = min(CORNER_RANGE_HZ[1], MAX_CORNER_SHARE * f1)
     tried: dict[float, float] = {}
@@ -89,7 +103,9 @@ def check_coupling(meas: Measurement, res: PipelineResult, damping: str, stiffne
         if m > misfit:
             fc = min(tried, key=tried.__getitem__)
         misfit = min(misfit, m)
-    evident = bool(CORNER_RANGE_HZ[0] <= fc <= hi and misfit * misfit <= (1.0 - EXPLAINED) * est.nrmse_as_is ** 2)
+    floor = est.noise_nrmse ** 2  # the noise's share of either squared misfit
+    excess0, excess1 = est.nrmse_as_is ** 2 - floor, misfit * misfit - floor
+    evident = bool(CORNER_RANGE_HZ[0] <= fc <= hi and excess0 > 0 and excess1 <= (1.0 - EXPLAINED) * excess0)
     return CouplingCheck(est.corner_hz, est.corner_se_hz, est.nrmse_as_is, fc, misfit, len(tried), evident)
 
 
