@@ -113,3 +113,15 @@ def test_bad_corner_is_one_line_and_exit_2(tmp_path: Path, capsys: pytest.Captur
     csv.write_text("t,force,acc\n0,0,0\n")
     code, _, err = _identify(csv, capsys, f"--sensor-highpass={bad}")
     assert code == 2 and len(err.strip().splitlines()) == 1 and "Hz" in err
+
+
+def test_validate_inverts_the_declared_coupling(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # the true model, validated on the coupled record: its misfit is the coupling's, until declared
+    path = _csv(tmp_path, 0.4)
+    model = tmp_path / "true.json"
+    model.write_text(json.dumps(_eom().to_dict()))
+    nrmse = {}
+    for extra in ((), ("--sensor-highpass", "0.4")):
+        assert main(["validate", str(model), str(path), "--json", *extra]) == 0
+        nrmse[extra] = json.loads(capsys.readouterr().out)["nrmse"]
+    assert nrmse[("--sensor-highpass", "0.4")] < 0.2 * nrmse[()]
