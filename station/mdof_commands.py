@@ -84,8 +84,13 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     from station.forkmap import ForkMap, jobs_wanted
 
     # the folds are independent: in forked workers when cores are free (the same results)
+    began = time.perf_counter()
     folds, per_channel, per_mode, span = _held_out_folds(records, names, dp, refine=refine, margin=margin,
                                                          mapper=ForkMap(jobs_wanted()))
+    if time.perf_counter() - began > PROGRESS_S:  # a long diagnosis is not silent until its end
+        print(f"station diagnose: {len(records)} held-out folds done in {time.perf_counter() - began:.0f} s; "
+              f"the final model on every capture next" + (" (identified and polished)" if refine else ""),
+              file=sys.stderr, flush=True)
     polished = folds.pop("polished")
     base = float(np.mean(folds["baseline"]))
     cpl = float(np.mean(folds["coupled"]))
@@ -207,6 +212,10 @@ def _amplitude_heard(cause: str, amp: list[dict], span: Any, notes: list[str]) -
 #: minima; on the three-mass chain the polish took such baseline folds from 154 to 144 and from 44
 #: to 42 (the verdict the same) for ~8 s CPU. Same rule for both kinds (fair comparison).
 POLISH_MAX_NRMSE = 1.0
+
+#: Wall seconds of held-out folds past which a multi-channel diagnosis says on stderr that the
+#: final model comes next (progress, not a measurement).
+PROGRESS_S = 30.0
 
 #: CPU seconds past which a multi-channel diagnosis says on stderr how long it expects to take.
 BUDGET_CPU_S = 120.0

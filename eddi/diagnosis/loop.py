@@ -29,7 +29,7 @@ from eddi.diagnosis.lookalike import attach
 from eddi.diagnosis.mapping import Mapper
 from eddi.diagnosis.measure import noise_floor
 from eddi.diagnosis.candidates import UNREFINED, build_candidates, rank, spread_of
-from eddi.diagnosis.decide import Decision, decide, within_floor
+from eddi.diagnosis.decide import Decision, decide, noise_floor_of, within_floor
 from eddi.diagnosis.fitter import Fitter, FoldFitter, all_masks
 from eddi.diagnosis.folds import (
     FoldResults, check_trainable, final_fits, judge_baseline, judge_candidates, refine_candidates,
@@ -438,7 +438,8 @@ def _texts(dec: Decision, baseline: Score, floor: NoiseFloor, candidates: Sequen
         cut = 1.0 - w.nrmse / r if r > 0 else 0.0
         verdict = (f"Cause: {w.name}. Adding {what} cuts the held-out error (displacement nrmse) from "
                    f"{r:.3g} to {w.nrmse:.3g} ({100 * cut:.0f} % less), better than its reference on every "
-                   f"held-out part, within {named_factor:g}x the noise floor ({f:.3g}).")
+                   f"held-out part, within {named_factor:g}x the noise floor ({noise_floor_of(floor):.3g}"
+                   + (", the noise's alone" if noise_floor_of(floor) != f else "") + ").")
         if r != b:
             verdict += f" The baseline refined as the pipeline refines reaches {b:.3g} per fold."
         if w.reference != "baseline":

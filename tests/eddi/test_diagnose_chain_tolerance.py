@@ -143,3 +143,24 @@ def test_station_diagnose_states_the_tolerances_and_refuses_bad_ones(tmp_path, c
     assert chain["gain_tolerance"] == 0.005 and chain["clock_ppm"] == 100.0
     assert chain["gain_per_part"] == [0.005] * 3  # as stated: not lowered by the ratios
     assert len(obj["noise_floor"]["chain_nrmse"]) == 3
+
+
+def test_a_name_must_come_near_the_noise_floor_not_the_chain_allowance():
+    """The chain's tolerance excuses silence, not a name (fair test: a preload named
+    smooth_stiffening at 13x the noise's floor once the chain had raised the floor)."""
+    from eddi.diagnosis.decide import decide
+    from eddi.diagnosis.results import Candidate, NoiseFloor
+
+    model = EquationOfMotion.create(mass=0.1, damping={"v": 0.05}, stiffness={"x": 600.0})
+    base = (0.8, 0.8, 0.8)
+    cand = Candidate("smooth_stiffening", 0.4, (0.4, 0.4, 0.4), 0.5, True, True, {"k": 1.0}, {"k": 0.0}, model, "s")
+    noise = NoiseFloor(nrmse=0.03, fold_nrmse=(0.03,) * 3, noise_rms=(0,) * 3, conditioning_nrmse=(0,) * 3,
+                       method="test")
+    chained = NoiseFloor(nrmse=0.05, fold_nrmse=(0.05,) * 3, noise_rms=(0,) * 3, conditioning_nrmse=(0,) * 3,
+                         method="test", chain_nrmse=(0.04,) * 3, noise_fold_nrmse=(0.03,) * 3)
+    assert decide([cand], base, noise, 0.4, 3.5, 10.0).cause == "unexplained"  # 0.4 > 10 x 0.03
+    dec = decide([cand], base, chained, 0.4, 3.5, 10.0)  # 0.4 < 10 x 0.05, but > 10 x the noise's 0.03
+    assert dec.cause == "unexplained" and "of the noise alone" in dec.reason
+    loose = NoiseFloor(nrmse=0.05, fold_nrmse=(0.05,) * 3, noise_rms=(0,) * 3, conditioning_nrmse=(0,) * 3,
+                       method="test", noise_fold_nrmse=(0.05,) * 3)
+    assert decide([cand], base, loose, 0.4, 3.5, 10.0).cause == "smooth_stiffening"
