@@ -50,16 +50,14 @@ from typing import Sequence
 
 import numpy as np
 
+from eddi.chain_tolerance import CLOCK_PPM, GAIN_TOLERANCE  # the defaults (re-exported here)
 from eddi.diagnosis.mapping import Mapper, serial_map
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.show import simulate_part
 from eddi.errors import EddiError
 from eddi.model import EquationOfMotion
 
-#: Default relative difference of the accelerometer's sensitivity between captures (1 %).
-GAIN_TOLERANCE = 0.01
-#: Default sample-clock difference between captures [ppm].
-CLOCK_PPM = 50.0
+
 #: A held-out simulation this far off (nrmse) is lost: its chain sensitivity is not counted.
 LOST = 1.0
 

@@ -70,7 +70,7 @@ def register(subparsers: Any) -> None:
     from station.argtypes import add_refine_option
 
     add_refine_option(p)
-    from eddi.diagnosis.tolerance import CLOCK_PPM, GAIN_TOLERANCE
+    from eddi.chain_tolerance import CLOCK_PPM, GAIN_TOLERANCE  # no engine import for --help
     from station.argtypes import percent_tolerance, ppm_tolerance
 
     p.add_argument("--gain-tolerance", type=percent_tolerance, default=100 * GAIN_TOLERANCE, metavar="PCT",

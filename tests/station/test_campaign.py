@@ -213,7 +213,7 @@ def test_cli_bad_input_is_one_line(captures, tmp_path, capsys):
     other.mkdir()
     (other / "notes.txt").write_text("mine")
     cases = [
-        (["campaign", str(tmp_path / "nothing-*.h5"), "--out", str(tmp_path / "o")], "matches no .csv, .h5, .hdf5 file"),
+        (["campaign", str(tmp_path / "nothing-*.h5"), "--out", str(tmp_path / "o")], "matches no .csv, .tsv, .txt, .uff, .unv, .mat, .h5, .hdf5 file"),
         (["campaign", str(captures), "--out", str(captures)], "refusing to overwrite an input"),
         (["campaign", str(captures), "--out", str(other)], "a folder of other files, not a campaign's"),
         (["campaign", str(captures), "--out", str(captures / "good.csv")], "refusing to replace it with a folder"),
