@@ -47,15 +47,15 @@ NULLS = {
 CASES = {**NULLS, **SYSTEMS}
 
 
-def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """95 % Wilson score interval of a proportion ``k / n``."""
+def wilson(k: int, n: int) -> tuple[float, float]:
+    """95 % Wilson score interval of a proportion ``k / n`` (scipy.stats.binomtest; the coverage
+    benchmarks share this one)."""
     if n == 0:
         return (math.nan, math.nan)
-    p = k / n
-    d = 1 + z * z / n
-    c = (p + z * z / (2 * n)) / d
-    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
-    return c - h, c + h
+    from scipy.stats import binomtest
+
+    ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+    return float(ci.low), float(ci.high)
 
 
 def run_case(spec: dict, seeds: range, snr_db: float, refine: bool, rate_hz: float,

@@ -56,6 +56,8 @@ from simulated_rig.bench import impact_test  # noqa: E402
 from simulated_rig.hammer import HammerSpec  # noqa: E402
 from simulated_rig.sensors import accelerometer, force_sensor  # noqa: E402
 
+from bench_ci_coverage import wilson  # noqa: E402  (this folder: the script's own)
+
 #: name: mass [kg], f [Hz], zeta (linear), record [s], rate [Hz], snr [dB], bits, tip,
 #: v_p [m/s] (target peak velocity: sets the blow), nonlinear shares (see the docstring),
 #: chain: osr, drift [noise sd over the record], iepe [Hz].
@@ -149,15 +151,6 @@ def chain_record(spec: dict, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndar
     return t, force, acc, tau
 
 
-def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """95 % Wilson score interval of a proportion ``k / n``."""
-    if n == 0:
-        return (math.nan, math.nan)
-    p = k / n
-    d = 1 + z * z / n
-    c = (p + z * z / (2 * n)) / d
-    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
-    return c - h, c + h
 
 
 def run_case(spec: dict, seeds: range, refine: bool, tell: bool = True

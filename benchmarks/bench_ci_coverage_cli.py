@@ -44,6 +44,8 @@ from eddi.model import EquationOfMotion  # noqa: E402
 from simulated_rig.bench import impact_test  # noqa: E402
 from simulated_rig.hammer import HammerSpec  # noqa: E402
 from simulated_rig.sensors import accelerometer, force_sensor  # noqa: E402
+
+from bench_ci_coverage import wilson  # noqa: E402  (this folder: the script's own)
 from station.cli import main as station_main  # noqa: E402
 
 
@@ -153,15 +155,6 @@ def run_case(spec: dict, seeds: range, tmp: Path, extra: tuple[str, ...] = ()) -
     return out, kept, warned
 
 
-def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """95 % Wilson score interval of a proportion ``k / n``."""
-    if n == 0:
-        return (math.nan, math.nan)
-    p = k / n
-    d = 1 + z * z / n
-    c = (p + z * z / (2 * n)) / d
-    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
-    return c - h, c + h
 
 
 def summary(rows: list[tuple[float, float, float]]) -> str:
