@@ -44,3 +44,15 @@ def test_validate_warns_on_a_models_wrong_driving_point_and_is_silent_on_the_rig
     assert len(w) == 1 and "point to acc2" in w[0] and "acc1, the model's," in w[0]
     main(["validate", str(wrong), files[0]])
     assert "WARNING: the records point to acc2" in capsys.readouterr().out
+
+
+def test_replay_carries_the_warning(tmp_path):
+    from station.mdof_replay import replay_mdof_object, replay_mdof_text
+    from station.readers import read_measurement
+
+    obj = replay_mdof_object([read_measurement(f) for f in _captures(tmp_path)])
+    assert obj["driving_point"] == "acc1" and len(obj["warnings"]) == 1
+    assert "point to acc2" in obj["warnings"][0] and "acc1, the default" in obj["warnings"][0]
+    assert "WARNING: the records point to acc2" in replay_mdof_text(obj)
+    right = replay_mdof_object([read_measurement(f) for f in _captures(tmp_path)], driving_point="acc2")
+    assert right["warnings"] == []
