@@ -44,6 +44,7 @@ def test_only_the_struck_channel_has_every_modal_constant_positive(drive):
     assert col.collocated == tuple(c == drive - 1 for c in range(2))
     other = 2 - drive  # 0-based index of the unstruck channel
     assert col.negative[other] == (1,) and col.negative[drive - 1] == ()  # mode 2: opposite entries
+    assert col.lead[drive - 1] > 5 * col.lead[other]  # the struck mass moves with the force at once
     true, wrong = system.channels[drive - 1], system.channels[other]
     assert driving_point_warning(col, system.channels, true) is None  # silence when right
     w = driving_point_warning(col, system.channels, wrong, DEFAULTED)
@@ -75,3 +76,10 @@ def test_no_warning_unless_exactly_one_other_channel_is_collocated():
     uncontradicted = Collocation(negative=((), (), (1,)), collocated=(False, True, False), **base)
     assert driving_point_warning(uncontradicted, ("a", "b", "c"), "a") is None
     assert driving_point_warning(None, ("a", "b"), "a") is None
+    # the blow's start must agree: the pointed channel moves with the force more than the declared one
+    led = Collocation(negative=((1,), (), (1,)), collocated=(False, True, False), lead=np.array([0.9, 1.1, 0.1]),
+                      **base)
+    assert "moves with the force during the blow" in driving_point_warning(led, ("a", "b", "c"), "a")
+    lagging = Collocation(negative=((1,), (), (1,)), collocated=(False, True, False), lead=np.array([0.9, 0.05, 0.1]),
+                          **base)
+    assert driving_point_warning(lagging, ("a", "b", "c"), "a") is None
