@@ -101,11 +101,14 @@ def _one(path: str, args: argparse.Namespace, tmp: Path) -> None:
         print(f"  diagnose exit {code}: {err.strip()[-400:]}")
         return
     obj = json.loads(out)
+    num = lambda x: float("nan") if x is None else float(x)  # noqa: E731 - JSON null is a non-finite value
     print(f"  diagnose cpu {cpu:7.1f} s  wall {wall:7.1f} s  floor {floor:6.2f} s  cpu/floor {cpu / max(floor, 1e-9):6.1f}"
           f"  exit {code}")
-    print(f"  cause {obj['cause']}  gain {obj['gain']:.4f}  baseline {obj['baseline']['nrmse']:.5f} "
-          f"{[round(float(x), 5) for x in obj['baseline']['folds']]}  coupled {obj['coupled']['nrmse']:.5f} "
-          f"{[round(float(x), 5) for x in obj['coupled']['folds']]}  polished {obj.get('polished_folds')}")
+    print(f"  cause {obj['cause']}  gain {num(obj['gain']):.4f}  baseline {num(obj['baseline']['nrmse']):.5f} "
+          f"{[round(num(x), 5) for x in obj['baseline']['folds']]}  coupled {num(obj['coupled']['nrmse']):.5f} "
+          f"{[round(num(x), 5) for x in obj['coupled']['folds']]}  polished {obj.get('polished_folds')}")
+    for w in obj.get("warnings", []):
+        print(f"  warning: {w}")
     for note in obj["notes"]:
         if "rate" in note or "decimat" in note or "budget" in note:
             print(f"  note: {note}")

@@ -141,6 +141,14 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
     known = [f for f in fold if np.isfinite(f) and f < NRMSE_CAP]
     fill = min(known) if known else MIN_FLOOR
     fold = [f if (np.isfinite(f) and f < NRMSE_CAP) else fill for f in fold]
+    return _floor(records, fold, cond, preds, chain)
+
+
+def _floor(records: Sequence[Record], fold: list[float], cond: list[float], preds: list[float],
+           chain: tuple[Sequence[float], dict] | None) -> NoiseFloor:
+    """The :class:`NoiseFloor` of the noise's per-part floors ``fold``, the chain's share
+    (``chain``: per part, and the tolerances used) joined in quadrature, at least
+    :data:`MIN_FLOOR` per part."""
     method = (f"{DRAWS} more draws of each record's measured noise on its response channel, "
               "each conditioned again; per part the median over the draws of "
               "sqrt(d_cond^2 + d_pred^2) (module notes)")
