@@ -150,6 +150,30 @@ def add_adc_filter_option(p: argparse.ArgumentParser) -> None:
                         "file records, else point samples")
 
 
+def sensor_highpass(text: str) -> float:
+    """A declared first-order AC coupling of the accelerometer (IEPE): its corner [Hz], a finite
+    number in (0, 100], or ``none`` (DC-coupled, overriding what the file records; returned as 0)."""
+    t = text.strip().lower()
+    if t == "none":
+        return 0.0
+    try:
+        hz = float(t)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a corner frequency in Hz (e.g. 0.4) or none, got {text!r}") from None
+    if not (math.isfinite(hz) and 0.0 < hz <= 100.0):
+        raise argparse.ArgumentTypeError(f"expected a corner frequency in (0, 100] Hz or none, got {text!r}")
+    return hz
+
+
+def add_sensor_highpass_option(p: argparse.ArgumentParser) -> None:
+    """``--sensor-highpass HZ``: the accelerometer's first-order AC coupling, inverted in conditioning."""
+    p.add_argument("--sensor-highpass", type=sensor_highpass, default=None, metavar="HZ|none",
+                   help="the accelerometer's first-order AC coupling corner [Hz] (IEPE: typically 0.1-1 Hz; "
+                        "see its data sheet), inverted before identification; none: DC-coupled; default: what "
+                        "the capture file records, else DC-coupled (identify warns when the record looks "
+                        "AC-coupled)")
+
+
 def add_refine_option(p: argparse.ArgumentParser) -> None:
     """``--refine/--no-refine``, the same on every command that identifies."""
     p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=True,

@@ -264,6 +264,21 @@ def with_adc_filter(meas: Measurement, adc: tuple[int, int | None] | None) -> Me
     return dataclasses.replace(meas, metadata=meta)
 
 
+def with_sensor_highpass(meas: Measurement, corner_hz: float | None) -> Measurement:
+    """``meas`` with the accelerometer's first-order AC coupling declared in its metadata
+    (``ac_coupling_s = 1 / (2 pi f_c)``, inverted by the conditioning; ``None``: unchanged;
+    ``0``: DC-coupled, overriding what the file records)."""
+    if corner_hz is None:
+        return meas
+    import dataclasses
+
+    meta = dict(meas.metadata)
+    meta.pop("ac_coupling_s", None)
+    if corner_hz > 0:
+        meta["ac_coupling_s"] = 1.0 / (2.0 * math.pi * float(corner_hz))
+    return dataclasses.replace(meas, metadata=meta)
+
+
 def choose_fit_index(measurements: Sequence[Measurement] | Sequence[RecordInfo]) -> int:
     """The record of the median peak force (the lower middle one for an even count).
 

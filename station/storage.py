@@ -446,6 +446,8 @@ def measurement_of(cap: StoredCapture, path: str | os.PathLike[str]) -> Any:
     if int(cap.attrs.get("adc_sinc_order", 0) or 0):  # the DAQ's decimation filter (station import --adc-filter)
         meta["adc_sinc_order"] = int(cap.attrs["adc_sinc_order"])
         meta["adc_osr"] = int(cap.attrs.get("adc_osr", 0) or 0)
+    if float(cap.attrs.get("ac_coupling_s", 0) or 0) > 0:  # the accelerometer's AC coupling (import --sensor-highpass)
+        meta["ac_coupling_s"] = float(cap.attrs["ac_coupling_s"])
     if cap.attrs.get("driving_point"):  # multi-DOF: the response channel at the hammer
         meta["driving_point"] = str(cap.attrs["driving_point"])
     t0 = float(cap.attrs.get("t0_s", 0.0))  # imported records keep their first time stamp

@@ -19,7 +19,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from station.argtypes import add_adc_filter_option, finite_positive, nonnegative_seconds
+from station.argtypes import add_adc_filter_option, add_sensor_highpass_option, finite_positive, nonnegative_seconds
 from station.errors import InputFileError
 from station.output import emit
 from station.output_safety import check_output
@@ -43,6 +43,7 @@ def register(subparsers: Any) -> None:
     i.add_argument("--mass", type=finite_positive, metavar="KG", help="oscillating mass [kg] stored with each capture")
     i.add_argument("--notes", default="", help="operator notes stored with each capture")
     add_adc_filter_option(i)
+    add_sensor_highpass_option(i)
     i.add_argument("--new-session", action="store_true",
                    help="the records start a new session in the file (else each must match the "
                    "session's rate, mass and channels)")
@@ -98,7 +99,7 @@ def handle_export(args: argparse.Namespace) -> int:
 def handle_import(args: argparse.Namespace) -> int:
     """Run ``station import``."""
     from station.readers import read_measurement
-    from station.session import with_adc_filter
+    from station.session import with_adc_filter, with_sensor_highpass
     from station.session_writer import CaptureWriter, import_measurement, same_session_check
 
     out = check_output(args.out, "hdf5", args.csv, option="--out", append=True)
@@ -109,7 +110,7 @@ def handle_import(args: argparse.Namespace) -> int:
         for k, m in enumerate(measurements):
             if args.mass is not None:
                 m = _with_mass(m, args.mass)
-            m = with_adc_filter(m, args.adc_filter)
+            m = with_sensor_highpass(with_adc_filter(m, args.adc_filter), args.sensor_highpass)
             check = same_session_check(out, new_session=args.new_session and k == 0, verify=not args.new_session)
             indices.append(import_measurement(writer, m, notes=args.notes, check=check))
     emit(args.json, f"{len(indices)} capture(s) imported into {args.out} (indices {indices[0]}..{indices[-1]})",

@@ -13,7 +13,7 @@ import math
 from typing import TYPE_CHECKING, Any
 
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
-from station.argtypes import add_adc_filter_option, add_refine_option, damping_terms, finite_positive, stiffness_terms  # noqa: F401 (re-export)
+from station.argtypes import add_adc_filter_option, add_refine_option, add_sensor_highpass_option, damping_terms, finite_positive, stiffness_terms  # noqa: F401 (re-export)
 from station.errors import ConfigError
 from station.output import emit
 
@@ -49,6 +49,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="phase-two route (default: %(default)s)")
     add_refine_option(p)
     add_adc_filter_option(p)
+    add_sensor_highpass_option(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handler)
 
@@ -126,6 +127,26 @@ def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
     return obj
 
 
+def coupling_check(meas: Measurement, res: PipelineResult, args: argparse.Namespace, obj: dict[str, Any]) -> None:
+    """Look for an undeclared accelerometer AC coupling (:mod:`station.coupling`): what it found
+    goes in ``obj["conditioning"]``, and a warning when the coupling is evident."""
+    from station.coupling import check_coupling
+
+    chk = check_coupling(meas, res, args.damping, args.stiffness, args.route)
+    if chk is None:
+        return
+    obj["conditioning"]["sensor_highpass_check"] = chk.as_dict()
+    if chk.evident and chk.corner_hz is not None:
+        obj["conditioning"]["sensor_highpass_estimate_hz"] = chk.corner_hz
+        fc = f"{chk.corner_hz:.2g}"
+        obj["warnings"].append(
+            f"the record looks AC-coupled (first-order high-pass near {fc} Hz, IEPE?): the driven simulation "
+            f"matches the measured acceleration with nrmse {chk.nrmse_as_is:.3g} as identified, "
+            f"{chk.nrmse_through_coupling:.3g} with that coupling inverted and refitted; coefficients are "
+            f"biased: pass --sensor-highpass {fc} (better: the sensor's data-sheet corner) or use a DC "
+            f"accelerometer")
+
+
 def _text(obj: dict[str, Any]) -> str:
     lines = [f"{obj['source']}: {obj['equation']}", ""]
     lines.append(f"  mass        {obj['mass']:.6g} kg")
@@ -164,19 +185,21 @@ def _text(obj: dict[str, Any]) -> str:
 
 def handler(args: argparse.Namespace) -> int:
     from station.readers import read_measurement, require_one_coordinate
-    from station.session import expand_specs, read_all, run_session, with_adc_filter
+    from station.session import expand_specs, read_all, run_session, with_adc_filter, with_sensor_highpass
 
     specs = expand_specs(list(args.path))
     if len(specs) == 1:
-        meas = with_adc_filter(read_measurement(specs[0]), args.adc_filter)
+        meas = with_sensor_highpass(with_adc_filter(read_measurement(specs[0]), args.adc_filter), args.sensor_highpass)
         require_one_coordinate(meas, "identify")
         mass = _mass(args.mass, meas)
         res = run_identify(meas, mass, args.damping, args.stiffness, args.route, args.refine)
         obj = result_object(meas, res)
+        if not meas.metadata.get("ac_coupling_s") and args.sensor_highpass is None:
+            coupling_check(meas, res, args, obj)
         obj["unstable"] = res.unstable
         emit(args.json, _text(obj), obj)
         return _exit_code(res.unstable)
-    recs = [with_adc_filter(m, args.adc_filter) for m in read_all(specs)]
+    recs = [with_sensor_highpass(with_adc_filter(m, args.adc_filter), args.sensor_highpass) for m in read_all(specs)]
     session = run_session(recs, args.mass, damping=args.damping, stiffness=args.stiffness, route=args.route,
                           fit_index=args.fit, refine=args.refine)
     meas = session.measurements[session.fit_index]

@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from station.argtypes import add_sensor_highpass_option
 from station.output import emit
 
 
@@ -31,21 +32,25 @@ def register(subparsers: Any) -> None:
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("model", metavar="MODEL.json", help="equation of motion or modal-sum model (JSON)")
     p.add_argument("records", metavar="CAPTURE", nargs="+", help="FILE.csv, FILE.h5 (all captures) or FILE.h5:N")
+    add_sensor_highpass_option(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=handle)
 
 
-def validate_object(model_path: str, specs: list[str]) -> dict[str, Any]:
-    """Validate the model on every record; the ``--json`` object."""
+def validate_object(model_path: str, specs: list[str], sensor_highpass_hz: float | None = None) -> dict[str, Any]:
+    """Validate the model on every record; the ``--json`` object (``sensor_highpass_hz``: a declared
+    accelerometer AC coupling [Hz], inverted in conditioning; 0 DC-coupled; None: as recorded)."""
     from eddi.multimode import ModalSumModel
-    from station.session import load_model_file, mean_of, read_measurement, expand_specs, validate_measurement
+    from station.session import (expand_specs, load_model_file, mean_of, read_measurement, validate_measurement,
+                                 with_sensor_highpass)
 
     model = load_model_file(model_path)
     if getattr(model, "kind", None) == "mdof":  # several coordinates: every channel predicted
         from station.mdof_commands import validate_mdof_object
 
         return validate_mdof_object(model, model_path, specs)  # type: ignore[arg-type]
-    checks = [validate_measurement(model, read_measurement(s)) for s in expand_specs(specs)]
+    checks = [validate_measurement(model, with_sensor_highpass(read_measurement(s), sensor_highpass_hz))
+              for s in expand_specs(specs)]
     return {
         "model": model_path,
         "model_kind": "modal_sum" if isinstance(model, ModalSumModel) else "equation_of_motion",
@@ -71,7 +76,7 @@ def _text(obj: dict[str, Any]) -> str:
 
 def handle(args: argparse.Namespace) -> int:
     """Run ``station validate``; return the exit code."""
-    obj = validate_object(args.model, list(args.records))
+    obj = validate_object(args.model, list(args.records), args.sensor_highpass)
     diverged = sum(bool(r.get("diverged")) for r in obj["records"])
     obj["diverged"] = diverged
     if obj["model_kind"] == "mdof":
