@@ -31,11 +31,12 @@ import numpy as np
 
 from eddi.errors import IdentificationError
 from eddi.mdof.amplitude import backbone_json
+from eddi.mdof.collocation import check_driving_point
 from eddi.mdof.identify import identify_mdof
 from eddi.mdof.model import MdofModel
 from eddi.mdof.validate import validate_mdof
 from station.errors import InputFileError
-from station.mdof_data import condition_all, reduce_rate
+from station.mdof_data import condition_all, driving_point_how, reduce_rate
 
 
 def _read(specs: Sequence[str]):
@@ -59,7 +60,21 @@ def validate_mdof_object(model: MdofModel, model_path: str, specs: Sequence[str]
     per = {c: float(np.mean([o["channel_nrmse"][c] for o in out])) for c in model.channels}
     return {"model": model_path, "model_kind": "mdof", "compared": "displacement of every channel",
             "records": out, "channel_nrmse": per, "nrmse": float(np.mean([o["nrmse"] for o in out])),
-            "nmte": None}
+            "nmte": None, "warnings": _driving_point_heard(records, names, model.driving_point)}
+
+
+def _driving_point_heard(records: Sequence[Any], names: Sequence[str], dp: str) -> list[str]:
+    """The model's driving point checked against the signs of the captures' residues
+    (:mod:`eddi.mdof.collocation`; the tail's linear modes found here, ~0.1-5 s CPU)."""
+    from eddi.mdof.identify import linear_modes
+
+    if dp not in names or not all(r.force is not None for r in records):
+        return []
+    try:
+        modes = linear_modes(records, driving_point=list(names).index(dp))
+    except IdentificationError:
+        return []
+    return check_driving_point(modes, records, names, dp, "the model's")
 
 
 def validate_mdof_text(obj: dict[str, Any]) -> str:
@@ -70,6 +85,7 @@ def validate_mdof_text(obj: dict[str, Any]) -> str:
                      + (", diverged" if r["diverged"] else "") + ")")
     chans = "  ".join(f"{c} {v:.4g}" for c, v in obj["channel_nrmse"].items())
     lines.append(f"  mean over {len(obj['records'])} record(s): nrmse {obj['nrmse']:.4g}  ({chans})")
+    lines += [f"WARNING: {w}" for w in obj.get("warnings", [])]
     return "\n".join(lines)
 
 
@@ -142,6 +158,9 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     }
     obj["warnings"] = _model_flags(model, folds["coupled" if gain > margin else "baseline"])
     obj["unstable"] = bool(obj["warnings"])
+    # the declared driving point checked against the signs of every channel's residues (warned only)
+    obj["warnings"] += check_driving_point(final.modes, records, names, dp,
+                                           driving_point_how(raw[0], driving_point))
     if save_model:
         Path(save_model).write_text(model.to_json() + "\n")
         obj["saved_model"] = save_model

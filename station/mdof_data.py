@@ -46,6 +46,15 @@ def resolve_driving_point(meas: Measurement, driving_point: str | None) -> str:
     return driving_point
 
 
+def driving_point_how(meas: Measurement, driving_point: str | None) -> str:
+    """How the driving point was chosen, for :func:`eddi.mdof.collocation.check_driving_point`:
+    ``"declared"`` (``--driving-point`` or a stored bench config), else the default (the first
+    response channel)."""
+    from eddi.mdof.collocation import DEFAULTED
+
+    return DEFAULTED if driving_point is None and _configured_driving_point(meas) is None else "declared"
+
+
 def _configured_driving_point(meas: Measurement) -> str | None:
     """The capture's stored driving point (``station acquire``), else ``specimen.driving_point`` of a
     bench config stored with it, if any."""

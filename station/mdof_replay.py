@@ -16,10 +16,11 @@ from typing import Any
 import numpy as np
 
 from eddi.errors import IdentificationError
+from eddi.mdof.collocation import check_driving_point
 from eddi.mdof.identify import identify_mdof
 from eddi.mdof.validate import validate_mdof
 from station.errors import InputFileError
-from station.mdof_data import condition_all
+from station.mdof_data import condition_all, driving_point_how
 
 
 def replay_mdof_object(measurements: Sequence[Any], driving_point: str | None = None) -> dict[str, Any]:
@@ -56,6 +57,8 @@ def replay_mdof_object(measurements: Sequence[Any], driving_point: str | None = 
             "equation": model.equation_text(), "model": model.model_dump(mode="json"),
             "records": out,
             "held_out_nrmse": float(np.mean([o["nrmse"] for o in held])) if held else None,
+            "warnings": check_driving_point(ident.modes, records, names, dp,
+                                            driving_point_how(measurements[0], driving_point)),
             "_validations": validations}
 
 
@@ -72,4 +75,5 @@ def replay_mdof_text(obj: dict[str, Any]) -> str:
                      + ("  WARNING: diverged" if r["diverged"] else ""))
     if obj["held_out_nrmse"] is not None:
         lines.append(f"  held-out nrmse (mean over channels): {obj['held_out_nrmse']:.4g}")
+    lines += [f"  WARNING: {w}" for w in obj.get("warnings", [])]
     return "\n".join(line for line in lines if line)
