@@ -7,7 +7,7 @@ exactly as before (every factor 1, values untouched). Files exported by other to
 when their header says what a column is:
 
 * **delimiter**: a tab, a semicolon, a comma (first of these the header holds), else runs of
-  blanks; with a tab or semicolon delimiter and a comma inside the numbers, the decimal
+  blanks; cells and numbers may be quoted (``"Time [s]"``, a spreadsheet's export); with a tab or semicolon delimiter and a comma inside the numbers, the decimal
   separator is a comma (a European spreadsheet export);
 * **names**: the quantity in words or short (``Time``, ``time``, ``Force``, ``Hammer``,
   ``Acceleration``, ``accel``, ``Velocity``, ``Displacement``, ...), case and blanks ignored,
@@ -172,7 +172,7 @@ def parse_header(lines: list[str], where: str) -> Header:
         raise InputFileError(f"{where}: empty file; expected a header naming columns t, acc, ...")
     header = lines[i].strip()
     delim = sniff_delimiter(header)
-    cells = [c for c in (header.split(delim) if delim is not None else header.split())]
+    cells = [c.strip().strip('"').strip("'") for c in (header.split(delim) if delim is not None else header.split())]
     if all(_is_number(c) for c in cells):
         raise InputFileError(
             f"{where}: no header: line {i + 1} holds numbers ({header[:40]!r}); expected a header naming the "

@@ -209,7 +209,7 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
                 if hdr.decimal_comma:  # rare: a spreadsheet export; one copy of the text
                     source = io.StringIO(path.read_text(encoding="utf-8").replace(",", "."))
                 data = np.loadtxt(source, delimiter=hdr.delimiter, ndmin=2, dtype=float, skiprows=hdr.skiprows,
-                                  encoding="utf-8")
+                                  encoding="utf-8", quotechar='"')
         except ValueError as exc:
             raise InputFileError(f"{path}: {_row_problem(path, len(names), exc, hdr)}") from None
     except UnicodeDecodeError:

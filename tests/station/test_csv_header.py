@@ -43,6 +43,7 @@ def test_station_format_reads_untouched(tmp_path: Path) -> None:
     ("time;force;acceleration", ";", True, ""),  # a European spreadsheet export
     ("Time (s)\tHammer (N)\tAccel (m/s²)", "\t", False, "# logger 7, channel map v2\n# 2026-11-24\n"),
     ("t force acc", " ", False, ""),
+    ('"Time [s]","Force [N]","Acceleration [m/s^2]"', ",", False, ""),  # a spreadsheet quotes its header
 ])
 def test_other_delimiters_names_and_notes_read_the_same_numbers(tmp_path: Path, header: str, sep: str,
                                                                 comma: bool, notes: str) -> None:
