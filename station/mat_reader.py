@@ -37,8 +37,9 @@ def _load(path: Path) -> dict[str, Any]:
         return {k: v for k, v in raw.items() if not k.startswith("__")}
     except NotImplementedError:  # version 7.3: an HDF5 file
         return _load_v73(path)
-    except (ValueError, TypeError, OSError) as exc:
-        raise InputFileError(f"{path}: not a readable MATLAB file ({str(exc).splitlines()[0][:100]})") from None
+    except Exception as exc:  # scipy's MatReadError (an Exception), ValueError, OSError...: one line
+        first = str(exc).splitlines()[0][:100] if str(exc) else type(exc).__name__
+        raise InputFileError(f"{path}: not a readable MATLAB file ({first})") from None
 
 
 def _load_v73(path: Path) -> dict[str, Any]:
@@ -55,7 +56,7 @@ def _load_v73(path: Path) -> dict[str, Any]:
     try:
         with h5py.File(path, "r") as fh:
             return walk(fh)
-    except OSError as exc:
+    except (OSError, KeyError, TypeError, ValueError) as exc:
         raise InputFileError(f"{path}: not a readable MATLAB file ({exc})") from None
 
 

@@ -67,9 +67,10 @@ def test_refusals_are_one_line(tmp_path: Path, content: dict, message: str) -> N
         read_measurement(str(path))
 
 
-def test_not_a_mat_file_is_one_line_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize("body", [b"MATLAB? no" * 50, b"x\n"])  # garbage; truncated (scipy's MatReadError)
+def test_not_a_mat_file_is_one_line_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str], body: bytes) -> None:
     path = tmp_path / "junk.mat"
-    path.write_bytes(b"MATLAB? no" * 50)
+    path.write_bytes(body)
     assert main(["identify", str(path), "--mass", "1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "junk.mat" in err[0]
