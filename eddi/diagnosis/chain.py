@@ -56,7 +56,9 @@ SLOPE_AMPLITUDE_SHARE = 0.1
 CORNERS_HZ = (0.0, 0.1, 0.14, 0.2, 0.28, 0.41, 0.58, 0.83, 1.2, 1.7, 2.5, 3.5, 5.0)
 
 
-def _recondition(rec: Record, corner_hz: float) -> Record | None:
+def recondition(rec: Record, corner_hz: float) -> Record | None:
+    """``rec`` conditioned again with a first-order coupling at ``corner_hz`` [Hz] inverted (the
+    record itself at 0; None when the conditioning fails)."""
     from eddi.conditioning import condition
 
     if corner_hz == 0.0:
@@ -94,7 +96,7 @@ class _CornerSearch:
 
     def fitter(self, fc: float) -> Fitter | None:
         if fc not in self.variants:
-            recs = [_recondition(r, fc) for r in self.records]
+            recs = [recondition(r, fc) for r in self.records]
             self.variants[fc] = None if any(r is None for r in recs) else recs  # type: ignore[assignment]
             if self.variants[fc] is not None:
                 self.fitters[fc] = Fitter([r.signal() for r in self.variants[fc]], self.setup)  # type: ignore[union-attr]
