@@ -53,14 +53,8 @@ def slow_basis(n_samples: int, rate_hz: float, cutoff_hz: float) -> tuple[np.nda
     -------
     b, bd : ndarray, shape (n_samples, n_basis)
     """
-    span = n_samples / rate_hz
-    n_knots = max(2, int(np.ceil(span * KNOTS_PER_CUTOFF * cutoff_hz)) + 1)
-    inner = np.linspace(0.0, span, n_knots)
-    knots = np.concatenate([[0.0] * 3, inner, [span] * 3])
-    t = np.minimum(np.arange(n_samples) / rate_hz, span * (1 - 1e-12))
-    b = BSpline.design_matrix(t, knots, 3).toarray()
-    bd = np.gradient(b, 1.0 / rate_hz, axis=0)
-    return b, bd
+    b, bd = _sparse_basis(n_samples, rate_hz, cutoff_hz)  # one construction: dense views of it
+    return b.toarray(), bd.toarray()
 
 
 def _sparse_basis(n_samples: int, rate_hz: float, cutoff_hz: float) -> tuple[sparse.csr_matrix, sparse.csr_matrix]:
