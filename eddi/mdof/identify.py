@@ -30,7 +30,11 @@ and the impact force at the driving point). Steps:
    a stiff spring), phase one cannot resolve the small damping, and damping and stiffness are
    fitted together on the force balance.
 4. **Sparsity.** A term whose force (RMS over the data) is below ``prune`` times the RMS of
-   ``q_i''`` is dropped and the equation refitted (sequential thresholding).
+   ``q_i''`` is dropped and the equation refitted (sequential thresholding). In modal
+   coordinates the identification is also run with the lower prunes of :data:`PRUNE_LADDER`
+   (a weak coupling near internal resonance exchanges energy through forces of the order of the
+   damping force), and the candidate rule keeps the sparsest whose model reproduces the
+   training records within the noise floor (:func:`_prune_ladder`).
 5. **Input and masses** (:mod:`eddi.mdof.masses`). Over the impact, ``q_i'' + B_i + K_i = g_i F`` gives the force per
    unit mass ``g_i`` by least squares. Modal coordinates: the force enters equation ``i`` as
    ``psi_di F`` (``d`` the driving point) so the modal mass is ``m_i = psi_di / g_i``, the

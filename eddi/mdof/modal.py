@@ -8,7 +8,8 @@ so neither fits a handful of ring-downs without first building FRFs from a nonli
 
 Method: the low-amplitude tail of every record (where the response is below ``tail_fraction``
 of its peak, so the nonlinear terms are small) is low-passed and decimated to about 5 times the
-top of its band (the part of the spectrum 10 times above the noise floor), stacked as columns
+top of its band (the part of the spectrum 10 times above the noise floor; the decimating
+filter's edge samples cut, :data:`DECIMATE_EDGE`), stacked as columns
 of block Hankel matrices ``H0 = [y_{k+i+j}]`` and ``H1`` (shifted by one sample); the SVD of
 ``H0`` truncated at order ``n`` gives ``A = S^-1/2 U^T H1 V S^-1/2`` and ``C = U S^1/2``; the
 eigenvalues of ``A`` are the discrete poles ``mu = exp(lambda dt)``.
