@@ -79,9 +79,9 @@ def _cpu() -> float:
 
 def _coefficients(model, truth) -> tuple[list[float], dict[str, float]]:
     """Mass errors and cubic-term errors (relative) of ``model`` against ``truth`` (physical)."""
-    mass = [float(a / b - 1.0) for a, b in zip(model.mass, truth.mass)]
-    cubic = {}
-    if model.coordinates == "physical":
+    mass, cubic = [], {}
+    if model.coordinates == "physical":  # modal masses are not the lumped ones
+        mass = [float(a / b - 1.0) for a, b in zip(model.mass, truth.mass)]
         for i, st in enumerate(truth.stiffness):
             for t, c in st.items():
                 if "^3" in t or "^2" in t:
