@@ -139,14 +139,10 @@ def coupling_check(meas: Measurement, res: PipelineResult, args: argparse.Namesp
         return
     obj["conditioning"]["sensor_highpass_check"] = chk.as_dict()
     if chk.evident and chk.corner_hz is not None:
+        from station.coupling import coupling_warning
+
         obj["conditioning"]["sensor_highpass_estimate_hz"] = chk.corner_hz
-        fc = f"{chk.corner_hz:.2g}"
-        obj["warnings"].append(
-            f"{which} looks AC-coupled (first-order high-pass near {fc} Hz, IEPE?): the driven simulation "
-            f"matches the measured acceleration with nrmse {chk.nrmse_as_is:.3g} as identified, "
-            f"{chk.nrmse_through_coupling:.3g} with that coupling inverted and refitted; coefficients are "
-            f"biased: pass --sensor-highpass {fc} (better: the sensor's data-sheet corner) or use a DC "
-            f"accelerometer")
+        obj["warnings"].append(coupling_warning(chk, which))
 
 
 def _text(obj: dict[str, Any]) -> str:

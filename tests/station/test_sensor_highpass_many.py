@@ -49,3 +49,27 @@ def test_null_records_silent(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     assert code == 0, err
     assert not _warned(js)
     assert js["conditioning"]["sensor_highpass_check"]["evident"] is False
+
+
+def _diagnose(paths: list[Path], capsys: pytest.CaptureFixture[str], *extra: str) -> tuple[int, dict, str]:
+    try:
+        code = main(["diagnose", *map(str, paths), "--mass", str(MASS), "--damping", "v,v^3", "--stiffness", "x,x^3",
+                     "--mechanisms", "coulomb_friction", "--json", *extra])
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    out, err = capsys.readouterr()
+    return code, (json.loads(out) if out.strip() else {}), err
+
+
+def test_diagnose_warns_once_on_coupled_captures_and_not_on_nulls(tmp_path: Path,
+                                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    code, js, err = _diagnose([_csv(tmp_path, 0.4, seed) for seed in (0, 1, 2)], capsys)
+    assert code in (0, 1), err
+    warned = _warned(js)
+    assert len(warned) == 1 and warned[0].startswith("the fit record (")
+    fc = js["sensor_highpass_check"]["corner_hz"]
+    assert js["sensor_highpass_check"]["evident"] and 0.4 / 1.5 < fc < 0.4 * 1.5
+    assert f"--sensor-highpass {fc:.2g}" in warned[0]
+    code, null, err = _diagnose([_csv(tmp_path, None, seed) for seed in (0, 1, 2)], capsys)
+    assert code in (0, 1), err
+    assert not _warned(null) and null["sensor_highpass_check"]["evident"] is False
