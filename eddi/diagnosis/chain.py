@@ -401,9 +401,12 @@ def _double_hit(r: Record) -> Symptom | None:
         return None
     (a0, p0), (a1, p1) = pulses[0][::2], pulses[1][::2]
     delay = (a1 - a0) / r.rate_hz
+    inside = pulses[-1][1] > r.free_start  # a blow inside the free response the model is judged on
     return Symptom("double_hit", f"{r.label}: a second hammer blow {1e3 * delay:.3g} ms after the first, "
-                   f"{100 * p1 / p0:.0f} % of its peak (double hit): the free response starts after it",
-                   {"delay_s": delay, "ratio": p1 / p0, "pulses": float(len(pulses))})
+                   f"{100 * p1 / p0:.0f} % of its peak (double hit): "
+                   + ("it lands inside the free response" if inside else "the free response starts after it"),
+                   {"delay_s": delay, "ratio": p1 / p0, "pulses": float(len(pulses)),
+                    "inside_free_response": float(inside)})
 
 
 def _impulse_mass(r: Record, mass: float, f1: float = 0.0) -> tuple[float, float] | None:

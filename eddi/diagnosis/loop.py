@@ -23,7 +23,7 @@ import numpy as np
 
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
 from eddi.diagnosis.chain import recondition, inspect, sensor_highpass
-from eddi.diagnosis.earn import CHAIN_REASON, earn
+from eddi.diagnosis.earn import CHAIN_REASON, earn, reported_text
 from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.lookalike import attach
 from eddi.diagnosis.mapping import Mapper
@@ -297,6 +297,7 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     dec = earn(dec, baseline.nrmse / floor.nrmse if floor.nrmse > 0 else math.inf, symptoms)
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
+    verdict += reported_text(symptoms)
     notes = notes + _floor_note(dec, candidates, floor, baseline.nrmse, margin)
     if floor.chain_nrmse and max(floor.chain_nrmse) > 0.5 * MIN_FLOOR:
         # the floor says what the chain's calibration allows, in the verdict too (session 9)
