@@ -66,7 +66,7 @@ def effect_case(effect, scale=None):
         sysd = draw.base_system(rng, scale, ["hardening", "linear", "softening"][rng.integers(3)]
                                 if effect not in ("sensor_highpass",) else "linear")
         k, m, fn, X = sysd["laws"][0]["k"][1], sysd["mass"], sysd["fn_hz"], sysd["X_ref"]
-        chain, y0_fn, expect, sensor = {}, None, [effect], "acc"
+        chain, y0_fn, expect, sensor, refusal_ok = {}, None, [effect], "acc", None
         if effect == "coulomb_friction":
             fc = k * X * rng.uniform(0.008, 0.025)
             sysd["laws"].append({"law": "coulomb", "i": 0, "fc": fc, "veps": 2e-4 * 2 * np.pi * fn * X})
@@ -96,9 +96,10 @@ def effect_case(effect, scale=None):
         elif effect == "clipped":
             chain["clip_frac"] = rng.uniform(0.55, 0.8)
             expect = ["unexplained"]
+            refusal_ok = "clip"  # detecting the overload and refusing in one line is an honest answer
         files, meta = _captures(rng, cid, out, sysd, 4, sensor=sensor, chain=chain, y0_fn=y0_fn)
         return {"files": files, "given_mass": m, "hidden": effect, "expect": expect, "system": sysd,
-                "meta": meta}
+                "meta": meta, "refusal_ok": refusal_ok}
     return make
 
 
@@ -112,7 +113,7 @@ def ident_case(sensor, fmt, clip=False):
         files, meta = _captures(rng, cid, out, sysd, 2, sensor=sensor, chain=chain, fmt=fmt,
                                 levels=[1.0, float(rng.uniform(0.55, 0.75))])
         return {"files": {"fit": files[0], "held": files[1]}, "truth": {"mass": sysd["mass"], "damping": damp,
-                "stiffness": stiff}, "ppm": [0.0], "system": sysd, "meta": meta}
+                "stiffness": stiff}, "ppm": [0.0], "system": sysd, "meta": meta, "refusal_ok": "clip" if clip else None}
     return make
 
 
@@ -165,11 +166,11 @@ def mdof_case(n_mass):
         files = []
         levels = list(rng.uniform(0.5, 1.0, 4))
         tip = None
+        order = ["force"] + [names[i] for i in rng.permutation(n_mass)]  # one logger layout per case
         for c, s in enumerate(draw.sessions(rng, 4, snr=(40.0, 55.0))):
             s["names"] = names
             p, tip = draw.hammer(rng, sysd, fr[-1], levels[c], width_frac=rng.uniform(0.05, 0.15), tip=tip)
             t, ch = draw.record(rng, system, [p], fs, pre, post, s)
-            order = ["force"] + [names[i] for i in rng.permutation(n_mass)]
             name, _ = _write(rng, out, f"{cid}-{c}", t, {k: ch[k] for k in order}, "csv-export"
                              if rng.random() < 0.5 else "csv-si")
             files.append(name)

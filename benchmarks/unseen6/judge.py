@@ -91,7 +91,13 @@ def parse_json(out):
         return None
 
 
-def _failed(rec, err):
+def _failed(rec, err, case=None):
+    """The verdict of a command that gave no result. A refusal in one line (exit 2) that names what the
+    case's ``refusal_ok`` word says (``clip``: the overload detected) is an honest answer."""
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    word = (case or {}).get("refusal_ok")
+    if rec["rc"] == 2 and word and len(lines) == 1 and word in lines[0].lower() and "Traceback" not in err:
+        return "refused-detected"
     if rec["rc"] == "timeout":
         return "TIMEOUT"
     if "Traceback (most recent call last)" in err:
@@ -119,7 +125,7 @@ def score_diag(case, run):
     res["commands"].append(rec)
     d = parse_json(out) if rec["rc"] in (0, 1) else None
     if d is None:
-        res["verdict"] = _failed(rec, err)
+        res["verdict"] = _failed(rec, err, case)
         return res
     cause = d.get("cause")
     base = (d.get("baseline") or {}).get("nrmse")
@@ -181,7 +187,7 @@ def score_ident(case, run):
     res["commands"].append(rec)
     d = parse_json(out) if rec["rc"] in (0, 1) else None
     if d is None:
-        res["verdict"] = _failed(rec, err)
+        res["verdict"] = _failed(rec, err, case)
         return res
     if rec["rc"] == 1:
         flagged = d.get("unstable") or (d.get("validation") or {}).get("diverged")

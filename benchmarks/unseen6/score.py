@@ -23,7 +23,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import judge  # noqa: E402
 
-PASS = {"ok", "correct", "abstained", "none-weak", "warned", "flagged-unstable"}
+PASS = {"ok", "correct", "abstained", "none-weak", "warned", "flagged-unstable", "refused-detected"}
 SCORERS = {"mdof": judge.score_mdof, "diagnose": judge.score_diag, "campaign": judge.score_campaign,
            "ident": judge.score_ident, "robust": judge.score_robust}
 
