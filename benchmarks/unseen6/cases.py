@@ -35,7 +35,7 @@ def _captures(rng, cid, out, sysd, n, sensor="acc", chain=None, extra_pulse=Fals
     files, meta = [], []
     for c, s in enumerate(draw.sessions(rng, n)):
         s.update(chain or {})
-        p, tip = draw.hammer(rng, sysd, sysd["fn_hz"], levels[c], tip=tip)
+        p, tip = draw.hammer(rng, sysd, sysd["fn_hz"], levels[c], tip=tip, fs=fs)
         pulses = [p]
         if extra_pulse:  # the hammer bounces: a second, weaker hit a few pulse widths later
             p2 = list(p)
@@ -154,7 +154,7 @@ def mdof_case(n_mass):
         sysd = {"mass": ms[drive], "fn_hz": fr[0], "X_ref": X}
         # a linear pilot at level 1 measures the coupling spring's stretch; the cubic part is then set to
         # 15-40 % of the linear force at that stretch (a nonlinearity the records can resolve)
-        p, _ = draw.hammer(rng, sysd, fr[-1], 1.0, width_frac=0.1, tip="plastic")
+        p, _ = draw.hammer(rng, sysd, fr[-1], 1.0, width_frac=0.1, tip="plastic", fs=fs)
         tp = np.arange(0, int(6 / fr[0] * fs)) / fs
         xp = physics.simulate(system, [tuple(p[:3]) + (tuple(p[3]),)], tp)[0]
         stretch = float(np.abs(xp[1] - xp[0]).max())
@@ -169,7 +169,7 @@ def mdof_case(n_mass):
         order = ["force"] + [names[i] for i in rng.permutation(n_mass)]  # one logger layout per case
         for c, s in enumerate(draw.sessions(rng, 4, snr=(40.0, 55.0))):
             s["names"] = names
-            p, tip = draw.hammer(rng, sysd, fr[-1], levels[c], width_frac=rng.uniform(0.05, 0.15), tip=tip)
+            p, tip = draw.hammer(rng, sysd, fr[-1], levels[c], width_frac=rng.uniform(0.05, 0.15), tip=tip, fs=fs)
             t, ch = draw.record(rng, system, [p], fs, pre, post, s)
             name, _ = _write(rng, out, f"{cid}-{c}", t, {k: ch[k] for k in order}, "csv-export"
                              if rng.random() < 0.5 else "csv-si")

@@ -75,11 +75,17 @@ def timing(rng, fn, zeta, fs, max_samples=90000):
     return float(pre), float(post)
 
 
-def hammer(rng, sysd, fn_low, level, width_frac=None, tip=None):
-    """Pulse (t0, width, peak, shape) giving a free response near ``level * X_ref`` (linear pilot)."""
+def hammer(rng, sysd, fn_low, level, width_frac=None, tip=None, fs=None):
+    """Pulse (t0, width, peak, shape) giving a free response near ``level * X_ref`` (linear pilot).
+
+    The pulse lasts at least 6 samples at ``fs``: the records are point samples (no anti-alias filter
+    is modelled), so a lab's choice of tip that its DAQ resolves is assumed (a blow of one or two
+    samples would lose its impulse, which no station can recover)."""
     tip = tip or list(SHAPES)[rng.integers(3)]
     shape = SHAPES[tip]
     width = (width_frac or rng.uniform(0.04, 0.18)) / fn_low
+    if fs:
+        width = max(width, 6.0 / fs)
     impulse = sysd["mass"] * 2 * np.pi * sysd["fn_hz"] * sysd["X_ref"] * level
     peak = impulse / physics.pulse_area(width, shape)
     return [0.0, float(width), float(peak), list(shape)], tip
