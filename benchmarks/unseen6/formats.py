@@ -104,7 +104,6 @@ def _uff(path_base, t, channels, rng):
 
     path = path_base + (".uff" if rng.random() < 0.5 else ".unv")
     binary = int(rng.random() < 0.5)
-    dt = float(t[1] - t[0])
     sets = []
     for k, (name, y) in enumerate(channels.items()):
         q = _quantity(name)
