@@ -217,10 +217,11 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
                                                   _frequency(sh.bfit_all.eom), tuple(modal_damping),
                                                   tuple(modal_stiffness)))
     if want_hp:
-        # judged against EDDI's per-fold fit, as the other candidates (refining the corrected
-        # records' fit alone named sensor_highpass for a strong drag, 0.2 k1 A: docs)
+        # judged against EDDI's per-fold fit, and refined against the refined baseline when it
+        # beats that (chain.sensor_highpass; a strong drag is kept from the name by the damping slope)
+        refined = res.base_fold if (sh.fitter.refine and REFINE_CANDIDATES["on"]) else ()
         extra.append(lambda: sensor_highpass(records, sh.setup, sh.parts, sh.fold_masks, res.ref_fold,
-                                             consistency))
+                                             consistency, refined))
     finals, done = judge_candidates(res, sh.fold_fits, records, sh.setup, cat, skipped, sh.parts, sh.fold_masks,
                                     sh.fitter, (sh.fit_all, sh.bfit_all), extra)
     if sh.fitter.refine and REFINE_CANDIDATES["on"]:
