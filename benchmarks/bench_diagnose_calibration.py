@@ -38,7 +38,6 @@ import math
 import os
 import sys
 import time
-from collections import defaultdict
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -134,7 +133,17 @@ def _noise_only(d):
     return dataclasses.replace(d, noise_floor=nf)
 
 
-def _verdicts(d, factors) -> tuple[dict[str, str], dict[str, str]]:
+def _symptoms_for(dec, d, measured: list) -> list:
+    """The symptoms the loop hears for ``dec``: ``d`` was diagnosed at none factor 0, where
+    ``sensor_highpass`` may win and its impulse-mass check is then made on the reconditioned
+    records (``eddi.diagnosis.loop._impulse_through_coupling``); a verdict at a larger factor
+    that does not name it hears the check as measured (``measured``: those findings)."""
+    if dec.winner is not None and dec.winner.name == "sensor_highpass":
+        return list(d.symptoms)
+    return [s for s in d.symptoms if s.kind != "impulse_mass"] + list(measured)
+
+
+def _verdicts(d, factors, measured: list | None = None) -> tuple[dict[str, str], dict[str, str]]:
     """The cause ``diagnose`` gives at each ``none`` factor (see the module notes), and the one
     :func:`eddi.diagnosis.name.decide` gave before :func:`eddi.diagnosis.earn.earn` heard the
     chain and the symptoms (``--summary --rejudge`` applies the current rule to it)."""
@@ -155,12 +164,13 @@ def _verdicts(d, factors) -> tuple[dict[str, str], dict[str, str]]:
             dec = decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, f, NAMED_FACTOR,
                          strong_margin=strong, eddi_fold=d.reference_fold or None, departs=departs)
             raw[f"{f:g}|{strong}"] = dec.cause
-            dec = earn(dec, d.judging.nrmse / d.noise_floor.nrmse, d.symptoms)
+            sy = d.symptoms if measured is None else _symptoms_for(dec, d, measured)
+            dec = earn(dec, d.judging.nrmse / d.noise_floor.nrmse, sy)
             out[f"{f:g}|{strong}"] = dec.cause
     return out, raw
 
 
-def _named_verdicts(d) -> dict[str, str]:
+def _named_verdicts(d, measured: list | None = None) -> dict[str, str]:
     """The cause at each factor of :data:`NAMED_FACTORS` (default none factor and strong cut)."""
     from eddi.diagnosis.earn import earn
     from eddi.diagnosis.name import decide
@@ -172,25 +182,26 @@ def _named_verdicts(d) -> dict[str, str]:
         floors = [fl for p, fl in zip(d.parts, d.noise_floor.fold_nrmse) if p.record in pipe.held_out]
         floor = float(np.mean(floors)) if floors else floor
     departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= NONE_FACTOR * floor) else ""
-    return {f"{nf:g}": earn(decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, NONE_FACTOR, nf,
-                                   strong_margin=STRONG_MARGIN, eddi_fold=d.reference_fold or None,
-                                   departs=departs), d.judging.nrmse / d.noise_floor.nrmse, d.symptoms).cause
-            for nf in NAMED_FACTORS}
+    out = {}
+    for nf in NAMED_FACTORS:
+        dec = decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, NONE_FACTOR, nf,
+                     strong_margin=STRONG_MARGIN, eddi_fold=d.reference_fold or None, departs=departs)
+        sy = d.symptoms if measured is None else _symptoms_for(dec, d, measured)
+        out[f"{nf:g}"] = earn(dec, d.judging.nrmse / d.noise_floor.nrmse, sy).cause
+    return out
 
 
 #: Give the loop the pipeline's baseline, as ``station diagnose`` does (``--no-pipeline``: the
 #: library call without it, as before session 4); ``chain``: the measurement chain's tolerance
 #: in the noise floor (session 9; ``--no-chain``: the floor of noise and conditioning only, as before).
 PIPELINE = {"on": True, "chain": True}
-#: ``--summary --nochain``: the verdicts of the session-8 floor, stored beside the others.
-NOCHAIN = {"on": False}
 
 
 def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple[dict, float]:
     from eddi.diagnosis import diagnose
     from eddi.terms import DEFAULT_STIFFNESS
 
-    from eddi.diagnosis.chain import impulse_mass_ratio
+    from eddi.diagnosis.chain import impulse_mass_ratio, inspect
     from eddi.diagnosis.symptoms import notable
 
     t0 = time.process_time()
@@ -205,14 +216,18 @@ def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple
                  stiffness=stiffness or DEFAULT_STIFFNESS, pipeline=pipe,
                  chain=ChainTolerance() if PIPELINE["chain"] else None)
     before = _noise_only(d)
+    k = getattr(d.baseline.model, "linear_stiffness", lambda: 0.0)()  # the loop's fallback f1
+    f1 = math.sqrt(max(k, 0.0) / mass) / (2 * math.pi)
+    measured = [s for s in inspect(recs, mass, f1) if s.kind == "impulse_mass"]
     return {"ratio": d.judging.nrmse / d.noise_floor.nrmse, "baseline_nrmse": d.judging.nrmse,
             "ratio_nochain": d.judging.nrmse / before.noise_floor.nrmse,
-            "causes_nochain": _verdicts(before, factors)[0], "named_causes_nochain": _named_verdicts(before),
+            "causes_nochain": _verdicts(before, factors, measured)[0],
+            "named_causes_nochain": _named_verdicts(before, measured),
             "pipeline_nrmse": d.pipeline.nrmse if d.pipeline is not None else None,
             "floor": d.noise_floor.nrmse, "partial": d.partial,
             "chain_nrmse": list(d.noise_floor.chain_nrmse),
-            "gain_per_part": list(d.noise_floor.chain.get("gain_per_part", [])), **dict(zip(("causes", "decided"), _verdicts(d, factors))),
-            "named_causes": _named_verdicts(d),
+            "gain_per_part": list(d.noise_floor.chain.get("gain_per_part", [])),
+            **dict(zip(("causes", "decided"), _verdicts(d, factors, measured))), "named_causes": _named_verdicts(d, measured),
             # every symptom (kind, numbers, notable), and the raw impulse/momentum mass ratio (median,
             # spread, captures): a rule on them can be re-judged on these rows (summary)
             "symptoms": [[s.kind, {k: (v if math.isfinite(v) else str(v)) for k, v in s.values.items()}, notable(s)]
@@ -313,8 +328,9 @@ def chain_null_case(args: tuple) -> dict:
             **row, "cpu_s": cpu}
 
 
-#: Seeds of the chain-difference nulls drawn in the blind false alarm's regime (held out).
-STIFF_SEEDS = range(5000, 5030)
+#: Seeds of the chain-difference nulls drawn in the blind false alarm's regime (held out; the
+#: set runs 5000-5029, 5030-5099 are kept for ``--seeds`` hold-outs).
+STIFF_SEEDS = range(5000, 5100)
 
 
 def ladder_case(args: tuple) -> dict:
@@ -370,17 +386,29 @@ def _chain_fault(name: str, magnitude: float, eom, forces, cfg: dict) -> tuple:
                                      "damping_ratio": 0.05}}, eom.mass
 
 
+def parse_seeds(spec: str) -> list[int]:
+    """Seeds from ``"2000-2029"`` (inclusive) or ``"10,11,4058"`` or a mix (``"10,20-22"``)."""
+    out = []
+    for part in spec.split(","):
+        a, _, b = part.strip().partition("-")
+        out += list(range(int(a), int(b) + 1)) if b else [int(a)]
+    return out
+
+
 def run(set_name: str, out: str | None, jobs: int, factors, nulls: bool, ladders: bool, names,
-        max_nulls: int | None = None, ladder_seeds: int | None = None, chain_nulls: bool = False) -> None:
+        max_nulls: int | None = None, ladder_seeds: int | None = None, chain_nulls: bool = False,
+        seeds: list[int] | None = None) -> None:
+    """Run the selected families; ``seeds`` replaces the seeds of every selected family (a run
+    in pieces, or seeds outside the set's lists kept apart as a final held-out check)."""
     cfg = SETS[set_name]
     tasks = []
     if nulls:
-        tasks += [(null_case, (set_name, s, factors)) for s in list(cfg["null_seeds"])[:max_nulls]]
+        tasks += [(null_case, (set_name, s, factors)) for s in (seeds or list(cfg["null_seeds"])[:max_nulls])]
     if chain_nulls:
-        tasks += [(chain_null_case, (set_name, s, factors)) for s in list(cfg["chain_seeds"])[:max_nulls]]
+        tasks += [(chain_null_case, (set_name, s, factors)) for s in (seeds or list(cfg["chain_seeds"])[:max_nulls])]
     if ladders:
         tasks += [(ladder_case, (set_name, n, m, s, factors)) for n in names for m in RUNGS[n]
-                  for s in cfg["ladder_seeds"][:ladder_seeds]]
+                  for s in (seeds or cfg["ladder_seeds"][:ladder_seeds])]
     with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
         futures = [pool.submit(fn, a) for fn, a in tasks]
         for fut in futures:
@@ -390,162 +418,6 @@ def run(set_name: str, out: str | None, jobs: int, factors, nulls: bool, ladders
             if out:
                 with open(out, "a") as fh:
                     fh.write(line + "\n")
-
-
-def _key_order(k: str) -> tuple[float, float]:
-    f, strong = k.split("|")
-    return float(f), (math.inf if strong == "None" else float(strong))
-
-
-def rejudge(row: dict) -> dict:
-    """The row's verdicts under the current :func:`eddi.diagnosis.earn.earn`, from the verdicts
-    ``decide`` gave (``decided``), the ratio and the stored symptoms (rows of an earlier rule)."""
-    from eddi.diagnosis.earn import earn
-    from eddi.diagnosis.name import Decision
-    from eddi.diagnosis.results import Symptom
-
-    if "decided" not in row:
-        return row
-    sy = [Symptom(k, "", {n: float(v) for n, v in vals.items()}) for k, vals, _n in row["symptoms"]]
-
-    def one(cause: str) -> str:
-        return earn(Decision(cause, None, None, cause == "none", ""), row["ratio"], sy).cause
-
-    out = dict(row)
-    out["causes"] = {k: one(c) for k, c in row["decided"].items()}
-    # the named-factor verdicts are stored after the rule of their run; the rule only adds
-    # reasons for `unexplained`, so applying the current one to them again is the same
-    out["named_causes"] = {k: one(c) for k, c in row.get("named_causes", {}).items()}
-    return out
-
-
-def summary(path: str, factor: float, strong: float | None, again: bool = False) -> None:
-    rows = [json.loads(s) for s in open(path) if s.strip()]
-    if NOCHAIN["on"]:  # the session-8 floor's verdicts of the same diagnoses
-        rows = [{**r, "causes": r["causes_nochain"], "named_causes": r["named_causes_nochain"],
-                 "ratio": r["ratio_nochain"]} if "causes_nochain" in r else r for r in rows]
-    if again:
-        rows = [rejudge(r) for r in rows if "error" not in r] + [r for r in rows if "error" in r]
-    key = f"{factor:g}|{strong}"
-    for set_name in SETS:
-        failed = [r for r in rows if r.get("kind") == "null" and r["set"] == set_name and "error" in r]
-        if failed:
-            print(f"[{set_name}] nulls refused: {len(failed)} (" + "; ".join(f"seed {r['seed']}: {r['error']}"
-                                                                          for r in failed) + ")")
-        nulls = [r for r in rows if r.get("kind") == "null" and r["set"] == set_name and "error" not in r]
-        for fam in ("", "chain", "chain-stiff"):
-            _family_line(set_name, [r for r in nulls if r.get("family", "") == fam], key, fam)
-        if nulls:
-            ratios = sorted(r["ratio"] for r in nulls)
-            multi = sum(r["captures"] >= 6 for r in nulls)
-            print(f"[{set_name}] nulls: {len(nulls)} ({multi} six-capture sets from two rig runs); "
-                  f"baseline/floor ratio median {ratios[len(ratios) // 2]:.2f}, 95th pct "
-                  f"{ratios[int(0.95 * (len(ratios) - 1))]:.2f}, max {ratios[-1]:.2f}")
-            _null_ranges(nulls)
-            for f in sorted({k for r in nulls for k in r["causes"]}, key=_key_order):
-                bad = [r for r in nulls if r["causes"][f] != "none"]
-                named = [r for r in bad if r["causes"][f] != "unexplained"]
-                fac, st = f.split("|")
-                print(f"   none factor {fac:>4}, strong cut {st:>4}: false alarms {len(bad)}/{len(nulls)} "
-                      f"(named {len(named)}"
-                      + (": " + ", ".join(f"seed {r['seed']} {r['causes'][f]}" for r in named) if named else "")
-                      + ")")
-        lad = [r for r in rows if r.get("kind") == "ladder" and r["set"] == set_name]
-        if not lad:
-            continue
-        print(f"[{set_name}] ladders at none factor {factor:g}, strong cut {strong} (rates over seeds; "
-              "ratio = baseline/floor median)")
-        groups = defaultdict(list)
-        for r in lad:
-            groups[(r["mechanism"], r["magnitude"])].append(r)
-        for (name, mag), g in sorted(groups.items()):
-            ok = [r for r in g if "error" not in r]
-            n = len(g)
-            c = [r["causes"].get(key, "?") for r in ok]
-            if name in CHAIN_FAULTS:  # found: unexplained with the fault's own symptom
-                c = [name if (x == "unexplained" and any(sy[0] == CHAIN_FAULTS[name] for sy in r["symptoms"]))
-                     else x for x, r in zip(c, ok)]
-            found, unex, none = c.count(name), c.count("unexplained"), c.count("none")
-            wrong = [x for x in c if x not in (name, "unexplained", "none")]
-            ratio = np.median([r["ratio"] for r in ok]) if ok else float("nan")
-            print(f"   {name:<21} {mag:<6g} found {found}/{n}  unexplained {unex}/{n}  none {none}/{n}  "
-                  f"wrong {len(wrong)}/{n}{' ' + ','.join(wrong) if wrong else ''}  refused {n - len(ok)}/{n}  "
-                  f"ratio {ratio:.2f}")
-        _named_table(nulls, lad)
-        cpu = [r["cpu_s"] for r in rows if r.get("set") == set_name and "cpu_s" in r]
-        if cpu:
-            print(f"[{set_name}] CPU per case median {np.median(cpu):.1f} s, max {max(cpu):.1f} s")
-
-
-def _family_line(set_name: str, nulls: list, key: str, family: str) -> None:
-    """One line per null family: false alarms at the table's factor, the baseline/floor ratio
-    and (chain family) the chain's share of the floor and what the sets spanned."""
-    if not nulls:
-        return
-    bad = [r for r in nulls if r["causes"].get(key, "none") != "none"]
-    ratios = sorted(r["ratio"] for r in nulls)
-    line = (f"[{set_name}] {family or 'rig-seed'} nulls: {len(nulls)}, false alarms {len(bad)} at {key}"
-            + (" (" + ", ".join(f"seed {r['seed']} {r['causes'][key]} {r['ratio']:.2f}x" for r in bad) + ")" if bad else "")
-            + f"; baseline/floor median {ratios[len(ratios) // 2]:.2f}, max {ratios[-1]:.2f}")
-    if family.startswith("chain"):
-        ch = [max(r.get("chain_nrmse") or [0.0]) for r in nulls]
-        gains = [100 * abs(c[0]) for r in nulls for c in r["chains"]]
-        clocks = [abs(c[2]) for r in nulls for c in r["chains"]]
-        m = [r["mass_kg"] for r in nulls]
-        kinds = {k: sum(r["spring"] == k for r in nulls) for k in ("soft", "hard", "asymmetric")}
-        line += (f"; chain share of the floor max per set median {np.median(ch):.3f}, max {max(ch):.3f}; "
-                 f"{kinds}, strong {sum(r['strong'] for r in nulls)}; masses {min(m):.3g}-{max(m):.3g} kg; "
-                 f"gains up to {max(gains):.2f} %, clocks up to {max(clocks):.0f} ppm; "
-                 f"captures {min(r['captures'] for r in nulls)}-{max(r['captures'] for r in nulls)}; "
-                 f"cycles {min(r['record_s'] * r['f1_hz'] for r in nulls):.0f}-"
-                 f"{max(r['record_s'] * r['f1_hz'] for r in nulls):.0f}")
-    print(line)
-
-
-def _null_ranges(nulls: list) -> None:
-    """What the nulls span (masses, springs, rates, SNR), the impulse/momentum ratio's bias
-    (the impulse-mass check's tolerance is set against it) and the chain findings on them."""
-    from eddi.diagnosis.chain import IMPULSE_MASS_TOLERANCE
-    from eddi.diagnosis.earn import CHAIN_KINDS
-
-    m = [r["mass_kg"] for r in nulls]
-    snr = [r["snr_db"] for r in nulls]
-    rates = sorted({int(r["rate_hz"]) for r in nulls})
-    soft = sum(r["spring"] == "soft" for r in nulls)
-    print(f"   masses {min(m):.3f}-{max(m):.3f} kg; {soft} soft, {len(nulls) - soft} hard springs; "
-          f"rates {', '.join(str(x) for x in rates)} Hz; SNR {min(snr):.1f}-{max(snr):.1f} dB")
-    imp = [abs(r["impulse_mass"][0] - 1.0) for r in nulls if r.get("impulse_mass")]
-    if imp:
-        print(f"   impulse/momentum |ratio - 1|: median {100 * float(np.median(imp)):.2f} %, max "
-              f"{100 * max(imp):.2f} % (tolerance {100 * IMPULSE_MASS_TOLERANCE:g} %)")
-    chain = [(r["seed"], sy[0]) for r in nulls for sy in r.get("symptoms", []) if sy[0] in CHAIN_KINDS]
-    print(f"   chain findings on the nulls: {len(chain)}" + (f" ({chain})" if chain else ""))
-
-
-def _named_table(nulls: list, lad: list) -> None:
-    """Per named factor: nulls named, ladder rungs found / unexplained / wrong, and the largest
-    extended/floor ratio of a correctly named case."""
-    have = [r for r in lad if "named_causes" in r and r["mechanism"] not in CHAIN_FAULTS]
-    if not have:
-        return
-    print("   named factor (extended model within F x floor): rungs found / unexplained / none / wrong; "
-          "nulls named")
-    for nf in sorted({k for r in have for k in r["named_causes"]}, key=float):
-        c = [(r["named_causes"][nf], r["mechanism"]) for r in have]
-        found = sum(x == m for x, m in c)
-        wrong = [f"{m}->{x}" for x, m in c if x not in (m, "unexplained", "none")]
-        named_nulls = sum(r.get("named_causes", {}).get(nf, "none") not in ("none", "unexplained") for r in nulls)
-        print(f"     F {nf:>4}: {found} / {sum(x == 'unexplained' for x, _ in c)} / {sum(x == 'none' for x, _ in c)}"
-              f" / {len(wrong)}{' (' + ', '.join(wrong) + ')' if wrong else ''} of {len(c)}; "
-              f"nulls named {named_nulls}/{len(nulls)}")
-    ok = []
-    for r in have:
-        cand = {c[0]: c[1] for c in r["candidates"]}
-        if r["named_causes"].get("inf") == r["mechanism"] and r["mechanism"] in cand:
-            ok.append(cand[r["mechanism"]] / r["floor"])
-    if ok:
-        print(f"     right cause named with no factor: extended/floor median {np.median(ok):.2f}, "
-              f"max {max(ok):.2f} ({len(ok)} cases)")
 
 
 def main() -> None:
@@ -569,6 +441,9 @@ def main() -> None:
                     help="a reduced run: only the first N nulls of the set (default: all)")
     ap.add_argument("--ladder-seeds", type=int, default=None, metavar="N",
                     help="a reduced run: only the first N seeds of each rung (default: all)")
+    ap.add_argument("--seeds", metavar="SPEC", default=None,
+                    help="run these seeds of every selected family instead of the set's (e.g. 2000-2029 or "
+                         "10,11; seeds outside the set's lists are drawn the same way)")
     ap.add_argument("--summary", metavar="FILE", help="print the rates of earlier runs")
     ap.add_argument("--nochain", action="store_true",
                     help="with --summary: the verdicts with the floor of noise and conditioning alone (the "
@@ -587,16 +462,23 @@ def main() -> None:
         from eddi.diagnosis.settings import STRONG_MARGIN
 
         strong = STRONG_MARGIN if args.strong == "default" else (None if args.strong == "None" else float(args.strong))
-        NOCHAIN["on"] = args.nochain
-        summary(args.summary, args.factor if args.factor is not None else NONE_FACTOR, strong, args.rejudge)
+        from calibration_summary import summary
+
+        summary(args.summary, args.factor if args.factor is not None else NONE_FACTOR, strong, args.rejudge,
+                args.nochain)
         return
     if not args.set:
         ap.error("give --set tuning|heldout, or --summary FILE")
     factors = tuple(float(f) for f in args.factors.split(","))
+    try:
+        seeds = parse_seeds(args.seeds) if args.seeds else None
+    except ValueError:
+        ap.error(f"--seeds: not a list of seeds or ranges: {args.seeds!r}")
     PIPELINE["on"] = not args.no_pipeline
     PIPELINE["chain"] = not args.no_chain
     run(args.set, args.out, args.jobs, factors, args.only in (None, "nulls"), args.only in (None, "ladders"),
-        args.mechanisms.split(","), args.max_nulls, args.ladder_seeds, args.only in (None, "chainnulls"))
+        args.mechanisms.split(","), args.max_nulls, args.ladder_seeds, args.only in (None, "chainnulls"),
+        seeds)
 
 
 if __name__ == "__main__":

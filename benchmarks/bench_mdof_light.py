@@ -18,6 +18,12 @@ Sets: ``tune`` (used while changing the code) and ``heldout`` (written at the sa
 only at the end of the session).
 
     PYTHONPATH=. nice -n 5 python benchmarks/bench_mdof_light.py --set tune [--cases NAME,..] [--no-polish]
+    PYTHONPATH=. nice -n 5 python benchmarks/bench_mdof_light.py --set modal-tune --coordinates modal
+
+Modal sets (session 10): the model in modal coordinates is also scored by its shapes and modal
+masses against the truth's, the coupling monomials it keeps (none on a null), and the cubic spring
+equivalent to its cubic forces (the coupling coefficient of a modal model: its monomials are
+another basis of the same force).
 """
 
 from __future__ import annotations
@@ -36,6 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_mdof import _measurement, coupling_errors  # noqa: E402
 from eddi.mdof.identify import identify_mdof  # noqa: E402
 from eddi.mdof.signals import EDGE_PERIODS  # noqa: E402
+from eddi.mdof.terms import parse_multi_term  # noqa: E402
 from eddi.mdof.validate import validate_mdof  # noqa: E402
 from simulated_rig.mdof_systems import Element, MdofSystem, mdof_impact_test  # noqa: E402
 from station.mdof_data import condition_multichannel  # noqa: E402
@@ -99,14 +106,83 @@ HELDOUT = {
 }
 
 
-def run_case(name: str, system: MdofSystem, polish: bool, snr_db: float = 45.0) -> None:
+#: Session 10 (helper s10m12), identified in modal coordinates (``--coordinates modal``, the form a
+#: beam or plate must use): near 1:2, 1:3 and 1:2.3, 30 dB, and an uncoupled pair (a null: no
+#: coupling term may be kept). Tune set, used while changing the code (with the SNR of each case).
+MODAL_TUNE = {
+    "t-1to2-light": (TUNE["t-1to2-light"], 45.0),
+    "t-1to3-light": (TUNE["t-1to3-light"], 45.0),
+    "m-1to2.3": (lambda: pair("m-1to2.3", 1.5, 0.4, 20.0, 2.3, 0.005, 0.06), 45.0),
+    "m-1to2-30db": (lambda: pair("m-1to2-30db", 2.0, 0.7, 14.0, 1.98, 0.004, 0.08, drive=2), 30.0),
+    "m-null-1to2": (lambda: pair("m-null-1to2", 1.0, 0.3, 16.0, 2.01, 0.004, 0.0), 45.0),
+}
+#: Held out (written before any code change of session 10, run once at its end).
+MODAL_HELDOUT = {
+    "h-1to2-20db": (lambda: pair("h-1to2-20db", 5.0, 1.2, 11.0, 2.02, 0.006, 0.10), 20.0),
+    "h-1to3-heavy": (lambda: pair("h-1to3-heavy", 8.0, 3.0, 9.0, 2.96, 0.003, 0.06, rate=1024.0,
+                                  impacts=(150.0, 400.0, 800.0)), 45.0),
+    "h-1to2-tiny": (lambda: pair("h-1to2-tiny", 0.1, 0.04, 35.0, 1.99, 0.004, 0.05, rate=4096.0,
+                                 impacts=(5.0, 12.0, 25.0), drive=2), 45.0),
+    "h-null-1to3": (lambda: pair("h-null-1to3", 0.7, 0.25, 25.0, 3.02, 0.003, 0.0), 45.0),
+    "h-1to2.6-ground": (lambda: pair("h-1to2.6-ground", 1.2, 0.5, 17.0, 2.6, 0.008, 0.07, where="01"), 45.0),
+}
+
+
+def modal_lines(system: MdofSystem, model, records) -> list[str]:
+    """A modal model against the truth: shapes and modal masses, the coupling monomials kept, and
+    the cubic spring equivalent to its cubic forces (:func:`equivalent_k3`)."""
+    m, _c, k = system.model().linear_matrices()
+    w2, phi = np.linalg.eig(np.linalg.solve(m, k))
+    phi = phi.real[:, np.argsort(w2.real)]
+    d = system.driving_point - 1
+    phi = phi / np.max(np.abs(phi), axis=0) * np.sign(phi[d])
+    masses = np.diag(phi.T @ m @ phi)
+    shape_err = np.max(np.abs(model.phi - phi), axis=0)
+    out = [f"shapes off by {', '.join(f'{100 * e:.2f} %' for e in shape_err)} (largest entry 1); modal masses "
+           f"{', '.join(f'{100 * (a / b - 1):+.2f} %' for a, b in zip(model.mass, masses))}"]
+    cpl = [f"eq {i + 1} {t}" for i, st in enumerate(model.stiffness) for t in st
+           if (e := parse_multi_term(t, model.n_coords).exponents[0]).sum() != e[i]]
+    out.append(f"coupling monomials kept: {len(cpl)} ({', '.join(cpl) or 'none'})")
+    for el in system.elements:
+        if el.k3:
+            k3, rest = equivalent_k3(model, records, el.between)
+            out.append(f"equivalent cubic spring k3({el.between[0]}-{el.between[1]}) {k3:.4g} vs {el.k3:.4g} "
+                       f"({100 * (k3 / el.k3 - 1):+.2f} %; the part of the cubic force it leaves {100 * rest:.1f} %)")
+    return out
+
+
+def equivalent_k3(model, records, between: tuple[int, int]) -> tuple[float, float]:
+    """The cubic spring between nodes ``between`` (0 = ground) that best explains (least squares)
+    the model's cubic forces mapped to physical coordinates (``f = Psi^-T g(Psi^-1 y)`` over the
+    records' free windows), and the relative part of them it leaves."""
+    inv = np.linalg.inv(model.phi)
+    y = np.hstack([r.x[:, r.window[0]:r.window[1]] for r in records])[:, ::5]
+    q = inv @ y
+    g = np.zeros_like(q)
+    for i in range(model.n_coords):
+        for t, c in model.stiffness[i].items():
+            term = parse_multi_term(t, model.n_coords)
+            if term.degree == 3:
+                g[i] += c * term(q, np.zeros_like(q))
+    f = inv.T @ g
+    a, b = between
+    dz = (y[a - 1] if a else 0.0) - (y[b - 1] if b else 0.0)
+    basis = np.zeros_like(f)
+    for node, sign in ((a, 1.0), (b, -1.0)):
+        if node:
+            basis[node - 1] = sign * dz**3
+    k3 = float(np.sum(basis * f) / np.sum(basis * basis))
+    return k3, float(np.linalg.norm(f - k3 * basis) / max(float(np.linalg.norm(f)), 1e-300))
+
+
+def run_case(name: str, system: MdofSystem, polish: bool, snr_db: float = 45.0, coordinates: str = "auto") -> None:
     """Identify ``system`` from three blows, score on a fourth (module docstring)."""
     truth = system.model()
     peaks = list(system.impacts_n) + [0.7 * max(system.impacts_n)]
     recs = [condition_multichannel(_measurement(mdof_impact_test(system, p, seed=500 + k, snr_db=snr_db)))
             for k, p in enumerate(peaks)]
     c0 = time.process_time()
-    ident = identify_mdof(recs[:3], truth.channels, truth.driving_point)
+    ident = identify_mdof(recs[:3], truth.channels, truth.driving_point, coordinates=coordinates)
     c_ident = time.process_time() - c0
     models = {"EDDI": ident.model}
     if polish:
@@ -135,22 +211,29 @@ def run_case(name: str, system: MdofSystem, polish: bool, snr_db: float = 45.0) 
               f"(true {list(truth.mass)})")
         for line in coupling_errors(truth, m, recs[:3]):
             print(f"  {label:>8}{line}")
+        if m.coordinates == "modal":
+            for line in modal_lines(system, m, recs[:3]):
+                print(f"  {label:>8}    {line}")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--set", choices=("tune", "heldout"), default="tune")
+    ap.add_argument("--set", choices=("tune", "heldout", "modal-tune", "modal-heldout"), default="tune",
+                    help="modal-*: session 10's pairs (each at its own SNR; use with --coordinates modal)")
+    ap.add_argument("--coordinates", choices=("auto", "modal"), default="auto")
     ap.add_argument("--cases", default="", help="comma-separated case names of the set (default all)")
     ap.add_argument("--no-polish", action="store_true", help="EDDI alone (no output-error polish)")
     ap.add_argument("--snr-db", type=float, default=45.0)
     args = ap.parse_args()
-    cases = TUNE if args.set == "tune" else HELDOUT
+    sets = {"tune": TUNE, "heldout": HELDOUT, "modal-tune": MODAL_TUNE, "modal-heldout": MODAL_HELDOUT}
+    cases = sets[args.set]
     names = [c.strip() for c in args.cases.split(",") if c.strip()] or list(cases)
     for name in names:
         if name not in cases:
             ap.error(f"unknown case {name!r}; known: {', '.join(cases)}")
     for name in names:
-        run_case(name, cases[name](), not args.no_polish, args.snr_db)
+        make, snr = cases[name] if isinstance(cases[name], tuple) else (cases[name], args.snr_db)
+        run_case(name, make(), not args.no_polish, snr, args.coordinates)
 
 
 if __name__ == "__main__":

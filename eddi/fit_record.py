@@ -27,6 +27,11 @@ defaults, and its steps add no numerics of their own:
 
 The choices the pipeline made (route, refinement kept or not and why, terms) are in
 :attr:`PipelineResult.choices`.
+
+Both steps run with one BLAS thread (:func:`eddi.threads.one_blas_thread`), as the station
+CLI does for its whole process: on the 45 s x 19.2 kHz record an in-process call with
+OpenBLAS's default pool (a second thread spin-waiting for small products) cost 1.7x the CPU
+and 1.6x the wall time at load 7.6 (``benchmarks/bench_identify_speed.py --in-process``).
 """
 
 from __future__ import annotations
@@ -48,6 +53,7 @@ from eddi.pipeline_result import REFINE_CHANNEL, SIGNAL_NAME, PipelineChoices, P
 from eddi.refinement_choice import judge_refinement
 from eddi.stability import model_warnings, poor_fit_warnings
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, parse_terms
+from eddi.threads import one_blas_thread
 from eddi.validate import Validation
 
 if TYPE_CHECKING:
@@ -106,6 +112,7 @@ class Pipeline:
                    stiffness=_texts(stiffness) if stiffness else DEFAULT_STIFFNESS,
                    route=route, refine=bool(refine), select=bool(select))
 
+    @one_blas_thread()
     def condition(self, t: np.ndarray, *, acc: np.ndarray | None = None, vel: np.ndarray | None = None,
                   disp: np.ndarray | None = None, force: np.ndarray | None = None,
                   pretrigger_samples: int | None = None, ac_coupling_s: float | None = None,
@@ -199,6 +206,7 @@ class Pipeline:
         """
         return validate_conditioned(eom, cond)
 
+    @one_blas_thread()
     def fit(self, cond: ConditionedSignal, mass: float, *, held_out: Sequence[ConditionedSignal] = (),
             sensor_only: bool = False) -> PipelineResult:
         """Step 2: EDDI, the refinement when it helps, validation.

@@ -37,7 +37,7 @@ from typing import Any, Callable
 
 AOT_NAME = "_aot_kernels"
 #: The modules whose kernels go into the built module.
-KERNEL_MODULES = ("eddi.simulate", "eddi.sensitivity")
+KERNEL_MODULES = ("eddi.simulate", "eddi.sensitivity", "eddi.iir")
 
 
 def _aot_dir() -> Path:

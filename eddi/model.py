@@ -246,12 +246,18 @@ class EquationOfMotion(BaseModel):
         """
         x = np.asarray(x, float)
         v = np.asarray(v, float)
-        total = np.zeros(np.broadcast(x, v).shape)
+        shape = np.broadcast(x, v).shape
+        total = None
+        # summed in place in the order they always had; the first term is not added to an
+        # array of zeros (``0.0 + y`` is ``y`` except for ``-0.0``, which ``+= 0.0`` makes
+        # ``+0.0`` as that sum did): the same numbers bit for bit, a pass and a temporary fewer
         for text, c in {**self.damping, **self.stiffness}.items():
-            total = total + c * parse_term(text)(x, v)
+            f = c * parse_term(text)(x, v)
+            total = _first(f, shape) if total is None else _add(total, f)
         for e in self.effects:
-            total = total + effect_force(e, x, v)
-        return total
+            f = effect_force(e, x, v)
+            total = _first(f, shape) if total is None else _add(total, f)
+        return np.zeros(shape) if total is None else total
 
     def linear_stiffness(self) -> float:
         """Coefficient of the ``x`` term (0 when absent)."""
@@ -325,3 +331,20 @@ def json_object(text: str) -> dict[str, Any]:
     if not isinstance(data, dict):
         raise ModelError(f"model JSON must be an object, got {type(data).__name__}")
     return data
+
+
+def _first(f: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """``np.zeros(shape) + f`` bit for bit: float64, broadcast to ``shape``, ``-0.0`` as ``+0.0``."""
+    out = np.array(np.broadcast_to(np.asarray(f, dtype=float), shape), dtype=float)
+    out += 0.0
+    return out
+
+
+def _add(total: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """``total + f``, in place when the shapes and types allow (else a new array, as before)."""
+    f = np.asarray(f)
+    if np.result_type(total, f) == total.dtype and np.broadcast_shapes(total.shape, f.shape) == total.shape:
+        total += f
+        return total
+    return total + f
+

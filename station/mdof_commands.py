@@ -47,7 +47,7 @@ def _read(specs: Sequence[str]):
 
 def validate_mdof_object(model: MdofModel, model_path: str, specs: Sequence[str]) -> dict[str, Any]:
     """The ``--json`` object of ``station validate`` for an MDOF model."""
-    records, names, _dp = condition_all(_read(specs), model.driving_point)
+    records, names, _dp = condition_all(_read(specs), model.driving_point, order=model.channels)
     if tuple(names) != tuple(model.channels):
         raise InputFileError(f"the captures' response channels ({', '.join(names)}) are not the model's "
                              f"({', '.join(model.channels)})")
@@ -101,27 +101,34 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
 
     # the folds are independent: in forked workers when cores are free (the same results)
     began = time.perf_counter()
+    mapper = ForkMap(jobs_wanted())
+    # with a second process, the coupled model on every capture (and its polish) is computed
+    # beside the folds rather than after them (the longest item, first); it is the final model
+    # whenever coupling earns its place, else discarded (spent CPU, not wall: only when forking)
+    ahead = (lambda: _final_coupled(records, names, dp, refine, quiet=True)) if mapper.jobs > 1 else None
     folds, per_channel, per_mode, span = _held_out_folds(records, names, dp, refine=refine, margin=margin,
-                                                         mapper=ForkMap(jobs_wanted()))
-    if time.perf_counter() - began > PROGRESS_S:  # a long diagnosis is not silent until its end
+                                                         mapper=mapper, ahead=ahead)
+    if time.perf_counter() - began > PROGRESS_S and ahead is None:  # a long diagnosis is not silent until its end
         print(f"station diagnose: {len(records)} held-out folds done in {time.perf_counter() - began:.0f} s; "
               f"the final model on every capture next" + (" (identified and polished)" if refine else ""),
               file=sys.stderr, flush=True)
     polished = folds.pop("polished")
+    computed = folds.pop("ahead")
     base = float(np.mean(folds["baseline"]))
     cpl = float(np.mean(folds["coupled"]))
     gain = (base - cpl) / base if base > 0 and math.isfinite(base) else (1.0 if math.isfinite(cpl) else 0.0)
     if gain > margin:
-        final = identify_mdof(records, names, dp, coupling=True)
+        final, model = computed if computed is not None else _final_coupled(records, names, dp, refine)
     else:  # no coupling earns its place: the baseline
         final = _final_baseline(records, names, dp)
+        model = final.model
+        if refine:
+            from eddi.mdof.refine import refine_identified
+
+            model, _b, _a = refine_identified(final, records)
+    # (with ``refine`` the model is polished: the verdict judges the model delivered)
     notes = list(final.notes) + ([rate_note] if rate_note else [])
     cause = _first_cause(final, gain, margin, len(names), notes)
-    model = final.model
-    if refine:  # the verdict judges the model delivered (symptoms, backbones)
-        from eddi.mdof.refine import refine_identified
-
-        model, _b, _a = refine_identified(final, records)
     verdict, amp, modes, amp_span = _earned(cause, per_channel["coupled" if gain > margin else "baseline"], records,
                                         names, model, dp)
     # the measurement chain (clipping, double hit, base motion) is heard on the captures as recorded
@@ -165,6 +172,25 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         Path(save_model).write_text(model.to_json() + "\n")
         obj["saved_model"] = save_model
     return obj
+
+
+def _final_coupled(records: Sequence[Any], names: tuple[str, ...], dp: str, refine: bool, quiet: bool = False
+                   ) -> tuple[Any, MdofModel] | None:
+    """The coupled identification on every capture and the model delivered (polished with ``refine``).
+
+    ``quiet`` (computed ahead, before it is known to be needed): None instead of an identification
+    error (the error is raised when the model is needed and computed again)."""
+    if quiet:
+        try:
+            return _final_coupled(records, names, dp, refine)
+        except (IdentificationError, ValueError, FloatingPointError, np.linalg.LinAlgError):
+            return None
+    final = identify_mdof(records, names, dp, coupling=True)
+    if not refine:
+        return final, final.model
+    from eddi.mdof.refine import refine_identified
+
+    return final, refine_identified(final, records)[0]
 
 
 def _model_flags(model: Any, folds: Sequence[float]) -> list[str]:
@@ -261,7 +287,7 @@ def budget_line(done: int, total: int, spent_s: float, refine: bool, budget_s: f
 
 def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, refine: bool = False,
                     say: Callable[[str], None] | None = None, clock: Callable[[], float] = time.process_time,
-                    margin: float = 0.1, mapper: Callable | None = None
+                    margin: float = 0.1, mapper: Callable | None = None, ahead: Callable[[], Any] | None = None
                     ) -> tuple[dict[str, list], dict[str, dict[str, list]], dict[str, list], float]:
     """Leave-one-out held-out errors of the coupled model and of the baseline (no nonlinear coupling).
 
@@ -273,7 +299,8 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, ref
     are independent: ``mapper(fn, items)`` (default in turn; :class:`station.forkmap.ForkMap` runs
     them in forked workers, the same results) computes them. Once a fold's CPU time (``clock``)
     projects past :data:`BUDGET_CPU_S`, the process that ran it says so through ``say`` (default:
-    a line on stderr) rather than running on silently (:func:`budget_line`).
+    a line on stderr) rather than running on silently (:func:`budget_line`). ``ahead`` (optional):
+    one more job the mapper runs beside the folds, first (``folds["ahead"]`` its result, else None).
     """
     say = say if say is not None else (lambda line: print(line, file=sys.stderr, flush=True))
     mapper = mapper if mapper is not None else (lambda fn, items: [fn(x) for x in items])
@@ -288,7 +315,10 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, ref
 
     fits: list[dict[str, tuple]] = []
     span = 0.0
-    for k, (fit, s) in enumerate(mapper(fold, range(len(records)))):
+    items: list[int] = ([-1] if ahead is not None else []) + list(range(len(records)))
+    got = mapper(lambda k: ahead() if k < 0 else fold(k), items)
+    first = got.pop(0) if ahead is not None else None
+    for k, (fit, s) in enumerate(got):
         train = [r for j, r in enumerate(records) if j != k]
         fits.append({kind: (v, ident, train) for kind, (v, ident) in fit.items()})
         span = max(span, s)
@@ -305,6 +335,7 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, ref
             for c, e in v.channel_nrmse.items():
                 per_channel[kind][c].append(e)
     folds["polished"] = polished
+    folds["ahead"] = first
     return folds, per_channel, per_mode, span
 
 

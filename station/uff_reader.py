@@ -37,9 +37,27 @@ QUANTITY_OF_TYPE = MappingProxyType({13: "force", 12: "acc", 11: "vel", 8: "disp
 _EXPORT_ID3 = re.compile(r"rate ([0-9.eE+-]+) Hz, pretrigger (?:([0-9]+) samples|unknown)")
 
 
+def _check_complete(path: Path) -> None:
+    """Refuse a UFF file cut short: every data set ends with the delimiter ``    -1`` (text and
+    binary sets alike; a binary set's data runs up to it on the same line), so a file whose last non-blank line is anything else was truncated
+    (a copy or a logger stopped mid-write) and pyuff would read its last set short."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(80).lstrip(b" \t\r\n")
+            fh.seek(0, 2)
+            fh.seek(max(0, fh.tell() - 512))
+            tail = fh.read().rstrip(b" \t\r\n\x00")
+    except OSError as exc:
+        raise InputFileError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    looks_uff = head.startswith(b"-1")  # otherwise pyuff's own refusal says what it is
+    if looks_uff and not re.search(rb"(^|\s)-1$", tail):
+        raise InputFileError(f"{path}: truncated UFF file (its last data set has no closing -1 line)")
+
+
 def _sets(path: Path) -> list[dict[str, Any]]:
     import pyuff  # local: only a UFF file needs it
 
+    _check_complete(path)
     try:
         uff = pyuff.UFF(str(path))
         types = list(uff.get_set_types())
@@ -60,6 +78,7 @@ def load_cases(path: str | Path) -> list[int]:
     import pyuff
 
     path = Path(path)
+    _check_complete(path)
     try:
         uff = pyuff.UFF(str(path))
         got = uff.read_sets(header_only=True) if list(uff.get_set_types()) else []

@@ -23,7 +23,7 @@ import numpy as np
 
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
 from eddi.diagnosis.chain import recondition, inspect, sensor_highpass
-from eddi.diagnosis.earn import CHAIN_REASON, earn
+from eddi.diagnosis.earn import CHAIN_REASON, earn, reported_text
 from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.lookalike import attach
 from eddi.diagnosis.mapping import Mapper
@@ -221,10 +221,11 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
                                                   _frequency(sh.bfit_all.eom), tuple(modal_damping),
                                                   tuple(modal_stiffness)))
     if want_hp:
-        # judged against EDDI's per-fold fit, as the other candidates (refining the corrected
-        # records' fit alone named sensor_highpass for a strong drag, 0.2 k1 A: docs)
+        # judged against EDDI's per-fold fit, and refined against the refined baseline when it
+        # beats that (chain.sensor_highpass; a strong drag is kept from the name by the damping slope)
+        refined = res.base_fold if (sh.fitter.refine and REFINE_CANDIDATES["on"]) else ()
         extra.append(lambda: sensor_highpass(records, sh.setup, sh.parts, sh.fold_masks, res.ref_fold,
-                                             consistency))
+                                             consistency, refined))
     finals, done = judge_candidates(res, sh.fold_fits, records, sh.setup, cat, skipped, sh.parts, sh.fold_masks,
                                     sh.fitter, (sh.fit_all, sh.bfit_all), extra)
     if sh.fitter.refine and REFINE_CANDIDATES["on"]:
@@ -300,6 +301,7 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     dec = earn(dec, baseline.nrmse / floor.nrmse if floor.nrmse > 0 else math.inf, symptoms)
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
+    verdict += reported_text(symptoms)
     notes = notes + _floor_note(dec, candidates, floor, baseline.nrmse, margin)
     if floor.chain_nrmse and max(floor.chain_nrmse) > 0.5 * MIN_FLOOR:
         # the floor says what the chain's calibration allows, in the verdict too (session 9)

@@ -18,7 +18,8 @@ from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.settings import NRMSE_CAP
 from eddi.diagnosis.show import nmte, nrmse, spectrum
 from eddi.errors import IdentificationError, ModelError, SignalError
-from eddi.multimode import ModalSumModel, identify_modes, predict_record, suggest_bands_many, welch_sum
+from eddi import multimode as mm  # lazy (PEP 562): its separation imports scipy.signal when first used
+from eddi.multimode import ModalSumModel
 
 
 #: Observed second mode: a second spectral peak must hold this share of the largest one's power.
@@ -122,7 +123,7 @@ def observed_second_mode(records: Sequence[Record], parts: Sequence[Part],
     folds = _judge_folds(records, parts, fold_masks, (bands_all[1 - second],), damping, stiffness, memo, cache)
     fold_nrmse, fold_nmte, ref_nrmse, ref_nmte, fold_params, sims = folds
     try:
-        model, _fits = identify_modes(free_all, bands_all, damping=damping, stiffness=stiffness, cache=cache,
+        model, _fits = mm.identify_modes(free_all, bands_all, damping=damping, stiffness=stiffness, cache=cache,
                                       notes="observed second mode, fitted by eddi.diagnose on every record")
     except (IdentificationError, SignalError, ModelError) as exc:
         return Observed(skipped=f"the modal sum could not be fitted on all the records: {exc}")
@@ -154,10 +155,10 @@ def _spectral_gate(records: Sequence[Record], parts: Sequence[Part], base_sims: 
     Returns an :class:`Observed` saying why the form is not tried, or ``(bands, peaks [Hz],
     power shares, index of the second, baseline/measured amplitude per peak, lost parts)``."""
     try:
-        bands_all = suggest_bands_many(free_all, 2, min_power_ratio=MODE_POWER_RATIO)
+        bands_all = mm.suggest_bands_many(free_all, 2, min_power_ratio=MODE_POWER_RATIO)
     except SignalError:
         return Observed(skipped="the measured spectrum holds one resonance only")
-    freqs, power = welch_sum(free_all)
+    freqs, power = mm.welch_sum(free_all)
     peaks, shares = [], []
     for lo, hi in bands_all:
         sel = (freqs >= lo) & (freqs < hi)
@@ -207,19 +208,19 @@ def _judge_folds(records: Sequence[Record], parts: Sequence[Part], fold_masks: S
         n = p.stop - p.start
         got = []
         try:
-            bands = suggest_bands_many(segs, 2, min_power_ratio=MODE_POWER_RATIO) if segs else None
+            bands = mm.suggest_bands_many(segs, 2, min_power_ratio=MODE_POWER_RATIO) if segs else None
         except SignalError:
             bands = None
         ref_band = main_band
         if bands:  # the fold's main band: the one holding most of the training records' power
-            ff, pp = welch_sum(segs)
+            ff, pp = mm.welch_sum(segs)
             ref_band = (max(bands, key=lambda bd: float(np.sum(pp[(ff >= bd[0]) & (ff < bd[1])]))),)
         for b in (bands, ref_band):
             try:
                 if b is None or not segs:
                     raise IdentificationError("no two resonances in the training records")
-                model, _fits = identify_modes(segs, b, damping=damping, stiffness=stiffness, cache=cache)
-                pred = predict_record(model, rec.t, rec.v, start=p.start)
+                model, _fits = mm.identify_modes(segs, b, damping=damping, stiffness=stiffness, cache=cache)
+                pred = mm.predict_record(model, rec.t, rec.v, start=p.start)
                 xs = pred.simulation.x_modes[:, :n]
                 vs = pred.simulation.v_modes[:, :n]
                 got.append((model, xs, vs))

@@ -40,7 +40,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, hilbert, sosfiltfilt
 
 from eddi.calculus import trapezoid
 
@@ -105,6 +104,8 @@ def _band(i: int, freqs: Sequence[float]) -> tuple[float, float]:
 
 def _windows(y: np.ndarray, rate: float, f: float) -> np.ndarray:
     """(amplitude, frequency, zeta) per window of the band-passed signal ``y``, shape (k, 3)."""
+    from scipy.signal import hilbert  # local: span_of (station diagnose) needs no scipy.signal
+
     z = hilbert(y)
     env, ph = np.abs(z), np.unwrap(np.angle(z))
     n = max(int(round(WINDOW_PERIODS * rate / f)), 8)
@@ -137,6 +138,8 @@ def backbones(model, records: Sequence, validations: Sequence) -> list[ModeBackb
     """Every mode's backbone, measured and model (module notes); ``validations[j]`` is the
     model's :class:`eddi.mdof.validate.MdofValidation` on ``records[j]``."""
     freqs = [float(f) for f in model.natural_frequencies_hz() if f > 0]
+    from scipy.signal import butter, sosfiltfilt  # local: scipy.signal imports scipy.stats (~0.45 s)
+
     pairs = [(r, v) for r, v in zip(records, validations) if not v.diverged and v.t.size > 64]
     out = []
     if not pairs:

@@ -246,8 +246,13 @@ def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: in
     """
     elements = list(candidate_elements(n) if elements is None else elements)
     lengths = [r[4][1] - r[4][0] for r in records]
+    # the columns of a subset of elements are those columns of the whole design (each element's
+    # column is filtered on its own): stacked once, not once per pruning round
+    full, b, eq_of = _stack(records, elements, n, d, prefilter)
+    where = {e: n - 1 + k for k, e in enumerate(elements)}
+    rest = list(range(n - 1 + len(elements), full.shape[1]))
     for _round in range(len(elements) + 1):  # one element dropped per round; the last round drops none
-        a_mat, b, eq_of = _stack(records, elements, n, d, prefilter)
+        a_mat = full[:, list(range(n - 1)) + [where[e] for e in elements] + rest]
         p, _ = scaled_lstsq(a_mat, b)
         ne = len(elements)
         ecoef = p[n - 1: n - 1 + ne]

@@ -46,23 +46,26 @@ from eddi.mdof.lumped import Element, element_column
 KNOTS_PER_CUTOFF = 4.0
 
 
-def slow_basis(n_samples: int, rate_hz: float, cutoff_hz: float) -> tuple[np.ndarray, np.ndarray]:
-    """Cubic B-splines over ``n_samples`` and their time derivative [1/s].
+def slow_basis(n_samples: int, rate_hz: float, cutoff_hz: float, knots_per_cutoff: float = KNOTS_PER_CUTOFF
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Cubic B-splines over ``n_samples`` (knots every ``1 / (knots_per_cutoff cutoff_hz)`` s) and
+    their time derivative [1/s].
 
     Returns
     -------
     b, bd : ndarray, shape (n_samples, n_basis)
     """
-    b, bd = _sparse_basis(n_samples, rate_hz, cutoff_hz)  # one construction: dense views of it
+    b, bd = _sparse_basis(n_samples, rate_hz, cutoff_hz, knots_per_cutoff)  # one construction: dense views
     return b.toarray(), bd.toarray()
 
 
-def _sparse_basis(n_samples: int, rate_hz: float, cutoff_hz: float) -> tuple[sparse.csr_matrix, sparse.csr_matrix]:
+def _sparse_basis(n_samples: int, rate_hz: float, cutoff_hz: float, knots_per_cutoff: float = KNOTS_PER_CUTOFF
+                  ) -> tuple[sparse.csr_matrix, sparse.csr_matrix]:
     """:func:`slow_basis` as sparse matrices (each row has at most 4 non-zeros; the same values to
     rounding). Dense, the joint fit's normal matrix cost ``rows x (n * n_basis)^2`` per step and
     the basis grows with the record: cubic in its length (an 8 s record at 2 kHz: minutes)."""
     span = n_samples / rate_hz
-    n_knots = max(2, int(np.ceil(span * KNOTS_PER_CUTOFF * cutoff_hz)) + 1)
+    n_knots = max(2, int(np.ceil(span * knots_per_cutoff * cutoff_hz)) + 1)
     inner = np.linspace(0.0, span, n_knots)
     knots = np.concatenate([[0.0] * 3, inner, [span] * 3])
     t = np.minimum(np.arange(n_samples) / rate_hz, span * (1 - 1e-12))
@@ -170,7 +173,8 @@ def _cost(data, betas, theta, elements, n, d, scales, free) -> float:
 
 def restore_slow_band(records: Sequence[tuple], elements: list[Element], masses: np.ndarray,
                       consts: dict[Element, float], n: int, d: int, *, starts: Sequence[int] | None = None,
-                      iterations: int = 12) -> tuple[list[tuple], np.ndarray, float, float]:
+                      iterations: int = 12, knots_per_cutoff: float = KNOTS_PER_CUTOFF
+                      ) -> tuple[list[tuple], np.ndarray, float, float]:
     """Estimate the slow band of ``x`` and ``v`` with the elements (module docstring).
 
     Parameters
@@ -192,6 +196,8 @@ def restore_slow_band(records: Sequence[tuple], elements: list[Element], masses:
         window's start, the driven mass fixed at ``masses[d]``.
     iterations : int
         Levenberg-Marquardt steps at most.
+    knots_per_cutoff : float
+        Knots of the slow basis per period of each record's cut-off (:func:`slow_basis`).
 
     Returns
     -------
@@ -205,7 +211,7 @@ def restore_slow_band(records: Sequence[tuple], elements: list[Element], masses:
     data, spans = [], []
     for k, (x, v, a, f, (s0, s1), rate, fc) in enumerate(records):
         s0 = int(starts[k]) if driven_free else s0
-        b, bd = _sparse_basis(s1 - s0, rate, fc)
+        b, bd = _sparse_basis(s1 - s0, rate, fc, knots_per_cutoff)
         data.append((x[:, s0:s1], v[:, s0:s1], a[:, s0:s1], f[s0:s1] if (driven_free and f is not None) else None,
                      b, bd))
         spans.append((s0, s1))

@@ -36,15 +36,37 @@ Modules: :mod:`~eddi.multimode.model` (the modal-sum model as data), :mod:`~eddi
 No I/O, no threads: arrays in, frozen results out.
 """
 
-from eddi.multimode.fit import ModeFit, identify_modes
-from eddi.multimode.model import (
-    MODAL_DAMPING, MODAL_STIFFNESS, MODAL_SUM_SCHEMA_VERSION, ModalSumModel, as_modal_sum, load_any_model,
-)
-from eddi.multimode.predict import (
-    ModalSimulation, Prediction, TrajectoryErrors, estimate_initial_states, impact_index, predict_record,
-    simulate_modal, trajectory_errors,
-)
-from eddi.multimode.separate import ModalComponents, separate_modes, suggest_bands, suggest_bands_many, welch_sum
+import importlib
+from typing import Any
+
+#: Where each public name lives. The package imports a submodule only when one of its names is
+#: first used (PEP 562): ``separate`` and ``fit`` import ``scipy.signal``, which imports
+#: ``scipy.stats`` (~0.45 s of CPU), and ``station diagnose`` on records with one mode needs
+#: only the model class and ``trajectory_errors`` (session 10, issue 13).
+_WHERE = {
+    "ModeFit": "fit", "identify_modes": "fit",
+    "MODAL_DAMPING": "model", "MODAL_STIFFNESS": "model", "MODAL_SUM_SCHEMA_VERSION": "model",
+    "ModalSumModel": "model", "as_modal_sum": "model", "load_any_model": "model",
+    "ModalSimulation": "predict", "Prediction": "predict", "TrajectoryErrors": "predict",
+    "estimate_initial_states": "predict", "impact_index": "predict", "predict_record": "predict",
+    "simulate_modal": "predict", "trajectory_errors": "predict",
+    "ModalComponents": "separate", "separate_modes": "separate", "suggest_bands": "separate",
+    "suggest_bands_many": "separate", "welch_sum": "separate",
+}
+
+
+def __getattr__(name: str) -> Any:
+    where = _WHERE.get(name)
+    if where is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{where}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_WHERE))
+
 
 __all__ = [
     "MODAL_DAMPING",

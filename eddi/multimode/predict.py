@@ -10,7 +10,6 @@ from scipy import optimize
 
 from eddi.errors import SignalError
 from eddi.multimode.model import ModalSumModel
-from eddi.multimode.separate import check_signal
 from eddi.simulate import simulate
 
 
@@ -94,6 +93,8 @@ def estimate_initial_states(
     ndarray, shape (n_modes, 2)
         ``(x_k, v_k)`` per mode at ``t[0]``.
     """
+    from eddi.multimode.separate import check_signal  # local: separate imports scipy.signal
+
     t, v, dt = check_signal(t, v)
     w = model.initial_window_s if window_s is None else float(window_s)
     n = min(t.size, max(8, int(round(w / dt)) + 1))
@@ -224,6 +225,8 @@ def predict_record(
     -------
     Prediction
     """
+    from eddi.multimode.separate import check_signal  # local: separate imports scipy.signal
+
     t, v, _dt = check_signal(t, v)
     i0 = impact_index(v) if start is None else int(start)
     if not 0 <= i0 < t.size - 64:

@@ -107,3 +107,25 @@ def test_basis_at_the_crossings_equals_those_rows_of_the_basis_over_samples_and_
         if gc.min() > t[0] or gc.max() < t[-1]:
             assert not (drift_basis(gc, gamma).shape == alone.shape
                         and np.array_equal(drift_basis(gc, gamma).data, alone.data))
+
+
+def test_split_normal_equations_solve_the_stacked_system() -> None:
+    """normal_lstsq_split (dense route columns beside sparse nuisance ones, Gram by blocks) gives
+    normal_lstsq's solution of the stacked matrix to rounding, and the exact one when consistent."""
+    from scipy import sparse
+
+    from eddi.slow_errors import normal_lstsq, normal_lstsq_split
+
+    rng = np.random.default_rng(11)
+    for n, m, q in ((4000, 5, 60), (900, 1, 7), (20000, 8, 150)):
+        dense = rng.normal(size=(n, m)) * rng.uniform(0.01, 100.0, size=m)
+        nuis = sparse.random(n, q, density=min(1.0, 6.0 / q), random_state=int(rng.integers(1 << 30)), format="csr")
+        truth = rng.normal(size=m + q)
+        b = dense @ truth[:m] + nuis @ truth[m:]
+        got, cond = normal_lstsq_split(dense, nuis, b)
+        assert np.allclose(got, truth, rtol=1e-9, atol=1e-9 * np.max(np.abs(truth)))
+        noisy = b + 1e-2 * rng.normal(size=n)
+        ref, cref = normal_lstsq(sparse.hstack([sparse.csr_matrix(dense), nuis], format="csr"), noisy)
+        got, cond = normal_lstsq_split(dense, nuis, noisy)
+        assert np.max(np.abs(got - ref)) <= 1e-10 * np.max(np.abs(ref))
+        assert cond == pytest.approx(cref, rel=1e-9)

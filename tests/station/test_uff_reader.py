@@ -113,3 +113,15 @@ def test_garbage_is_refused_in_one_line(tmp_path: Path, capsys: pytest.CaptureFi
     assert main(["identify", str(path), "--mass", "1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "junk.uff" in err[0] and "Traceback" not in err[0]
+
+
+@pytest.mark.parametrize("keep", [0.3, 0.6, 0.97])
+def test_a_truncated_file_is_refused_as_truncated(tmp_path: Path, keep: float,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    force, acc = _signals()
+    whole = _write(tmp_path / "whole.uff", [_set(force, 13, "N"), _set(acc, 12, "m/s^2")]).read_bytes()
+    cut = tmp_path / "cut.uff"
+    cut.write_bytes(whole[: int(keep * len(whole))])
+    assert main(["identify", str(cut), "--mass", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "truncated" in err[0] and "Traceback" not in err[0]

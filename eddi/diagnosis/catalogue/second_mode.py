@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import signal
 
 from eddi.diagnosis.catalogue.base import Context, Mechanism, MechanismFit
+from eddi.iir import biquad
 from eddi.model import Effect
 
 class SecondMode(Mechanism):
@@ -93,7 +93,8 @@ def _mode_filter(x: np.ndarray, frequency_hz: float, damping_ratio: float, dt: f
     k = 2.0 / dt
     a = np.array([k * k + 2 * z * w * k + w * w, 2 * (w * w - k * k), k * k - 2 * z * w * k + w * w])
     b = w * w * np.array([1.0, 2.0, 1.0])
-    return signal.lfilter(b / a[0], a / a[0], x)
+    # scipy.signal.lfilter's numbers bit for bit, without importing scipy.signal (eddi.iir)
+    return biquad(b / a[0], a / a[0], x)
 
 
 def _residual_spectrum(ctx: Context, fs: float) -> tuple[np.ndarray, np.ndarray]:
