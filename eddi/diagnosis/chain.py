@@ -47,6 +47,13 @@ from eddi.errors import EddiError
 
 #: A slow peak must stand this many times over the spectrum between it and the resonance.
 BASE_CONTRAST = 5.0
+#: ... and this many times the RMS amplitude the channel's noise at rest (``Record.noise_rms``)
+#: gives a spectral bin: a Rayleigh excess by chance has the probability exp(-16) per bin. The
+#: median of the comparison band alone can rest on 3 bins: on a 0.56 s, 30 dB null at 2 kHz
+#: (2.4 Hz bins) a noise bin at 0.27 f1, 1.6 times the noise's RMS per bin, stood 6.3 times
+#: over three low bins and was called base motion (session 10,
+#: benchmarks/bench_diagnose_chain_nulls.py seed 136).
+BASE_NOISE_BINS = 4.0
 #: Largest slope of log(damping ratio per cycle) on log(amplitude) a first-order coupling
 #: can leave (0 in theory; measured -0.18..0.003 with couplings, 0.22 and more with |x| v or drag).
 HP_DAMPING_SLOPE = 0.15
@@ -493,8 +500,9 @@ def _damping_ratio(r: Record) -> float:
 
 def _base_motion(r: Record, f1: float) -> Symptom | None:
     """A slow resonance (0.03-0.4 f1) in the acceleration over the free response, standing
-    :data:`BASE_CONTRAST` times over the spectrum between twice its frequency and 0.6 f1, worth
-    at least 2 % of the ring-down's peak in displacement."""
+    :data:`BASE_CONTRAST` times over the spectrum between twice its frequency and 0.6 f1 and
+    :data:`BASE_NOISE_BINS` times over the noise's level per bin, worth at least 2 % of the
+    ring-down's peak in displacement."""
     if r.response != "acc" or not f1 > 0:
         return None
     s, e = r.free_start, r.free_stop
@@ -512,7 +520,11 @@ def _base_motion(r: Record, f1: float) -> Symptom | None:
     fb = float(f[k])
     disp = float(amp[k] / (2 * math.pi * fb) ** 2) if fb > 0 else 0.0
     xpk = float(np.max(np.abs(r.x[s:e]))) or 1e-300
-    if around.size == 0 or amp[k] < BASE_CONTRAST * float(np.median(around)) or disp < 0.02 * xpk:
+    # and above what the channel's noise at rest gives a bin (white noise of RMS s: a Rayleigh
+    # amplitude of RMS 2.45 s / sqrt(n) through this Hann-windowed spectrum)
+    noise_bin = math.sqrt(6.0) * r.noise_rms / math.sqrt(seg.size)
+    if (around.size == 0 or amp[k] < BASE_CONTRAST * float(np.median(around)) or disp < 0.02 * xpk
+            or amp[k] < BASE_NOISE_BINS * noise_bin):
         return None
     return Symptom("base_motion", f"{r.label}: a slow motion near {fb:.3g} Hz ({disp * 1e3:.3g} mm, "
                    f"{100 * disp / xpk:.0f} % of the ring-down's amplitude) rides under the response: "
