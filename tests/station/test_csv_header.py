@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -84,7 +85,7 @@ def test_several_sensors_by_number_or_name(tmp_path: Path) -> None:
 ])
 def test_headers_that_cannot_be_read_are_refused_in_one_line(tmp_path: Path, header: str, message: str) -> None:
     path = _write(tmp_path / "bad.csv", header, _rows(100))
-    with pytest.raises(InputFileError, match=message.replace("(", r"\(").replace("[", r"\[")):
+    with pytest.raises(InputFileError, match=re.escape(message)):
         read_csv(path)
 
 
