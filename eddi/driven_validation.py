@@ -4,7 +4,9 @@
 the free-response window: driven from rest by the measured impact force when the record has
 a force and a rest before the impact (fused with the accelerometer's ``m a + B + K`` during
 the impact, :func:`fused_impact_force`; the DAQ's decimation filter undone to second order,
-:func:`unsharpened`), otherwise a free response from the measured state. Used by
+:func:`unsharpened`), otherwise a free response from the measured state (a record with a
+blow but no rest before it: from the state fitted over the first cycles,
+:mod:`eddi.initial_state`). Used by
 :class:`eddi.fit_record.Pipeline` (validation), :mod:`eddi.judge` (the refinement's judge)
 and :mod:`eddi.diagnosis`.
 """
@@ -16,6 +18,7 @@ from dataclasses import replace
 import numpy as np
 
 from eddi.conditioning import ConditionedSignal
+from eddi.initial_state import fitted_state
 from eddi.model import EquationOfMotion
 from eddi.validate import Validation, validate
 
@@ -48,6 +51,15 @@ def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal,
         val = validate(eom, cond.t[s:e], cond.x[s:e], v=cond.v[s:e], force=drive[s:e],
                        window=(cond.free_start - s, cond.free_stop - s))
         return _shift(val, s), True
+    if force is not None:
+        # a blow with no rest before it: the free response starts right after the blow, where
+        # one sample's state is least reliable; from the state fitted over its first cycles
+        # (eddi.initial_state) as the diagnosis simulates its free parts
+        w0, w1 = cond.window
+        xs = float(np.max(np.abs(cond.x[w0:w1]))) or None
+        vs = float(np.max(np.abs(cond.v[w0:w1]))) or None
+        x0, v0 = fitted_state(eom, cond.t, cond.x, cond.v, None, w0, w1, xs, vs)
+        return validate(eom, cond.t, cond.x, v=cond.v, window=cond.window, x0=x0, v0=v0), False
     return validate(eom, cond.t, cond.x, v=cond.v, window=cond.window), False
 
 

@@ -355,6 +355,12 @@ def phase_one_many(energies: Sequence[SegmentEnergy], damping: Sequence[Basis],
     return coef, float(np.sqrt(np.mean((a @ coef - y) ** 2)))
 
 
+def row_step(energies: Sequence[SegmentEnergy], max_rows: int) -> int:
+    """Every how many samples :func:`potential_rows` keeps a row (the same for every segment)."""
+    total = sum(e.i1 - e.i0 for e in energies)
+    return max(1, int(math.ceil(total / max(max_rows, 1))))
+
+
 def potential_rows(energies: Sequence[SegmentEnergy], damping: Sequence[Basis], coef: np.ndarray, *,
                    fixed_damping: Basis | None = None, fixed_stiffness: Basis | None = None,
                    max_rows: int = 60000, energy_floor: float = 1e-6) -> PotentialRows:
@@ -378,8 +384,7 @@ def potential_rows(energies: Sequence[SegmentEnergy], damping: Sequence[Basis], 
     -------
     PotentialRows
     """
-    total = sum(e.i1 - e.i0 for e in energies)
-    step = max(1, int(math.ceil(total / max(max_rows, 1))))
+    step = row_step(energies, max_rows)
     xs, ps, ws = [], [], []
     bases = list(damping) + ([fixed_damping] if fixed_damping is not None else [])
     cs = np.concatenate([np.asarray(coef, float), [1.0] if fixed_damping is not None else []])

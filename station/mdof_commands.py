@@ -47,7 +47,7 @@ def _read(specs: Sequence[str]):
 
 def validate_mdof_object(model: MdofModel, model_path: str, specs: Sequence[str]) -> dict[str, Any]:
     """The ``--json`` object of ``station validate`` for an MDOF model."""
-    records, names, _dp = condition_all(_read(specs), model.driving_point)
+    records, names, _dp = condition_all(_read(specs), model.driving_point, order=model.channels)
     if tuple(names) != tuple(model.channels):
         raise InputFileError(f"the captures' response channels ({', '.join(names)}) are not the model's "
                              f"({', '.join(model.channels)})")

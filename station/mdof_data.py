@@ -114,9 +114,13 @@ def condition_multichannel(meas: Measurement, driving_point: str | None = None) 
         highpass_hz=cut)
 
 
-def condition_all(measurements: Sequence[Measurement], driving_point: str | None = None
-                  ) -> tuple[list[ChannelRecord], tuple[str, ...], str]:
+def condition_all(measurements: Sequence[Measurement], driving_point: str | None = None,
+                  order: Sequence[str] | None = None) -> tuple[list[ChannelRecord], tuple[str, ...], str]:
     """Condition several records with the same channels; returns records, channels, driving point.
+
+    Channels are matched by name: records that hold the same names in another column order are
+    put in the first record's order (or in ``order``, e.g. a model's channels, when the names
+    are the same).
 
     Raises
     ------
@@ -124,7 +128,10 @@ def condition_all(measurements: Sequence[Measurement], driving_point: str | None
         Records with different channels or sample rates.
     """
     names = channel_names(measurements[0])
+    if order is not None and sorted(order) == sorted(names):
+        names = tuple(order)
     rate = float(measurements[0].rate_hz)
+    measurements = [_in_order(m, names) for m in measurements]
     for m in measurements[1:]:
         if channel_names(m) != names:
             raise InputFileError(f"{m.source}: channels {', '.join(channel_names(m))} differ from "
@@ -133,6 +140,19 @@ def condition_all(measurements: Sequence[Measurement], driving_point: str | None
             raise InputFileError(f"{m.source}: sample rate {m.rate_hz:g} Hz differs from {rate:g} Hz")
     dp = resolve_driving_point(measurements[0], driving_point)
     return [condition_multichannel(m, dp) for m in measurements], names, dp
+
+
+def _in_order(meas: Measurement, names: tuple[str, ...]) -> Measurement:
+    """``meas`` with its response channels in the order ``names`` when it holds the same names in
+    another column order (a logger or a spreadsheet that reorders columns); else as it is.
+    Channels are matched by name, never by position."""
+    from dataclasses import replace
+
+    own = channel_names(meas)
+    if own == names or sorted(own) != sorted(names):
+        return meas
+    rest = {k: v for k, v in meas.channels.items() if k not in own}
+    return replace(meas, channels={**rest, **{n: meas.channels[n] for n in names}})
 
 
 def reduce_rate(measurements: Sequence[Measurement], samples_per_period: float | None = None

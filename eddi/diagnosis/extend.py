@@ -19,6 +19,7 @@ import numpy as np
 from scipy import optimize
 
 from eddi.diagnosis.catalogue import Context, Mechanism, MechanismFit, Signal, extend
+from eddi.diagnosis.settings import SLOW_ERRORS
 from eddi.energy import zero_crossings
 from eddi.errors import IdentificationError, ModelError, SignalError
 from eddi.identify_many import (
@@ -26,6 +27,7 @@ from eddi.identify_many import (
     potential_rows, stiffness_columns, term_basis,
 )
 from eddi.model import EquationOfMotion
+from eddi.slow_many import corrected, rows_correction
 from eddi.terms import evaluate, parse_terms
 
 
@@ -41,6 +43,10 @@ class Setup:
     #: refinement starts from it when that record is wholly training data (name.refined_baseline)
     refine_start: EquationOfMotion | None = None
     refine_start_record: int = -1
+    #: take the conditioner's slow errors out of the phase-two rows (eddi.slow_many), as the
+    #: pipeline's EDDI (identify) does: set when the folds are judged with EDDI's estimate because
+    #: the pipeline rejected its refinement (loop.diagnose)
+    slow_errors: bool = False
 
 
 @dataclass(frozen=True)
@@ -250,8 +256,12 @@ class EddiFold:
             self.fd, self.fs = model_bases(setup.base, (lo, hi))
         self._proj0: _Projector | None = None
         self.b0, _ = phase_one_many(energies, self.d, self.fd)
-        self.rows0 = potential_rows(energies, self.d, self.b0, fixed_damping=self.fd,
-                                    fixed_stiffness=self.fs)
+        rows0 = potential_rows(energies, self.d, self.b0, fixed_damping=self.fd, fixed_stiffness=self.fs)
+        # the conditioner's slow errors, fitted per segment and taken out of every fit's rows
+        # (eddi.slow_many; the baseline's and every mechanism's) when the setup asks for it
+        self.correction = (rows_correction(energies, self.d, self.k)
+                           if SLOW_ERRORS["on"] and setup.slow_errors and self.k else None)
+        self.rows0 = corrected(rows0, self.correction)
 
     def stiffness_fit(self, rows: PotentialRows, extra: Sequence[Basis]) -> tuple[np.ndarray, float]:
         """Stiffness coefficients (baseline terms then ``extra``) and the weighted SSR.
@@ -333,9 +343,9 @@ def _fit_native(fold: EddiFold, sigs: Sequence[Signal], masks: Sequence[np.ndarr
         return None
     if mech.native == "damping":
         extra = mech.bases({**best[2], "sample_interval_s": dt}, setup.stiffness)
-        rows = potential_rows(fold.energies, list(fold.d) + list(extra),
-                              np.concatenate([best[4], best[1]]), fixed_damping=fold.fd,
-                              fixed_stiffness=fold.fs)
+        rows = corrected(potential_rows(fold.energies, list(fold.d) + list(extra),
+                                        np.concatenate([best[4], best[1]]), fixed_damping=fold.fd,
+                                        fixed_stiffness=fold.fs), fold.correction)
         k, _ = fold.stiffness_fit(rows, [])
     else:
         k = best[5]

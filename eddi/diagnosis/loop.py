@@ -23,7 +23,7 @@ import numpy as np
 
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
 from eddi.diagnosis.chain import recondition, inspect, sensor_highpass
-from eddi.diagnosis.earn import CHAIN_REASON, earn
+from eddi.diagnosis.earn import CHAIN_REASON, earn, reported_text
 from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.lookalike import attach
 from eddi.diagnosis.mapping import Mapper
@@ -132,6 +132,10 @@ def diagnose(
         if pipeline is not None and pipeline.choices.get("refinement") == "kept":
             # the folds' refinements may start from the pipeline's (settings.REFINE_FOLDS)
             setup = replace(setup, refine_start=pipeline.model, refine_start_record=int(pipeline.fit_record))
+        elif pipeline is not None and base is None:
+            # the folds are judged with EDDI's estimate, as the pipeline kept its own: EDDI as the
+            # pipeline runs it (identify takes the conditioner's slow errors out, eddi.slow_many)
+            setup = replace(setup, slow_errors=True)
         cat = [m for m in catalogue() if m.name in chosen]
         effects = tuple(e.name for e in base.effects) if base is not None else ()
         skipped = {m.name: m.skip_reason(setup.damping, setup.stiffness, effects) for m in cat}
@@ -297,6 +301,7 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     dec = earn(dec, baseline.nrmse / floor.nrmse if floor.nrmse > 0 else math.inf, symptoms)
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
+    verdict += reported_text(symptoms)
     notes = notes + _floor_note(dec, candidates, floor, baseline.nrmse, margin)
     if floor.chain_nrmse and max(floor.chain_nrmse) > 0.5 * MIN_FLOOR:
         # the floor says what the chain's calibration allows, in the verdict too (session 9)

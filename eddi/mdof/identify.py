@@ -147,7 +147,9 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
         Linear modal analysis uses the record after the envelope falls below this fraction.
     max_freq_hz : float, optional
     prune : float
-        Relative force below which a term is dropped.
+        Relative force below which a term is dropped (in modal coordinates with coupling terms,
+        also :data:`PRUNE_LADDER` times it, the candidate rule choosing; the prune kept is named
+        in the notes).
     highpass_hz : float or None
         Not None: with a force, the identification is run twice, the second time on records
         with the quasi-static response the drift high-pass removed (at each record's

@@ -153,14 +153,15 @@ def chain_checked(verdict: MdofVerdict, dp_records: Sequence, lowest_hz: float, 
     findings are symptoms either way. Base motion is looked for below ``lowest_hz`` [Hz], the
     model's lowest mode (the driving point's strongest peak may be a higher one)."""
     from eddi.diagnosis.chain import inspect
-    from eddi.diagnosis.earn import CHAIN_REASON
+    from eddi.diagnosis.earn import CHAIN_REASON, overturns
 
     found = inspect(dp_records, None, lowest_hz, measured_f1=False)
     if not found:
         return verdict
     symptoms = verdict.symptoms + tuple({"kind": s.kind, "channel": channel, **s.values, "text": s.text}
                                         for s in found)
-    if verdict.cause == "unexplained":
+    found = [s for s in found if overturns(s)]  # a bounce before the free response is reported only
+    if verdict.cause == "unexplained" or not found:
         return MdofVerdict(verdict.cause, verdict.noise_floor, symptoms, verdict.note)
     kinds = ", ".join(sorted({s.kind for s in found}))
     was = "the baseline would have been called complete" if verdict.cause == "none" else \

@@ -93,12 +93,17 @@ def test_clipped_acceleration_is_not_none() -> None:
     assert d.cause == "unexplained", d.verdict
 
 
-def test_double_hit_is_not_none() -> None:
-    """The rig's hammer bounces (second blow 4 ms later, 30 %) on the 0.3 kg system at 2 kHz."""
+def test_a_bounce_before_the_free_response_is_reported_and_does_not_overturn() -> None:
+    """The rig's hammer bounces (second blow 4 ms later, 30 %) on the 0.3 kg system at 2 kHz:
+    the free response compared starts after it and the baseline is within the floor, so the
+    verdict is ``none`` with the bounce said in numbers (sessions 7-9: ``unexplained``)."""
     m = HEAVY["eom"].mass
     d = diagnose(_records(HEAVY, 74, double_hit=True), m, mechanisms=MECHS)
     assert "double_hit" in _chain_kinds(d)
-    assert d.cause == "unexplained" and CHAIN_REASON in d.verdict, d.verdict
+    hits = [s for s in d.symptoms if s.kind == "double_hit"]
+    assert len(hits) == 3 and all(s.values["inside_free_response"] == 0.0 for s in hits)
+    assert all(s.values["delay_s"] == pytest.approx(4e-3, abs=1e-3) for s in hits)
+    assert d.cause == "none" and "hammer bounced" in d.verdict, d.verdict
 
 
 def _decision(cause: str) -> Decision:
@@ -122,7 +127,13 @@ def test_rule_on_the_band_and_on_chain_findings() -> None:
     assert earn(_decision("none"), 1.2, [energy]).cause == "none"
     grows = Symptom("growth", "g", {"ratio": 2.0})
     assert earn(_decision("none"), 1.2, [energy, grows]).cause == "unexplained"
-    hit = Symptom("double_hit", "impact 2: a second hammer blow 4 ms after the first", {"delay_s": 4e-3})
+    # a bounce before the free response is reported, not overturning; one inside it overturns
+    before = Symptom("double_hit", "impact 2: a second hammer blow 4 ms after the first",
+                     {"delay_s": 4e-3, "inside_free_response": 0.0})
+    assert earn(_decision("none"), 0.4, [peak, before]).cause == "none"
+    assert earn(Decision("coulomb_friction", None, None, False, ""), 0.4, [before]).cause == "coulomb_friction"
+    hit = Symptom("double_hit", "impact 2: a second hammer blow 400 ms after the first",
+                  {"delay_s": 0.4, "inside_free_response": 1.0})
     out = earn(_decision("none"), 0.4, [peak, hit])
     assert out.cause == "unexplained" and "second hammer blow" in out.reason
     named = earn(Decision("coulomb_friction", None, None, False, ""), 0.4, [hit])

@@ -11,8 +11,8 @@ in modal coordinates (the form a beam or plate must use). Before session 10:
 - the fixed prune (3e-3 of the inertia force) dropped every coupling monomial of mode 1: held out
   0.035 (0.053 with the biased shape), the true model 0.0024 / 0.0033.
 
-The null (no cubic spring, 1 / 0.3 kg, 16 Hz x 2.01) must keep no coupling term in either
-equation: the lower prunes (:data:`eddi.mdof.identify.PRUNE_LADDER`) keep spurious monomials there,
+The nulls (no cubic spring; 1 / 0.3 kg, 16 Hz x 2.01 and 0.9 / 0.3 kg, 20 Hz x 2.97) must keep no
+coupling term in either equation: the lower prunes (:data:`eddi.mdof.identify.PRUNE_LADDER`) keep spurious monomials there,
 and the candidate rule must not take them.
 """
 
@@ -110,10 +110,14 @@ def test_a_weak_coupling_near_1_to_2_is_found_in_modal_coordinates():
     assert max(held.values()) <= 0.015, held
 
 
-def test_an_uncoupled_pair_near_1_to_2_gets_no_coupling_term():
+@pytest.mark.parametrize("masses, k1, k2, beta", [
+    ((1.0, 0.3), 14876.19, 8321.88, 7.958e-5),  # 16 Hz x 2.01, 0.4 %
+    ((0.9, 0.3), 19840.35, 29934.13, 6.366e-5),  # 20 Hz x 2.97, 0.4 %
+], ids=["1to2", "1to3"])
+def test_an_uncoupled_pair_near_internal_resonance_gets_no_coupling_term(masses, k1, k2, beta):
     from eddi.mdof.identify import identify_mdof
 
-    system = _pair((1.0, 0.3), 14876.19, 8321.88, 7.958e-5, 0.0)
+    system = _pair(masses, k1, k2, beta, 0.0)
     recs = _records(system, (50.0, 120.0, 250.0), 520)
     ident = identify_mdof(recs, system.channels, "acc1", coordinates="modal")
     assert ident.coordinates == "modal"

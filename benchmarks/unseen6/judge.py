@@ -1,0 +1,327 @@
+"""Run the station on one case and judge what it says (README.md, "The judgement").
+
+The ``Runner`` (a subprocess per command in the data folder, CPU time from wait4, a wall-clock kill)
+is unseen5's, kept as it is so that both cards time commands the same way.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+import os
+import shlex
+import signal
+import subprocess
+import threading
+import time
+
+CASE_WALL = 300  # s of wall time per case command (the brief's per-case timeout), x --timeout-scale
+NONE_FLOOR = 0.15  # baseline held-out nrmse above which `none` on a hidden effect is a failure
+HELD_MAX = 0.10  # identification: held-out nrmse on another blow
+MDOF_MAX = 0.05  # multi-DOF: held-out nrmse per channel
+CATALOGUE = {"coulomb_friction", "quadratic_damping", "cubic_damping", "clearance", "smooth_stiffening",
+             "asymmetric_stiffness", "second_mode", "hysteresis", "amplitude_damping", "sensor_highpass"}
+
+
+class Runner:
+    """Runs ``station ...`` in the data folder: exit code, wall and CPU time (the process and the
+    workers it waited for, from wait4), stdout kept in ``out/``. A command still running after
+    ``timeout * scale`` seconds of wall time is killed (``rc`` is ``"timeout"``)."""
+
+    def __init__(self, station_cmd, data, timeout_scale=1.0, wall_factor=3.0):
+        self.cmd = shlex.split(station_cmd)
+        self.data = data
+        self.scale = timeout_scale
+        self.wall_factor = wall_factor
+        self.lock = threading.Lock()
+        self.count = 0
+
+    def __call__(self, argv, timeout=300):
+        argv = [str(a) for a in argv]
+        t0 = time.time()
+        p = subprocess.Popen(self.cmd + argv, cwd=self.data, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             stdin=subprocess.DEVNULL, start_new_session=True)
+        bufs = {}
+
+        def read(key, fh):
+            bufs[key] = fh.read().decode(errors="replace")
+
+        readers = [threading.Thread(target=read, args=(k, f)) for k, f in (("out", p.stdout), ("err", p.stderr))]
+        for th in readers:
+            th.start()
+        killed = []
+
+        def kill():
+            killed.append(True)
+            try:
+                os.killpg(p.pid, signal.SIGKILL)
+            except OSError:
+                pass
+
+        timer = threading.Timer(timeout * self.scale, kill)
+        timer.start()
+        _, status, ru = os.wait4(p.pid, 0)
+        timer.cancel()
+        p.returncode = os.waitstatus_to_exitcode(status)
+        if killed:  # forked workers may hold the pipes open
+            kill()
+        for th in readers:
+            th.join(30)
+        out, err = bufs.get("out", ""), bufs.get("err", "")
+        rc = "timeout" if killed else p.returncode
+        rec = {"cmd": "station " + " ".join(shlex.quote(a) for a in argv), "rc": rc,
+               "wall_s": round(time.time() - t0, 1), "cpu_s": round(ru.ru_utime + ru.ru_stime, 1),
+               "limit_wall_s": timeout * self.scale, "stderr_tail": err.strip().splitlines()[-3:]}
+        with self.lock:
+            self.count += 1
+            rec["stdout_file"] = os.path.join("out", f"{self.count:03d}-{argv[0]}.txt")
+        os.makedirs(os.path.join(self.data, "out"), exist_ok=True)
+        with open(os.path.join(self.data, rec["stdout_file"]), "w") as fh:
+            fh.write(rec["cmd"] + "\n" + out + "\n--- stderr ---\n" + err)
+        return rec, out, err
+
+
+
+
+def parse_json(out):
+    try:
+        return json.loads(out[out.index("{"):out.rindex("}") + 1])
+    except ValueError:
+        return None
+
+
+def _failed(rec, err, case=None):
+    """The verdict of a command that gave no result. A refusal in one line (exit 2) that names what the
+    case's ``refusal_ok`` word says (``clip``: the overload detected) is an honest answer."""
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    word = (case or {}).get("refusal_ok")
+    if rec["rc"] == 2 and word and len(lines) == 1 and word in lines[0].lower() and "Traceback" not in err:
+        return "refused-detected"
+    if rec["rc"] == "timeout":
+        return "TIMEOUT"
+    if "Traceback (most recent call last)" in err:
+        return "CRASH"
+    return "REFUSED" if rec["rc"] == 2 else f"EXIT-{rec['rc']}"
+
+
+def _contract(d):
+    """Keys issue 10 promises in `station diagnose --json` that are missing."""
+    miss = [k for k in ("cause", "noise_floor", "candidates", "symptoms", "baseline", "extended") if k not in d]
+    if not isinstance(d.get("baseline"), dict) or "nrmse" not in d["baseline"]:
+        miss.append("baseline.nrmse")
+    return miss
+
+
+def _floor(d):
+    f = d.get("noise_floor")
+    return f.get("nrmse") if isinstance(f, dict) else f
+
+
+# ----------------------------------------------------------------------------- diagnosis (nulls, effects)
+def score_diag(case, run):
+    res = {"id": case["id"], "kind": "diagnose", "commands": []}
+    rec, out, err = run(["diagnose", *case["files"], "--mass", repr(case["given_mass"]), "--json"], CASE_WALL)
+    res["commands"].append(rec)
+    d = parse_json(out) if rec["rc"] in (0, 1) else None
+    if d is None:
+        res["verdict"] = _failed(rec, err, case)
+        return res
+    cause = d.get("cause")
+    base = (d.get("baseline") or {}).get("nrmse")
+    judged = (d.get("judged_baseline") or {}).get("nrmse")
+    floor = _floor(d)
+    res.update(cause=cause, baseline_nrmse=base, noise_floor=floor, exit=rec["rc"],
+               extended_nrmse=(d.get("extended") or {}).get("nrmse"),
+               candidates=[(c.get("name"), c.get("nrmse")) for c in d.get("candidates") or []
+                           if isinstance(c, dict)][:3])
+    if case["hidden"] is None:
+        v = ("correct" if cause == "none" else
+             "FALSE-ALARM-UNEXPLAINED" if cause == "unexplained" else "FALSE-ALARM-NAMED")
+        if v == "correct" and rec["rc"] == 1:
+            v = "FLAGGED-ON-NULL"
+    else:
+        expect = case["expect"]
+        if cause in expect:
+            v = "correct"
+        elif cause == "unexplained":
+            v = "abstained"  # only reached for catalogued effects
+        elif cause == "none":
+            held = judged if judged is not None else (base or 0)
+            far = held > NONE_FLOOR or (floor and held > 5 * floor)
+            v = "NONE-ABOVE-FLOOR" if far else "none-weak"
+        else:
+            v = "WRONG-NAMED"
+    miss = _contract(d)
+    if miss:
+        v += "+CONTRACT(" + ",".join(miss) + ")"
+    res["verdict"] = v
+    return res
+
+
+# ----------------------------------------------------------------------------- identification
+def judge_coefs(d, truth):
+    """Relative errors, ci95 coverage (list of bool) and what is outside, for a result with ci95."""
+    errs, cover, outside, missing = {}, [], [], False
+    for group in ("damping", "stiffness"):
+        for term, true in truth[group].items():
+            est = (d.get(group) or {}).get(term)
+            ci = ((d.get("ci95") or {}).get(group) or {}).get(term)
+            missing |= ci is None
+            e = (est - true) / abs(true) if est is not None else float("nan")
+            errs[term] = e
+            ok = ci is not None and est is not None and abs(est - true) <= float(ci)
+            cover.append(bool(ok))
+            if not ok:
+                z = abs(est - true) / float(ci) if ci and est is not None else float("inf")
+                outside.append(f"{term} {100 * e:+.2f} % ({z:.1f} x ci95)")
+    return errs, cover, outside, missing
+
+
+def score_ident(case, run):
+    tr, f = case["truth"], case["files"]
+    res = {"id": case["id"], "kind": "ident", "commands": []}
+    argv = ["identify", f["fit"], "--mass", repr(tr["mass"]), "--damping", ",".join(tr["damping"]),
+            "--stiffness", ",".join(tr["stiffness"]), "--json"]
+    rec, out, err = run(argv, CASE_WALL)
+    res["commands"].append(rec)
+    d = parse_json(out) if rec["rc"] in (0, 1) else None
+    if d is None:
+        res["verdict"] = _failed(rec, err, case)
+        return res
+    if rec["rc"] == 1:
+        flagged = d.get("unstable") or (d.get("validation") or {}).get("diverged")
+        res["verdict"] = "flagged-unstable" if flagged else "EXIT-1-UNFLAGGED"
+        return res
+    errs, cover, outside, missing = judge_coefs(d, tr)
+    model_path = f"score-{case['id']}-model.json"
+    with open(os.path.join(run.data, model_path), "w") as fh:
+        json.dump(d["model"], fh)
+    rec, out, err = run(["validate", model_path, f["held"], "--json"], CASE_WALL)
+    res["commands"].append(rec)
+    v = parse_json(out) if rec["rc"] in (0, 1) else None
+    held = float(v["nrmse"]) if v and v.get("nrmse") is not None else float("inf")
+    warns = list(d.get("warnings") or []) + list((d.get("validation") or {}).get("warnings") or [])
+    warned = bool(warns or (d.get("validation") or {}).get("diverged") or (v or {}).get("diverged"))
+    res.update(coef_err=errs, covered=cover, outside=outside, held_nrmse=held, warned=warned,
+               warnings=[str(w)[:160] for w in warns][:4])
+    bad = outside + ([f"held-out nrmse {held:.3g}"] if held > HELD_MAX else [])
+    if missing:
+        res["verdict"] = "CONTRACT(ci95)"
+    elif not bad:
+        res["verdict"] = "ok"
+    elif warned:
+        res["verdict"] = "warned"
+    else:
+        res["verdict"] = "OUTSIDE-CI95-SILENT" if outside else "POOR-SILENT"
+    return res
+
+
+# ----------------------------------------------------------------------------- campaign
+def score_campaign(case, run):
+    tr = case["truth"]
+    res = {"id": case["id"], "kind": "campaign", "commands": []}
+    outdir = f"score-{case['id']}-out"
+    if os.path.isdir(os.path.join(run.data, outdir)):
+        import shutil
+        shutil.rmtree(os.path.join(run.data, outdir))
+    argv = ["campaign", case["folder"], "--out", outdir, "--mass", repr(tr["mass"]), "--damping",
+            ",".join(tr["damping"]), "--stiffness", ",".join(tr["stiffness"]), "--workers", "1", "--json"]
+    rec, out, err = run(argv, CASE_WALL)
+    res["commands"].append(rec)
+    table = os.path.join(run.data, outdir, "results.csv")
+    if rec["rc"] != 0 or not os.path.exists(table):
+        res["verdict"] = _failed(rec, err) if rec["rc"] != 0 else "NO-TABLE"
+        return res
+    with open(table, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    by = {os.path.basename(r["file"]): r for r in rows}
+    flags, cover, nrmses = [], [], []
+    for name in case["files"]:
+        r = by.get(name)
+        if r is None or r.get("status") != "ok":
+            flags.append(f"ROW({name})")
+            continue
+        d = {"damping": {}, "stiffness": {}, "ci95": {"damping": {}, "stiffness": {}}}
+        for g, p in (("damping", "b"), ("stiffness", "k")):
+            for term in tr[g]:
+                val, ci = r.get(f"{p}[{term}]"), r.get(f"{p}[{term}]_ci95")
+                if val not in (None, ""):
+                    d[g][term] = float(val)
+                if ci not in (None, ""):
+                    d["ci95"][g][term] = float(ci)
+        _, cv, _, _ = judge_coefs(d, tr)
+        cover += cv
+        nrmses.append(float(r.get("nrmse") or "inf"))
+    broken = by.get(case["broken"])
+    if broken is None or broken.get("status") != "error" or "\n" in (broken.get("error") or "\n"):
+        flags.append("BROKEN-ROW")
+    if sum(not c for c in cover) > 1:
+        flags.append("CI95")
+    if nrmses and max(nrmses) > HELD_MAX:
+        flags.append("NRMSE")
+    res.update(rows=len(rows), covered=cover, nrmse=nrmses)
+    res["verdict"] = "ok" if not flags else "+".join(flags)
+    return res
+
+
+# ----------------------------------------------------------------------------- multi-DOF
+def score_mdof(case, run):
+    f = case["files"]
+    res = {"id": case["id"], "kind": "mdof", "commands": []}
+    model_path = f"score-{case['id']}-model.json"
+    if os.path.exists(os.path.join(run.data, model_path)):
+        os.remove(os.path.join(run.data, model_path))
+    argv = ["diagnose", *f["train"], "--save-model", model_path, "--json", "--driving-point", case["driving_point"]]
+    rec, out, err = run(argv, CASE_WALL)
+    res["commands"].append(rec)
+    d = parse_json(out) if rec["rc"] in (0, 1) else None
+    if d is None or not os.path.exists(os.path.join(run.data, model_path)):
+        res["verdict"] = _failed(rec, err) if d is None else "NO-MODEL"
+        return res
+    res["cause"] = d.get("cause")
+    flags = [] if res["cause"] == "modal_coupling" else ["NO-COUPLING"]
+    rec, out, err = run(["validate", model_path, f["held"], "--json"], CASE_WALL)
+    res["commands"].append(rec)
+    v = parse_json(out) if rec["rc"] in (0, 1) else None
+    ch = {k: float(x) for k, x in (v or {}).get("channel_nrmse", {}).items()} if v else {}
+    res["held_nrmse"] = ch or {"(none)": float("inf")}
+    if rec["rc"] == "timeout":
+        flags.append("TIMEOUT")
+    elif not ch or max(ch.values()) > MDOF_MAX or len(ch) != len(case["columns"]):
+        flags.append("NRMSE")
+    res["verdict"] = "ok" if not flags else "+".join(flags)
+    return res
+
+
+# ----------------------------------------------------------------------------- bad inputs
+def _digest(path):
+    try:
+        with open(path, "rb") as fh:
+            return hashlib.sha256(fh.read()).hexdigest()
+    except OSError:
+        return None
+
+
+def score_robust(case, run):
+    prot = {p: _digest(os.path.join(run.data, p)) for p in case["protect"]}
+    rec, out, err = run(case["argv"], 120)
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    res = {"id": "bad-" + case["id"], "kind": "robust", "commands": [rec], "stderr": lines[:3]}
+    changed = [p for p, h in prot.items() if _digest(os.path.join(run.data, p)) != h]
+    if rec["rc"] == "timeout":
+        v = "TIMEOUT"
+    elif "Traceback" in err:
+        v = "CRASH"
+    elif rec["rc"] == 0:
+        v = "ACCEPTED-BAD-INPUT"
+    elif rec["rc"] != 2:
+        v = f"EXIT-{rec['rc']}"
+    elif len(lines) != 1:
+        v = f"STDERR-{len(lines)}-LINES"
+    else:
+        v = "ok"
+    if changed:
+        v = "CLOBBERED" if v == "ok" else v + "+CLOBBERED"
+    res["verdict"] = v
+    return res
