@@ -132,7 +132,7 @@ def _good_rows() -> np.ndarray:
         ("empty", "empty file"),
         ("no_t", "no time column"),
         ("no_response", "no response column"),
-        ("unknown_column", "unknown column 'pressure'"),
+        ("unknown_column", "unknown column 'wobble'"),
         ("nan", "column 'acc' is not a finite number at line 102"),
         ("non_uniform", "uniformly sampled"),
         ("non_increasing", "must increase"),
@@ -158,7 +158,7 @@ def test_bad_input_is_one_line_exit_2(case: str, match: str, tmp_path: Path,
     elif case == "no_response":
         _write(p, "t,force", rows[:, :2])
     elif case == "unknown_column":
-        _write(p, "t,force,pressure", rows)
+        _write(p, "t,force,wobble", rows)
     elif case == "nan":
         rows[100, 2] = np.nan
         _write(p, "t,force,acc", rows)
