@@ -82,6 +82,24 @@ SYSTEMS: dict[str, dict] = {
                           {"v*abs(v)": 0.5}, "rubber"),
     "light_x2v_40k": _s("held-out", 0.01, 50.0, 0.003, 4.0, 40000.0, 60.0, 0.3, {"x^3": 0.1}, {"x^2*v": 0.3},
                         "steel"),
+    # --- coarse sampling (session 10, s10cov): point samples at 20-40 samples per cycle of the response
+    # (rate / linear frequency; hardening raises the peak's), no decimation filter
+    "coarse_gram_v3": _s("coarse-tune", 0.01, 200.0, 0.004, 4.0, 6000.0, 45.0, 0.2, {"x^3": 0.3}, {"v^3": 0.5},
+                         "steel"),
+    "coarse_kilo_x2v": _s("coarse-tune", 2.0, 40.0, 0.008, 8.0, 1000.0, 40.0, 0.1, {"x^2": 0.2}, {"x^2*v": 1.0}),
+    "coarse_heavy_45s": _s("coarse-tune", 500.0, 5.0, 0.003, 45.0, 150.0, 50.0, 0.04, {"x^3": 0.2}, {"v^3": 0.5},
+                           "rubber"),
+    "coarse_mid_vabs": _s("coarse-tune", 20.0, 25.0, 0.006, 8.0, 900.0, 35.0, 0.1, {"x^3": -0.1},
+                          {"v*abs(v)": 0.6}),
+    "coarse_kilo_55db": _s("coarse-tune", 1.0, 80.0, 0.005, 5.0, 2000.0, 55.0, 0.15, {"x^3": 0.3}, {"v^3": 0.3}),
+    # --- coarse held-out (run once at the start and once at the end, not looked at in between)
+    "coarse_ho_light": _s("coarse-held-out", 0.05, 120.0, 0.005, 5.0, 3600.0, 50.0, 0.2, {"x^2": 0.15, "x^3": 0.2},
+                          {"v^3": 0.4}, "steel"),
+    "coarse_ho_heavy": _s("coarse-held-out", 200.0, 10.0, 0.006, 20.0, 250.0, 45.0, 0.05, {"x^3": 0.4},
+                          {"x^2*v": 0.5}, "rubber"),
+    "coarse_ho_30db": _s("coarse-held-out", 5.0, 60.0, 0.01, 6.0, 2400.0, 30.0, 0.15, {"x^3": 0.5}, {"v^3": 1.0}),
+    "coarse_ho_55db": _s("coarse-held-out", 100.0, 15.0, 0.004, 15.0, 330.0, 55.0, 0.05, {"x^3": -0.05},
+                         {"v*abs(v)": 0.3}, "rubber"),
 }
 
 
@@ -176,8 +194,9 @@ def _cpu() -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--set", choices=("tune", "held-out", "all"), default="tune",
-                    help="which systems (default: tune; held-out is for reporting)")
+    ap.add_argument("--set", choices=("tune", "held-out", "coarse-tune", "coarse-held-out", "all"), default="tune",
+                    help="which systems (default: tune; held-out and coarse-held-out are for reporting; "
+                         "coarse-*: 20-40 point samples per cycle)")
     ap.add_argument("--systems", nargs="+", choices=list(SYSTEMS), metavar="NAME",
                     help=f"systems (overrides --set; of {', '.join(SYSTEMS)})")
     ap.add_argument("--seeds", type=int, default=20, help="seeds per system (default 20)")
