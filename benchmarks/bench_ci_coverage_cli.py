@@ -19,8 +19,12 @@ For every true coefficient ``z = (c - c_true) / (ci95 / 1.96)``; the interval co
 Wilson interval, RMS z, mean z (bias in standard errors), mean half width / ``|c|``, how often
 the refinement was kept, and how many records carried a warning about the intervals.
 
-Run: ``python benchmarks/bench_ci_coverage_cli.py [--set tune|held-out|all] [--seeds 20]
-[--systems ...] [--per-term]`` (~1-5 s per record).
+The ``coarse-*`` systems are point-sampled at 20-40 samples per cycle (no decimation filter);
+``--rate-factor 6`` runs the same systems and seeds 6x denser, the peer their coverage is
+compared with (session 10: the same within the binomial intervals, ``docs/eddi-method.md``).
+
+Run: ``python benchmarks/bench_ci_coverage_cli.py [--set tune|held-out|coarse-tune|coarse-held-out|all]
+[--seeds 20] [--systems ...] [--per-term] [--rate-factor F]`` (~0.1-5 s per record).
 """
 
 from __future__ import annotations
@@ -203,18 +207,22 @@ def main() -> None:
     ap.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
     ap.add_argument("--per-term", action="store_true", help="one line per coefficient too")
     ap.add_argument("--no-refine", action="store_true", help="station identify --no-refine")
+    ap.add_argument("--rate-factor", type=float, default=1.0,
+                    help="multiply every system's sample rate (e.g. 6: the coarse family at 120-240 samples "
+                         "per cycle, the peer the coarse coverage is compared with; default 1)")
     args = ap.parse_args()
     names = args.systems or [k for k, s in SYSTEMS.items() if args.set in ("all", s["set"])]
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     extra = ("--no-refine",) if args.no_refine else ()
     print(f"station identify ci95 coverage, nominal 0.95: {len(seeds)} seeds x {len(names)} systems "
-          f"(load average {os.getloadavg()[0]:.1f})")
+          f"(rate x {args.rate_factor:g}; load average {os.getloadavg()[0]:.1f})")
     print(f"{'system':<16} {'term':<7} coverage [Wilson 95 %]  n      rms z   mean z  half/|c|  rms err  kept warned")
     total: list[tuple[float, float, float]] = []
     c0 = _cpu()
     with tempfile.TemporaryDirectory() as tmp:
         for name in names:
-            res, kept, warned = run_case(SYSTEMS[name], seeds, Path(tmp), extra)
+            spec = dict(SYSTEMS[name], rate=SYSTEMS[name]["rate"] * args.rate_factor)
+            res, kept, warned = run_case(spec, seeds, Path(tmp), extra)
             rows = [r for v in res.values() for r in v]
             total += rows
             if args.per_term:
