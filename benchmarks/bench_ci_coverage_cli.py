@@ -24,7 +24,7 @@ The ``coarse-*`` systems are point-sampled at 20-40 samples per cycle (no decima
 compared with (session 10: the same within the binomial intervals, ``docs/eddi-method.md``).
 
 Run: ``python benchmarks/bench_ci_coverage_cli.py [--set tune|held-out|coarse-tune|coarse-held-out|all]
-[--seeds 20] [--systems ...] [--per-term] [--rate-factor F]`` (~0.1-5 s per record).
+[--seeds 20] [--systems ...] [--per-term] [--rate-factor F] [--analog-filter ORDER:FRACTION]`` (~0.1-5 s per record).
 """
 
 from __future__ import annotations
@@ -134,7 +134,14 @@ def write_csv(spec: dict, seed: int, path: Path) -> None:
                accelerometer(snr_db=spec["snr"], adc_bits=bits, iepe_highpass_hz=spec.get("iepe")))
     r = impact_test(eom, peak, rate_hz=spec["rate"], pretrigger_s=spec.get("pre", 0.3), record_s=spec["record"], sensors=sensors,
                     hammer=hammer, seed=seed)
-    np.savetxt(path, np.column_stack((r.t, r.force_n, r.acc_m_s2)), delimiter=",", header="t,force,acc",
+    acc = r.acc_m_s2
+    if spec.get("aaf"):  # an analog anti-alias filter before the ADC: Butterworth (order, cutoff / rate), bilinear
+        from scipy import signal
+
+        order, frac = spec["aaf"]
+        b, a = signal.butter(order, 2.0 * math.pi * frac * spec["rate"], analog=True)
+        acc = signal.lfilter(*signal.bilinear(b, a, spec["rate"]), acc)
+    np.savetxt(path, np.column_stack((r.t, r.force_n, acc)), delimiter=",", header="t,force,acc",
                comments="", fmt="%.10g")
 
 
@@ -207,6 +214,9 @@ def main() -> None:
     ap.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
     ap.add_argument("--per-term", action="store_true", help="one line per coefficient too")
     ap.add_argument("--no-refine", action="store_true", help="station identify --no-refine")
+    ap.add_argument("--analog-filter", metavar="ORDER:FRACTION",
+                    help="an analog Butterworth anti-alias filter on the acceleration before sampling, cut-off "
+                         "FRACTION of the rate (e.g. 1:0.39; not told to the station)")
     ap.add_argument("--rate-factor", type=float, default=1.0,
                     help="multiply every system's sample rate (e.g. 6: the coarse family at 120-240 samples "
                          "per cycle, the peer the coarse coverage is compared with; default 1)")
@@ -222,6 +232,9 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for name in names:
             spec = dict(SYSTEMS[name], rate=SYSTEMS[name]["rate"] * args.rate_factor)
+            if args.analog_filter:
+                order, frac = args.analog_filter.split(":")
+                spec["aaf"] = (int(order), float(frac))
             res, kept, warned = run_case(spec, seeds, Path(tmp), extra)
             rows = [r for v in res.values() for r in v]
             total += rows
