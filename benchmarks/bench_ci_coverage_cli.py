@@ -19,8 +19,12 @@ For every true coefficient ``z = (c - c_true) / (ci95 / 1.96)``; the interval co
 Wilson interval, RMS z, mean z (bias in standard errors), mean half width / ``|c|``, how often
 the refinement was kept, and how many records carried a warning about the intervals.
 
-Run: ``python benchmarks/bench_ci_coverage_cli.py [--set tune|held-out|all] [--seeds 20]
-[--systems ...] [--per-term]`` (~1-5 s per record).
+The ``coarse-*`` systems are point-sampled at 20-40 samples per cycle (no decimation filter);
+``--rate-factor 6`` runs the same systems and seeds 6x denser, the peer their coverage is
+compared with (session 10: the same within the binomial intervals, ``docs/eddi-method.md``).
+
+Run: ``python benchmarks/bench_ci_coverage_cli.py [--set tune|held-out|coarse-tune|coarse-held-out|all]
+[--seeds 20] [--systems ...] [--per-term] [--rate-factor F] [--analog-filter ORDER:FRACTION]`` (~0.1-5 s per record).
 """
 
 from __future__ import annotations
@@ -82,6 +86,24 @@ SYSTEMS: dict[str, dict] = {
                           {"v*abs(v)": 0.5}, "rubber"),
     "light_x2v_40k": _s("held-out", 0.01, 50.0, 0.003, 4.0, 40000.0, 60.0, 0.3, {"x^3": 0.1}, {"x^2*v": 0.3},
                         "steel"),
+    # --- coarse sampling (session 10, s10cov): point samples at 20-40 samples per cycle of the response
+    # (rate / linear frequency; hardening raises the peak's), no decimation filter
+    "coarse_gram_v3": _s("coarse-tune", 0.01, 200.0, 0.004, 4.0, 6000.0, 45.0, 0.2, {"x^3": 0.3}, {"v^3": 0.5},
+                         "steel"),
+    "coarse_kilo_x2v": _s("coarse-tune", 2.0, 40.0, 0.008, 8.0, 1000.0, 40.0, 0.1, {"x^2": 0.2}, {"x^2*v": 1.0}),
+    "coarse_heavy_45s": _s("coarse-tune", 500.0, 5.0, 0.003, 45.0, 150.0, 50.0, 0.04, {"x^3": 0.2}, {"v^3": 0.5},
+                           "rubber"),
+    "coarse_mid_vabs": _s("coarse-tune", 20.0, 25.0, 0.006, 8.0, 900.0, 35.0, 0.1, {"x^3": -0.1},
+                          {"v*abs(v)": 0.6}),
+    "coarse_kilo_55db": _s("coarse-tune", 1.0, 80.0, 0.005, 5.0, 2000.0, 55.0, 0.15, {"x^3": 0.3}, {"v^3": 0.3}),
+    # --- coarse held-out (run once at the start and once at the end, not looked at in between)
+    "coarse_ho_light": _s("coarse-held-out", 0.05, 120.0, 0.005, 5.0, 3600.0, 50.0, 0.2, {"x^2": 0.15, "x^3": 0.2},
+                          {"v^3": 0.4}, "steel"),
+    "coarse_ho_heavy": _s("coarse-held-out", 200.0, 10.0, 0.006, 20.0, 250.0, 45.0, 0.05, {"x^3": 0.4},
+                          {"x^2*v": 0.5}, "rubber"),
+    "coarse_ho_30db": _s("coarse-held-out", 5.0, 60.0, 0.01, 6.0, 2400.0, 30.0, 0.15, {"x^3": 0.5}, {"v^3": 1.0}),
+    "coarse_ho_55db": _s("coarse-held-out", 100.0, 15.0, 0.004, 15.0, 330.0, 55.0, 0.05, {"x^3": -0.05},
+                         {"v*abs(v)": 0.3}, "rubber"),
 }
 
 
@@ -112,7 +134,14 @@ def write_csv(spec: dict, seed: int, path: Path) -> None:
                accelerometer(snr_db=spec["snr"], adc_bits=bits, iepe_highpass_hz=spec.get("iepe")))
     r = impact_test(eom, peak, rate_hz=spec["rate"], pretrigger_s=spec.get("pre", 0.3), record_s=spec["record"], sensors=sensors,
                     hammer=hammer, seed=seed)
-    np.savetxt(path, np.column_stack((r.t, r.force_n, r.acc_m_s2)), delimiter=",", header="t,force,acc",
+    acc = r.acc_m_s2
+    if spec.get("aaf"):  # an analog anti-alias filter before the ADC: Butterworth (order, cutoff / rate), bilinear
+        from scipy import signal
+
+        order, frac = spec["aaf"]
+        b, a = signal.butter(order, 2.0 * math.pi * frac * spec["rate"], analog=True)
+        acc = signal.lfilter(*signal.bilinear(b, a, spec["rate"]), acc)
+    np.savetxt(path, np.column_stack((r.t, r.force_n, acc)), delimiter=",", header="t,force,acc",
                comments="", fmt="%.10g")
 
 
@@ -176,26 +205,37 @@ def _cpu() -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--set", choices=("tune", "held-out", "all"), default="tune",
-                    help="which systems (default: tune; held-out is for reporting)")
+    ap.add_argument("--set", choices=("tune", "held-out", "coarse-tune", "coarse-held-out", "all"), default="tune",
+                    help="which systems (default: tune; held-out and coarse-held-out are for reporting; "
+                         "coarse-*: 20-40 point samples per cycle)")
     ap.add_argument("--systems", nargs="+", choices=list(SYSTEMS), metavar="NAME",
                     help=f"systems (overrides --set; of {', '.join(SYSTEMS)})")
     ap.add_argument("--seeds", type=int, default=20, help="seeds per system (default 20)")
     ap.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
     ap.add_argument("--per-term", action="store_true", help="one line per coefficient too")
     ap.add_argument("--no-refine", action="store_true", help="station identify --no-refine")
+    ap.add_argument("--analog-filter", metavar="ORDER:FRACTION",
+                    help="an analog Butterworth anti-alias filter on the acceleration before sampling, cut-off "
+                         "FRACTION of the rate (e.g. 1:0.39; not told to the station)")
+    ap.add_argument("--rate-factor", type=float, default=1.0,
+                    help="multiply every system's sample rate (e.g. 6: the coarse family at 120-240 samples "
+                         "per cycle, the peer the coarse coverage is compared with; default 1)")
     args = ap.parse_args()
     names = args.systems or [k for k, s in SYSTEMS.items() if args.set in ("all", s["set"])]
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     extra = ("--no-refine",) if args.no_refine else ()
     print(f"station identify ci95 coverage, nominal 0.95: {len(seeds)} seeds x {len(names)} systems "
-          f"(load average {os.getloadavg()[0]:.1f})")
+          f"(rate x {args.rate_factor:g}; load average {os.getloadavg()[0]:.1f})")
     print(f"{'system':<16} {'term':<7} coverage [Wilson 95 %]  n      rms z   mean z  half/|c|  rms err  kept warned")
     total: list[tuple[float, float, float]] = []
     c0 = _cpu()
     with tempfile.TemporaryDirectory() as tmp:
         for name in names:
-            res, kept, warned = run_case(SYSTEMS[name], seeds, Path(tmp), extra)
+            spec = dict(SYSTEMS[name], rate=SYSTEMS[name]["rate"] * args.rate_factor)
+            if args.analog_filter:
+                order, frac = args.analog_filter.split(":")
+                spec["aaf"] = (int(order), float(frac))
+            res, kept, warned = run_case(spec, seeds, Path(tmp), extra)
             rows = [r for v in res.values() for r in v]
             total += rows
             if args.per_term:

@@ -100,10 +100,50 @@ def sampling_kernel_warning(eom: EquationOfMotion, ci95: dict[str, dict[str, flo
     if worst is None or worst[0] <= WARN_HALF_WIDTHS:
         return ()
     ratio, term, rel = worst
-    return (f"the 95 % intervals assume point samples (or a flat-passband decimation filter): at "
-            f"{rate_hz / frequency_hz:.0f} samples a cycle a sinc{ASSUMED_SINC_ORDER} decimator's droop "
-            f"would move {term} by {100 * rel:.2g} % ({ratio:.1f} interval half widths); if the DAQ has one, "
-            "give its order (adc_sinc_order; `station identify --adc-filter sincK[:R]`)",)
+    rc = analog_droop_bias(term, frequency_hz / rate_hz)
+    return (f"the 95 % intervals assume point samples of the signal itself (no decimation filter, no analog "
+            f"anti-alias filter rolling off near the response): at {rate_hz / frequency_hz:.0f} samples a cycle a "
+            f"sinc{ASSUMED_SINC_ORDER} decimator's droop would move {term} by {100 * rel:.2g} % ({ratio:.1f} interval "
+            f"half widths), a 1-pole analog filter at rate/{ANALOG_CUTOFF_DIVISOR:g} by {100 * rc:.2g} %; if the DAQ "
+            "has a decimator, give its order (adc_sinc_order; `station identify --adc-filter sincK[:R]`); an analog "
+            "filter is not modelled: record faster",)
+
+
+#: Cut-off of the analog anti-alias filter the warning sizes: the sample rate over this (the
+#: usual FFT-analyser convention, rate / 2.56).
+ANALOG_CUTOFF_DIVISOR = 2.56
+
+
+def analog_droop_bias(term: str, f_over_rate: float, divisor: float = ANALOG_CUTOFF_DIVISOR) -> float:
+    """Relative change of a term's fitted coefficient that a 1-pole analog anti-alias filter causes.
+
+    A DAQ that point-samples (no decimation filter) still has an analog front end; a 1-pole
+    (RC) filter at ``fc`` passes ``1 / sqrt(1 + (f / fc)^2) ~ 1 - (f / fc)^2 / 2`` at ``f``: a
+    gain on the measured acceleration, which a term of total degree ``d`` makes up for with its
+    coefficient ``(d - 1)`` times larger, as :func:`droop_bias`. Session 10
+    (``benchmarks/bench_ci_coverage_cli.py`` systems filtered before sampling): at 25 samples a
+    cycle a 1-pole filter at 0.39 of the rate moved ``x^3`` by 0.9 % (86 standard errors at 55
+    dB; this formula: 1.05 %); a 2-pole Butterworth there (gain ``1 - (f / fc)^4 / 2``) moved
+    ``x^3`` by 1.7 standard errors, and on a 45 s, 50 dB record at 30 a cycle the damping
+    terms by 3-5 (its phase; not sized here).
+
+    Parameters
+    ----------
+    term : str
+        The term.
+    f_over_rate : float
+        Fastest frequency of the response over the sample rate.
+    divisor : float
+        ``rate / fc``.
+
+    Returns
+    -------
+    float
+        ``(d - 1) (divisor f / rate)^2 / 2``.
+    """
+    (tm,) = parse_terms(term)
+    px, pv, pax, pav, _, _ = tm.exponents
+    return (px + pv + pax + pav - 1) * (divisor * f_over_rate) ** 2 / 2.0
 
 
 #: A kept coefficient whose 95 % interval is wider than this fraction of its value is reported
