@@ -22,7 +22,8 @@ from typing import Sequence
 import numpy as np
 
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
-from eddi.diagnosis.chain import recondition, inspect, sensor_highpass
+from eddi.diagnosis.chain import inspect
+from eddi.diagnosis.highpass import recondition, sensor_highpass
 from eddi.diagnosis.earn import CHAIN_REASON, earn, reported_text
 from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.lookalike import attach
@@ -222,7 +223,7 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
                                                   tuple(modal_stiffness)))
     if want_hp:
         # judged against EDDI's per-fold fit, and refined against the refined baseline when it
-        # beats that (chain.sensor_highpass; a strong drag is kept from the name by the damping slope)
+        # beats that (highpass.sensor_highpass; a strong drag is kept from the name by the damping slope)
         refined = res.base_fold if (sh.fitter.refine and REFINE_CANDIDATES["on"]) else ()
         extra.append(lambda: sensor_highpass(records, sh.setup, sh.parts, sh.fold_masks, res.ref_fold,
                                              consistency, refined))

@@ -198,7 +198,7 @@ class Candidate:
     contradicted : str
         A physical check the records fail for this mechanism, in words (empty when none):
         such a candidate is never named (``sensor_highpass``: damping that grows with the
-        amplitude, :func:`eddi.diagnosis.chain.damping_slope`).
+        amplitude, :func:`eddi.diagnosis.highpass.damping_slope`).
     """
 
     name: str

@@ -15,7 +15,7 @@ import pytest
 from scipy.signal import bilinear, lfilter
 
 from eddi.diagnosis import diagnose
-from eddi.diagnosis.chain import HP_DAMPING_SLOPE, damping_slope, through_highpass
+from eddi.diagnosis.highpass import HP_DAMPING_SLOPE, damping_slope, through_highpass
 from tests.eddi.diagnose_cases import SYSTEM, rig_records
 
 
