@@ -101,7 +101,8 @@ def run_case(name: str, spec: tuple, args: argparse.Namespace, tmp: Path) -> dic
     recs = [mdof_impact_test(system, p, seed=args.seed + k, snr_db=args.snr_db) for k, p in enumerate(system.impacts_n)]
     files = [str(r.write_csv(tmp / f"{name}-c{k}.csv")) for k, r in enumerate(recs)]
     model_path = tmp / f"{name}-model.json"
-    argv = ["diagnose", *files, "--json", "--save-model", str(model_path)] + ([] if args.refine else ["--no-refine"])
+    argv = (["diagnose", *files, "--json", "--save-model", str(model_path)] + ([] if args.refine else ["--no-refine"])
+            + ([] if system.driving_point == 1 else ["--driving-point", f"acc{system.driving_point}"]))
     load0 = os.getloadavg()[0]
     c0, w0 = _cpu(), time.perf_counter()
     out, err = io.StringIO(), io.StringIO()
@@ -131,7 +132,7 @@ def run_case(name: str, spec: tuple, args: argparse.Namespace, tmp: Path) -> dic
                cubic_err_pct={t: round(100 * v, 2) for t, v in cubic.items()},
                fresh={"saved": {c: round(v, 4) for c, v in got.channel_nrmse.items()},
                       "true": {c: round(v, 4) for c, v in truth.channel_nrmse.items()}},
-               symptoms=[s.get("text", "")[:160] for s in obj["symptoms"]],
+               symptoms=[s.get("text", "")[:160] for s in obj["symptoms"]], warnings=obj.get("warnings", []),
                notes=[n[:200] for n in obj["notes"] if "kept" in n or "mass" in n or "rate" in n][:6],
                stderr=err.getvalue().strip().splitlines()[-3:])
     return row

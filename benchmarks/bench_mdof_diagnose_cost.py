@@ -90,7 +90,8 @@ def _one(path: str, args: argparse.Namespace, tmp: Path) -> None:
     fresh_file = str(fresh.write_csv(tmp / f"{system.name}-fresh.csv"))
     floor = _floor(recs, system.tip)
     model_path = tmp / f"{system.name}-model.json"
-    argv = ["diagnose", *files, "--json", "--save-model", str(model_path)] + ([] if args.refine else ["--no-refine"])
+    argv = (["diagnose", *files, "--json", "--save-model", str(model_path)] + ([] if args.refine else ["--no-refine"])
+            + ([] if system.driving_point == 1 else ["--driving-point", f"acc{system.driving_point}"]))  # CSV holds none
     c0, w0 = _cpu(), time.perf_counter()
     code, out, err = _run(argv, args.profile)
     cpu, wall = _cpu() - c0, time.perf_counter() - w0
@@ -114,7 +115,7 @@ def _one(path: str, args: argparse.Namespace, tmp: Path) -> None:
             print(f"  note: {note}")
     for line in err.strip().splitlines():
         print(f"  stderr: {line}")
-    records, _names, _dp = condition_all([read_measurement(fresh_file)], None)
+    records, _names, _dp = condition_all([read_measurement(fresh_file)], f"acc{system.driving_point}")
     model = MdofModel.from_json(model_path.read_text())
     got = validate_mdof(model, records[0])
     truth = validate_mdof(fresh.model, records[0])

@@ -169,3 +169,9 @@ def _named_table(nulls: list, lad: list) -> None:
     if ok:
         print(f"     right cause named with no factor: extended/floor median {np.median(ok):.2f}, "
               f"max {max(ok):.2f} ({len(ok)} cases)")
+
+
+if __name__ == "__main__":  # the runner's command line (use it with --summary FILE)
+    from bench_diagnose_calibration import main
+
+    main()

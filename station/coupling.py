@@ -109,6 +109,16 @@ def check_coupling(meas: Measurement, res: PipelineResult, damping: str, stiffne
     return CouplingCheck(est.corner_hz, est.corner_se_hz, est.nrmse_as_is, fc, misfit, len(tried), evident)
 
 
+def coupling_warning(chk: CouplingCheck, which: str = "the record") -> str:
+    """The warning of an evident coupling: the corner, the misfits and the option to pass."""
+    fc = f"{chk.corner_hz:.2g}"
+    return (f"{which} looks AC-coupled (first-order high-pass near {fc} Hz, IEPE?): the driven simulation "
+            f"matches the measured acceleration with nrmse {chk.nrmse_as_is:.3g} as identified, "
+            f"{chk.nrmse_through_coupling:.3g} with that coupling inverted and refitted; coefficients are "
+            f"biased: pass --sensor-highpass {fc} (better: the sensor's data-sheet corner) or use a DC "
+            f"accelerometer")
+
+
 def _parabola_min(tried: dict[float, float]) -> float:
     """The corner [Hz] at the vertex of the parabola in ``log f_c`` through the best trial and its
     neighbours (the best trial itself at an end of the scan)."""

@@ -39,9 +39,10 @@ ALIASES: Mapping[str, str] = MappingProxyType({
     **dict.fromkeys(("disp", "displacement", "x", "d"), "disp"),
 })
 #: Response quantities that may carry a sensor suffix, with their long spellings.
-_SENSOR_STEMS = {"acc": "acc", "accel": "acc", "acceleration": "acc", "vel": "vel", "velocity": "vel",
-                 "disp": "disp", "displacement": "disp"}
-_SUFFIXED = re.compile(r"^(acceleration|accel|acc|velocity|vel|displacement|disp)(?:_?([0-9]+)|_([a-z][a-z0-9_]*))$")
+_SENSOR_STEMS = {"acc": "acc", "accel": "acc", "acceleration": "acc", "accelerometer": "acc", "vel": "vel",
+                 "velocity": "vel", "disp": "disp", "displacement": "disp"}
+_SUFFIXED = re.compile(r"^(accelerometer|acceleration|accel|acc|velocity|vel|displacement|disp)"
+                       r"(?:_?([0-9]+)|_([a-z][a-z0-9_]*))$")
 
 #: Factor to SI of each unit a column may be in, per quantity (unit spellings normalised by
 #: :func:`unit_key`). g is the standard gravity 9.80665 m/s^2 (ISO 80000-3); lbf = 4.4482216152605 N
@@ -76,6 +77,11 @@ class Header:
         Lines before the first data row (notes and the header).
     cells : tuple of str
         The header's cells as written.
+    ignored : tuple of str
+        Cells that name no time, force or response quantity (a temperature, a trigger line, a
+        tachometer): their columns are not read.
+    usecols : tuple of int
+        The file's columns that are read, in the order of ``names``.
     """
 
     names: tuple[str, ...]
@@ -84,6 +90,8 @@ class Header:
     decimal_comma: bool
     skiprows: int
     cells: tuple[str, ...]
+    ignored: tuple[str, ...] = ()
+    usecols: tuple[int, ...] = ()
 
     @property
     def plain(self) -> bool:
@@ -129,7 +137,7 @@ def column_name(cell: str, where: str) -> tuple[str, float]:
     m = _UNIT.match(text)
     if m is not None:
         text, unit = m.group("name"), (m.group("a") if m.group("a") is not None else m.group("b"))
-    key = re.sub(r"[\s\-]+", "_", text.strip().lower()).strip("_")
+    key = re.sub(r"[\s\-]+", "_", text.strip().lower().replace(".", " ")).strip("_")  # "Disp." = "Disp"
     name = ALIASES.get(key)
     if name is None:
         s = _SUFFIXED.match(key)
@@ -177,8 +185,30 @@ def parse_header(lines: list[str], where: str) -> Header:
         raise InputFileError(
             f"{where}: no header: line {i + 1} holds numbers ({header[:40]!r}); expected a header naming the "
             "columns (t, force, acc, ...) before the data")
-    parsed = [column_name(c, where) for c in cells]
+    parsed, ignored, usecols = [], [], []
+    for k, c in enumerate(cells):
+        if _other_quantity(c):
+            ignored.append(c.strip())
+            continue
+        parsed.append(column_name(c, where))
+        usecols.append(k)
     data = [ln for ln in lines[i + 1:] if ln.strip() and not ln.lstrip().startswith("#")]
     decimal_comma = delim in ("\t", ";", None) and any("," in ln for ln in data)
     return Header(names=tuple(n for n, _ in parsed), scales=tuple(s for _, s in parsed), delimiter=delim,
-                  decimal_comma=decimal_comma, skiprows=i + 1, cells=tuple(c.strip() for c in cells))
+                  decimal_comma=decimal_comma, skiprows=i + 1, cells=tuple(c.strip() for c in cells),
+                  ignored=tuple(ignored), usecols=tuple(usecols))
+
+
+#: Stems of header cells that name another quantity a DAQ logs beside the vibration (read past,
+#: not refused: a lab's export often carries them): temperature, trigger or digital lines,
+#: tachometer / speed, microphone / sound pressure, strain, voltage monitors, counters, comments.
+_OTHER = re.compile(r"^(temp(erature)?|trig(ger)?|digital|di\d*|do\d*|tacho?(meter)?|rpm|speed|mic(rophone)?|"
+                    r"sound|spl|pressure|strain|sg\d*|volt(age)?|counter|count|index|sample|samples|"
+                    r"comment|notes?|marker|event|status|flag|channel_?\d*_?(unused|spare)|spare|unused)"
+                    r"([\s_\-]*\d*)?(\s*[\[(].*[\])])?$", re.IGNORECASE)
+
+
+def _other_quantity(cell: str) -> bool:
+    """A header cell that names another logged quantity (:data:`_OTHER`), not a time, force or
+    response channel: its column is read past, and said (``ignored``)."""
+    return _OTHER.match(cell.strip()) is not None

@@ -21,13 +21,14 @@ from __future__ import annotations
 
 import importlib
 import io
+import sys
 import math
 import re
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -199,7 +200,7 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
             head = [fh.readline() for _ in range(HEADER_LINES)]
         hdr = parse_header(head, str(path))
         names = list(hdr.names)
-        _check_header(path, names)
+        _check_header(path, names, hdr.ignored)
         try:  # numpy's C reader, given the path (~20 % faster than a file object): correctly rounded,
             # ~0.18 s for 2.6 M numbers (numba's compile of the hand-written parser it replaces cost
             # 1.1 s on a first run, its speed-up 0.1 s)
@@ -209,9 +210,9 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
                 if hdr.decimal_comma:  # rare: a spreadsheet export; one copy of the text
                     source = io.StringIO(path.read_text(encoding="utf-8").replace(",", "."))
                 data = np.loadtxt(source, delimiter=hdr.delimiter, ndmin=2, dtype=float, skiprows=hdr.skiprows,
-                                  encoding="utf-8", quotechar='"')
+                                  encoding="utf-8", quotechar='"', usecols=hdr.usecols if hdr.ignored else None)
         except ValueError as exc:
-            raise InputFileError(f"{path}: {_row_problem(path, len(names), exc, hdr)}") from None
+            raise InputFileError(f"{path}: {_row_problem(path, len(hdr.cells), exc, hdr)}") from None
     except UnicodeDecodeError:
         raise InputFileError(f"{path}: not a text CSV file") from None
     if data.size == 0:
@@ -224,11 +225,26 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
     for name, scale in zip(names, hdr.scales):
         if scale != 1.0:  # a unit the header names (csv_header.UNITS); SI columns stay untouched
             cols[name] = cols[name] * scale
+    if hdr.ignored:
+        note(f"{path}: read past column{'s' if len(hdr.ignored) > 1 else ''} "
+             f"{', '.join(repr(c) for c in hdr.ignored)} (not a time, force or response channel)")
     skip = hdr.skiprows
     meta = {"format": "csv", "columns": names,
-            **({"header": list(hdr.cells), "converted": hdr.conversions()} if not hdr.plain else {})}
+            **({"header": list(hdr.cells), "converted": hdr.conversions()} if not hdr.plain else {}),
+            **({"ignored_columns": list(hdr.ignored)} if hdr.ignored else {})}
     return checked_measurement(cols, str(path), lambda i: f"line {i + skip + 1} (data row {i + 1})",
                                lambda i: f"from line {i + skip + 1}", meta)
+
+
+_NOTED: set[str] = set()
+
+
+def note(text: str) -> None:
+    """Say something about a file that is read all the same, once per process, on stderr
+    (``station: note: ...``; stdout keeps the result and the JSON)."""
+    if text not in _NOTED:
+        _NOTED.add(text)
+        print(f"station: note: {text}", file=sys.stderr)
 
 
 def unit_of(name: str) -> str:
@@ -260,6 +276,7 @@ def checked_measurement(cols: dict[str, np.ndarray], where: str, at: Any, since:
             what = "not a finite number" if not np.isfinite(col[i]) else f"{col[i]:g}, beyond +-{limit:g} {unit_of(name)}"
             raise InputFileError(f"{where}: column {name!r} is {what} at {at(i)}")
     rate, t = time_grid(cols.pop("t"), where)
+    cols, metadata = _one_sensor(cols, metadata)
     if "force" in cols:
         check_force_impact(cols["force"], f"{where}: column 'force'")
     for name in RESPONSE_CHANNELS:
@@ -277,6 +294,20 @@ def checked_measurement(cols: dict[str, np.ndarray], where: str, at: Any, since:
             )
     return Measurement(t=t, channels=MappingProxyType(cols), rate_hz=rate, pretrigger_samples=None, mass=None,
                        source=where, metadata=metadata)
+
+
+def _one_sensor(cols: dict[str, np.ndarray], metadata: dict[str, Any]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """A record with ONE response channel named with a sensor suffix (``Accel 1 (g)`` ->
+    ``acc1``, ``acc_tip``) is that quantity's record: the channel is read as ``acc`` (``vel``,
+    ``disp``), and the metadata says so (``renamed``). Several stay several (multi-DOF)."""
+    resp = [n for n in cols if n in RESPONSE_CHANNELS or MULTI_COLUMN.match(n)]
+    if len(resp) != 1 or resp[0] in RESPONSE_CHANNELS:
+        return cols, metadata
+    m = MULTI_COLUMN.match(resp[0])
+    assert m is not None
+    stem = m.group(1)
+    return ({(stem if n == resp[0] else n): v for n, v in cols.items()},
+            {**metadata, "renamed": {resp[0]: stem}})
 
 
 def time_grid_rate(t: np.ndarray, where: str) -> float:
@@ -389,15 +420,17 @@ def _printed_digits(t: np.ndarray, sample: int = 2000) -> int:
     return 17
 
 
-def _check_header(path: Path, names: list[str]) -> None:
-    """The columns a record needs, each once (names as :func:`station.csv_header.parse_header` gives)."""
+def _check_header(path: Path, names: list[str], ignored: Sequence[str] = ()) -> None:
+    """The columns a record needs, each once (names as :func:`station.csv_header.parse_header` gives;
+    ``ignored``: the cells it read past, named when no response is left)."""
     if len(set(names)) != len(names):
         raise InputFileError(f"{path}: a column is named twice in the header {','.join(names)}")
     if "t" not in names:
         raise InputFileError(f"{path}: no time column 't' in the header {','.join(names)}")
     if not any(n in RESPONSE_CHANNELS or MULTI_COLUMN.match(n) for n in names):
+        past = f" (read past: {', '.join(repr(c) for c in ignored)})" if ignored else ""
         raise InputFileError(
-            f"{path}: no response column in the header {','.join(names)}; expected one of acc, vel, disp"
+            f"{path}: no response column in the header {','.join(names)}{past}; expected one of acc, vel, disp"
         )
 
 
@@ -414,7 +447,9 @@ def _row_problem(path: Path, n_cols: int, exc: ValueError, hdr: Header) -> str:
             parts = line.strip().split(hdr.delimiter)
             if len(parts) != n_cols:
                 return f"line {line_no} has {len(parts)} values, expected {n_cols} like the header"
-            for p in parts:
+            for k, p in enumerate(parts):
+                if hdr.ignored and k not in hdr.usecols:
+                    continue  # a column read past (csv_header._other_quantity): any text
                 try:
                     float(p)
                 except ValueError:

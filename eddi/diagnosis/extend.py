@@ -43,6 +43,10 @@ class Setup:
     #: refinement starts from it when that record is wholly training data (name.refined_baseline)
     refine_start: EquationOfMotion | None = None
     refine_start_record: int = -1
+    #: take the conditioner's slow errors out of the phase-two rows (eddi.slow_many), as the
+    #: pipeline's EDDI (identify) does: set when the folds are judged with EDDI's estimate because
+    #: the pipeline rejected its refinement (loop.diagnose)
+    slow_errors: bool = False
 
 
 @dataclass(frozen=True)
@@ -254,8 +258,9 @@ class EddiFold:
         self.b0, _ = phase_one_many(energies, self.d, self.fd)
         rows0 = potential_rows(energies, self.d, self.b0, fixed_damping=self.fd, fixed_stiffness=self.fs)
         # the conditioner's slow errors, fitted per segment and taken out of every fit's rows
-        # (eddi.slow_many; the baseline's and every mechanism's)
-        self.correction = rows_correction(energies, self.d, self.k) if SLOW_ERRORS["on"] and self.k else None
+        # (eddi.slow_many; the baseline's and every mechanism's) when the setup asks for it
+        self.correction = (rows_correction(energies, self.d, self.k)
+                           if SLOW_ERRORS["on"] and setup.slow_errors and self.k else None)
         self.rows0 = corrected(rows0, self.correction)
 
     def stiffness_fit(self, rows: PotentialRows, extra: Sequence[Basis]) -> tuple[np.ndarray, float]:

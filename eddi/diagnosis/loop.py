@@ -132,6 +132,10 @@ def diagnose(
         if pipeline is not None and pipeline.choices.get("refinement") == "kept":
             # the folds' refinements may start from the pipeline's (settings.REFINE_FOLDS)
             setup = replace(setup, refine_start=pipeline.model, refine_start_record=int(pipeline.fit_record))
+        elif pipeline is not None and base is None:
+            # the folds are judged with EDDI's estimate, as the pipeline kept its own: EDDI as the
+            # pipeline runs it (identify takes the conditioner's slow errors out, eddi.slow_many)
+            setup = replace(setup, slow_errors=True)
         cat = [m for m in catalogue() if m.name in chosen]
         effects = tuple(e.name for e in base.effects) if base is not None else ()
         skipped = {m.name: m.skip_reason(setup.damping, setup.stiffness, effects) for m in cat}

@@ -70,8 +70,9 @@ REFINE_CANDIDATES = {"on": True}
 #: refinement of the double beam stopped, unconverged (docs/performance.md, "Session 6").
 #: ``{"warm": False, "min_gain": None}``: the session-5 rule, for same-run comparisons.
 REFINE_FOLDS: dict = {"warm": False, "min_gain": 1.0}
-#: The per-fold EDDI fits take the conditioner's slow errors out of their phase-two rows as
-#: :func:`eddi.identify.identify` does for one record (:mod:`eddi.slow_many`; session 10: without
-#: it the fold fits of a 2 kHz, 31.6 dB asymmetric null were 1-2 % low in ``k[x]`` and 4x the
-#: pipeline's held-out error). A switch for same-run comparisons.
+#: When the folds are judged with EDDI's estimate because the pipeline rejected its refinement,
+#: the per-fold EDDI fits take the conditioner's slow errors out of their phase-two rows as
+#: :func:`eddi.identify.identify` does for one record (:mod:`eddi.slow_many`, ``Setup.slow_errors``;
+#: session 10: without it the fold fits of a 2 kHz, 31.6 dB asymmetric null were 1-2 % low in
+#: ``k[x]`` and 4-7x the pipeline's held-out error). A switch for same-run comparisons.
 SLOW_ERRORS = {"on": True}

@@ -127,9 +127,11 @@ def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
     return obj
 
 
-def coupling_check(meas: Measurement, res: PipelineResult, args: argparse.Namespace, obj: dict[str, Any]) -> None:
+def coupling_check(meas: Measurement, res: PipelineResult, args: argparse.Namespace, obj: dict[str, Any],
+                   which: str = "the record") -> None:
     """Look for an undeclared accelerometer AC coupling (:mod:`station.coupling`): what it found
-    goes in ``obj["conditioning"]``, and a warning when the coupling is evident."""
+    goes in ``obj["conditioning"]``, and a warning when the coupling is evident. ``which``: how
+    the warning names the record checked (several records: the fit record, checked once)."""
     from station.coupling import check_coupling
 
     chk = check_coupling(meas, res, args.damping, args.stiffness, args.route)
@@ -137,14 +139,10 @@ def coupling_check(meas: Measurement, res: PipelineResult, args: argparse.Namesp
         return
     obj["conditioning"]["sensor_highpass_check"] = chk.as_dict()
     if chk.evident and chk.corner_hz is not None:
+        from station.coupling import coupling_warning
+
         obj["conditioning"]["sensor_highpass_estimate_hz"] = chk.corner_hz
-        fc = f"{chk.corner_hz:.2g}"
-        obj["warnings"].append(
-            f"the record looks AC-coupled (first-order high-pass near {fc} Hz, IEPE?): the driven simulation "
-            f"matches the measured acceleration with nrmse {chk.nrmse_as_is:.3g} as identified, "
-            f"{chk.nrmse_through_coupling:.3g} with that coupling inverted and refitted; coefficients are "
-            f"biased: pass --sensor-highpass {fc} (better: the sensor's data-sheet corner) or use a DC "
-            f"accelerometer")
+        obj["warnings"].append(coupling_warning(chk, which))
 
 
 def _text(obj: dict[str, Any]) -> str:
@@ -209,6 +207,10 @@ def handler(args: argparse.Namespace) -> int:
     text = _text(obj) + "".join(f"\n  held out {c['source']}: nrmse {c['nrmse']:.4g}" for c in obj["held_out"]["records"])
     if session.mean_nrmse is not None:
         text += f"\n  mean nrmse on the records not used for the fit: {session.mean_nrmse:.4g}"
+    if args.sensor_highpass is None and not any(m.metadata.get("ac_coupling_s") for m in session.measurements):
+        # one check, on the record the model was fitted to (the others share the sensor)
+        coupling_check(meas, session.fit, args, obj, which=f"the fit record ({meas.source})")
+        text += "".join(f"\n  WARNING: {w}" for w in obj["warnings"] if "AC-coupled" in w)
     obj["unstable"] = bool(session.fit.unstable or any(c.diverged for c in session.held_out))
     emit(args.json, text, obj)
     return _exit_code(obj["unstable"])

@@ -7,7 +7,9 @@ pipeline's refinement was rejected there (its judges are captures of other sessi
 gains differ), so each fold was judged with EDDI's unrefined multi-record fit, and that fit
 regressed ``V = E - T`` without the slow-error columns a single-record ``identify`` has: on
 an asymmetric spring the conditioned ``x`` lacks the mean shift of the ``x^2`` term, which
-biased the folds' stiffness and gave held-out errors 4-7x the pipeline's.
+biased the folds' stiffness and gave held-out errors 4-7x the pipeline's. The folds now fit
+as the pipeline's EDDI does when they are judged with EDDI's estimate (the pipeline's
+refinement rejected; ``Setup.slow_errors``).
 """
 
 from __future__ import annotations
