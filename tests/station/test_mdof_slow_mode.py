@@ -90,3 +90,31 @@ def test_the_cut_off_keeps_the_records_edge_under_half_the_record():
     assert drift_cutoff_hz(40.0, 3.0) == 10.0  # the rig's systems: a quarter of the mode, as before
     cut = drift_cutoff_hz(1.0, 6.0)  # a 1 Hz mode in a 6 s record: 0.25 Hz would eat 10 s
     assert EDGE_PERIODS / cut == pytest.approx(3.0)
+
+
+def test_a_short_pre_trigger_keeps_the_ring_down_and_the_driving_points_displacement(slow_chain):
+    # 50 ms of pre-trigger at 256 Hz is 13 samples: the noise was read from the record's end (still
+    # ringing), the free window ended after ~2 s of 15, and sosfiltfilt's odd extension mirrored
+    # the blow's velocity step in front of the record (driving point's x 24 % off the truth)
+    from eddi.mdof.signals import highpass
+    from simulated_rig.mdof_systems import mdof_impact_test
+    from station.mdof_data import condition_multichannel
+    from station.readers import Measurement
+
+    system = slow_chain[0].model_copy(update={"pretrigger_s": 0.05})
+    r = mdof_impact_test(system, 500.0, seed=1420)
+    assert r.pretrigger_samples < 16
+    rec = condition_multichannel(Measurement(t=r.t, channels=r.columns(), rate_hz=r.rate_hz,
+                                             pretrigger_samples=r.pretrigger_samples, mass=None,
+                                             source="short", metadata={}))
+    w0, w1 = rec.window
+    assert (w1 - w0) / r.rate_hz > 8.0
+    # the noise is the pre-trigger's, as with a long one (it was the ringing end's: 60-100x)
+    r_long = mdof_impact_test(slow_chain[0], 500.0, seed=1420)
+    long_ = condition_multichannel(Measurement(t=r_long.t, channels=r_long.columns(), rate_hz=r_long.rate_hz,
+                                               pretrigger_samples=r_long.pretrigger_samples, mass=None,
+                                               source="long", metadata={}))
+    assert np.all(rec.noise <= 2.0 * long_.noise) and np.all(rec.noise >= 0.5 * long_.noise), (rec.noise, long_.noise)
+    truth = highpass(r.truth_x, r.rate_hz, rec.highpass_hz, times=2)[:, w0:w1]
+    err = np.sqrt(np.mean((rec.x[:, w0:w1] - truth) ** 2, axis=1) / np.mean(truth**2, axis=1))
+    assert np.all(err <= 0.03), err
