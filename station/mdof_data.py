@@ -14,7 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from eddi.mdof.identify import ChannelRecord
-from eddi.mdof.signals import HIGHPASS_HZ, impact_window, kinematics, lowest_mode_hz
+from eddi.mdof.signals import drift_cutoff_hz, impact_window, kinematics, lowest_mode_hz
 from station.errors import InputFileError
 from station.readers import Measurement, is_multichannel_record, response_channels
 
@@ -92,7 +92,7 @@ def condition_multichannel(meas: Measurement, driving_point: str | None = None) 
         rest = int(np.sum(np.asarray(meas.t) < 0))
     rate = float(meas.rate_hz)
     f_low = min(lowest_mode_hz(y[None, rest:], rate, qty) for qty, y in resp.values())
-    cut = max(HIGHPASS_HZ, 0.25 * f_low)  # one drift high-pass for every channel
+    cut = drift_cutoff_hz(f_low, (len(meas.t) - rest) / rate)  # one drift high-pass for every channel
     parts = []
     for name, (qty, y) in resp.items():
         try:
