@@ -177,8 +177,10 @@ def judge_fit_record(refined: EquationOfMotion, eddi: EquationOfMotion, cond: "C
     norm2 = float(np.sum(y**2)) or 1.0
     val_r, val_e = validations if validations is not None else (None, None)
     s_r, s_e = _simulated(refined, cond, 1.0, k, val_r), _simulated(eddi, cond, 1.0, k, val_e)
-    sq_r, sq_e = float(np.sum((s_r - y) ** 2)), float(np.sum((s_e - y) ** 2))
-    sd = 2.0 * noise_level(meas_all) * float(np.linalg.norm(s_r - s_e)) if np.all(np.isfinite(s_r - s_e)) else 0.0
+    with np.errstate(invalid="ignore", over="ignore"):  # a diverged simulation (inf - inf): judged below
+        sq_r, sq_e = float(np.sum((s_r - y) ** 2)), float(np.sum((s_e - y) ** 2))
+        diff = s_r - s_e
+    sd = 2.0 * noise_level(meas_all) * float(np.linalg.norm(diff)) if np.all(np.isfinite(diff)) else 0.0
     u = impulse_uncertainty(cond, refined)
     excess = _excess(sq_r, sq_e, sd)
     if excess > WHITE_SIGMAS:

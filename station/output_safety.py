@@ -111,6 +111,7 @@ def check_output(out: str | os.PathLike[str], kind: str, inputs: Iterable[str | 
     """
     p = Path(out)
     what = KINDS[kind]
+    found: str | None = None
     for spec in inputs:
         src = _file_of(spec)
         if _same(p, src):
@@ -128,8 +129,11 @@ def check_output(out: str | os.PathLike[str], kind: str, inputs: Iterable[str | 
         raise OutputRefused(f"{option} {p}: the folder {p.parent} does not exist; create it first")
     elif kind == "dir" and p.parent != p and not p.parent.is_dir():
         raise OutputRefused(f"{option} {p}: the folder {p.parent} does not exist; create it first")
-    if append and p.exists() and found != "hdf5" and found != "empty":
-        raise OutputRefused(f"{option} {p}: exists and is not an HDF5 session file")
+    if append and p.exists():
+        if found is None:  # created since the first look (another writer): look again
+            found = sniff(p)
+        if found not in ("hdf5", "empty"):
+            raise OutputRefused(f"{option} {p}: exists and is not an HDF5 session file")
     return p
 
 
