@@ -14,7 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from eddi.mdof.identify import ChannelRecord
-from eddi.mdof.signals import drift_cutoff_hz, impact_window, kinematics, lowest_mode_hz
+from eddi.mdof.signals import drift_cutoff_hz, kinematics, lowest_mode_hz
 from station.errors import InputFileError
 from station.readers import Measurement, is_multichannel_record, response_channels
 
