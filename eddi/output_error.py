@@ -18,7 +18,7 @@ import numpy as np
 from eddi.intervals import noise_covariance_of_fit, sampling_curvature, sampling_quartic, through_sampling
 from eddi.model import EquationOfMotion
 from eddi.refine_grid import block_means, block_size, local_substeps, smooth_model
-from eddi.simulate import local_angular_frequency, simulate
+from eddi.simulate import MAX_SUBSTEPS, local_angular_frequency, simulate
 from eddi.terms import evaluate
 
 #: Parameters after the coefficients: x0, v0 and the measured signal's offset.
@@ -74,8 +74,12 @@ class OutputErrorProblem:
         self.active = list(range(len(self.names)))
         # RK4 steps of omega h <= 0.1 on the blocks' grid (the simulator's own rule): at the
         # record's peak (self.substeps, for the simulator) and per block at the amplitude the
-        # record still reaches from that block on (self.steps, for the compiled kernel)
-        self.substeps = max(1, math.ceil(dt * self.block * local_angular_frequency(eom, x_amp, v_amp) / 0.1))
+        # record still reaches from that block on (self.steps, for the compiled kernel); at most
+        # MAX_SUBSTEPS, as the simulator: a wild starting model (a refit through a bad corner:
+        # 1.2e6 steps per sample, 7.6e9 in all) then diverges at once instead of running minutes
+        omega = local_angular_frequency(eom, x_amp, v_amp)
+        self.substeps = (min(MAX_SUBSTEPS, max(1, math.ceil(dt * self.block * omega / 0.1)))
+                         if math.isfinite(omega) else MAX_SUBSTEPS)
         self.steps = local_substeps(eom, dt * self.block, block_means(np.abs(x), self.block) if self.block > 1
                                     else np.abs(x), block_means(np.abs(v), self.block) if self.block > 1
                                     else np.abs(v), self.substeps)

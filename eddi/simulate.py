@@ -236,8 +236,15 @@ def max_angular_frequency(eom: EquationOfMotion, x_scale: float = 0.0, v_scale: 
     return omega
 
 
+#: Most RK4 sub-steps per output interval: 64 steps of ``omega h = 0.1`` span 6.4 rad, twice the
+#: Nyquist frequency of the output grid; a model that needs more at the record's amplitudes
+#: oscillates faster than the record can show (a wild fit, not the structure) and is left to
+#: diverge rather than integrated with millions of steps.
+MAX_SUBSTEPS = 64
+
+
 def auto_substeps(eom: EquationOfMotion, dt: float, x_scale: float = 0.0, v_scale: float = 0.0,
-                  h_omega: float = 0.1, max_substeps: int = 64) -> int:
+                  h_omega: float = 0.1, max_substeps: int = MAX_SUBSTEPS) -> int:
     """Sub-steps per sample so that ``h * omega_max <= h_omega``."""
     omega = max_angular_frequency(eom, x_scale, v_scale)
     return int(min(max_substeps, max(1, math.ceil(dt * omega / h_omega))))
