@@ -24,6 +24,7 @@ Every dict is checked with :class:`sdypy_sep005.Sep005Data` before the file is w
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from pathlib import Path
@@ -103,7 +104,8 @@ def export_sep005(h5_path: str | os.PathLike[str], out_path: str | os.PathLike[s
             json.dump(out, fh, allow_nan=False)
         os.replace(tmp, dest)
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
+        with contextlib.suppress(OSError):  # a read-only folder refuses even this
+            tmp.unlink(missing_ok=True)
         raise StationError(f"cannot write {dest}: {exc.strerror or exc}") from None
     return len(out)
 

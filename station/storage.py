@@ -432,6 +432,10 @@ def measurement_of(cap: StoredCapture, path: str | os.PathLike[str]) -> Any:
             chans[key] = ch.si
     if cap.n_samples < 2:
         raise InputFileError(f"capture {cap.index} of {path}: {cap.n_samples} sample(s); expected a record")
+    for key, y in chans.items():  # a dead or unplugged sensor: refused as a text record's column is
+        if key != "force" and not np.ptp(y) > 0:
+            raise InputFileError(f"capture {cap.index} of {path}: channel {key!r} is constant ({y[0]:g}); "
+                                 f"expected a measured response")
     meta = {
         "file": str(path),
         "capture": cap.index,

@@ -23,6 +23,8 @@ Records are written with :func:`pyuff.prepare_58` and :meth:`pyuff.UFF.write_set
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import os
 from pathlib import Path
 from typing import Iterable
@@ -131,7 +133,12 @@ def export_uff58(
         tmp.unlink(missing_ok=True)
         pyuff.UFF(str(tmp)).write_sets(sets, mode="add")
         os.replace(tmp, out)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise StationError(f"cannot write {out}: {exc.strerror or exc}") from None
+    except Exception as exc:  # noqa: BLE001 - pyuff wraps a full disk's OSError in a bare Exception
+        with contextlib.suppress(OSError):  # a read-only folder refuses even this
+            tmp.unlink(missing_ok=True)
+        cause = exc if isinstance(exc, OSError) else exc.__context__
+        if not isinstance(cause, OSError):
+            raise
+        what = "disk full" if cause.errno == errno.ENOSPC else (cause.strerror or str(cause))
+        raise StationError(f"cannot write {out}: {what}") from None
     return len(sets)

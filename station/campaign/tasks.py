@@ -155,6 +155,9 @@ def _pipeline_warnings(*holders: Any) -> list[str]:
 
 def _identify(meas: Any, opts: TaskOptions) -> dict[str, Any]:
     """Condition, identify and validate one record (``station identify``'s pipeline)."""
+    from station.readers import require_one_coordinate
+
+    require_one_coordinate(meas, "campaign")  # station identify's refusal, not the engine's
     mass = _mass(opts, meas)
     kw = {} if opts.refine is None else {"refine": opts.refine}
     res = run_identify(meas, mass, opts.damping, opts.stiffness, opts.route, **kw)

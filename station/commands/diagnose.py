@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 from eddi.errors import ModelError
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
 from station.argtypes import damping_terms, finite_positive, fraction, stiffness_terms
-from station.errors import InputFileError
+from station.errors import InputFileError, StationError
 from station.output import emit
 
 if TYPE_CHECKING:  # the engine is imported when captures are diagnosed, not for --help
@@ -238,7 +238,11 @@ def handle(args: argparse.Namespace) -> int:
     if args.report:
         from station.diagnosis_report import write_report
 
-        files = write_report(diag, records, args.report)
+        try:
+            files = write_report(diag, records, args.report)
+        except StationError as exc:  # say what was saved before
+            kept = f"; the extended model was written to {args.save_model}" if args.save_model else ""
+            raise type(exc)(f"{exc}{kept}") from None
         obj["report"] = [str(f) for f in files]
     emit(args.json, render_text(diag, obj), obj)
     if obj["unstable"]:
