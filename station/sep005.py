@@ -33,7 +33,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from station.errors import InputFileError, StationError
-from station.storage import iter_captures, list_captures
+from station.storage import check_values, iter_captures, list_captures
 
 QUANTITY_CODES = {"force": "f", "acceleration": "a", "velocity": "v", "displacement": "d"}
 _SENSOR_KEYS = ("sensor_model", "sensor_serial", "calibration_date", "node", "direction")
@@ -76,6 +76,7 @@ def export_sep005(h5_path: str | os.PathLike[str], out_path: str | os.PathLike[s
             raise InputFileError(f"capture {cap.index} of {src}: {cap.dropped_samples} samples missing; "
                                  "SEP-005 export needs a complete record")
         for name, ch in cap.channels.items():
+            check_values(ch.si, f"capture {cap.index} of {src}: channel {name!r}")  # as every reader refuses
             d: dict[str, Any] = {
                 "name": f"{src.stem} capture {cap.index} {name}",
                 "data": np.asarray(ch.si, dtype=np.float64).tolist(),

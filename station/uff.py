@@ -33,7 +33,7 @@ import numpy as np
 import pyuff
 
 from station.errors import InputFileError, StationError
-from station.storage import iter_captures, list_captures, pretrigger_known
+from station.storage import check_values, iter_captures, list_captures, pretrigger_known
 
 #: UFF specific data type of each quantity (UFF58 record 8/9, field 1).
 SPEC_DATA_TYPE: dict[str, int] = {"force": 13, "acceleration": 12, "velocity": 11, "displacement": 8}
@@ -94,6 +94,7 @@ def export_uff58(
             q = ch.info.quantity
             if q not in quantities or q not in SPEC_DATA_TYPE:
                 continue
+            check_values(ch.si, f"capture {cap.index} of {src}: channel {name!r}")  # as every reader refuses
             length_exp, force_exp = UNIT_EXPONENTS[q]
             sets.append(
                 pyuff.prepare_58(
