@@ -38,6 +38,9 @@ DEMO_DEVICE = "sim://duffing-smooth"
 DEMO_RECORD_S = 8.0
 #: Pre-trigger [s] (paper Sec. 3.3.1: 1 s).
 DEMO_PRETRIGGER_S = 1.0
+#: The candidate terms the demo identifies with: paper Eq. 21 and Eq. 22.
+DEMO_DAMPING = ("v", "x^2*v", "v^3")
+DEMO_STIFFNESS = ("x", "x^2", "x^3", "x^4", "x^5")
 #: The notes of every capture the demo saves (how it knows its own session file again).
 DEMO_NOTES = "station demo"
 
@@ -231,8 +234,7 @@ def run_demo(
     from station.session import run_session, read_all
 
     t1 = time.perf_counter()
-    session = run_session(read_all([str(session_file)]), damping=("v", "x^2*v", "v^3"),  # paper Eq. 21
-                          stiffness=("x", "x^2", "x^3", "x^4", "x^5"),  # paper Eq. 22
+    session = run_session(read_all([str(session_file)]), damping=DEMO_DAMPING, stiffness=DEMO_STIFFNESS,
                           refine=refine)
     model_file = out / "model.json"
     try:
@@ -284,6 +286,9 @@ def demo_object(res: DemoResult) -> dict[str, Any]:
     s = res.session
     fit_meas = s.measurements[s.fit_index]
     identified = result_object(fit_meas, s.fit)
+    from station.coupling import session_coupling_check
+
+    session_coupling_check(s, DEMO_DAMPING, DEMO_STIFFNESS, "auto", identified)  # as identify/replay/report
     obj: dict[str, Any] = {
         "device": res.device,
         "levels_n": list(res.levels_n),
