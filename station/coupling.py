@@ -22,13 +22,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Sequence
 
 from eddi.coupling_check import CORNER_RANGE_HZ, EXPLAINED, MAX_CORNER_SHARE, highpass_estimate, misfit_through
 
 if TYPE_CHECKING:
     from eddi.fit_record import PipelineResult
     from station.readers import Measurement
+    from station.session import SessionResult
 
 #: The cheap estimate must exceed this many standard errors to run the corner search ...
 SYMPTOM_SIGMAS = 10.0
@@ -107,6 +108,41 @@ def check_coupling(meas: Measurement, res: PipelineResult, damping: str, stiffne
     excess0, excess1 = est.nrmse_as_is ** 2 - floor, misfit * misfit - floor
     evident = bool(CORNER_RANGE_HZ[0] <= fc <= hi and excess0 > 0 and excess1 <= (1.0 - EXPLAINED) * excess0)
     return CouplingCheck(est.corner_hz, est.corner_se_hz, est.nrmse_as_is, fc, misfit, len(tried), evident)
+
+
+def add_coupling_check(meas: Measurement, res: PipelineResult, damping: str, stiffness: str, route: str,
+                       obj: dict[str, Any], which: str = "the record") -> None:
+    """Run :func:`check_coupling` and put what it found in an identification's JSON object (as
+    ``station identify --json`` prints it): ``conditioning.sensor_highpass_check``, and when the
+    coupling is evident ``conditioning.sensor_highpass_estimate_hz`` and a warning in ``warnings``
+    (``which``: how it names the record checked)."""
+    chk = check_coupling(meas, res, damping, stiffness, route)
+    if chk is None:
+        return
+    obj["conditioning"]["sensor_highpass_check"] = chk.as_dict()
+    if chk.evident and chk.corner_hz is not None:
+        obj["conditioning"]["sensor_highpass_estimate_hz"] = chk.corner_hz
+        obj["warnings"].append(coupling_warning(chk, which))
+
+
+def session_coupling_check(session: SessionResult, damping: str | Sequence[str], stiffness: str | Sequence[str],
+                           route: str, obj: dict[str, Any]) -> None:
+    """:func:`add_coupling_check` on the record a session's model was fitted to (the others share
+    the sensor), unless a record declares its coupling: ``station identify``, ``replay`` and
+    ``report`` on the same records give the same warning. ``obj``: the fit's JSON object."""
+    from station.records import Records, RecordInfo
+
+    recs = session.measurements
+    info = recs.info if isinstance(recs, Records) else tuple(RecordInfo.of(m) for m in recs)
+    if any(i.ac_coupling_s for i in info):
+        return
+    meas = recs[session.fit_index]
+    which = "the record" if len(info) == 1 else f"the fit record ({meas.source})"
+    add_coupling_check(meas, session.fit, _terms(damping), _terms(stiffness), route, obj, which)
+
+
+def _terms(terms: str | Sequence[str]) -> str:
+    return terms if isinstance(terms, str) else ",".join(terms)
 
 
 def coupling_warning(chk: CouplingCheck, which: str = "the record") -> str:

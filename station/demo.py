@@ -38,6 +38,11 @@ DEMO_DEVICE = "sim://duffing-smooth"
 DEMO_RECORD_S = 8.0
 #: Pre-trigger [s] (paper Sec. 3.3.1: 1 s).
 DEMO_PRETRIGGER_S = 1.0
+#: The candidate terms the demo identifies with: paper Eq. 21 and Eq. 22.
+DEMO_DAMPING = ("v", "x^2*v", "v^3")
+DEMO_STIFFNESS = ("x", "x^2", "x^3", "x^4", "x^5")
+#: The notes of every capture the demo saves (how it knows its own session file again).
+DEMO_NOTES = "station demo"
 
 
 @dataclass(frozen=True)
@@ -141,7 +146,7 @@ def demo_config(device: str, mass_kg: float, levels_n: tuple[float, ...], record
                     "record_s": record_s, "holdoff_s": holdoff_s, "on_double_hit": "reject",
                     "on_overload": "reject"},
         "specimen": {"mass_kg": mass_kg, "name": device.removeprefix("sim://")},
-        "notes": "station demo",
+        "notes": DEMO_NOTES,
     }, "demo")
 
 
@@ -201,9 +206,10 @@ def run_demo(
     info = system_info(parse_sim_url(device).system)
     levels = tuple(float(f) for f in info.demo_forces_n[:3])
     out = Path(out_dir)
+    session_file = out / "session.h5"
+    refuse_foreign_session(session_file)
     try:
         out.mkdir(parents=True, exist_ok=True)
-        session_file = out / "session.h5"
         session_file.unlink(missing_ok=True)
     except OSError as exc:
         raise StorageError(f"{out}: cannot prepare the output directory ({exc.strerror or exc})") from None
@@ -228,8 +234,7 @@ def run_demo(
     from station.session import run_session, read_all
 
     t1 = time.perf_counter()
-    session = run_session(read_all([str(session_file)]), damping=("v", "x^2*v", "v^3"),  # paper Eq. 21
-                          stiffness=("x", "x^2", "x^3", "x^4", "x^5"),  # paper Eq. 22
+    session = run_session(read_all([str(session_file)]), damping=DEMO_DAMPING, stiffness=DEMO_STIFFNESS,
                           refine=refine)
     model_file = out / "model.json"
     try:
@@ -250,6 +255,29 @@ def run_demo(
                       int(getattr(stats, "crc_errors", 0)), session, truth, levels, elapsed)
 
 
+def refuse_foreign_session(session_file: Path) -> None:
+    """The demo replaces its own ``session.h5`` (every capture's notes say ``station demo``), never
+    captures of another origin that an ``--out`` folder happens to hold.
+
+    Raises
+    ------
+    ConfigError
+        ``session_file`` exists and is not an earlier demo's session (one line).
+    """
+    if not session_file.exists():
+        return
+    from station.storage import list_captures
+
+    try:
+        foreign = [c.index for c in list_captures(session_file) if c.notes != DEMO_NOTES]
+    except StationError:  # not a capture file at all
+        foreign = None
+    if foreign is None or foreign:
+        what = "is not a capture file" if foreign is None else f"holds captures not made by the demo ({len(foreign)})"
+        raise ConfigError(f"--out: {session_file} {what}; the demo replaces only its own session.h5: "
+                          f"choose another folder")
+
+
 def demo_object(res: DemoResult) -> dict[str, Any]:
     """The ``--json`` object of ``station demo``."""
     from station.commands.identify import result_object
@@ -258,6 +286,9 @@ def demo_object(res: DemoResult) -> dict[str, Any]:
     s = res.session
     fit_meas = s.measurements[s.fit_index]
     identified = result_object(fit_meas, s.fit)
+    from station.coupling import session_coupling_check
+
+    session_coupling_check(s, DEMO_DAMPING, DEMO_STIFFNESS, "auto", identified)  # as identify/replay/report
     obj: dict[str, Any] = {
         "device": res.device,
         "levels_n": list(res.levels_n),

@@ -20,6 +20,7 @@ Figures are built on :class:`matplotlib.figure.Figure` (Agg canvas, no pyplot st
 
 from __future__ import annotations
 
+import errno
 from pathlib import Path
 from typing import Sequence
 
@@ -36,6 +37,7 @@ from eddi.diagnosis import Diagnosis, HeldOut, Record, backbone, energy_per_cycl
 from eddi.multimode import ModalSumModel, separate_modes  # noqa: E402
 from eddi.terms import parse_term  # noqa: E402
 from station.figures import envelope, save  # noqa: E402
+from station.storage import StorageError  # noqa: E402
 
 _COLORS = {"measured": "0.2", "baseline": "tab:red", "extended": "tab:blue"}
 
@@ -476,7 +478,6 @@ def write_report(diag: Diagnosis, records: Sequence[Record], out_dir: str | Path
         The files written (figures first, ``index.html`` last).
     """
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     cache: dict = {}  # separated modal components of each held-out part, shared by the figures
     figures = {
         "timeseries.png": timeseries_figure(diag),
@@ -485,7 +486,12 @@ def write_report(diag: Diagnosis, records: Sequence[Record], out_dir: str | Path
         "residual_force.png": residual_figure(diag, records, cache=cache),
         "spectra.png": spectra_figure(diag),
     }
-    files = [save(fig, out / name) for name, fig in figures.items()]
-    index = out / "index.html"
-    index.write_text(_html(diag, records, files), encoding="utf-8")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        files = [save(fig, out / name) for name, fig in figures.items()]
+        index = out / "index.html"
+        index.write_text(_html(diag, records, files), encoding="utf-8")
+    except OSError as exc:  # a full disk, a read-only folder: one line naming the folder
+        what = "disk full" if exc.errno == errno.ENOSPC else (exc.strerror or str(exc))
+        raise StorageError(f"{out}: cannot write the diagnosis report ({what})") from None
     return files + [index]

@@ -279,8 +279,8 @@ def checked_measurement(cols: dict[str, np.ndarray], where: str, at: Any, since:
     cols, metadata = _one_sensor(cols, metadata)
     if "force" in cols:
         check_force_impact(cols["force"], f"{where}: column 'force'")
-    for name in RESPONSE_CHANNELS:
-        if name in cols and not np.ptp(cols[name]) > 0:
+    for name in response_channels(cols):  # every sensor of a multi-channel record too
+        if not np.ptp(cols[name]) > 0:
             raise InputFileError(f"{where}: column {name!r} is constant ({cols[name][0]:g}); expected a measured "
                                  "response")
     from eddi.conditioning import clipped_run  # local: the engine (scipy) only once a file is read

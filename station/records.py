@@ -32,16 +32,19 @@ class RecordInfo:
         [kg], when the record stores it.
     peak_force_n : float or None
         Largest ``|force|`` [N], None without a force channel.
+    ac_coupling_s : float or None
+        The accelerometer's declared AC coupling (time constant [s]), None when none is declared.
     """
 
     source: str
     mass: float | None
     peak_force_n: float | None
+    ac_coupling_s: float | None = None
 
     @classmethod
     def of(cls, meas: Measurement) -> RecordInfo:
         """The summary of a record in memory."""
-        return cls(meas.source, meas.mass, peak_force(meas))
+        return cls(meas.source, meas.mass, peak_force(meas), meas.metadata.get("ac_coupling_s") or None)
 
 
 def peak_force(meas: Measurement | RecordInfo) -> float | None:

@@ -26,6 +26,8 @@ import html
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Sequence
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -244,8 +246,9 @@ def _coefficient_rows(eom: EquationOfMotion, truth: EquationOfMotion | None,
     return "\n".join(rows)
 
 
-def _choices_html(res) -> str:
-    """The pipeline's choices and warnings, for the top of the page."""
+def _choices_html(res, warnings: Sequence[str] | None = None) -> str:
+    """The pipeline's choices and warnings (``warnings``: all of them, when the command has more
+    than the pipeline's), for the top of the page."""
     ch = res.choices
     if ch is None:
         return ""
@@ -257,9 +260,10 @@ def _choices_html(res) -> str:
     for term, why in ch.dropped.items():
         items.append(f"dropped <b>{html.escape(term)}</b>: {html.escape(why)}")
     out = "<div class='choices'><b>Pipeline choices</b><ul>" + "".join(f"<li>{i}</li>" for i in items) + "</ul>"
-    if ch.warnings:
+    shown = ch.warnings if warnings is None else tuple(warnings)
+    if shown:
         out += ("<div class='warn'><b>Warnings</b><ul>"
-                + "".join(f"<li>{html.escape(w)}</li>" for w in ch.warnings) + "</ul></div>")
+                + "".join(f"<li>{html.escape(w)}</li>" for w in shown) + "</ul></div>")
     else:
         out += "<p>No warnings: the model is stable and decays as the records do.</p>"
     return out + "</div>"
@@ -273,7 +277,7 @@ _CSS = ("body{font-family:sans-serif;max-width:1000px;margin:2em auto;color:#222
 
 
 def write_report(session: SessionResult, out_dir: str | Path, *, truth: EquationOfMotion | None = None,
-                 title: str = "EDDI Station report") -> Report:
+                 title: str = "EDDI Station report", warnings: Sequence[str] | None = None) -> Report:
     """Write ``index.html`` and its PNG figures into ``out_dir`` (created).
 
     Parameters
@@ -284,6 +288,9 @@ def write_report(session: SessionResult, out_dir: str | Path, *, truth: Equation
     truth : EquationOfMotion, optional
         The true physics (simulated rig): shown beside the identified coefficients.
     title : str
+    warnings : sequence of str, optional
+        Every warning of the identification as the command prints it (the pipeline's and the
+        AC-coupling check's); default the pipeline's.
 
     Returns
     -------
@@ -317,7 +324,7 @@ def write_report(session: SessionResult, out_dir: str | Path, *, truth: Equation
              f"<p>Identified on <b>{html.escape(fit_src)}</b> ({res.model.route} route of phase two, "
              f"{res.model.phase_one.gamma.size} zero crossings); validated on "
              f"{len(session.held_out)} record(s) not used for the fit.</p>",
-             _choices_html(res),
+             _choices_html(res, warnings),
              f"<p><code>{html.escape(eom.equation_text())}</code> (SI units; time origin of every figure: "
              f"the trigger)</p>",
              "<h2>Coefficients</h2><table><tr><th>part</th><th>term</th><th>identified</th><th>95 % CI</th>"

@@ -24,6 +24,7 @@ Every dict is checked with :class:`sdypy_sep005.Sep005Data` before the file is w
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from pathlib import Path
@@ -32,7 +33,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from station.errors import InputFileError, StationError
-from station.storage import iter_captures, list_captures
+from station.storage import check_values, iter_captures, list_captures
 
 QUANTITY_CODES = {"force": "f", "acceleration": "a", "velocity": "v", "displacement": "d"}
 _SENSOR_KEYS = ("sensor_model", "sensor_serial", "calibration_date", "node", "direction")
@@ -75,6 +76,7 @@ def export_sep005(h5_path: str | os.PathLike[str], out_path: str | os.PathLike[s
             raise InputFileError(f"capture {cap.index} of {src}: {cap.dropped_samples} samples missing; "
                                  "SEP-005 export needs a complete record")
         for name, ch in cap.channels.items():
+            check_values(ch.si, f"capture {cap.index} of {src}: channel {name!r}")  # as every reader refuses
             d: dict[str, Any] = {
                 "name": f"{src.stem} capture {cap.index} {name}",
                 "data": np.asarray(ch.si, dtype=np.float64).tolist(),
@@ -103,7 +105,8 @@ def export_sep005(h5_path: str | os.PathLike[str], out_path: str | os.PathLike[s
             json.dump(out, fh, allow_nan=False)
         os.replace(tmp, dest)
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
+        with contextlib.suppress(OSError):  # a read-only folder refuses even this
+            tmp.unlink(missing_ok=True)
         raise StationError(f"cannot write {dest}: {exc.strerror or exc}") from None
     return len(out)
 

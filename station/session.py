@@ -308,8 +308,15 @@ def validate_measurement(model: EquationOfMotion | ModalSumModel, meas: Measurem
     Raises
     ------
     SignalError, InputFileError
-        When the record cannot be conditioned or predicted.
+        When the record cannot be conditioned or predicted, or has several response sensors.
     """
+    from station.readers import is_multichannel_record, response_channels
+
+    if is_multichannel_record(meas):  # not the engine's "no acc, vel or disp" deep inside
+        names = ", ".join(response_channels(meas.channels))
+        raise InputFileError(f"{meas.source}: {len(response_channels(meas.channels))} response sensors ({names}); "
+                             f"expected one for a single-coordinate model (a multi-DOF model, saved by `station "
+                             f"diagnose --save-model` on such captures, predicts every sensor)")
     pf = peak_force(meas)
     if is_modal_sum(model):
         from eddi.multimode import predict_record

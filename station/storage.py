@@ -428,10 +428,14 @@ def measurement_of(cap: StoredCapture, path: str | os.PathLike[str]) -> Any:
             seen[key] = seen.get(key, 0) + 1
             key = ch.info.name if multi_channel_name(ch.info.name, key) else f"{key}{seen[key]}"
         if key is not None and key not in chans:
-            _check_values(ch.si, f"capture {cap.index} of {path}: channel {ch.info.name!r}")
+            check_values(ch.si, f"capture {cap.index} of {path}: channel {ch.info.name!r}")
             chans[key] = ch.si
     if cap.n_samples < 2:
         raise InputFileError(f"capture {cap.index} of {path}: {cap.n_samples} sample(s); expected a record")
+    for key, y in chans.items():  # a dead or unplugged sensor: refused as a text record's column is
+        if key != "force" and not np.ptp(y) > 0:
+            raise InputFileError(f"capture {cap.index} of {path}: channel {key!r} is constant ({y[0]:g}); "
+                                 f"expected a measured response")
     meta = {
         "file": str(path),
         "capture": cap.index,
@@ -473,7 +477,7 @@ def pretrigger_known(attrs: Any, pretrigger_samples: int) -> bool:
     return not ("import_metadata" in attrs and int(pretrigger_samples) == 0)
 
 
-def _check_values(x: np.ndarray, what: str) -> None:
+def check_values(x: np.ndarray, what: str) -> None:
     """Refuse NaN/inf and magnitudes beyond :data:`MAX_SI_MAGNITUDE` (one line naming the row)."""
     bad = np.flatnonzero(~(np.abs(x) <= MAX_SI_MAGNITUDE))
     if bad.size:

@@ -23,6 +23,8 @@ Records are written with :func:`pyuff.prepare_58` and :meth:`pyuff.UFF.write_set
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import os
 from pathlib import Path
 from typing import Iterable
@@ -31,7 +33,7 @@ import numpy as np
 import pyuff
 
 from station.errors import InputFileError, StationError
-from station.storage import iter_captures, list_captures, pretrigger_known
+from station.storage import check_values, iter_captures, list_captures, pretrigger_known
 
 #: UFF specific data type of each quantity (UFF58 record 8/9, field 1).
 SPEC_DATA_TYPE: dict[str, int] = {"force": 13, "acceleration": 12, "velocity": 11, "displacement": 8}
@@ -92,6 +94,7 @@ def export_uff58(
             q = ch.info.quantity
             if q not in quantities or q not in SPEC_DATA_TYPE:
                 continue
+            check_values(ch.si, f"capture {cap.index} of {src}: channel {name!r}")  # as every reader refuses
             length_exp, force_exp = UNIT_EXPONENTS[q]
             sets.append(
                 pyuff.prepare_58(
@@ -131,7 +134,12 @@ def export_uff58(
         tmp.unlink(missing_ok=True)
         pyuff.UFF(str(tmp)).write_sets(sets, mode="add")
         os.replace(tmp, out)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise StationError(f"cannot write {out}: {exc.strerror or exc}") from None
+    except Exception as exc:  # noqa: BLE001 - pyuff wraps a full disk's OSError in a bare Exception
+        with contextlib.suppress(OSError):  # a read-only folder refuses even this
+            tmp.unlink(missing_ok=True)
+        cause = exc if isinstance(exc, OSError) else exc.__context__
+        if not isinstance(cause, OSError):
+            raise
+        what = "disk full" if cause.errno == errno.ENOSPC else (cause.strerror or str(cause))
+        raise StationError(f"cannot write {out}: {what}") from None
     return len(sets)

@@ -146,10 +146,35 @@ def dask_client(scheduler: str | None = None, workers: int | None = None) -> Ite
         raise ConfigError(f"--workers must be >= 1, got {n}")
     import dask
 
-    with dask.config.set(QUIET_CLUSTER), \
-            LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                         silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
-        yield client
+    with dask.config.set(QUIET_CLUSTER):
+        with _children_ignore_sigint():  # the worker processes start with Ctrl-C ignored, and keep it
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                   silence_logs=logging.ERROR)
+        with cluster, Client(cluster) as client:
+            yield client
+
+
+@contextlib.contextmanager
+def _children_ignore_sigint() -> Iterator[None]:
+    """SIGINT ignored while the local cluster's processes are started (main thread only).
+
+    A terminal's Ctrl-C reaches the whole process group: each worker took it and printed Dask's
+    tracebacks (CancelledError in the nanny's ``run``) under the campaign's one line. A process
+    started with SIGINT ignored keeps it ignored (Python installs no handler then), so only this
+    process (the client) takes Ctrl-C and closes the cluster. A Ctrl-C during the few seconds
+    the workers start is not taken.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _chunks(refs: Sequence[CaptureRef], size: int) -> Iterator[list[CaptureRef]]:

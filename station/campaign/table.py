@@ -26,6 +26,7 @@ in one streaming pass (constant memory per batch of rows) when the campaign ends
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import hashlib
 import json
@@ -230,12 +231,18 @@ class Journal:
                             for c in cols])
         csv_path, pq_path = self.out / CSV_NAME, self.out / PARQUET_NAME
         csv_tmp, pq_tmp = csv_path.with_suffix(".csv.tmp"), pq_path.with_suffix(".parquet.tmp")
-        with open(csv_tmp, "w", newline="", encoding="utf-8") as fh, pq.ParquetWriter(pq_tmp, schema) as pw:
-            w = csv.writer(fh)
-            w.writerow(cols)
-            for batch in (self._flat(offsets, cols) if offsets else ()):
-                w.writerows([["" if r.get(c) is None else r[c] for c in cols] for r in batch])
-                pw.write_table(pa.Table.from_pylist([{c: r.get(c) for c in cols} for r in batch], schema=schema))
+        try:
+            with open(csv_tmp, "w", newline="", encoding="utf-8") as fh, pq.ParquetWriter(pq_tmp, schema) as pw:
+                w = csv.writer(fh)
+                w.writerow(cols)
+                for batch in (self._flat(offsets, cols) if offsets else ()):
+                    w.writerows([["" if r.get(c) is None else r[c] for c in cols] for r in batch])
+                    pw.write_table(pa.Table.from_pylist([{c: r.get(c) for c in cols} for r in batch], schema=schema))
+        except BaseException:  # a full disk, Ctrl-C: no half table left beside the journal
+            for tmp in (csv_tmp, pq_tmp):
+                with contextlib.suppress(OSError):
+                    tmp.unlink(missing_ok=True)
+            raise
         os.replace(csv_tmp, csv_path)
         os.replace(pq_tmp, pq_path)
         return csv_path, pq_path, len(offsets)

@@ -155,11 +155,20 @@ def _pipeline_warnings(*holders: Any) -> list[str]:
 
 def _identify(meas: Any, opts: TaskOptions) -> dict[str, Any]:
     """Condition, identify and validate one record (``station identify``'s pipeline)."""
+    from station.readers import require_one_coordinate
+
+    require_one_coordinate(meas, "campaign")  # station identify's refusal, not the engine's
     mass = _mass(opts, meas)
     kw = {} if opts.refine is None else {"refine": opts.refine}
     res = run_identify(meas, mass, opts.damping, opts.stiffness, opts.route, **kw)
     eom, val = res.model.eom, res.validation
     warnings = _pipeline_warnings(res, res.model)
+    if not meas.metadata.get("ac_coupling_s"):  # station identify's check: the same warning
+        from station.coupling import add_coupling_check
+
+        found: dict[str, Any] = {"conditioning": {}, "warnings": []}
+        add_coupling_check(meas, res, opts.damping, opts.stiffness, opts.route, found)
+        warnings += found["warnings"]
     if val.diverged or not math.isfinite(val.nrmse):
         warnings.append("the model's simulation diverges from the record")
     return {"mass_kg": mass, "route": res.model.route, "nrmse": float(val.nrmse), "nmte": val.nmte,
@@ -192,22 +201,24 @@ def _validate(meas: Any, opts: TaskOptions) -> dict[str, Any]:
 
 
 def _diagnose(meas: Any, opts: TaskOptions) -> dict[str, Any]:
-    """Diagnose one record alone (its ring-down split into amplitude bands, ``station diagnose``)."""
-    from eddi.diagnose import Record, diagnose
+    """Diagnose one record alone (its ring-down split into amplitude bands), exactly as
+    ``station diagnose FILE:N`` does with the campaign's options (the pipeline's baseline, the
+    chain's tolerances, the coupling check: :func:`station.commands.diagnose.diagnosis_object`)."""
+    from station.commands.diagnose import default_args, diagnosis_object
+    from station.readers import require_one_coordinate
 
+    require_one_coordinate(meas, "campaign --task diagnose")
     mass = _mass(opts, meas)
-    cond = station_pipeline.condition_measurement(meas)
-    diag = diagnose([Record.from_conditioned(cond, label=meas.source,
-                                             pretrigger_samples=getattr(meas, "pretrigger_samples", None))],
-                    mass, damping=opts.damping,
-                    stiffness=opts.stiffness)
-    from eddi.diagnosis.soundness import model_flags
-
+    given: dict[str, Any] = {"mass": mass}
+    given.update({k: v for k, v in (("damping", opts.damping), ("stiffness", opts.stiffness)) if v})
+    if opts.refine is not None:
+        given["refine"] = opts.refine
+    diag, obj, _ = diagnosis_object([meas], default_args(**given))
     eom = diag.extended.model
-    flags = model_flags(diag)
     return {"mass_kg": mass, "nrmse": float(diag.extended.nrmse), "nmte": diag.extended.nmte,
             "cause": diag.cause, "gain": float(diag.gain), "coefficients": _coefficients(eom),
-            "unstable": bool(flags), "warnings": [*flags, *diag.notes], "model": eom.to_json() if hasattr(eom, "to_json") else None}
+            "unstable": bool(obj["unstable"]), "warnings": [*obj["warnings"], *obj.get("notes", [])],
+            "model": eom.to_json() if hasattr(eom, "to_json") else None}
 
 
 _RUNNERS = {"identify": _identify, "validate": _validate, "diagnose": _diagnose}

@@ -20,13 +20,14 @@ Kubernetes).
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 from pathlib import Path
 from typing import Any
 
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
 from station.argtypes import damping_terms, finite_positive, stiffness_terms
-from station.errors import ConfigError, InputFileError
+from station.errors import ConfigError, InputFileError, StationError
 from station.output import emit
 
 
@@ -92,6 +93,10 @@ def _text(obj: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+#: Errors of writing the results (the others are the cluster's or the sources').
+_WRITE_ERRNOS = (errno.ENOSPC, errno.EFBIG, errno.EROFS, errno.EDQUOT)
+
+
 def handle(args: argparse.Namespace) -> int:
     """Run ``station campaign``; return the exit code."""
     from station.campaign.run import dask_client, run_campaign
@@ -113,9 +118,16 @@ def handle(args: argparse.Namespace) -> int:
             where = row["file"] + ("" if row["capture"] is None else f":{row['capture']}")
             errors.append(f"{where}: {row['error']}")
 
-    with dask_client(args.scheduler, args.workers) as client:
-        res = run_campaign(client, refs, opts, journal, chunk=args.chunk, retry_errors=args.retry_errors,
-                           quiet=args.json, on_row=keep_error)
+    try:
+        with dask_client(args.scheduler, args.workers) as client:
+            res = run_campaign(client, refs, opts, journal, chunk=args.chunk, retry_errors=args.retry_errors,
+                               quiet=args.json, on_row=keep_error)
+    except OSError as exc:  # the --out folder filled up or turned read-only: say where, and what is kept
+        if exc.errno not in _WRITE_ERRNOS:
+            raise
+        what = "disk full" if exc.errno == errno.ENOSPC else (exc.strerror or str(exc))
+        raise StationError(f"{args.out}: cannot write the campaign's results ({what}); the rows already in its "
+                           f"journal are kept: run the same command again to resume") from None
     obj = {"task": opts.task, "total": res.total, "processed": res.processed, "failed": res.failed,
            "skipped": res.skipped, "rows": res.rows, "wall_s": res.wall_s, "warm_up_s": res.warm_up_s,
            "captures_per_s": res.captures_per_s, "workers": res.workers, "scheduler": res.scheduler,

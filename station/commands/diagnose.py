@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 from eddi.errors import ModelError
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
 from station.argtypes import damping_terms, finite_positive, fraction, stiffness_terms
-from station.errors import InputFileError
+from station.errors import InputFileError, StationError
 from station.output import emit
 
 if TYPE_CHECKING:  # the engine is imported when captures are diagnosed, not for --help
@@ -125,27 +125,34 @@ def load_measurements(specs: list[str], sensor_highpass: float | None = None
         The measurements conditioned (without the resampling note), for
         :func:`pipeline_baseline` (not conditioned twice).
     """
-    from eddi.diagnosis import Record
     from station.readers import read_measurement
-    from station.session import condition_measurement, expand_specs, on_one_grid, with_sensor_highpass
+    from station.session import expand_specs, with_sensor_highpass
 
-    specs = expand_specs(specs)
-    read = [with_sensor_highpass(read_measurement(spec), sensor_highpass) for spec in specs]
-    for spec, m in zip(specs, read):
+    return condition_all([with_sensor_highpass(read_measurement(spec), sensor_highpass)
+                          for spec in expand_specs(specs)])
+
+
+def condition_all(read: list[Any]) -> tuple[list[Record], float | None, list[Any], str | None, list[Any]]:
+    """:func:`load_measurements` on measurements already read (``station campaign --task
+    diagnose`` reads its capture on the worker): the same checks, grid and conditioning."""
+    from eddi.diagnosis import Record
+    from station.session import condition_measurement, on_one_grid
+
+    for m in read:
         ch = m.channels
         if not any(k in ch for k in ("acc", "vel", "disp")):
-            raise InputFileError(f"{spec}: no response channel (expected acc, vel or disp; got "
+            raise InputFileError(f"{m.source}: no response channel (expected acc, vel or disp; got "
                                  f"{', '.join(ch) or 'none'})")
     meas, note = on_one_grid(read)  # clocks differing by up to 200 ppm: one grid (said below)
     records: list[Record] = []
     conditioned = []
     mass: float | None = None
-    for spec, m in zip(specs, meas):
+    for m in meas:
         c = condition_measurement(m)
         conditioned.append(c)
         if note:
             c = replace(c, notes=c.notes + (note,))
-        records.append(Record.from_conditioned(c, label=Path(spec).name,
+        records.append(Record.from_conditioned(c, label=Path(m.source).name,
                                                pretrigger_samples=getattr(m, "pretrigger_samples", None)))
         if mass is None and getattr(m, "mass", None):
             mass = float(m.mass)
@@ -201,8 +208,6 @@ def _coupling(session: Any, args: argparse.Namespace, obj: dict[str, Any]) -> No
 
 
 def handle(args: argparse.Namespace) -> int:
-    from eddi.diagnosis import diagnose
-    from eddi.model import EquationOfMotion
     from station.output_safety import check_output
 
     inputs = [*args.captures, *([args.model] if args.model else [])]
@@ -221,6 +226,57 @@ def handle(args: argparse.Namespace) -> int:
 
             return flagged("diagnose", "the diagnosed model is unstable or its simulation diverges")
         return 0
+    from station.readers import read_measurement
+    from station.session import expand_specs, with_sensor_highpass
+
+    read = [with_sensor_highpass(read_measurement(spec), args.sensor_highpass)
+            for spec in expand_specs(list(args.captures))]
+    diag, obj, records = diagnosis_object(read, args)
+    if args.save_model:
+        Path(args.save_model).write_text(diag.extended.model.to_json() + "\n")
+        obj["saved_model"] = args.save_model
+    if args.report:
+        from station.diagnosis_report import write_report
+
+        try:
+            files = write_report(diag, records, args.report)
+        except StationError as exc:  # say what was saved before
+            kept = f"; the extended model was written to {args.save_model}" if args.save_model else ""
+            raise type(exc)(f"{exc}{kept}") from None
+        obj["report"] = [str(f) for f in files]
+    emit(args.json, render_text(diag, obj), obj)
+    if obj["unstable"]:
+        from station.cli import flagged
+
+        return flagged("diagnose", "the diagnosed model is unstable or its simulation diverges")
+    return 0
+
+
+def default_args(**given: Any) -> argparse.Namespace:
+    """``station diagnose``'s options as its parser sets them, with ``given`` ones replaced:
+    ``station campaign --task diagnose`` diagnoses every capture as the command would."""
+    root = argparse.ArgumentParser()
+    register(root.add_subparsers())
+    args = root.parse_args(["diagnose", "-"])
+    unknown = sorted(set(given) - set(vars(args)))
+    if unknown:
+        raise TypeError(f"not options of station diagnose: {', '.join(unknown)}")
+    for key, value in given.items():
+        setattr(args, key, value)
+    return args
+
+
+def diagnosis_object(read: list[Any], args: argparse.Namespace) -> tuple[Diagnosis, dict[str, Any], list[Record]]:
+    """Diagnose one-coordinate measurements (read, ``--sensor-highpass`` applied) with the
+    options of ``args`` (:func:`default_args`); returns the diagnosis, the ``--json`` object
+    (without the saved model and report) and the conditioned records.
+
+    ``obj["unstable"]`` and ``obj["warnings"]``: the model the diagnosis stands behind is
+    flagged (:func:`model_flags`), then the undeclared AC-coupling warning of ``station identify``.
+    """
+    from eddi.diagnosis import diagnose
+    from eddi.model import EquationOfMotion
+
     base = None
     if args.model:
         from station.session import load_model_file
@@ -235,8 +291,7 @@ def handle(args: argparse.Namespace) -> int:
     mechanisms = None
     if args.mechanisms:
         mechanisms = [s.strip() for s in args.mechanisms.split(",") if s.strip()]
-    records, meta_mass, measurements, resampled, conditioned = load_measurements(list(args.captures),
-                                                                                 args.sensor_highpass)
+    records, meta_mass, measurements, resampled, conditioned = condition_all(read)
     mass = args.mass if args.mass is not None else (base.mass if base is not None else meta_mass)
     if mass is None:
         raise InputFileError("no mass: give --mass KG (or --model, or captures with a mass in their metadata)")
@@ -246,7 +301,7 @@ def handle(args: argparse.Namespace) -> int:
     if base is None:  # the baseline is the pipeline's (the same model and error as identify); the
         # diagnosis judges its folds with the pipeline's choices, so it comes first
         pipe_obj, baseline, session = pipeline_baseline(measurements, float(mass), args.damping, args.stiffness,
-                                               args.refine, conditioned)
+                                                        args.refine, conditioned)
     from station.forkmap import ForkMap, jobs_wanted
 
     # the folds' fits are independent: in forked workers when cores are free (same result)
@@ -258,14 +313,6 @@ def handle(args: argparse.Namespace) -> int:
     obj["resampled"] = resampled
     if pipe_obj is not None:
         obj["pipeline_baseline"] = pipe_obj
-    if args.save_model:
-        Path(args.save_model).write_text(diag.extended.model.to_json() + "\n")
-        obj["saved_model"] = args.save_model
-    if args.report:
-        from station.diagnosis_report import write_report
-
-        files = write_report(diag, records, args.report)
-        obj["report"] = [str(f) for f in files]
     span = capture_span(records, diag.scheme)
     if span is not None:
         obj["amplitude"] = {"span": span.as_dict()}
@@ -280,12 +327,7 @@ def handle(args: argparse.Namespace) -> int:
         # mechanism (sensor_highpass is a candidate there and lost): hidden friction's drive misfit
         # was also "explained" by a 2.5 Hz coupling on the fit record (tests/station/test_cli_diagnose.py)
         _coupling(session, args, obj)
-    emit(args.json, render_text(diag, obj), obj)
-    if warnings:
-        from station.cli import flagged
-
-        return flagged("diagnose", "the diagnosed model is unstable or its simulation diverges")
-    return 0
+    return diag, obj, records
 
 
 def _tolerance(args: argparse.Namespace) -> Any:

@@ -129,20 +129,10 @@ def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
 
 def coupling_check(meas: Measurement, res: PipelineResult, args: argparse.Namespace, obj: dict[str, Any],
                    which: str = "the record") -> None:
-    """Look for an undeclared accelerometer AC coupling (:mod:`station.coupling`): what it found
-    goes in ``obj["conditioning"]``, and a warning when the coupling is evident. ``which``: how
-    the warning names the record checked (several records: the fit record, checked once)."""
-    from station.coupling import check_coupling
+    """Look for an undeclared accelerometer AC coupling (:func:`station.coupling.add_coupling_check`)."""
+    from station.coupling import add_coupling_check
 
-    chk = check_coupling(meas, res, args.damping, args.stiffness, args.route)
-    if chk is None:
-        return
-    obj["conditioning"]["sensor_highpass_check"] = chk.as_dict()
-    if chk.evident and chk.corner_hz is not None:
-        from station.coupling import coupling_warning
-
-        obj["conditioning"]["sensor_highpass_estimate_hz"] = chk.corner_hz
-        obj["warnings"].append(coupling_warning(chk, which))
+    add_coupling_check(meas, res, args.damping, args.stiffness, args.route, obj, which)
 
 
 def _text(obj: dict[str, Any]) -> str:
@@ -207,9 +197,10 @@ def handler(args: argparse.Namespace) -> int:
     text = _text(obj) + "".join(f"\n  held out {c['source']}: nrmse {c['nrmse']:.4g}" for c in obj["held_out"]["records"])
     if session.mean_nrmse is not None:
         text += f"\n  mean nrmse on the records not used for the fit: {session.mean_nrmse:.4g}"
-    if args.sensor_highpass is None and not any(m.metadata.get("ac_coupling_s") for m in session.measurements):
-        # one check, on the record the model was fitted to (the others share the sensor)
-        coupling_check(meas, session.fit, args, obj, which=f"the fit record ({meas.source})")
+    if args.sensor_highpass is None:  # one check, on the record the model was fitted to
+        from station.coupling import session_coupling_check
+
+        session_coupling_check(session, args.damping, args.stiffness, args.route, obj)
         text += "".join(f"\n  WARNING: {w}" for w in obj["warnings"] if "AC-coupled" in w)
     obj["unstable"] = bool(session.fit.unstable or any(c.diverged for c in session.held_out))
     emit(args.json, text, obj)

@@ -118,15 +118,24 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=handle)
 
 
-def session_object(session: Any) -> dict[str, Any]:
-    """``identified`` (as ``station identify --json``) and ``validation`` of a session."""
+def session_object(session: Any, terms: tuple[Any, Any, str] | None = None) -> dict[str, Any]:
+    """``identified`` (as ``station identify --json``) and ``validation`` of a session.
+
+    ``terms``: the ``(damping, stiffness, route)`` identified with; given, the fit record is
+    checked for an undeclared AC coupling as ``station identify`` checks it (the same warning).
+    """
     from station.commands.identify import result_object
 
     meas = session.measurements[session.fit_index]
+    identified = result_object(meas, session.fit)
+    if terms is not None:
+        from station.coupling import session_coupling_check
+
+        session_coupling_check(session, *terms, identified)
     return {
         "records": [m.source for m in session.measurements],
         "fit_record": meas.source,
-        "identified": result_object(meas, session.fit),
+        "identified": identified,
         "validation": {"nrmse": session.mean_nrmse, "nmte": session.mean_nmte,
                        "held_out": [c.as_dict() for c in session.held_out]},
         "unstable": bool(session.fit.unstable or any(c.diverged for c in session.held_out)),
@@ -190,11 +199,11 @@ def handle(args: argparse.Namespace) -> int:
         lines.append(replay_mdof_text(obj))
         emit(args.json, "\n".join(lines), obj)
         return 1 if args.through_device and not obj["bit_exact"] else 0
-    session = run_session(read_all(specs, command="replay"), args.mass,
-                          damping=terms_or_default(args.damping, DEFAULT_DAMPING),
-                          stiffness=terms_or_default(args.stiffness, DEFAULT_STIFFNESS), fit_index=args.fit,
-                          refine=args.refine)
-    obj.update(session_object(session))
+    terms = (terms_or_default(args.damping, DEFAULT_DAMPING), terms_or_default(args.stiffness, DEFAULT_STIFFNESS),
+             "auto")
+    session = run_session(read_all(specs, command="replay"), args.mass, damping=terms[0], stiffness=terms[1],
+                          route=terms[2], fit_index=args.fit, refine=args.refine)
+    obj.update(session_object(session, terms))
     lines.append(session_text(obj))
     emit(args.json, "\n".join(lines), obj)
     if args.through_device and not obj["bit_exact"]:

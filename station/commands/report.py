@@ -67,17 +67,18 @@ def handle(args: argparse.Namespace) -> int:
     if is_multichannel(first):  # several sensors: the coupled model, one panel per channel
         return _mdof_report(args, [first] + [read_measurement(s) for s in specs[1:]], t0)
     recs = read_all(args.records, command="report")
-    session = run_session(recs, args.mass, damping=terms_or_default(args.damping, DEFAULT_DAMPING),
-                          stiffness=terms_or_default(args.stiffness, DEFAULT_STIFFNESS), route=args.route,
+    terms = (terms_or_default(args.damping, DEFAULT_DAMPING), terms_or_default(args.stiffness, DEFAULT_STIFFNESS),
+             args.route)
+    session = run_session(recs, args.mass, damping=terms[0], stiffness=terms[1], route=terms[2],
                           fit_index=args.fit, refine=args.refine)
     fit = session.measurements[session.fit_index]
     truth = None
     if "capture" in fit.metadata and "file" in fit.metadata:
         truth = rig_truth(fit.metadata["file"], int(fit.metadata["capture"]))
+    obj = session_object(session, terms)
     t1 = time.perf_counter()
-    rep = write_report(session, args.out, truth=truth)
+    rep = write_report(session, args.out, truth=truth, warnings=obj["identified"]["warnings"])
     t2 = time.perf_counter()
-    obj = session_object(session)
     obj["report"] = str(rep.index)
     obj["figures"] = [str(p) for p in rep.figures]
     obj["elapsed_s"] = {"identify_validate": t1 - t0, "report": t2 - t1}

@@ -297,6 +297,7 @@ CASES: list[tuple[str, list[str]]] = [
     ("out-export-rate-zero", ["export", _f("rate_zero"), "--uff", "{tmp}/r0.uff"]),
     ("out-export-rate-nan", ["export", _f("rate_nan"), "--sep005", "{tmp}/rn.json"]),
     ("out-export-gaps", ["export", _f("gaps"), "--uff", "{tmp}/g.uff"]),
+    ("out-export-si-huge", ["export", _f("si_huge"), "--sep005", "{tmp}/h.json"]),
     ("out-export-csv-source", ["export", G, "--uff", "{tmp}/c.uff"]),
     ("out-export-capture-out-of-range", ["export", S + ":5", "--uff", "{tmp}/c.uff"]),
     ("out-import-onto-input", ["import", G, "--out", G]),

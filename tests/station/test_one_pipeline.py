@@ -54,6 +54,13 @@ def test_identify_replay_report_demo_and_diagnose_agree(tmp_path: Path) -> None:
         assert errors[name] == errors["demo"], name
         # the choices are stated, the same everywhere
         assert m["pipeline"] == ref["pipeline"], name
+        # and the same warnings and conditioning, the AC-coupling check included (demo, replay and
+        # report did not run identify's check: no sensor_highpass_check, no coupling warning);
+        # diagnose runs it once for the whole diagnosis (its own warnings, below)
+        if name != "diagnose":
+            assert m["warnings"] == ident["warnings"], name
+            assert m["conditioning"] == ident["conditioning"], name
+    assert full["sensor_highpass_check"] == ident["conditioning"]["sensor_highpass_check"]
     p = ref["pipeline"]
     assert p["refinement"] in ("kept", "rejected") and p["judged_on"] == "held-out records (2)"
     # the refinement is kept only when it lowers the held-out error
