@@ -111,11 +111,19 @@ def check_coupling(meas: Measurement, res: PipelineResult, damping: str, stiffne
 
 
 def add_coupling_check(meas: Measurement, res: PipelineResult, damping: str, stiffness: str, route: str,
-                       obj: dict[str, Any], which: str = "the record") -> None:
+                       obj: dict[str, Any], which: str = "the record", search: bool = True) -> None:
     """Run :func:`check_coupling` and put what it found in an identification's JSON object (as
     ``station identify --json`` prints it): ``conditioning.sensor_highpass_check``, and when the
     coupling is evident ``conditioning.sensor_highpass_estimate_hz`` and a warning in ``warnings``
-    (``which``: how it names the record checked)."""
+    (``which``: how it names the record checked; ``search=False``: the coupling is declared, only
+    the impulse is checked). The hammer impulse is checked first
+    (:mod:`station.impulse_check`); when it finds the response's sign or unit slipped, the
+    force-driven misfit the coupling search reads is that slip's, and the search does not run."""
+    from station.impulse_check import add_impulse_check
+
+    imp = add_impulse_check(res, obj, which)
+    if not search or (imp is not None and imp.biases_drive):  # a declared coupling: no search
+        return
     chk = check_coupling(meas, res, damping, stiffness, route)
     if chk is None:
         return
@@ -126,19 +134,18 @@ def add_coupling_check(meas: Measurement, res: PipelineResult, damping: str, sti
 
 
 def session_coupling_check(session: SessionResult, damping: str | Sequence[str], stiffness: str | Sequence[str],
-                           route: str, obj: dict[str, Any]) -> None:
+                           route: str, obj: dict[str, Any], search: bool = True) -> None:
     """:func:`add_coupling_check` on the record a session's model was fitted to (the others share
-    the sensor), unless a record declares its coupling: ``station identify``, ``replay`` and
+    the sensor; no corner search when a record declares its coupling): ``station identify``, ``replay`` and
     ``report`` on the same records give the same warning. ``obj``: the fit's JSON object."""
     from station.records import Records, RecordInfo
 
     recs = session.measurements
     info = recs.info if isinstance(recs, Records) else tuple(RecordInfo.of(m) for m in recs)
-    if any(i.ac_coupling_s for i in info):
-        return
     meas = recs[session.fit_index]
     which = "the record" if len(info) == 1 else f"the fit record ({meas.source})"
-    add_coupling_check(meas, session.fit, _terms(damping), _terms(stiffness), route, obj, which)
+    add_coupling_check(meas, session.fit, _terms(damping), _terms(stiffness), route, obj, which,
+                       search=search and not any(i.ac_coupling_s for i in info))
 
 
 def _terms(terms: str | Sequence[str]) -> str:

@@ -163,12 +163,12 @@ def _identify(meas: Any, opts: TaskOptions) -> dict[str, Any]:
     res = run_identify(meas, mass, opts.damping, opts.stiffness, opts.route, **kw)
     eom, val = res.model.eom, res.validation
     warnings = _pipeline_warnings(res, res.model)
-    if not meas.metadata.get("ac_coupling_s"):  # station identify's check: the same warning
-        from station.coupling import add_coupling_check
+    from station.coupling import add_coupling_check  # station identify's checks: the same warnings
 
-        found: dict[str, Any] = {"conditioning": {}, "warnings": []}
-        add_coupling_check(meas, res, opts.damping, opts.stiffness, opts.route, found)
-        warnings += found["warnings"]
+    found: dict[str, Any] = {"conditioning": {}, "warnings": []}
+    add_coupling_check(meas, res, opts.damping, opts.stiffness, opts.route, found,
+                       search=not meas.metadata.get("ac_coupling_s"))
+    warnings += found["warnings"]
     if val.diverged or not math.isfinite(val.nrmse):
         warnings.append("the model's simulation diverges from the record")
     return {"mass_kg": mass, "route": res.model.route, "nrmse": float(val.nrmse), "nmte": val.nmte,

@@ -129,10 +129,12 @@ def result_object(meas: Measurement, res: PipelineResult) -> dict[str, Any]:
 
 def coupling_check(meas: Measurement, res: PipelineResult, args: argparse.Namespace, obj: dict[str, Any],
                    which: str = "the record") -> None:
-    """Look for an undeclared accelerometer AC coupling (:func:`station.coupling.add_coupling_check`)."""
+    """Check the hammer impulse and look for an undeclared accelerometer AC coupling
+    (:func:`station.coupling.add_coupling_check`; no coupling search when one is declared)."""
     from station.coupling import add_coupling_check
 
-    add_coupling_check(meas, res, args.damping, args.stiffness, args.route, obj, which)
+    search = not meas.metadata.get("ac_coupling_s") and args.sensor_highpass is None
+    add_coupling_check(meas, res, args.damping, args.stiffness, args.route, obj, which, search)
 
 
 def _text(obj: dict[str, Any]) -> str:
@@ -182,8 +184,7 @@ def handler(args: argparse.Namespace) -> int:
         mass = _mass(args.mass, meas)
         res = run_identify(meas, mass, args.damping, args.stiffness, args.route, args.refine)
         obj = result_object(meas, res)
-        if not meas.metadata.get("ac_coupling_s") and args.sensor_highpass is None:
-            coupling_check(meas, res, args, obj)
+        coupling_check(meas, res, args, obj)
         obj["unstable"] = res.unstable
         emit(args.json, _text(obj), obj)
         return _exit_code(res.unstable)
@@ -197,11 +198,13 @@ def handler(args: argparse.Namespace) -> int:
     text = _text(obj) + "".join(f"\n  held out {c['source']}: nrmse {c['nrmse']:.4g}" for c in obj["held_out"]["records"])
     if session.mean_nrmse is not None:
         text += f"\n  mean nrmse on the records not used for the fit: {session.mean_nrmse:.4g}"
-    if args.sensor_highpass is None:  # one check, on the record the model was fitted to
-        from station.coupling import session_coupling_check
+    # one check, on the record the model was fitted to (no corner search with a declared coupling)
+    from station.coupling import session_coupling_check
 
-        session_coupling_check(session, args.damping, args.stiffness, args.route, obj)
-        text += "".join(f"\n  WARNING: {w}" for w in obj["warnings"] if "AC-coupled" in w)
+    before = len(obj["warnings"])
+    session_coupling_check(session, args.damping, args.stiffness, args.route, obj,
+                           search=args.sensor_highpass is None)
+    text += "".join(f"\n  WARNING: {w}" for w in obj["warnings"][before:])
     obj["unstable"] = bool(session.fit.unstable or any(c.diverged for c in session.held_out))
     emit(args.json, text, obj)
     return _exit_code(obj["unstable"])
