@@ -16,6 +16,9 @@ when their header says what a column is:
   ``Acceleration [g]``, ``Force [kN]``): converted to SI by the factors of :data:`UNITS`; a unit
   not there, or a voltage (an unscaled sensor signal), is refused in one line.
 
+* **a units row** under the names (``Time,Force,Accel`` then ``[s],[N],[g]`` or ``s;kN;m/s^2``, as
+  loggers export): each unit joins its column's name.
+
 Leading lines starting with ``#`` (a logger's notes) are skipped. A header the rules cannot read
 is refused naming the cell, as before: a guessed column is worse than a refusal.
 """
@@ -185,6 +188,11 @@ def parse_header(lines: list[str], where: str) -> Header:
         raise InputFileError(
             f"{where}: no header: line {i + 1} holds numbers ({header[:40]!r}); expected a header naming the "
             "columns (t, force, acc, ...) before the data")
+    skip = i + 1
+    units = _units_row(lines, skip, delim, len(cells))
+    if units is not None:  # a row of units under the names (a logger's export): joined to them
+        skip, row = units
+        cells = [_with_unit(c, u, where) for c, u in zip(cells, row)]
     parsed, ignored, usecols = [], [], []
     for k, c in enumerate(cells):
         if _other_quantity(c):
@@ -192,11 +200,50 @@ def parse_header(lines: list[str], where: str) -> Header:
             continue
         parsed.append(column_name(c, where))
         usecols.append(k)
-    data = [ln for ln in lines[i + 1:] if ln.strip() and not ln.lstrip().startswith("#")]
+    data = [ln for ln in lines[skip:] if ln.strip() and not ln.lstrip().startswith("#")]
     decimal_comma = delim in ("\t", ";", None) and any("," in ln for ln in data)
     return Header(names=tuple(n for n, _ in parsed), scales=tuple(s for _, s in parsed), delimiter=delim,
-                  decimal_comma=decimal_comma, skiprows=i + 1, cells=tuple(c.strip() for c in cells),
+                  decimal_comma=decimal_comma, skiprows=skip, cells=tuple(c.strip() for c in cells),
                   ignored=tuple(ignored), usecols=tuple(usecols))
+
+
+#: Every unit :data:`UNITS` knows, normalised (:func:`unit_key`), and the blank cell.
+_ANY_UNIT = frozenset(u for q in UNITS.values() for u in q) | {"", "-"}
+
+
+def _units_row(lines: list[str], start: int, delim: str | None, n: int) -> tuple[int, list[str]] | None:
+    """``(lines to skip, the units)`` when the first line after the header is a row of units
+    (``[s],[N],[m/s^2]`` or ``s;N;g``: no number, every cell a known unit or blank, as many cells
+    as the header), else None."""
+    j = start
+    while j < len(lines) and (not lines[j].strip() or lines[j].lstrip().startswith("#")):
+        j += 1
+    if j >= len(lines):
+        return None
+    line = lines[j].strip()
+    raw = line.split(delim) if delim is not None else line.split()
+    row = [c.strip().strip('"').strip("'").strip() for c in raw]
+    row = [c[1:-1].strip() if len(c) >= 2 and c[0] + c[-1] in ("[]", "()") else c for c in row]
+    if len(row) != n or any(_is_number(c) for c in row if c):
+        return None
+    if not all(unit_key(c) in _ANY_UNIT or unit_key(c) in ("v", "mv", "volt", "volts") for c in row):
+        return None
+    return j + 1, row
+
+
+def _with_unit(cell: str, unit: str, where: str) -> str:
+    """A header cell with the unit its units row gives (the cell's own unit, when it has one,
+    must be the same)."""
+    if not unit or unit == "-":
+        return cell
+    m = _UNIT.match(cell.strip())
+    if m is None:
+        return f"{cell.strip()} [{unit}]"
+    own = m.group("a") if m.group("a") is not None else m.group("b")
+    if unit_key(own) != unit_key(unit):
+        raise InputFileError(f"{where}: column {cell.strip()!r} has unit {own!r} in the header and {unit!r} in the "
+                             "units row below it; expected one unit per column")
+    return cell
 
 
 #: Stems of header cells that name another quantity a DAQ logs beside the vibration (read past,

@@ -140,3 +140,27 @@ def test_two_sensors_stay_two(tmp_path: Path) -> None:
     m = read_measurement(str(_write(tmp_path / "two.csv", "t,force,acc1,acc2",
                                     np.column_stack([rows, 0.5 * rows[:, 2]]))))
     assert set(m.channels) == {"force", "acc1", "acc2"} and "renamed" not in m.metadata
+
+
+@pytest.mark.parametrize("header,units,sep,scale", [
+    ("Time,Force,Acceleration", "[s],[N],[g]", ",", [1.0, 1.0, 1 / 9.80665]),
+    ("t;force;acc", "s;kN;m/s^2", ";", [1.0, 1e-3, 1.0]),
+    ("t,force,acc", "(s),(N),(m/s²)", ",", [1.0, 1.0, 1.0]),
+    ("Time [s],Force,Acceleration", "[s],[N],[g]", ",", [1.0, 1.0, 1 / 9.80665]),  # the same unit twice
+])
+def test_a_units_row_under_the_names_joins_them(tmp_path: Path, header: str, units: str, sep: str,
+                                                scale: list[float]) -> None:
+    """A logger's export with the units on a row of their own (blind unseen7: refused before as
+    "line 2: '[s]' is not a number")."""
+    rows = _rows()
+    ref = read_csv(_write(tmp_path / "ref.csv", "t,force,acc", rows))
+    m = read_measurement(str(_write(tmp_path / "units.csv", header + "\n" + units, rows * scale, sep)))
+    for name in ("force", "acc"):
+        np.testing.assert_allclose(m.channels[name], ref.channels[name], rtol=1e-12, atol=0)
+    assert m.rate_hz == pytest.approx(RATE, rel=1e-12)
+
+
+def test_a_units_row_that_contradicts_the_header_is_refused(tmp_path: Path) -> None:
+    path = _write(tmp_path / "both.csv", "Time [s],Force [N],Acceleration [g]\n[s],[N],[m/s^2]", _rows())
+    with pytest.raises(InputFileError, match="unit 'g' in the header and 'm/s\\^2' in the units row"):
+        read_measurement(str(path))
