@@ -330,8 +330,10 @@ def time_grid(t: np.ndarray, where: str) -> tuple[float, np.ndarray]:
     by half a unit of its last digit from the least-squares grid through all of them (whose
     step is then the rate's), allowed one unit of the last digit of the largest time. A 320 s record at 19.2 kHz printed with 9 digits
     (``320.000000``, rounding up to 5e-7 s = 1.1 % of a step) is accepted; a sample shifted by
-    more than that, a missing sample (half a step off the grid), or times too coarse to tell
-    samples apart (a unit of the last digit above 1/4 step) are refused.
+    more than that, or times too coarse to tell
+    samples apart (a unit of the last digit above half a step: a missing sample could no longer be
+    told from the rounding) are refused; samples missing (a step of twice the others) are refused
+    naming the gap.
 
     Raises
     ------
@@ -356,7 +358,8 @@ def time_grid(t: np.ndarray, where: str) -> tuple[float, np.ndarray]:
     digits = _printed_digits(t)
     unit = 10.0 ** (math.floor(math.log10(top)) - digits + 1) if top > 0 else 0.0
     rounding = unit + 4 * np.finfo(float).eps * top  # t[i] and t[0] (the grid's origin) each off by unit / 2
-    if rounding > 0.25 * step:
+    _refuse_gaps(dt, unit, where)
+    if rounding > 0.5 * step:
         raise InputFileError(f"{where}: times are printed with {digits} significant digits, too few to tell "
                              f"samples {step:.3g} s apart; expected more digits in column 't'")
     # rounded times: the grid is the least-squares line through all of them (its slope is
@@ -379,6 +382,35 @@ def time_grid(t: np.ndarray, where: str) -> tuple[float, np.ndarray]:
     grid *= step
     grid += mean
     return 1.0 / step, grid
+
+
+def _refuse_gaps(dt: np.ndarray, unit: float, where: str) -> None:
+    """Refuse a record with samples missing (a DAQ's dropped block), naming where and how many.
+
+    A step between printed times is at most ``h + unit`` (``h`` the median step, ``unit`` the
+    last printed digit's); a sample missing makes it at least ``2 h - unit``. A step beyond
+    ``h + max(h / 2, unit)`` is a gap (times printed with a unit below half a step tell the two
+    apart; coarser ones are refused as too coarse after this); a long step that a neighbouring
+    short one makes up for is a sample shifted in time, left to the grid check."""
+    h = float(np.median(dt))
+    slack = max(0.5 * h, unit)
+    # a long step whose neighbour makes up for it is a shifted sample (its two steps sum to 2 h;
+    # refused by the grid check), not a gap (3 h)
+    pair = np.full(dt.size, np.inf)
+    pair[1:] = dt[1:] + dt[:-1]
+    pair[:-1] = np.minimum(pair[:-1], dt[:-1] + dt[1:])
+    gap = (dt > h + slack) & (pair > 2 * h + slack)
+    big = np.nonzero(gap)[0]
+    if not big.size:
+        return
+    i = int(big[0])
+    h = float(np.mean(dt[dt <= h + slack]))  # the mean step (the median of rounded steps is one of their values)
+    missing = int(round(dt[i] / h)) - 1
+    more = f" (and {big.size - 1} more gaps)" if big.size > 1 else ""
+    raise InputFileError(
+        f"{where}: samples missing: the time jumps {dt[i]:.4g} s at line {i + 3} where a step is {h:.4g} s "
+        f"(about {max(missing, 1)} samples dropped{more}); expected a record without gaps (export the "
+        "block again, or cut the record at the gap)")
 
 
 def check_force_impact(force: np.ndarray, where: str) -> None:
