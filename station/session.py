@@ -329,14 +329,19 @@ def validate_measurement(model: EquationOfMotion | ModalSumModel, meas: Measurem
                            p.v_measured, p.v_predicted, "velocity", not math.isfinite(p.errors.nrmse))
     cond = condition_measurement(meas)
     val, by_force = validate_conditioned(model, cond)
-    return record_check(meas, val, by_force)
+    from station.impulse_check import check_signal, impulse_warning
+
+    chk = check_signal(cond, float(model.mass))  # the hammer impulse at the model's mass, as identify
+    said = impulse_warning(chk, "the record") if chk is not None else None
+    return record_check(meas, val, by_force, () if said is None else (said,))
 
 
-def record_check(meas: Measurement | RecordInfo, val: Validation, by_force: bool) -> RecordCheck:
-    """A :class:`RecordCheck` of a validation of ``meas``."""
+def record_check(meas: Measurement | RecordInfo, val: Validation, by_force: bool,
+                 more: tuple[str, ...] = ()) -> RecordCheck:
+    """A :class:`RecordCheck` of a validation of ``meas`` (``more``: warnings beside the validation's)."""
     return RecordCheck(meas.source, val.nrmse, val.nmte, "force" if by_force else "initial state",
                        peak_force(meas), val.t, val.x_measured, val.x_simulated, "displacement", val.diverged,
-                       val.warnings)
+                       tuple(val.warnings) + more)
 
 
 def run_session(

@@ -64,3 +64,17 @@ def test_classify() -> None:
     assert classify(1.04) == "scale" and classify(0.9) == "scale"
     assert classify(9.6) == "g_as_si" and classify(1 / 9.9) == "si_as_g"
     assert classify(-0.3) == "sign"
+
+
+def test_validate_says_it_too(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``station validate`` checks the impulse at the model's mass: a right model on a record in g
+    gets the same warning identify gives, and a clean record none."""
+    clean = _csv(tmp_path, "clean", 1.0, "paper_do", 4)
+    model = tmp_path / "model.json"
+    model.write_text(json.dumps(_identify(clean, SYSTEMS["paper_do"]["mass"], capsys)["model"]))
+    code = main(["validate", str(model), str(clean), str(_csv(tmp_path, "in_g", 1 / G, "paper_do", 4)), "--json"])
+    obj = json.loads(capsys.readouterr().out)
+    assert code == 0
+    ok, in_g = obj["records"]
+    assert not any("hammer impulse" in w for w in ok["warnings"])
+    assert any("recorded in g under an SI" in w for w in in_g["warnings"])
