@@ -143,3 +143,17 @@ def test_divergence_is_flagged_not_raised() -> None:
     res = simulate(eom, rate_hz=100.0, n_samples=5000, x0=1.0, substeps=1)
     assert res.diverged
     assert np.isnan(res.x[-1])
+
+
+def test_parse_term_remembers_and_still_refuses() -> None:
+    """parse_term is cached (session 11: one identification parsed the same terms ~500 times):
+    the same frozen Term comes back; bad input still raises TermError every time."""
+    from eddi.errors import TermError
+    from eddi.terms import parse_term
+
+    assert parse_term("x^2*v") is parse_term("x^2*v")
+    assert parse_term(" x^2 * v ").exponents == (2, 1, 0, 0, 0, 0)
+    for bad in ("x^13", "y", ["x"], 3):
+        for _ in range(2):
+            with pytest.raises(TermError):
+                parse_term(bad)
