@@ -20,12 +20,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import BSpline, CubicHermiteSpline, make_interp_spline
 
+from eddi.median import median
+
 #: Degree of the interpolating splines used for quadrature and for values at crossings.
 #: Quintic: on the paper Duffing (60 samples per period at the start) the energy balance of
 #: the first half cycle closes to 6e-9 J instead of 3e-6 J with cubic splines.
 SPLINE_DEGREE = 5
 
-from eddi.median import median
 from eddi.terms import Term
 
 
