@@ -265,7 +265,7 @@ finally:
 """
 
 
-def run_estimate(jobs: int) -> None:
+def run_estimate(jobs: int, detail: bool = False) -> None:
     """The quiet-machine wall time of ``station diagnose`` on ``jobs`` idle cores, modelled (see
     the module notes) from one timed run per case in one process."""
     import json
@@ -301,6 +301,10 @@ def run_estimate(jobs: int) -> None:
                   f"cores: {outside + shared:.2f} s wall ({outside + dealt:.2f} s with the items dealt round "
                   f"robin); target {target:g} s: {'met' if outside + shared <= target else 'NOT met'}; "
                   f"load {load0:.2f} -> {os.getloadavg()[0]:.2f} (CPU inflates with the load)")
+            if detail:
+                for k, m in enumerate(maps):
+                    print(f"estimate: {case}:   map {k + 1:2d}: {len(m):3d} items, CPU {sum(m):6.2f} s, "
+                          f"largest {max(m, default=0.0):5.2f} s, on {jobs} cores {_makespan(m, jobs):5.2f} s")
 
 
 def main() -> None:
@@ -318,12 +322,14 @@ def main() -> None:
     ap.add_argument("--before", default=None, metavar="TREE",
                     help="cli cases: also run each one-process diagnosis from this checkout (e.g. a "
                          "`git worktree` of the previous commit), interleaved, and print after / before")
+    ap.add_argument("--detail", action="store_true",
+                    help="--case estimate: also each fork map's items (count, CPU, largest, makespan)")
     ap.add_argument("--profile", type=int, default=0, metavar="N",
                     help="print the N top cProfile lines of one extra run (default: off)")
     args = ap.parse_args()
     np.seterr(all="ignore")
     if args.case == "estimate":
-        run_estimate(args.jobs or 2)
+        run_estimate(args.jobs or 2, args.detail)
         return
     if args.case.startswith("cli"):
         run_cli(max(1, args.runs), ("three", "beam") if args.case == "cli" else (args.case[4:],),

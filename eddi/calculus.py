@@ -279,8 +279,10 @@ def signal_angular_frequency(x: np.ndarray, v: np.ndarray, a: np.ndarray) -> flo
     return 1.5 * float(np.max(np.abs(a))) / vmax if vmax > 0 else 0.0
 
 
-def decimation_factor(rate_hz: float, omega: float, h_omega: float = DECIMATE_H_OMEGA) -> int:
-    """Odd factor ``q`` with ``omega q / rate_hz <= h_omega``; 1 below :data:`MIN_DECIMATION`."""
+def decimation_factor(rate_hz: float, omega: float, h_omega: float | None = None) -> int:
+    """Odd factor ``q`` with ``omega q / rate_hz <= h_omega`` (default :data:`DECIMATE_H_OMEGA`, read
+    at the call); 1 below :data:`MIN_DECIMATION`."""
+    h_omega = DECIMATE_H_OMEGA if h_omega is None else h_omega
     if not (omega > 0 and math.isfinite(omega) and rate_hz > 0):
         return 1
     q = int(h_omega * rate_hz / omega)

@@ -20,6 +20,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import BSpline, CubicHermiteSpline, make_interp_spline
 
+from eddi.median import median
+
 #: Degree of the interpolating splines used for quadrature and for values at crossings.
 #: Quintic: on the paper Duffing (60 samples per period at the start) the energy balance of
 #: the first half cycle closes to 6e-9 J instead of 3e-6 J with cubic splines.
@@ -64,7 +66,9 @@ def noise_level(y: np.ndarray) -> float:
     y = np.asarray(y, dtype=float)
     if y.size < 4:
         return 0.0
-    return float(np.median(np.abs(np.diff(y, 3))) / 0.6745 / np.sqrt(20.0))
+    # numpy.median's value bit for bit, by selection in a bracket (eddi.median: ~4x faster on
+    # the 460k samples of a 24 s free response at 19.2 kHz; three per identification)
+    return float(median(np.abs(np.diff(y, 3))) / 0.6745 / np.sqrt(20.0))
 
 
 def zero_crossings(t: np.ndarray, x: np.ndarray, v: np.ndarray, hysteresis: float = 0.0,

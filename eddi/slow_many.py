@@ -38,7 +38,7 @@ from eddi.identify_many import (
     Basis, PotentialRows, SegmentEnergy, phase_one_many, phase_two_many, potential_rows, row_step, term_basis,
 )
 from eddi.phase_one import scaled_lstsq
-from eddi.slow_errors import MAX_OFFSET, PASSES, drift_basis, rate_error_columns
+from eddi.slow_errors import MAX_OFFSET, PASSES, drift_basis, nuisance_values, rate_error_columns
 
 #: Stiffness terms always in the library a segment's slow errors are fitted with.
 NUISANCE_STIFFNESS = ("x", "x^2", "x^3")
@@ -101,15 +101,20 @@ def _fit(e: SegmentEnergy, damping: list[Basis], stiffness: list[Basis]) -> np.n
     """The segment's slow errors fitted jointly with its stiffness (module notes), on at most
     :data:`FIT_ROWS` of its samples (every k-th), evaluated at all of them."""
     ts = e.seg.t[e.i0:e.i1]
+    vs = e.seg.v[e.i0:e.i1]
     m = len(stiffness)
-    bs_all = drift_basis(ts, e.gamma)
-    if ts.size < 10 * (m + 2 * bs_all.shape[1]) or len(damping) > e.half_cycles:
+    span = (float(np.min(ts)), float(np.max(ts)))
+    n_basis = drift_basis(ts[[0, -1]], e.gamma, span=span).shape[1]
+    if ts.size < 10 * (m + 2 * n_basis) or len(damping) > e.half_cycles:
         return None
-    rs_all = rate_error_columns(ts, e.gamma, e.t_gamma, e.seg.v[e.i0:e.i1], e.mass, bs_all)
     b, _ = phase_one_many([e], damping)
-    rows = potential_rows([e], damping, b, max_rows=max(FIT_ROWS, 10 * (m + 2 * bs_all.shape[1])))
-    step = row_step([e], max(FIT_ROWS, 10 * (m + 2 * bs_all.shape[1])))
-    bs, rs = bs_all[::step], rs_all[::step]
+    rows = potential_rows([e], damping, b, max_rows=max(FIT_ROWS, 10 * (m + 2 * n_basis)))
+    step = row_step([e], max(FIT_ROWS, 10 * (m + 2 * n_basis)))
+    # the nuisance columns at the fitted rows only (each row of them depends only on its own
+    # sample and the crossings: the rows of the full matrices, bit for bit)
+    sel = slice(None, None, step)
+    bs = drift_basis(ts[sel], e.gamma, span=span)
+    rs = rate_error_columns(ts, e.gamma, e.t_gamma, vs, e.mass, bs, rows=sel)
     c, _ = phase_two_many(rows, stiffness)
     pot = np.column_stack([s.potential(rows.x) for s in stiffness])
     kmat = np.column_stack([s.force(rows.x, np.zeros_like(rows.x)) for s in stiffness])
@@ -131,8 +136,10 @@ def _fit(e: SegmentEnergy, damping: list[Basis], stiffness: list[Basis]) -> np.n
         return None
     x = e.seg.x[e.i0:e.i1]
     kc = np.column_stack([s.force(x, np.zeros_like(x)) for s in stiffness]) @ c
-    # V(x) = (E - T) - [-K(x) delta + rate columns c_v]
-    return kc * (bs_all @ z[:p]) - rs_all @ z[p:]
+    # V(x) = (E - T) - [-K(x) delta + rate columns c_v], the splines evaluated at every sample
+    # (forming the two (samples x knots) matrices for it was ~60 % of this function)
+    delta, rate_terms = nuisance_values(ts, e.gamma, e.t_gamma, vs, e.mass, z[:p], z[p:])
+    return kc * delta - rate_terms
 
 
 def _projector(nmat: sparse.csr_matrix):

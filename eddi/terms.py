@@ -14,6 +14,7 @@ exponent form is what the compiled simulator consumes.
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass
 
@@ -96,8 +97,9 @@ class Term:
         # the factors in the order they always had, multiplied in place into the first (the
         # product with a leading array of ones, ``1.0 * y == y`` exactly, is skipped: the same
         # numbers bit for bit, one temporary and one pass fewer per factor)
-        for on, factor in ((px, lambda: x**px), (pv, lambda: v**pv), (pax, lambda: np.abs(x) ** pax),
-                           (pav, lambda: np.abs(v) ** pav), (sx % 2, lambda: np.sign(x)),
+        for on, factor in ((px, lambda: _power(x, px)), (pv, lambda: _power(v, pv)),
+                           (pax, lambda: _power(np.abs(x), pax)),
+                           (pav, lambda: _power(np.abs(v), pav)), (sx % 2, lambda: np.sign(x)),
                            (sv % 2, lambda: np.sign(v))):
             if not on:
                 continue
@@ -107,6 +109,18 @@ class Term:
             else:
                 out *= f
         return np.ones(shape) if out is None else out
+
+
+def _power(y: np.ndarray, p: int) -> np.ndarray:
+    """``y**p`` for an integer ``p >= 1``: numpy's own for ``p <= 2`` (a copy, a square), repeated
+    products above (numpy's ``y**3`` calls ``pow``: ~40 ns a sample, 19 ms on 460k samples,
+    against ~0.3 ms; within a few ulps of it)."""
+    if p <= 2:
+        return y**p
+    out = y * y
+    for _ in range(p - 2):
+        out *= y
+    return out
 
 
 def parse_term(text: str) -> Term:
@@ -128,6 +142,13 @@ def parse_term(text: str) -> Term:
     """
     if not isinstance(text, str):
         raise TermError(f"term must be text, got {type(text).__name__}")
+    return _parse_term(text)
+
+
+@functools.lru_cache(maxsize=1024)
+def _parse_term(text: str) -> Term:
+    """:func:`parse_term` of a string, remembered (a frozen :class:`Term`; one identification
+    parsed the same few terms ~500 times, ~1.5 ms of CPU; errors are not cached)."""
     compact = "".join(text.split())
     if not compact:
         raise TermError("empty term")

@@ -202,3 +202,15 @@ def test_trapezoid_is_the_trapezoid_rule_on_uniform_and_uneven_points() -> None:
     t = np.linspace(0.0, 2.0, 7)
     assert trapezoid(3 * t + 1, t) == pytest.approx(8.0, rel=1e-15)
     assert trapezoid(np.array([5.0])) == 0.0
+
+
+def test_decimation_factor_reads_the_working_rate_at_the_call(monkeypatch):
+    """benchmarks/bench_eddi_rate.py compares EDDI's working rates by setting
+    DECIMATE_H_OMEGA: the factor follows it (it was bound at definition before session 11)."""
+    import eddi.calculus as ec
+
+    omega = 2 * np.pi * 12.0 * 1.5
+    assert ec.decimation_factor(19200.0, omega) == 15  # 0.1 rad a step: ~63 samples a cycle of 1.5 omega
+    monkeypatch.setattr(ec, "DECIMATE_H_OMEGA", 0.2)
+    assert ec.decimation_factor(19200.0, omega) == 33
+    assert ec.decimation_factor(19200.0, omega, h_omega=0.1) == 15

@@ -129,3 +129,49 @@ def test_split_normal_equations_solve_the_stacked_system() -> None:
         got, cond = normal_lstsq_split(dense, nuis, noisy)
         assert np.max(np.abs(got - ref)) <= 1e-10 * np.max(np.abs(ref))
         assert cond == pytest.approx(cref, rel=1e-9)
+
+
+def test_scale_rows_and_cols_are_the_diagonal_products_bit_for_bit():
+    """scale_rows / scale_cols (session 11: stored values scaled, no sparse-sparse product)
+    give diag(s) @ a and a @ diag(s) exactly, explicit zeros aside."""
+    from scipy import sparse
+
+    from eddi.slow_errors import drift_basis, scale_cols, scale_rows
+
+    rng = np.random.default_rng(4)
+    t = np.linspace(0.0, 3.0, 4001)
+    gamma = np.arange(0.0, 3.0, 0.05)
+    a = drift_basis(t, gamma)
+    s_r = rng.normal(size=a.shape[0]) * 10.0 ** rng.uniform(-3, 3, a.shape[0])
+    s_c = rng.normal(size=a.shape[1])
+    assert np.array_equal(scale_rows(a, s_r).toarray(), (sparse.diags(s_r) @ a).toarray())
+    assert np.array_equal(scale_cols(a, s_c).toarray(), (a @ sparse.diags(s_c)).toarray())
+    # the input is not modified
+    assert np.array_equal(a.toarray(), drift_basis(t, gamma).toarray())
+
+
+def test_nuisance_rows_and_values_without_the_full_matrices():
+    """Session 11 (eddi.slow_many fits on every k-th sample, evaluates on all): the rate-error
+    columns at a subset of rows are the full matrix's rows bit for bit, and the two splines
+    evaluated at every sample equal the full matrices' products to rounding."""
+    from eddi.slow_errors import drift_basis, nuisance_values, rate_error_columns
+
+    rng = np.random.default_rng(8)
+    t = np.arange(30_000) / 5000.0
+    w = 2 * np.pi * 9.0
+    v = np.exp(-0.2 * t) * np.cos(w * t)
+    gamma = (np.arange(1, 107) - 0.5) * np.pi / w  # the crossings of x ~ sin(w t)
+    gamma = gamma[gamma < t[-1]]
+    kin = 0.5 * 0.3 * (np.exp(-0.2 * gamma)) ** 2
+    full_b = drift_basis(t, gamma)
+    full_r = rate_error_columns(t, gamma, kin, v, 0.3, full_b)
+    sel = slice(None, None, 7)
+    b7 = drift_basis(t[sel], gamma, span=(t[0], t[-1]))
+    r7 = rate_error_columns(t, gamma, kin, v, 0.3, b7, rows=sel)
+    assert np.array_equal(b7.toarray(), full_b[sel].toarray())
+    assert np.array_equal(r7.toarray(), full_r[sel].toarray())
+    z1, z2 = rng.normal(size=full_b.shape[1]), rng.normal(size=full_b.shape[1])
+    offset, rate_terms = nuisance_values(t, gamma, kin, v, 0.3, z1, z2)
+    ref1, ref2 = full_b @ z1, full_r @ z2
+    assert np.max(np.abs(offset - ref1)) <= 1e-13 * np.max(np.abs(ref1))
+    assert np.max(np.abs(rate_terms - ref2)) <= 1e-13 * np.max(np.abs(ref2))

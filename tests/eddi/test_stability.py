@@ -123,3 +123,33 @@ def test_dry_friction_outside_the_library_is_flagged_and_its_null_is_silent(fric
         res = Pipeline.create().fit(condition(r.t, acc=r.acc, force=r.force), base["mass"])
         poor = [w for w in res.warnings if w.startswith("poor fit")]
         assert bool(poor) == flagged, (damping, res.validation.nrmse, res.warnings)
+
+
+def test_damping_power_by_products_matches_the_kernel_and_skips_it(monkeypatch) -> None:
+    """model_warnings' damping force (session 11: powers as repeated products, not the
+    simulator's general kernel nor numpy's pow) equals the kernel's to rounding, for every
+    kind of factor, and the check no longer calls the kernel."""
+    import importlib
+    from eddi.model import EquationOfMotion
+    from eddi.stability import _damping_force
+
+    n = 50_000
+    t = np.arange(n) / 5000.0
+    x = 1e-2 * np.sin(2 * np.pi * 12 * t) * np.exp(-t / 4)
+    v = np.gradient(x, t)
+    eom = EquationOfMotion.create(mass=0.8, damping={"v": 0.2, "x^2*v": -2.0e4, "v^3": 9.9, "sign(v)": 0.01,
+                                                     "abs(v)*v": 0.3, "abs(x)*v": 2.0},
+                                  stiffness={"x": 390.0, "x^3": 1.3e7})
+    sim_mod = importlib.import_module("eddi.simulate")
+    ref = sim_mod.internal_force(eom.model_copy(update={"stiffness": {}, "effects": ()}), x, v)
+    got = _damping_force(eom, x, v)
+    assert np.max(np.abs(got - ref)) <= 1e-14 * np.max(np.abs(ref))
+
+    def refuse(*_a, **_k):
+        raise AssertionError("the compiled kernel was called")
+
+    monkeypatch.setattr(sim_mod, "internal_force", refuse)
+    bad = EquationOfMotion.create(mass=0.8, damping={"v": -0.05}, stiffness={"x": 390.0})
+    (msg,) = model_warnings(bad, x, v)
+    assert msg.startswith("negative damping: the model feeds energy in over ")
+    assert model_warnings(eom.model_copy(update={"damping": {"v": 0.2}}), x, v) == ()

@@ -1,0 +1,55 @@
+"""eddi.median: numpy.median's value bit for bit, without partitioning the whole array."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import eddi.median as em
+from eddi.energy import noise_level
+
+
+def _arrays():
+    rng = np.random.default_rng(11)
+    yield rng.normal(size=20_001)
+    yield rng.normal(size=460_000)
+    yield np.abs(np.diff(np.cumsum(rng.normal(size=300_003)), 3))  # noise_level's argument
+    yield np.sort(rng.exponential(size=123_457))  # sorted: the strided sample is still spread
+    yield np.round(rng.normal(size=200_000), 1)  # many ties at the middle
+    n = 500_000
+    yield np.sin(0.01 * np.arange(n)) * np.exp(-np.arange(n) / n)  # a ring-down
+
+
+@pytest.mark.parametrize("a", list(_arrays()), ids=lambda a: f"n{a.size}")
+def test_equals_numpy_bit_for_bit(a):
+    assert em.median(a) == float(np.median(a))
+
+
+def test_long_array_not_partitioned_whole(monkeypatch):
+    """The speed claim: a long array's median never calls numpy.median (the fallback)."""
+    a = np.random.default_rng(3).normal(size=460_000)
+    want = float(np.median(a))
+
+    def refuse(*_a, **_k):
+        raise AssertionError("numpy.median called on a long array")
+
+    monkeypatch.setattr(em.np, "median", refuse)
+    assert em.median(a) == want
+
+
+def test_nan_and_short_arrays_as_numpy():
+    a = np.random.default_rng(5).normal(size=50_000)
+    a[17] = np.nan
+    assert np.isnan(em.median(a))
+    short = np.array([3.0, 1.0, 2.0, 10.0])
+    assert em.median(short) == 2.5
+
+
+def test_noise_level_unchanged():
+    """noise_level's value is the one numpy.median gives (the identify JSON stays byte-identical)."""
+    rng = np.random.default_rng(7)
+    t = np.arange(400_000) / 19200.0
+    y = np.sin(2 * np.pi * 12.0 * t) + 1e-3 * rng.normal(size=t.size)
+    ref = float(np.median(np.abs(np.diff(y, 3))) / 0.6745 / np.sqrt(20.0))
+    assert noise_level(y) == ref
+    assert abs(noise_level(y) / 1e-3 - 1.0) < 0.02
