@@ -1,4 +1,6 @@
-"""``station identify``'s check for an undeclared accelerometer AC coupling (IEPE) on one record.
+"""The check for an undeclared accelerometer AC coupling (IEPE) on one record, run on the fit
+record by every command that identifies (``identify``, ``replay``, ``report``, ``demo``, a
+campaign's identify; ``diagnose`` once for its diagnosis), so that each warns alike.
 
 Cheap part, on every record with a measured force and acceleration: the corner that best
 explains the pipeline's drive misfit (:func:`eddi.coupling_check.highpass_estimate`, no new
