@@ -10,7 +10,9 @@ runs on
    quasi-static restoration of the identification;
 3. ``noise-free acc``: quantised accelerations through the full conditioning (integration,
    high-pass, windows);
-4. ``45 dB acc``: the benchmark's records (also what ``bench_mdof.py`` uses).
+4. ``45 dB acc``: the benchmark's records (also what ``bench_mdof.py`` uses);
+5. ``45 dB acc, polished``: rung 4's model polished on its training records
+   (:func:`eddi.mdof.refine.refine_identified`, what ``station diagnose --refine`` delivers).
 
 Printed per rung: coordinates chosen, tail modes, held-out nrmse per channel (the true model's
 beside it), masses, and the cubic/coupling coefficients per unit mass against the truth
@@ -18,6 +20,10 @@ written in the same coordinates (``bench_mdof.coupling_errors``). The rung at wh
 appears is its cause.
 
     PYTHONPATH=. python benchmarks/bench_mdof_error_budget.py [--system two-mass-cubic]
+    PYTHONPATH=. python benchmarks/bench_mdof_error_budget.py --chain h-two-cubic-2k [--seed 100]
+
+``--chain`` takes a three-mass case of ``bench_mdof_chain.py`` (session 11); per rung the natural
+frequencies of the model's linearisation are also printed against the truth's.
 """
 
 from __future__ import annotations
@@ -39,11 +45,16 @@ from simulated_rig.mdof_systems import load_mdof_system, mdof_impact_test  # noq
 from station.mdof_data import condition_multichannel  # noqa: E402
 
 
-def rungs(name: str) -> tuple[object, dict[str, list]]:
+def rungs(name: str, chain: str = "", seed: int = 100) -> tuple[object, dict[str, list]]:
     """The system's truth and the four rungs' records (train first three, held out last)."""
-    system = load_mdof_system(name)
+    if chain:
+        from bench_mdof_chain import SETS, chain_system
+
+        system = chain_system(chain, {k: v for t in SETS.values() for k, v in t.items()}[chain])
+    else:
+        system = load_mdof_system(name)
     peaks = list(system.impacts_n) + [0.7 * max(system.impacts_n)]
-    raw = {snr: [mdof_impact_test(system, p, seed=100 + k, snr_db=snr) for k, p in enumerate(peaks)]
+    raw = {snr: [mdof_impact_test(system, p, seed=seed + k, snr_db=snr) for k, p in enumerate(peaks)]
            for snr in (None, 45.0)}
     cond = {snr: [condition_multichannel(_measurement(r)) for r in rs] for snr, rs in raw.items()}
 
@@ -65,19 +76,35 @@ def rungs(name: str) -> tuple[object, dict[str, list]]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--system", default="two-mass-cubic", help="a built-in MDOF system or a system file")
+    ap.add_argument("--chain", default="", help="a case of bench_mdof_chain.py instead of --system")
+    ap.add_argument("--seed", type=int, default=100, help="noise seed of the first record (then +1, ...)")
+    ap.add_argument("--rungs", default="", help="comma-separated rung labels to run (default all)")
     args = ap.parse_args()
-    truth, ladder = rungs(args.system)
+    truth, ladder = rungs(args.system, args.chain, args.seed)
+    if args.rungs:
+        ladder = {k: v for k, v in ladder.items() if k in args.rungs.split(",")}
+    true_f = truth.natural_frequencies_hz()
     for label, recs in ladder.items():
         ident = identify_mdof(recs[:3], truth.channels, truth.driving_point,
                               highpass_hz=None if label == "exact" else 2.0)
-        held, floor = validate_mdof(ident.model, recs[3]), validate_mdof(truth, recs[3])
-        print(f"== {label}: {ident.coordinates} coordinates, tail modes "
-              f"{', '.join(f'{f:.4g}' for f in ident.modes.frequencies_hz[:4])} Hz; held-out nrmse "
-              + ", ".join(f"{c} {held.channel_nrmse[c]:.4f} (true model {floor.channel_nrmse[c]:.4f})"
-                          for c in truth.channels)
-              + f"; masses {', '.join(f'{m:.4g}' for m in ident.model.mass)} kg")
-        for line in coupling_errors(truth, ident.model, recs[:3]):
-            print(line)
+        models = [(label, ident.model)]
+        if label == "45 dB acc":
+            from eddi.mdof.refine import refine_identified
+
+            models.append(("45 dB acc, polished", refine_identified(ident, recs[:3])[0]))
+        for name, model in models:
+            held, floor = validate_mdof(model, recs[3]), validate_mdof(truth, recs[3])
+            freq = model.natural_frequencies_hz()
+            print(f"== {name}: {ident.coordinates} coordinates, tail modes "
+                  f"{', '.join(f'{f:.4g}' for f in ident.modes.frequencies_hz[:4])} Hz; held-out nrmse "
+                  + ", ".join(f"{c} {held.channel_nrmse[c]:.4f} (true model {floor.channel_nrmse[c]:.4f})"
+                              for c in truth.channels)
+                  + f"; masses {', '.join(f'{m:.4g}' for m in model.mass)} kg (true "
+                  + f"{', '.join(f'{m:.4g}' for m in truth.mass)}); natural frequencies "
+                  + ", ".join(f"{a:.4g} ({100 * (a / b - 1):+.2f} %)" for a, b in zip(freq, true_f)) + " Hz")
+            print(f"    kept: {next((n for n in ident.notes if 'kept' in n), '')[:160]}")
+            for line in coupling_errors(truth, model, recs[:3]):
+                print(line)
 
 
 if __name__ == "__main__":

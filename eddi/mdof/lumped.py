@@ -222,7 +222,8 @@ def _jackknife_blocks(lengths: Sequence[int]) -> np.ndarray:
 
 
 def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: int, *,
-               elements: list[Element] | None = None, prune: float = 3e-3, prefilter: bool = True) -> LumpedFit:
+               elements: list[Element] | None = None, prune: float = 3e-3, prefilter: bool = True,
+               instruments: Sequence[tuple] | None = None) -> LumpedFit:
     """Masses and element constants from the records (module docstring).
 
     Parameters
@@ -243,17 +244,28 @@ def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: in
         An element whose force (RMS) is below this fraction of the inertia force is dropped.
     prefilter : bool
         Filter the columns through the drift high-pass (module docstring).
+    instruments : sequence of tuple, optional
+        Per record the same tuple with states free of the measurement's noise (a simulation of a
+        first model, conditioned as the records were): instrumental variables. The columns are
+        replaced by their projection on the instruments' columns (two-stage least squares), so
+        the noise in the measured displacement - an error in the variables, which biases an
+        ordinary least squares towards zero - no longer enters the normal equations; residuals
+        and forces are those of the measured columns. The intervals take the projected design as
+        known (the first stage's own spread is not in them).
     """
     elements = list(candidate_elements(n) if elements is None else elements)
     lengths = [r[4][1] - r[4][0] for r in records]
     # the columns of a subset of elements are those columns of the whole design (each element's
     # column is filtered on its own): stacked once, not once per pruning round
     full, b, eq_of = _stack(records, elements, n, d, prefilter)
+    inst = _stack(instruments, elements, n, d, prefilter)[0] if instruments is not None else None
     where = {e: n - 1 + k for k, e in enumerate(elements)}
     rest = list(range(n - 1 + len(elements), full.shape[1]))
     for _round in range(len(elements) + 1):  # one element dropped per round; the last round drops none
-        a_mat = full[:, list(range(n - 1)) + [where[e] for e in elements] + rest]
-        p, _ = scaled_lstsq(a_mat, b)
+        cols = list(range(n - 1)) + [where[e] for e in elements] + rest
+        a_mat = full[:, cols]
+        a_fit = a_mat if inst is None else _projected(inst[:, cols], a_mat)
+        p, _ = scaled_lstsq(a_fit, b)
         ne = len(elements)
         ecoef = p[n - 1: n - 1 + ne]
         force_rms = _relative_force(a_mat[:, n - 1: n - 1 + ne] * ecoef, eq_of, p[: n - 1], n, d)
@@ -269,12 +281,22 @@ def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: in
     masses[[i for i in range(n) if i != d]] = p[: n - 1]
     consts = dict(zip(elements, ecoef))
     blocks = np.tile(_jackknife_blocks(lengths), n)  # the same blocks in every equation
-    ci = jackknife_lstsq_ci95(a_mat, b, blocks, slice(n - 1, n - 1 + ne))
+    ci = jackknife_lstsq_ci95(a_fit, b, blocks, slice(n - 1, n - 1 + ne))
     resid = a_mat @ p - b
     residual = np.array([float(np.sqrt(np.mean(resid[eq_of == i] ** 2))) for i in range(n)])
     scale = driven_mass(impacts, masses, consts, d)
     return LumpedFit(masses * scale, {e: c * scale for e, c in consts.items()},
                      {e: float(h) * scale for e, h in zip(elements, ci)}, residual)
+
+
+def _projected(z: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """The columns of ``a`` projected on the span of the instruments ``z`` (first stage of two-stage
+    least squares; columns scaled to unit norm for the solve)."""
+    norms = np.linalg.norm(z, axis=0)
+    norms[norms == 0] = 1.0
+    zn = z / norms
+    coef, *_ = np.linalg.lstsq(zn, a, rcond=None)
+    return zn @ coef
 
 
 def driven_mass(impacts: Sequence[tuple], masses: np.ndarray, consts: dict, d: int) -> float:

@@ -59,3 +59,28 @@ def test_a_hidden_cubic_coupling_in_a_three_mass_chain_is_found_where_it_is(draw
     assert not held.diverged
     # EDDI alone (the polish takes it to the true model's level); 0.12 with the old slow band
     assert max(held.channel_nrmse.values()) <= 0.08
+
+
+def test_a_struck_mass_on_a_stiff_ground_spring_keeps_the_lumped_chain_by_instrumental_variables():
+    # session 11: 1 / 0.6 / 1.4 kg, the struck mass on a stiff ground spring (its displacement's
+    # noise floor 1.8x the others'), a soft middle spring with a cubic at 25 % of its force at the
+    # largest blow. Least squares on the noisy displacement (errors in the variables) scaled the
+    # chain beyond the struck mass by about -1 % and left a training nrmse of 0.12 (4x the floor;
+    # modal coordinates then won); refitted with instruments from the simulated model, 0.024
+    system = MdofSystem.model_validate({
+        "name": "stiff-ground", "masses_kg": [1.0, 0.6, 1.4], "driving_point": 1, "rate_hz": 4000.0,
+        "record_s": 3.0, "impacts_n": [50.0, 140.0, 300.0],
+        "elements": [{"between": [0, 1], "k": 6e4, "c": 4.0}, {"between": [1, 2], "k": 1.2e4, "c": 0.8, "k3": 5.807e8},
+                     {"between": [2, 3], "k": 2.5e4, "c": 1.5, "k3": 3.007e8}]})
+    from eddi.mdof.candidates import records_floor, training_error
+
+    records = [_conditioned(system, p, seed=7 + k) for k, p in enumerate(system.impacts_n)]
+    ident = identify_lumped(records, CHANNELS, "acc1")
+    assert training_error(ident.model, records) <= 2.0 * records_floor(records)  # 0.122 without
+    assert "instrumental variables from the simulated model" in ident.notes[0]  # the fit kept
+    assert ident.model.mass == pytest.approx((1.0, 0.6, 1.4), rel=0.006)
+    # the soft middle spring's cubic scatters with the noise (-9 .. +2 % over seeds 3 / 7 / 11 by
+    # the CSV path; least squares -6 .. -1 %): placed right, not to 3 %
+    cubic = {(e.a, e.b): c for e, c in ident.lumped.constants.items() if e.kind == "k3"}
+    assert set(cubic) == {(1, 2), (2, 3)}
+    assert cubic[(1, 2)] == pytest.approx(5.807e8, rel=0.1) and cubic[(2, 3)] == pytest.approx(3.007e8, rel=0.03)
