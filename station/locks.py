@@ -33,6 +33,10 @@ class LockTimeout(StationError, TimeoutError):
     """Another process holds the session file's lock longer than the bounded wait."""
 
 
+class LockUnavailable(StationError, OSError):
+    """The lock file beside the session cannot be created (a read-only or full folder)."""
+
+
 def lock_path(path: Path) -> Path:
     """The writer-lock sidecar of ``path``."""
     return path.with_name(f".{path.name}.lock")
@@ -88,7 +92,12 @@ class WriterLock:
             self._depth += 1
             return
         lp = lock_path(self.path)
-        fd = os.open(lp, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fd = os.open(lp, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:  # said of the session file, not only of its sidecar
+            what = "disk full" if exc.errno == errno.ENOSPC else (exc.strerror or str(exc))
+            raise LockUnavailable(f"cannot write {self.path}: {what} (its lock file {lp.name} cannot be "
+                                  f"created); nothing was written") from None
         try:
             if not _flock(fd, fcntl.LOCK_EX, self.wait_s):
                 holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "unknown"

@@ -203,3 +203,17 @@ def test_campaign_ctrl_c_and_full_disk_are_one_line(tmp_path: Path) -> None:
     assert rc == 2 and len(lines) == 1 and "Traceback" not in err, err[-3000:]
     assert lines[0].startswith("station: error: camp2: cannot write the campaign's results (File too large)")
     assert not list((tmp_path / "camp2").glob("*.tmp"))
+
+
+def test_a_session_whose_lock_cannot_be_made_is_named(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a read-only folder (or a lock path that is a folder) named only the sidecar:
+    # "Is a directory: .../.s.h5.lock"; now the session file, and that nothing was written
+    from tests.station.test_bad_inputs import _csv, _ringdown
+
+    t, force, acc = _ringdown()
+    good = _csv(tmp_path / "good.csv", "t,force,acc", np.column_stack([t, force, acc]))
+    (tmp_path / ".s.h5.lock").mkdir()
+    rc, line = _run(["import", good, "--out", tmp_path / "s.h5", "--mass", "1"], capsys)
+    assert rc == 2 and line.startswith(f"station: error: cannot write {tmp_path / 's.h5'}: Is a directory "
+                                       f"(its lock file .s.h5.lock cannot be created)"), line
+    assert not (tmp_path / "s.h5").exists()
