@@ -52,7 +52,9 @@ MECHANISMS = ("coulomb_friction", "quadratic_damping", "clearance", "asymmetric_
               "sensor_highpass", "hysteresis", "amplitude_damping")
 #: Measurement-chain faults that are detected, not named (session 7): each rung is "found" when
 #: the verdict is ``unexplained`` with the symptom of that kind (eddi.diagnosis.earn), any name
-#: is wrong, and ``none`` is a miss. Magnitudes: ``mass_error`` the stated mass's error (stated
+#: is wrong, and ``none`` is a miss; a double hit, reported without overturning the verdict since
+#: session 10, is "found" when its symptom is reported with ``none`` or ``unexplained``
+#: (calibration_summary.py). Magnitudes: ``mass_error`` the stated mass's error (stated
 #: = true (1 + mag)); ``clipping`` how much of the strongest blow's acceleration peak the range
 #: cuts off (range = (1 - mag) peak); ``double_hit`` the second blow's peak ratio (4 ms later);
 #: ``base_motion`` the structure's mass over the base's (base suspended at 0.2 f1, 5 %).

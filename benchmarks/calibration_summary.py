@@ -85,8 +85,13 @@ def summary(path: str, factor: float, strong: float | None, again: bool = False,
             ok = [r for r in g if "error" not in r]
             n = len(g)
             c = [r["causes"].get(key, "?") for r in ok]
-            if name in CHAIN_FAULTS:  # found: unexplained with the fault's own symptom
-                c = [name if (x == "unexplained" and any(sy[0] == CHAIN_FAULTS[name] for sy in r["symptoms"]))
+            if name in CHAIN_FAULTS:  # found: unexplained with the fault's own symptom; a fault that
+                # is reported without overturning the verdict (double hits since session 10,
+                # eddi.diagnosis.earn.REPORTED_KINDS): its symptom with `none` or `unexplained`
+                from eddi.diagnosis.earn import REPORTED_KINDS
+
+                verdicts = ("none", "unexplained") if CHAIN_FAULTS[name] in REPORTED_KINDS else ("unexplained",)
+                c = [name if (x in verdicts and any(sy[0] == CHAIN_FAULTS[name] for sy in r["symptoms"]))
                      else x for x, r in zip(c, ok)]
             found, unex, none = c.count(name), c.count("unexplained"), c.count("none")
             wrong = [x for x in c if x not in (name, "unexplained", "none")]

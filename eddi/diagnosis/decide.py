@@ -14,7 +14,7 @@ import numpy as np
 
 from eddi.diagnosis.candidates import UNREFINED
 from eddi.diagnosis.results import Candidate, NoiseFloor
-from eddi.diagnosis.settings import FULL_REFERENCE_MARGIN, NRMSE_CAP, REFERENCE_MARGIN
+from eddi.diagnosis.settings import COUPLING_CUT, FULL_REFERENCE_MARGIN, NRMSE_CAP, REFERENCE_MARGIN
 
 
 def within_floor(base_fold: Sequence[float], floor: NoiseFloor, none_factor: float) -> bool:
@@ -120,7 +120,9 @@ def _held_out_fails(c: Candidate, base: float, eddi: float, need: float, ref_nee
     """Why ``c`` fails the held-out tests of :func:`decide`: the cut ``need`` against the baseline
     as judged (the pipeline's procedure) and against the EDDI fit the mechanism extends (same
     fitter: the gain is the mechanism's, and it stands against the best baseline the pipeline
-    gives), ``ref_need`` against another reference, every part won, no physical contradiction."""
+    gives), ``ref_need`` against another reference, every part won, no physical contradiction,
+    and for ``sensor_highpass`` the cut ``need`` made by the coupling itself (its fold models
+    with and without it: :func:`eddi.diagnosis.highpass.coupling_cut`)."""
     fails = []
     cut = min(1.0 - c.nrmse / base if base > 0 else 0.0, 1.0 - c.nrmse / eddi if eddi > 0 else 0.0)
     if not cut >= need:
@@ -131,6 +133,14 @@ def _held_out_fails(c: Candidate, base: float, eddi: float, need: float, ref_nee
         fails.append("does not win on every held-out part")
     if c.contradicted:  # the records rule it out physically: not named, nor a rival
         fails.append(c.contradicted)
+    own = c.params.get(COUPLING_CUT)
+    if own is not None and not own >= need:
+        # a measurement-chain candidate refitted on re-conditioned records: the chain's fault
+        # itself must make the cut, not the refit (eddi.diagnosis.highpass, module notes)
+        fails.append(f"the coupling itself cuts the error by {100 * own:.0f} % (needs {100 * need:.0f} %): its "
+                     f"fold models reproduce the held-out records as measured at "
+                     f"{c.params.get('uncoupled_nrmse', float('nan')):.3g} without it, so the records show no "
+                     "coupling and the cut is the refit of re-conditioned records")
     return fails
 
 

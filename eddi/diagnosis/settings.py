@@ -21,6 +21,12 @@ REFERENCE_MARGIN = 0.2
 #: (0.059 -> 0.045) and was named in place of drag (s5, /work/notes/s5-issue-10-diag.md);
 #: on hysteretic records it cuts that reference by 90-94 %.
 FULL_REFERENCE_MARGIN: tuple[str, ...] = ("hysteresis",)
+#: The candidate parameter that holds a measurement-chain candidate's own cut of the held-out
+#: error (``sensor_highpass``: its fold models through the coupling against the same models
+#: without it, :func:`eddi.diagnosis.highpass.coupling_cut`); the name needs that cut to reach
+#: the cut the name needs (:func:`eddi.diagnosis.decide.decide`; session 11: a clean chain's
+#: refit on re-conditioned records gave -0.94..0.16, true couplings 0.55-0.86).
+COUPLING_CUT = "coupling_cut"
 #: The winner's strength parameter must agree over the folds: spread < this times its value.
 DEFAULT_CONSISTENCY = 0.5
 #: Held-out nrmse above this counts as "lost" (a diverged or meaningless simulation).

@@ -43,6 +43,8 @@ def test_ac_coupled_accelerometer_is_named_and_its_corner_estimated() -> None:
     # estimated from the records alone (no metadata): grid 0.1-5 Hz in steps of 1.43x
     hp = next(c for c in d.candidates if c.name == "sensor_highpass")
     assert 0.35 <= hp.params["corner_hz"] <= 0.85
+    # the coupling itself makes the cut: its fold models without it are more than twice as far off
+    assert hp.params["coupling_cut"] >= 0.5
 
 
 def test_six_captures_from_two_acquire_runs_give_none() -> None:
