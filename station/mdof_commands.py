@@ -35,6 +35,7 @@ from eddi.mdof.collocation import check_driving_point
 from eddi.mdof.identify import identify_mdof
 from eddi.mdof.model import MdofModel
 from eddi.mdof.validate import validate_mdof
+from eddi.mdof.verdict import held_out_gain
 from station.errors import InputFileError
 from station.mdof_data import condition_all, driving_point_how, reduce_rate
 
@@ -116,7 +117,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     computed = folds.pop("ahead")
     base = float(np.mean(folds["baseline"]))
     cpl = float(np.mean(folds["coupled"]))
-    gain = (base - cpl) / base if base > 0 and math.isfinite(base) else (1.0 if math.isfinite(cpl) else 0.0)
+    gain = held_out_gain(folds["baseline"], folds["coupled"])  # per fold (eddi.mdof.verdict)
     if gain > margin:
         final, model = computed if computed is not None else _final_coupled(records, names, dp, refine)
     else:  # no coupling earns its place: the baseline
@@ -392,7 +393,7 @@ def _polish_folds(fits: list[dict[str, tuple]], records: Sequence[Any], names: t
       bound near the floor).
     """
     from eddi.diagnosis.settings import NONE_FACTOR
-    from eddi.mdof.verdict import channel_floor
+    from eddi.mdof.verdict import channel_floor, held_out_gain
 
     done: dict[str, list[int]] = {"baseline": [], "coupled": []}
     mapper = mapper if mapper is not None else (lambda fn, items: [fn(x) for x in items])
@@ -410,9 +411,8 @@ def _polish_folds(fits: list[dict[str, tuple]], records: Sequence[Any], names: t
             done[kind].append(k)
 
     polish("baseline")
-    base = float(np.mean([f["baseline"][0].nrmse for f in fits]))
     cpl = float(np.mean([f["coupled"][0].nrmse for f in fits]))
-    gain = (base - cpl) / base if base > 0 and math.isfinite(base) else (1.0 if math.isfinite(cpl) else 0.0)
+    gain = held_out_gain([f["baseline"][0].nrmse for f in fits], [f["coupled"][0].nrmse for f in fits])
     floors = channel_floor(records, names)
     above = any(float(np.mean([f["coupled"][0].channel_nrmse[c] for f in fits])) > NONE_FACTOR * floors[c]
                 for c in names)

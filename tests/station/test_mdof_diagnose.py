@@ -126,7 +126,11 @@ def test_similar_blows_earn_none_only_when_the_backbone_holds_and_say_how_far(tm
     assert null["amplitude"]["span"]["extrapolation_tested"] is False
     assert any("extrapolation in amplitude not tested" in n for n in null["notes"])
     assert hidden["cause"] == "unexplained"
-    (amp,) = [s for s in hidden["symptoms"] if s["kind"] == "amplitude_dependence"]
+    # the first mode's damping departs most; since session 11 (the floor's least value 0.01, allowance
+    # 0.035) the second mode's is a symptom too (its records 0.0113 -> 0.0123 with amplitude, the
+    # model 0.0125 throughout: about 0.044 implied)
+    amps = [s for s in hidden["symptoms"] if s["kind"] == "amplitude_dependence"]
+    amp = min(amps, key=lambda s: s["mode_hz"])
     assert amp["model_zeta"] > amp["measured_zeta"] and amp["implied_nrmse"] > amp["allowed"]
     assert amp["mode_hz"] == pytest.approx(min(hidden["natural_frequencies_hz"]), rel=0.05)
     # the human text says how far the verdict was tested
