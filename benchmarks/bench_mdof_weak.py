@@ -125,9 +125,10 @@ def clean(cases: dict) -> None:
               + ", ".join(f"{e:.4f}" for e in errs), flush=True)
 
 
-def equivalent_k3(coeffs: list[dict], m: tuple[float, ...] | None = None) -> float:
-    """The cubic spring between the masses from the coupling monomials of equation 2 (physical
-    coordinates): ``k3 (x2 - x1)^3`` puts ``-3 k3 x1 x2^2`` ... ; ``x1^3`` enters eq 2 as ``-k3``."""
+def equivalent_k3(coeffs: list[dict]) -> float:
+    """The cubic spring between the masses from the coupling coefficients of equation 2 (physical
+    coordinates): the spring's force ``k3 (x2 - x1)^3`` puts ``x1^3`` into that equation as ``-k3``
+    (NaN when the model has no such term, e.g. modal coordinates)."""
     eq2 = coeffs[1] if len(coeffs) > 1 else {}
     v = eq2.get("x1^3")
     return float("nan") if v is None else -float(v[0])
