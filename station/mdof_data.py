@@ -155,15 +155,15 @@ def _in_order(meas: Measurement, names: tuple[str, ...]) -> Measurement:
     return replace(meas, channels={**rest, **{n: meas.channels[n] for n in names}})
 
 
-#: Samples of rest (pre-trigger) the rate reduction leaves at least, when the captures had them.
-#: The conditioning reads the noise on 8 or more samples of rest (with fewer, on the record's last
-#: 5 %, which on a slow, lightly damped mode still rings: session 10), and with fewer than 16 its
-#: driving point is off even without noise (session 11, a 356 + 264 kg chain at 2.66 Hz, 1000 Hz,
-#: the true model on noise-free records: 0.030 / 0.019 / 0.008 / 0.0004 nrmse with 8 / 10 / 12 /
-#: 16 samples of rest; cause not found). Session 11: a 400 + 150 kg chain at 2 Hz, 10 kHz, a 5 ms
-#: pre-trigger (50 samples) reduced by means of 43 kept 1 sample of rest and was refused ("free
-#: decays too short for ERA"); the 1000 Hz chain with 20 samples, halved to 10, read 0.043.
-REST_KEPT = 16
+#: Samples of rest (pre-trigger) the rate reduction leaves at least, when the captures had them:
+#: the conditioning reads the noise on 8 or more samples of rest and removes the offset with more
+#: than 8 (:func:`eddi.mdof.signals.kinematics`); with fewer it takes the noise from the record's
+#: last 5 %, which on a slow, lightly damped mode still rings (session 10). Session 11: a 400 +
+#: 150 kg chain at 2 Hz, 10 kHz, a 5 ms pre-trigger (50 samples) reduced by means of 43 kept 1
+#: sample of rest and was refused ("free decays too short for ERA"). (Fewer than 16 samples of rest
+#: also left the driving point 1-3 % off without noise; that was the validation's filter, fixed in
+#: :func:`eddi.mdof.signals.highpass`, not the rest.)
+REST_KEPT = 9
 
 
 def reduce_rate(measurements: Sequence[Measurement], samples_per_period: float | None = None

@@ -69,9 +69,8 @@ def test_the_reduction_leaves_the_pre_trigger_enough_samples_of_rest():
     """Session 11: a short pre-trigger at a high rate (5 ms at 16384 Hz: 82 samples) under block
     means of 19 or more kept 4 samples of rest or fewer (a 2 Hz chain at 10 kHz, 50 samples under
     means of 43, kept one), and the conditioning then read the noise from the record's still-ringing
-    end (that chain was refused "free decays too short for ERA"), and with fewer than 16 the driving
-    point is off even without noise. The factor is now capped so that at least REST_KEPT (16)
-    samples of rest remain; fails without."""
+    end (that chain was refused "free decays too short for ERA"). The factor is now capped so that
+    at least REST_KEPT (9) samples of rest remain; fails without."""
     from dataclasses import replace
 
     from station.mdof_data import REST_KEPT
