@@ -5,8 +5,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from eddi.diagnosis.settings import MIN_FLOOR, NAMED_FACTOR, NONE_FACTOR
-from eddi.mdof.verdict import channel_floor, earned_verdict, residual_peak
+from eddi.diagnosis.settings import NAMED_FACTOR, NONE_FACTOR
+from eddi.mdof.verdict import MDOF_MIN_FLOOR as MIN_FLOOR
+from eddi.mdof.verdict import channel_floor, earned_verdict, held_out_gain, residual_peak
 
 RATE = 1000.0
 T = np.arange(0, 4.0, 1 / RATE)
@@ -75,3 +76,49 @@ def test_channel_floor_follows_the_measured_noise():
     assert low["a"] == pytest.approx(float(noise_floor(rec(1.0))[0]), rel=1e-12)
     assert low["a"] > MIN_FLOOR and high["a"] == pytest.approx(2 * low["a"], rel=1e-9)
     assert low["b"] == MIN_FLOOR
+
+
+def _quiet_record(rel_noise):
+    x = np.vstack([_decay(10.0), _decay(10.0)])
+    a = -(2 * np.pi * 10.0) ** 2 * x
+    rms = float(np.sqrt(np.mean(x[0] ** 2)))
+    return SimpleNamespace(t=T, x=x, a=a, window=(0, T.size), highpass_hz=2.5,
+                           noise=np.array([rel_noise * rms, rel_noise * rms]))
+
+
+def test_a_linear_model_at_0_05_on_quiet_records_is_not_called_complete():
+    """Session 11: the floor's least value is the multi-channel conditioning's (0.01), not the
+    one-coordinate loop's 0.02 (which allowed 0.07 for ``none``): a blind two-mass chain with a
+    coupling spring was ``none`` at 0.050 / 0.046 on records whose noise leaves ~0.003. Fails
+    with the old minimum (0.05 < 3.5 x 0.02)."""
+    floors = channel_floor([_quiet_record(3e-3)] * 3, ("acc1", "acc2"))
+    assert floors == {"acc1": 0.01, "acc2": 0.01}
+    meas = _decay(10.0)
+    sim = 0.95 * _decay(10.0 * 1.0003)
+    v = _val(np.vstack([meas, meas]), np.vstack([sim, sim]))
+    out = earned_verdict("none", {"acc1": 0.0501, "acc2": 0.0463}, floors, [v], [10.0])
+    assert out.cause == "unexplained"
+    assert [s["channel"] for s in out.symptoms] == ["acc1", "acc2"]
+    assert out.symptoms[0]["ratio"] == pytest.approx(5.01)
+    assert out.symptoms[0]["at_model_mode"]  # a model mode mistuned, not a missing one
+    # at the old floor (0.02) the same figures were silent
+    assert earned_verdict("none", {"acc1": 0.0501, "acc2": 0.0463}, {"acc1": 0.02, "acc2": 0.02}, [v],
+                          [10.0]).cause == "none"
+
+
+def test_held_out_gain_is_the_typical_ratio_per_fold():
+    # the fold holding out the largest blow (an extrapolation in amplitude) no longer decides alone:
+    # session 11's 16 + 5 kg chain, coupled 9x better on three folds and 1.8x worse on the fourth
+    base, cpl = [0.0279, 0.0284, 0.0273, 0.0280], [0.0030, 0.0033, 0.0494, 0.0031]
+    mean_gain = 1 - np.mean(cpl) / np.mean(base)
+    assert mean_gain == pytest.approx(0.473, abs=1e-3)  # the old rule: under a 50 % margin
+    assert held_out_gain(base, cpl) == pytest.approx(1 - (0.0030 * 0.0033 * 0.0494 * 0.0031 /
+                                                          (0.0279 * 0.0284 * 0.0273 * 0.0280)) ** 0.25, rel=1e-12)
+    assert held_out_gain(base, cpl) == pytest.approx(0.776, abs=1e-3)
+    # a null: the coupled model as good as the baseline fold by fold -> no gain; worse -> negative
+    assert held_out_gain(base, base) == pytest.approx(0.0, abs=1e-12)
+    assert held_out_gain([0.01, 0.02], [0.02, 0.04]) == pytest.approx(-1.0)
+    # a coupled fold that diverges loses; a baseline fold that diverges while the coupled holds wins
+    assert held_out_gain([0.01, 0.02], [0.001, np.inf]) == -np.inf
+    assert held_out_gain([0.01, np.inf], [0.01, 0.02]) == 1.0
+    assert held_out_gain([np.inf], [np.inf]) == 0.0 and held_out_gain([], []) == 0.0

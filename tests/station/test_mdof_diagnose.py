@@ -126,7 +126,11 @@ def test_similar_blows_earn_none_only_when_the_backbone_holds_and_say_how_far(tm
     assert null["amplitude"]["span"]["extrapolation_tested"] is False
     assert any("extrapolation in amplitude not tested" in n for n in null["notes"])
     assert hidden["cause"] == "unexplained"
-    (amp,) = [s for s in hidden["symptoms"] if s["kind"] == "amplitude_dependence"]
+    # the first mode's damping departs most; since session 11 (the floor's least value 0.01, allowance
+    # 0.035) the second mode's is a symptom too (its records 0.0113 -> 0.0123 with amplitude, the
+    # model 0.0125 throughout: about 0.044 implied)
+    amps = [s for s in hidden["symptoms"] if s["kind"] == "amplitude_dependence"]
+    amp = min(amps, key=lambda s: s["mode_hz"])
     assert amp["model_zeta"] > amp["measured_zeta"] and amp["implied_nrmse"] > amp["allowed"]
     assert amp["mode_hz"] == pytest.approx(min(hidden["natural_frequencies_hz"]), rel=0.05)
     # the human text says how far the verdict was tested
@@ -161,7 +165,7 @@ def test_folds_are_polished_only_where_the_polish_can_change_the_verdict(monkeyp
 
     # coupling wins by far and sits within 10x the floor: polishing it cannot change the verdict;
     # the diverged-like baseline fold (nrmse 40 > 1) is not polished, and with it unpolished the
-    # gain stays above the margin even were the other baseline folds polished to 0: none is
+    # gain stays above the margin even were the other baseline folds polished to the floor: none is
     # (session 11; before, folds 0 and 2 were polished for nothing)
     f = fits([0.5, 40.0, 0.6], [0.03, 0.02, 0.04])
     done = mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)
@@ -174,7 +178,7 @@ def test_folds_are_polished_only_where_the_polish_can_change_the_verdict(monkeyp
     # the 10 kHz chain's folds (bench_mdof_diagnose_cost.py): no polish can take gain 0.98 under 0.1
     f = fits([1.19, 1.18, 0.69, 1.13], [0.022, 0.023, 0.019, 0.014])
     assert mc._polish_folds(f, [None] * 4, ("acc1", "acc2"), margin=0.1)["baseline"] == [] and calls == []
-    # baseline folds all within the polish's reach: polished to 0 they would win, so they are polished
+    # baseline folds all within the polish's reach: polished to the floor they would win, so they are polished
     f = fits([0.5, 0.7, 0.6], [0.03, 0.02, 0.04])
     assert mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)["baseline"] == [0, 1, 2]
     assert [x["baseline"][0].nrmse for x in f] == [0.25, 0.35, 0.3] and calls == ["b0", "b1", "b2"]

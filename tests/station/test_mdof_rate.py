@@ -63,3 +63,32 @@ def test_a_fast_sampled_chain_is_diagnosed_at_the_working_rate_the_same_in_forke
     assert any("captures at 12288 Hz diagnosed at" in n and "samples per period" in n for n in serial["notes"])
     # held out at the working rate: every channel within 0.05 (the issue's figure)
     assert max(serial["coupled"]["channel_nrmse"].values()) < 0.05
+
+
+def test_the_reduction_leaves_the_pre_trigger_enough_samples_of_rest():
+    """Session 11: a short pre-trigger at a high rate (5 ms at 16384 Hz: 82 samples) under block
+    means of 19 or more kept 4 samples of rest or fewer (a 2 Hz chain at 10 kHz, 50 samples under
+    means of 43, kept one), and the conditioning then read the noise from the record's still-ringing
+    end (that chain was refused "free decays too short for ERA"). The factor is now capped so that
+    at least REST_KEPT (9) samples of rest remain; fails without."""
+    from dataclasses import replace
+
+    from station.mdof_data import REST_KEPT
+
+    chain = load_mdof_system("two-mass-cubic").model_copy(update={"pretrigger_s": 0.005})
+    rec = mdof_impact_test(chain, 150.0, seed=5, record_s=1.0, rate_hz=16384.0)
+    meas = _measurement(rec)
+    assert meas.pretrigger_samples == 82
+    # the factor the modes alone would ask, at the budget's floor (as a long record would)
+    top = highest_mode_hz(rec.acc_m_s2[:, rec.pretrigger_samples:], 16384.0, "acc")
+    want = reduction_factor(16384.0, top, 16.0)
+    assert want >= 19
+    out, note = reduce_rate([meas], samples_per_period=16.0)
+    assert out[0].pretrigger_samples >= REST_KEPT
+    assert out[0].rate_hz == 16384.0 / (82 // REST_KEPT)
+    assert "samples of rest" in note and f"means of {want} wanted" in note
+    # a capture without a pre-trigger (the blow at the first sample) is reduced as before
+    bare = replace(meas, t=meas.t[82:] - meas.t[82], channels={k: v[82:] for k, v in meas.channels.items()},
+                   pretrigger_samples=0)
+    out, note = reduce_rate([bare], samples_per_period=16.0)
+    assert out[0].rate_hz == 16384.0 / want and "samples of rest" not in note
