@@ -1,0 +1,182 @@
+"""Sensor chains and the files other tools write (nothing imported from the station; unseen6's, extended).
+
+Chain (``measure``): the DAQ samples the true signal at its own clock (``ppm`` off the stamped rate),
+through an optional first-order AC coupling (IEPE conditioner), a sensitivity error (``gain``, which
+may drift linearly over the record), white noise at ``snr_db`` below the signal's peak after the
+trigger, an optional clipping level (the conditioner's output stage) and quantisation to ``bits``
+over a full scale ``range_x`` times the record's peak.
+
+Files (``write``): ``csv-si`` (the station's own ``t,force,acc``), ``csv-export`` (a logger export:
+``#`` notes, a ``Time [ms]`` column, force in kN or N, acceleration in g or mm/s^2, velocity in mm/s,
+displacement in mm or um; tab or semicolon delimiters with a decimal comma), ``uff58`` (pyuff, one
+load case, ordinate types 13/12/11/8, unit labels) and ``mat`` (scipy.io.savemat: ``fs`` and channel
+variables, or one struct).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+from scipy import signal
+
+G = 9.80665
+Q_NAMES = {"acc": "Acceleration", "vel": "Velocity", "disp": "Displacement"}
+UNIT_CHOICES = {"acc": [("m/s^2", 1.0), ("g", G), ("mm/s^2", 1e-3)], "vel": [("m/s", 1.0), ("mm/s", 1e-3)],
+                "disp": [("m", 1.0), ("mm", 1e-3), ("um", 1e-6)], "force": [("N", 1.0), ("kN", 1e3)]}
+UFF_TYPE = {"force": 13, "acc": 12, "vel": 11, "disp": 8}
+
+
+def highpass(y, fs, corner_hz):
+    """First-order AC coupling s / (s + wc), bilinear (the corner pre-warped)."""
+    if not corner_hz:
+        return y
+    b, a = signal.bilinear([1.0, 0.0], [1.0, 2 * np.pi * corner_hz], fs=fs)
+    return signal.lfilter(b, a, y)
+
+
+def measure(y, fs, rng, snr_db, bits=24, range_x=2.0, gain=1.0, gain_drift=0.0, hp_hz=0.0, clip=None,
+            peak=None, hum=None, step=None):
+    """One channel through the chain (see the module docstring). ``peak``: the level the SNR refers to.
+    ``hum``: (amplitude, mains Hz, phase) - mains pickup with a third harmonic at a third of it;
+    ``step``: (amplitude, sample index) - a DC offset that steps there (a conditioner's range switch)."""
+    y = highpass(np.asarray(y, float), fs, hp_hz)
+    ramp = np.linspace(0.0, 1.0, len(y))
+    y = y * gain * (1.0 + gain_drift * ramp)
+    ref = peak if peak is not None else np.abs(y).max()
+    if hum is not None:
+        tt = np.arange(len(y)) / fs
+        y = y + hum[0] * (np.sin(2 * np.pi * hum[1] * tt + hum[2]) + np.sin(6 * np.pi * hum[1] * tt + 2 * hum[2]) / 3)
+    if step is not None:
+        y = y + step[0] * (np.arange(len(y)) >= step[1])
+    y = y + rng.normal(0.0, ref * 10 ** (-snr_db / 20), len(y))
+    if clip is not None:
+        y = np.clip(y, -clip, clip)
+    full = range_x * max(np.abs(y).max(), 1e-30)
+    lsb = 2 * full / 2 ** bits
+    return np.round(y / lsb) * lsb
+
+
+def _fmt(vals, comma):
+    s = [f"{v:.9g}" for v in vals]
+    return [x.replace(".", ",") for x in s] if comma else s
+
+
+def write(path_base, fmt, t, channels, rng):
+    """Write a record; returns the file name. ``channels``: ordered dict name -> SI values, names
+    ``force`` and response names (``acc``, ``vel``, ``disp``, or ``acc_NAME``)."""
+    if fmt == "csv-si":
+        path = path_base + ".csv"
+        cols = ["t"] + list(channels)
+        data = np.column_stack([t] + list(channels.values()))
+        np.savetxt(path, data, delimiter=",", header=",".join(cols), comments="", fmt="%.10g")
+        return path
+    if fmt == "csv-export":
+        return _export(path_base, t, channels, rng)
+    if fmt == "uff58":
+        return _uff(path_base, t, channels, rng)
+    if fmt == "mat":
+        return _mat(path_base, t, channels, rng)
+    if fmt == "csv-unitsrow":
+        return _unitsrow(path_base, t, channels, rng)
+    if fmt == "csv-g-unlabelled":  # a logger that writes g under the station's SI header
+        path = path_base + ".csv"
+        cols = ["t"] + list(channels)
+        data = np.column_stack([t] + [v / G if k == "acc" else v for k, v in channels.items()])
+        np.savetxt(path, data, delimiter=",", header=",".join(cols), comments="", fmt="%.10g")
+        return path
+    if fmt == "csv-roundtime":  # time stamps rounded by a spreadsheet to the decade below a tenth of a period
+        path = path_base + ".csv"
+        d = int(np.ceil(np.log10(10.0 / float(t[1] - t[0]))))
+        lines = ["t,force," + ",".join(list(channels)[1:])]
+        data = np.column_stack(list(channels.values()))
+        lines += [f"{tt:.{d}f}," + ",".join(f"{v:.9g}" for v in row) for tt, row in zip(t, data)]
+        with open(path, "w") as fh:
+            fh.write("\n".join(lines) + "\n")
+        return path
+    raise ValueError(fmt)
+
+
+def _unitsrow(path_base, t, channels, rng):
+    """A DAQ-software export: names on one row, units on the next (``[s];[N];[g]``), semicolons, decimal comma."""
+    path = path_base + ".csv"
+    heads, units, cols = ["Time"], ["[s]"], [np.asarray(t)]
+    for name, y in channels.items():
+        q = _quantity(name)
+        unit, fac = {"force": ("N", 1.0), "acc": ("g", G), "vel": ("mm/s", 1e-3), "disp": ("mm", 1e-3)}[q]
+        heads.append("Force" if q == "force" else Q_NAMES[q])
+        units.append(f"[{unit}]")
+        cols.append(np.asarray(y) / fac)
+    lines = [";".join(heads), ";".join(units)]
+    lines += [";".join(_fmt(row, True)) for row in np.column_stack(cols)]
+    with open(path, "w") as fh:
+        fh.write("\n".join(lines) + "\n")
+    return path
+
+
+def _quantity(name):
+    return "force" if name == "force" else name.split("_")[0].rstrip("0123456789")
+
+
+def _export(path_base, t, channels, rng):
+    delim = ["\t", ";"][rng.integers(2)]
+    comma = True
+    path = path_base + (".tsv" if delim == "\t" else ".txt" if rng.random() < 0.5 else ".csv")
+    heads, cols = ["Time [ms]"], [np.asarray(t) * 1e3]
+    for name, y in channels.items():
+        q = _quantity(name)
+        unit, fac = UNIT_CHOICES[q][rng.integers(len(UNIT_CHOICES[q]))]
+        label = "Force" if q == "force" else Q_NAMES[q]
+        if "_" in name:
+            label = f"{label} {name.split('_', 1)[1]}"
+        heads.append(f"{label} [{unit}]")
+        cols.append(np.asarray(y) / fac)
+    lines = [f"# exported by logger unit {rng.integers(1, 99)}", f"# sample rate {1 / (t[1] - t[0]):.6g} Hz",
+             delim.join(heads)]
+    data = np.column_stack(cols)
+    lines += [delim.join(_fmt(row, comma)) for row in data]
+    with open(path, "w") as fh:
+        fh.write("\n".join(lines) + "\n")
+    return path
+
+
+def _uff(path_base, t, channels, rng):
+    import pyuff
+
+    path = path_base + (".uff" if rng.random() < 0.5 else ".unv")
+    binary = int(rng.random() < 0.5)
+    sets = []
+    for k, (name, y) in enumerate(channels.items()):
+        q = _quantity(name)
+        unit, fac = UNIT_CHOICES[q][rng.integers(len(UNIT_CHOICES[q]))] if q != "force" else ("N", 1.0)
+        sets.append(pyuff.prepare_58(
+            binary=binary, id1=f"{name} test", id2="unseen8", id3="NONE", id4="NONE", id5="NONE", func_type=1,
+            load_case_id=1, rsp_ent_name="spec", rsp_node=k + 1, rsp_dir=3, ref_ent_name="spec", ref_node=1,
+            ref_dir=3, abscissa_spacing=1, abscissa_spec_data_type=17, abscissa_axis_units_lab="s",
+            ordinate_spec_data_type=UFF_TYPE[q], ordinate_axis_units_lab=unit, orddenom_spec_data_type=0,
+            ordinate_len_unit_exp=0 if q == "force" else 1, ordinate_force_unit_exp=1 if q == "force" else 0,
+            x=np.asarray(t, float), data=np.asarray(y, float) / fac))
+    if os.path.exists(path):
+        os.remove(path)
+    pyuff.UFF(path).write_sets(sets, mode="add")  # pyuff's "overwrite" writes binary sets it cannot read back
+    return path
+
+
+def _mat(path_base, t, channels, rng):
+    from scipy.io import savemat
+
+    path = path_base + ".mat"
+    fs = 1.0 / float(t[1] - t[0])
+    long = {"acc": "acceleration", "vel": "velocity", "disp": "displacement", "force": "force"}
+    rec = {}
+    if rng.random() < 0.5:
+        rec["fs"] = fs
+    else:
+        rec["time"] = np.asarray(t, float)
+    for name, y in channels.items():
+        rec[long[name] if name in long else name] = np.asarray(y, float)
+    if rng.random() < 0.5:
+        savemat(path, {"impact": rec}, do_compression=bool(rng.random() < 0.5))
+    else:
+        savemat(path, rec)
+    return path
