@@ -126,11 +126,16 @@ def rate_error_columns(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.nd
 
 def nuisance_values(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.ndarray, v: np.ndarray,
                     mass: float, offset_coef: np.ndarray, rate_coef: np.ndarray,
-                    knot_periods: float = DRIFT_KNOT_PERIODS) -> tuple[np.ndarray, np.ndarray]:
+                    knot_periods: float = DRIFT_KNOT_PERIODS, span: tuple[float, float] | None = None,
+                    v_full: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``drift_basis(t) @ offset_coef`` and ``rate_error_columns(t, ...) @ rate_coef`` at every
     sample, by evaluating the two splines (scipy's ``BSpline``) instead of forming the
     (k x p) matrices: the same values to rounding (~1e-16 of them), at a fraction of the cost on
     long segments (``eddi.slow_many``: fitted on every k-th sample, evaluated on all).
+
+    ``t`` may be a subset of the segment's samples (every k-th): ``span`` is then the segment's
+    ``(t_min, t_max)`` (the spline's knots) and ``v_full`` its ``(t, v)`` (the velocity's sign at
+    the crossings); each value is the one at that sample of the whole segment, bit for bit.
 
     Returns
     -------
@@ -143,12 +148,13 @@ def nuisance_values(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.ndarr
 
     t = np.asarray(t, dtype=float)
     v = np.asarray(v, dtype=float)
-    t0, t1 = float(np.min(t)), float(np.max(t))
+    t0, t1 = span if span is not None else (float(np.min(t)), float(np.max(t)))
+    tf, vf = v_full if v_full is not None else (t, v)
     knots = _drift_knots(t0, t1, gamma, knot_periods)
     offset = BSpline(knots, np.asarray(offset_coef, float), 3, extrapolate=False)(np.clip(t, t0, t1))
     dv = BSpline(knots, np.asarray(rate_coef, float), 3, extrapolate=False)
-    gc = np.clip(gamma, t[0], t[-1])
-    vg = np.sign(np.interp(gamma, t, v)) * np.sqrt(2.0 * np.maximum(kinetic_at_gamma, 0.0) / mass)
+    gc = np.clip(gamma, tf[0], tf[-1])
+    vg = np.sign(np.interp(gamma, tf, vf)) * np.sqrt(2.0 * np.maximum(kinetic_at_gamma, 0.0) / mass)
     eg = mass * vg * dv(gc)
     i = np.clip(np.searchsorted(gamma, t, side="right") - 1, 0, gamma.size - 2)
     lam = np.clip((t - gamma[i]) / np.maximum(gamma[i + 1] - gamma[i], 1e-300), 0.0, 1.0)

@@ -47,8 +47,9 @@ NUISANCE_STIFFNESS = ("x", "x^2", "x^3")
 FIT_ROWS = 4000
 
 
-def segment_correction(e: SegmentEnergy, damping: Sequence[Basis], stiffness: Sequence[Basis]) -> np.ndarray | None:
-    """The correction of ``V = E - T`` for the segment's slow errors at ``t[i0:i1]`` [J], or None.
+def segment_correction(e: SegmentEnergy, damping: Sequence[Basis], stiffness: Sequence[Basis],
+                       step: int = 1) -> np.ndarray | None:
+    """The correction of ``V = E - T`` for the segment's slow errors at ``t[i0:i1:step]`` [J], or None.
 
     Parameters
     ----------
@@ -57,15 +58,20 @@ def segment_correction(e: SegmentEnergy, damping: Sequence[Basis], stiffness: Se
         The damping library (phase one on the segment alone).
     stiffness : sequence of Basis
         The stiffness library; :data:`NUISANCE_STIFFNESS` joins it.
+    step : int
+        Every how many samples the correction is wanted (the rows of
+        :func:`eddi.identify_many.potential_rows`): only those are evaluated.
 
     Returns
     -------
-    ndarray, shape (i1 - i0,) or None
+    ndarray, shape (len(range(i0, i1, step)),) or None
         None when the segment has too few samples for the nuisance columns (ten rows per
         unknown, as :func:`eddi.phase_two._nuisance_basis`), a solve fails, or the fitted
         offset exceeds :data:`~eddi.slow_errors.MAX_OFFSET` of ``x`` (the first-order expansion
         no longer holds; :func:`~eddi.slow_errors.refit_with_offset` keeps its first estimate
-        then). Cached on ``e`` by the libraries' names.
+        then). The fit is cached on ``e`` by the libraries' names, its values by ``step`` too
+        (every sample's values then thinned are the same numbers: each sample's value depends
+        only on its own sample, the crossings and the fit).
     """
     texts = [b.text for b in stiffness]
     k = [b for b in stiffness if b.potential is not None] + [term_basis(t) for t in NUISANCE_STIFFNESS
@@ -74,7 +80,12 @@ def segment_correction(e: SegmentEnergy, damping: Sequence[Basis], stiffness: Se
     cache = e.__dict__.setdefault("_slow_correction", {})
     if key not in cache:
         cache[key] = _fit(e, list(damping), k)
-    return cache[key]
+    if cache[key] is None:
+        return None
+    values = e.__dict__.setdefault("_slow_values", {})
+    if (key, step) not in values:
+        values[(key, step)] = _values(e, k, *cache[key], step)
+    return values[(key, step)]
 
 
 def rows_correction(energies: Sequence[SegmentEnergy], damping: Sequence[Basis], stiffness: Sequence[Basis],
@@ -83,10 +94,10 @@ def rows_correction(energies: Sequence[SegmentEnergy], damping: Sequence[Basis],
     :func:`eddi.identify_many.potential_rows` (same ``max_rows``); 0 on a segment without one,
     None when no segment has one."""
     step = row_step(energies, max_rows)
-    got = [segment_correction(e, damping, stiffness) for e in energies]
+    got = [segment_correction(e, damping, stiffness, step) for e in energies]
     if all(g is None for g in got):
         return None
-    return np.concatenate([np.zeros(len(range(e.i0, e.i1, step))) if g is None else g[::step]
+    return np.concatenate([np.zeros(len(range(e.i0, e.i1, step))) if g is None else g
                            for e, g in zip(energies, got)])
 
 
@@ -97,9 +108,11 @@ def corrected(rows: PotentialRows, correction: np.ndarray | None) -> PotentialRo
     return PotentialRows(rows.x, rows.potential + correction, rows.weight)
 
 
-def _fit(e: SegmentEnergy, damping: list[Basis], stiffness: list[Basis]) -> np.ndarray | None:
+def _fit(e: SegmentEnergy, damping: list[Basis], stiffness: list[Basis]
+         ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """The segment's slow errors fitted jointly with its stiffness (module notes), on at most
-    :data:`FIT_ROWS` of its samples (every k-th), evaluated at all of them."""
+    :data:`FIT_ROWS` of its samples (every k-th): (stiffness, offset and rate-error
+    coefficients), or None (:func:`segment_correction`)."""
     ts = e.seg.t[e.i0:e.i1]
     vs = e.seg.v[e.i0:e.i1]
     m = len(stiffness)
@@ -134,11 +147,22 @@ def _fit(e: SegmentEnergy, damping: list[Basis], stiffness: list[Basis]) -> np.n
     offset = bs @ z[:p]
     if not np.all(np.isfinite(z)) or np.sqrt(np.mean(offset ** 2)) > MAX_OFFSET * np.sqrt(np.mean(rows.x ** 2)):
         return None
-    x = e.seg.x[e.i0:e.i1]
+    return c, z[:p], z[p:]
+
+
+def _values(e: SegmentEnergy, stiffness: list[Basis], c: np.ndarray, offset_coef: np.ndarray,
+            rate_coef: np.ndarray, step: int) -> np.ndarray:
+    """The fitted correction (:func:`_fit`) at ``t[i0:i1:step]``:
+    ``V(x) = (E - T) - [-K(x) delta + rate columns c_v]``, the splines evaluated at those samples
+    (forming the two (samples x knots) matrices for it was ~60 % of the fit; the values at the
+    rows only, session 11b: ~2/3 of the evaluations of a 3-record fold at step 3)."""
+    ts = e.seg.t[e.i0:e.i1]
+    sel = slice(None, None, step)
+    x = e.seg.x[e.i0:e.i1][sel]
     kc = np.column_stack([s.force(x, np.zeros_like(x)) for s in stiffness]) @ c
-    # V(x) = (E - T) - [-K(x) delta + rate columns c_v], the splines evaluated at every sample
-    # (forming the two (samples x knots) matrices for it was ~60 % of this function)
-    delta, rate_terms = nuisance_values(ts, e.gamma, e.t_gamma, vs, e.mass, z[:p], z[p:])
+    delta, rate_terms = nuisance_values(ts[sel], e.gamma, e.t_gamma, e.seg.v[e.i0:e.i1][sel], e.mass,
+                                        offset_coef, rate_coef, span=(float(np.min(ts)), float(np.max(ts))),
+                                        v_full=(ts, e.seg.v[e.i0:e.i1]))
     return kc * delta - rate_terms
 
 

@@ -95,7 +95,14 @@ class _Projector:
         se = _col_scale(e)
         es = e / se
         ep = es - self.q @ (self.q.T @ es)
-        c, *_ = np.linalg.lstsq(ep, self.r0, rcond=None)
+        if ep.shape[1] == 1:
+            # one column (most mechanisms' shapes): the least squares in closed form (LAPACK's
+            # SVD solver took ~1 ms a shape on 2e4 rows, ~15 % of the candidates' fold fits)
+            col = ep[:, 0]
+            nn = float(col @ col)
+            c = np.array([float(col @ self.r0) / nn if nn > 0 else 0.0])
+        else:
+            c, *_ = np.linalg.lstsq(ep, self.r0, rcond=None)
         res = self.r0 - ep @ c
         return c / se, float(res @ res)
 

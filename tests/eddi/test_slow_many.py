@@ -96,3 +96,31 @@ def test_the_last_chain_difference_false_alarm_is_none() -> None:
         SLOW_ERRORS["on"] = True
     assert before.cause == "unexplained" and before.judging.nrmse > 4 * pipe.nrmse
     assert got.judging.nrmse < 0.5 * before.judging.nrmse
+
+
+def test_the_correction_is_evaluated_at_the_rows_only_and_equals_every_sample_thinned(monkeypatch) -> None:
+    # session 11b: a fold's rows are every k-th sample; the correction's splines were evaluated
+    # at every sample and thinned afterwards. Now only the rows: the same numbers bit for bit.
+    import eddi.slow_errors as se
+    from eddi.slow_many import segment_correction
+
+    segs, _ = _asymmetric(2000.0, 31.6)
+    d = [term_basis("v")]
+    k = [term_basis(t) for t in ("x", "x^2", "x^3")]
+    sizes: list[int] = []
+    values = se.nuisance_values
+
+    def counting(t, *a, **kw):  # type: ignore[no-untyped-def]
+        sizes.append(len(t))
+        return values(t, *a, **kw)
+
+    monkeypatch.setattr("eddi.slow_many.nuisance_values", counting)
+    e = segs[0]
+    n = e.i1 - e.i0
+    every = segment_correction(e, d, k)
+    thinned = segment_correction(e, d, k, step=3)
+    assert sizes == [n, len(range(0, n, 3))]  # the second one evaluated a third of the samples
+    assert thinned.shape == (len(range(0, n, 3)),)
+    np.testing.assert_array_equal(thinned, every[::3])  # bit for bit
+    assert segment_correction(e, d, k, step=3) is thinned  # cached by step: nothing evaluated again
+    assert len(sizes) == 2
