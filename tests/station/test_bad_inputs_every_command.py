@@ -129,7 +129,6 @@ def _station(argv: list, cwd: Path, *, fsize: int | None = None, sigint_once: Pa
     lines (progress lines left out) and the whole stderr. ``fsize``: RLIMIT_FSIZE [bytes] (a
     full disk); ``sigint_once``: a terminal's Ctrl-C (SIGINT to the group) once that file exists."""
     import signal
-    import time
 
     def setup() -> None:
         signal.signal(signal.SIGINT, signal.SIG_DFL)  # a background job may start with it ignored
@@ -140,15 +139,40 @@ def _station(argv: list, cwd: Path, *, fsize: int | None = None, sigint_once: Pa
     p = subprocess.Popen([sys.executable, "-m", "station.cli", *map(str, argv)], cwd=cwd, env=env, text=True,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, preexec_fn=setup, start_new_session=True)
     if sigint_once is not None:
-        deadline = time.monotonic() + 300
-        while p.poll() is None and time.monotonic() < deadline and not (
-                sigint_once.exists() and sigint_once.stat().st_size):
-            time.sleep(0.05)
+        _wait_for_content(sigint_once, p)
         if p.poll() is None:
             os.killpg(p.pid, signal.SIGINT)
     _, err = p.communicate(timeout=600)
     lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith(("[", "station: note:"))]
     return p.returncode, lines, err
+
+
+def _wait_for_content(path: Path, proc: subprocess.Popen, limit_s: float = 300.0) -> None:
+    """Block until ``path`` has content or ``proc`` ends: woken by the kernel's file events
+    (inotify on the folder tree above ``path``; no polling on the clock), ``limit_s`` a guard."""
+    import ctypes
+    import select
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    fd = libc.inotify_init1(os.O_NONBLOCK | os.O_CLOEXEC)
+    assert fd >= 0, "inotify"
+    try:
+        watched: set[Path] = set()
+        while proc.poll() is None and not (path.exists() and path.stat().st_size):
+            # watch the deepest existing folder on the way (the campaign creates its folder first)
+            d = path.parent
+            while not d.exists():
+                d = d.parent
+            if d not in watched:  # create, write, close-write, moved-in
+                libc.inotify_add_watch(fd, str(d).encode(), 0x100 | 0x2 | 0x8 | 0x80)
+                watched.add(d)
+                continue  # look again: it may have changed before the watch was set
+            ready, _, _ = select.select([fd], [], [], limit_s)
+            if not ready:
+                return
+            os.read(fd, 65536)
+    finally:
+        os.close(fd)
 
 
 def test_demo_keeps_a_session_it_did_not_make(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
