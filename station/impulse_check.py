@@ -100,7 +100,10 @@ def check_signal(sig: Any, mass: float) -> ImpulseCheck | None:
     except ValueError:
         return None
     # a response of the other sign gives a negative ratio (the share test is on magnitudes)
-    m = impulse_mass_ratio([rec], mass, measured_frequency([rec]))
+    try:
+        m = impulse_mass_ratio([rec], mass, measured_frequency([rec]))
+    except (ValueError, ArithmeticError):  # a record the check cannot read: no check, not no result
+        return None
     if m is None or not math.isfinite(m[0]):
         return None
     return ImpulseCheck(m[0], float(mass), classify(m[0]))
