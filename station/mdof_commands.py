@@ -384,7 +384,9 @@ def _polish_folds(fits: list[dict[str, tuple]], records: Sequence[Any], names: t
       those above :data:`POLISH_MAX_NRMSE`, and none when the gain (per fold,
       :func:`eddi.mdof.verdict.held_out_gain`) stays above the margin even with every fold the
       polish may touch at the noise floor (what the true model reaches; the per-fold gain makes 0
-      no bound): the polish cannot change the verdict; session 11: the 10 kHz three-mass chain,
+      no bound): a polish that stops at the floor cannot change the verdict (the floor is a
+      typical value, not a strict bound: a fold polished well below it could, which is the
+      accepted risk of skipping); session 11: the 10 kHz three-mass chain,
       baseline folds 1.19 / 1.18 / 0.69 / 1.13 against coupled 0.02, polished its 0.69 fold for
       19 s of its 115 s CPU and the verdict stayed ``modal_coupling`` at gain 0.98);
     - coupled folds only lower the coupled error, which raises the gain and keeps every channel
