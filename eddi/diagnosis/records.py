@@ -10,14 +10,16 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
-from eddi.diagnosis.catalogue import Signal
 from eddi.diagnosis.settings import MIN_BAND_CROSSINGS
 from eddi.energy import zero_crossings
 from eddi.errors import SignalError
+
+if TYPE_CHECKING:  # the catalogue (every mechanism) is not needed to read a record: station identify's impulse check
+    from eddi.diagnosis.catalogue import Signal
 
 #: A record needs this many zero crossings in its free response to be judged (one
 #: oscillation); fewer is refused in one line. Training uses every segment with 3 or more.
@@ -158,6 +160,8 @@ class Record:
         return dataclasses.replace(self, **changes)
 
     def signal(self) -> Signal:
+        from eddi.diagnosis.catalogue import Signal  # local: see the imports
+
         f = self.force if self.force is not None else np.zeros_like(self.x)
         return Signal(t=self.t, x=self.x, v=self.v, a=self.a, force=f)
 

@@ -14,7 +14,7 @@ from station.cli import COMMANDS, main
 
 REPO = Path(__file__).resolve().parents[2]
 HEAVY = ("numpy", "scipy", "numba", "matplotlib", "pysindy", "h5py", "pydantic", "scipy.signal", "dask",
-         "distributed", "pyarrow")
+         "distributed", "pyarrow", "eddi.diagnosis.loop", "eddi.diagnosis.catalogue")
 #: What analysis commands' ``--help`` must not import (numpy is allowed): the engine's libraries.
 ENGINE = {"scipy", "numba", "pydantic", "matplotlib", "pysindy", "dask", "distributed", "h5py", "pyarrow"}
 
@@ -66,6 +66,9 @@ def test_identify_on_a_csv_imports_only_what_it_uses() -> None:
     assert {"numpy", "scipy"} <= heavy  # it did identify and simulate (numba: unless the kernels are
     # built ahead of time, tests/eddi/test_kernels.py)
     assert not heavy & {"matplotlib", "pysindy", "dask", "distributed", "h5py", "pyarrow", "scipy.signal"}, heavy
+    # the impulse check reads eddi.diagnosis.chain alone: not the diagnosis loop and its mechanisms
+    # (session 12: ~40-60 ms of every identify process; eddi.diagnosis's names load on first use)
+    assert not heavy & {"eddi.diagnosis.loop", "eddi.diagnosis.catalogue"}, heavy
 
 
 def test_diagnose_help_constants_are_the_engines() -> None:
