@@ -71,12 +71,12 @@ def drift_basis(t: np.ndarray, gamma: np.ndarray, knot_periods: float = DRIFT_KN
     scipy.sparse.csr_matrix, shape (k, p)
         Basis functions at ``t`` (``p >= 4``; four non-zeros a row).
     """
-    from scipy.interpolate import BSpline  # local: keeps `import eddi` light
+    from eddi.calculus import bspline_design_matrix
 
     t = np.asarray(t, dtype=float)
     t0, t1 = (float(np.min(t)), float(np.max(t))) if span is None else (float(span[0]), float(span[1]))
     knots = _drift_knots(t0, t1, gamma, knot_periods)
-    return sparse.csr_matrix(BSpline.design_matrix(np.clip(t, t0, t1), knots, 3))
+    return sparse.csr_matrix(bspline_design_matrix(np.clip(t, t0, t1), knots, 3))
 
 
 def rate_error_columns(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.ndarray, v: np.ndarray,

@@ -10,7 +10,7 @@ import numpy as np
 from scipy.interpolate import BSpline
 from scipy.linalg import solveh_banded
 
-from eddi.calculus import cumulative_trapezoid, spline_cumulative_integral
+from eddi.calculus import bspline_design_matrix, cumulative_trapezoid, spline_cumulative_integral
 from eddi.conditioning.checks import check_time
 from eddi.conditioning.levels import crossings
 from eddi.errors import SignalError
@@ -84,7 +84,7 @@ def _lsq_spline(tp: np.ndarray, y: np.ndarray, t0: float, t1: float, knot_s: flo
     """
     n_int = max(1, int(math.ceil((t1 - t0) / knot_s)))
     knots = np.concatenate(([t0] * 3, np.linspace(t0, t1, n_int + 1), [t1] * 3))
-    b = BSpline.design_matrix(np.clip(tp, t0, t1), knots, 3).tocsc()
+    b = bspline_design_matrix(np.clip(tp, t0, t1), knots, 3).tocsc()
     m = b.shape[1]
     btb = (b.T @ b).todia()
     lam = 1e-3 * float(np.mean(btb.diagonal()))

@@ -8,7 +8,7 @@ import math
 import numpy as np
 from scipy.interpolate import BSpline
 
-from eddi.calculus import cumulative_trapezoid
+from eddi.calculus import bspline_design_matrix, cumulative_trapezoid
 from eddi.conditioning.checks import check_time
 from eddi.conditioning.equilibrium import _spectral_peaks
 from eddi.conditioning.levels import _at, crossings, noise_rms
@@ -104,7 +104,7 @@ def _drift_spline(
     n_int = max(1, int(math.ceil((t1 - t0) / knot_s)))
     inner = np.linspace(t0, t1, n_int + 1)
     knots = np.concatenate(([t0] * 3, inner, [t1] * 3))
-    basis = BSpline.design_matrix(t[pts], knots, 3)
+    basis = bspline_design_matrix(t[pts], knots, 3)
     first = (1 if free_slope else 2) if clamped else 0
     # the B-spline block stays sparse (4 non-zeros a row): the normal equations are built
     # block by block, never as a dense (rows x knots) product (a dense one took 2 s of
