@@ -50,3 +50,32 @@ def test_a_repeated_point_is_served_from_memory_bit_for_bit(monkeypatch) -> None
     assert prob.residual(p, n // 2).size == n // 2 and len(runs) == 3
     prob.active = prob.active[1:]
     assert not np.array_equal(prob.residual(p[1:], n), r1) and len(runs) == 4
+
+
+def test_the_jacobian_pass_serves_the_residual_at_its_point(monkeypatch) -> None:
+    """least_squares asks for the Jacobian at its optimum after a rejected trial step (the last
+    simulation was elsewhere); that pass integrates the response too, and the residual asked for
+    next at the optimum (the nrmse, the covariance) is served from it: the same bits as a fresh
+    simulation, one RK4 pass fewer per refinement (session 12)."""
+    prob = _problem()
+    runs = []
+    real = sensitivity.free_response_sensitivities
+
+    def counted(*args, **kwargs):
+        runs.append(args[2])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(sensitivity, "free_response_sensitivities", counted)
+    n = prob.n
+    p = prob.p0.copy()
+    q = p.copy()
+    q[0] *= 1.01
+    prob.residual(q, n)  # the rejected trial step: the last simulation is at q
+    jac = prob.sensitivities(p, n)
+    assert jac is not None and len(runs) == 2
+    r = prob.residual(p, n)
+    assert len(runs) == 2 and prob.count == 3 and not prob.diverged
+    # the same bits as a problem that simulates p afresh, and the Jacobian at p is still served
+    fresh = _problem()
+    assert np.array_equal(r, fresh.residual(p, n)) and len(runs) == 3
+    assert np.array_equal(prob.sensitivities(p, n), jac) and len(runs) == 3
