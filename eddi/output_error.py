@@ -28,6 +28,12 @@ STAGES = (0.125, 0.5, 1.0)
 #: Starts whose residual over the whole window is below this (relative to the signal, ~ the
 #: phase error in rad) are fitted on the whole window at once.
 DIRECT_NRMSE = 0.2
+#: Simulations (with their sensitivity passes) remembered. Two: Levenberg-Marquardt's last trial
+#: step is usually rejected, and least_squares then asks for the Jacobian at the accepted point
+#: before it (its optimum), then the nrmse and the covariance there: all served by the pass
+#: that point already had (session 12: 6 -> 5 RK4 passes on the 45 s record). A point served
+#: from memory becomes the newest (the oldest is forgotten first).
+MEMORY = 2
 
 
 class OutputErrorProblem:
@@ -90,10 +96,11 @@ class OutputErrorProblem:
         #: :func:`refine_output_error`)
         self.min_gain: float | None = None
         self.x_scale: float | str = 1.0
-        # the sensitivity pass of the last simulation (see :meth:`simulated`)
-        self._last: tuple[bytes, int, np.ndarray, bool] | None = None
-        # the last simulated signal: ((parameters key, stop), signal, diverged)
-        self._memo: tuple[tuple[bytes, int], np.ndarray, bool] | None = None
+        # the sensitivity passes of the last :data:`MEMORY` simulations: (key, stop, jacobian,
+        # diverged), newest last (see :meth:`simulated`); rebound, never changed in place
+        self._last: tuple[tuple[bytes, int, np.ndarray, bool], ...] = ()
+        # the last :data:`MEMORY` simulated signals: ((parameters key, stop), signal, diverged)
+        self._memo: tuple[tuple[tuple[bytes, int], np.ndarray, bool], ...] = ()
 
     @property
     def n(self) -> int:
@@ -119,15 +126,24 @@ class OutputErrorProblem:
     def simulated(self, p: np.ndarray, stop: int) -> np.ndarray:
         self.count += 1
         key = (self._key(p), stop)
-        memo = self._memo
-        if memo is not None and memo[0] == key:
-            # the same point again (the fit's last evaluation, then the nrmse and the covariance
-            # at the optimum): the same deterministic simulation, not run again
-            self.diverged = memo[2]
-            return memo[1].copy()
+        for memo in self._memo:
+            if memo[0] == key:
+                # the same point again (the fit's last evaluation or the accepted point before a
+                # rejected trial, then the nrmse and the covariance at the optimum): the same
+                # deterministic simulation, not run again
+                self.diverged = memo[2]
+                self._remember(*memo)  # the newest now: what a later point evicts last
+                return memo[1].copy()
         out = self._simulated(p, stop)
-        self._memo = (key, out.copy(), self.diverged)
+        self._remember(key, out.copy(), self.diverged)
         return out
+
+    def _remember(self, key: tuple[bytes, int], out: np.ndarray, diverged: bool) -> None:
+        self._memo = tuple(m for m in self._memo if m[0] != key)[-(MEMORY - 1):] + ((key, out, diverged),)
+
+    def _remember_jacobian(self, key: bytes, stop: int, jac: np.ndarray, diverged: bool) -> None:
+        self._last = (tuple(j for j in self._last if (j[0], j[1]) != (key, stop))[-(MEMORY - 1):]
+                      + ((key, stop, jac, diverged),))
 
     def _simulated(self, p: np.ndarray, stop: int, sensitivities: bool = True) -> np.ndarray:
         """The compared values at ``p`` (``sensitivities=False``: not integrating the Jacobian
@@ -147,7 +163,8 @@ class OutputErrorProblem:
             smooth = smooth_model(eom) and sensitivities
             resp, jac, diverged = free_response_sensitivities(eom, float(self.t[1] - self.t[0]), stop, x0, v0,
                                                               self.steps, jacobian=smooth)
-            self._last = (self._key(p), stop, jac, bool(diverged)) if smooth else None
+            if smooth:
+                self._remember_jacobian(self._key(p), stop, jac, bool(diverged))
             out = resp[:, "xva".index(self.channel)]
         out, self.diverged = self._compared(p, stop, out, bool(diverged))
         return out
@@ -182,10 +199,11 @@ class OutputErrorProblem:
         from eddi.sensitivity import free_response_sensitivities
 
         self.count += 1
-        last = self._last
         key = self._key(p)
-        if last is not None and last[1] == stop and last[0] == key:
-            jac, div = last[2], last[3]
+        last = [j for j in self._last if j[1] == stop and j[0] == key]
+        if last:
+            jac, div = last[0][2], last[0][3]
+            self._remember_jacobian(*last[0])
         else:
             x0, v0 = self.state(p)
             resp, jac, div = free_response_sensitivities(eom, float(self.t[1] - self.t[0]), stop, x0, v0, self.steps)
@@ -193,8 +211,8 @@ class OutputErrorProblem:
             # for the Jacobian at its optimum after a rejected trial step, and the residual there is
             # asked for next (the nrmse, the covariance): served from memory, not integrated again
             out, sim_div = self._compared(p, stop, resp[:, "xva".index(self.channel)], bool(div))
-            self._memo = ((key, stop), out, sim_div)
-            self._last = (key, stop, jac, bool(div))
+            self._remember((key, stop), out, sim_div)
+            self._remember_jacobian(key, stop, jac, bool(div))
         j = jac["xva".index(self.channel)]
         if div or not np.all(np.isfinite(j)):
             return None

@@ -79,3 +79,39 @@ def test_the_jacobian_pass_serves_the_residual_at_its_point(monkeypatch) -> None
     fresh = _problem()
     assert np.array_equal(r, fresh.residual(p, n)) and len(runs) == 3
     assert np.array_equal(prob.sensitivities(p, n), jac) and len(runs) == 3
+
+
+def test_the_accepted_point_before_a_rejected_trial_is_still_remembered(monkeypatch) -> None:
+    """Levenberg-Marquardt's pattern at its end: an accepted point p, a rejected trial q, then
+    least_squares asks for the Jacobian at p and the caller for the residual at p: the pass p had
+    serves both (two simulations remembered, :data:`eddi.output_error.MEMORY`); a third point
+    forgets the oldest."""
+    from eddi.output_error import MEMORY
+
+    assert MEMORY == 2
+    prob = _problem()
+    runs = []
+    real = sensitivity.free_response_sensitivities
+
+    def counted(*args, **kwargs):
+        runs.append(args[2])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(sensitivity, "free_response_sensitivities", counted)
+    n = prob.n
+    p = prob.p0.copy()
+    q, r = p.copy(), p.copy()
+    q[0] *= 1.01
+    r[0] *= 0.99
+    res_p = prob.residual(p, n)
+    jac_p = prob.sensitivities(p, n)
+    prob.residual(q, n)
+    assert len(runs) == 2
+    assert np.array_equal(prob.sensitivities(p, n), jac_p) and len(runs) == 2
+    assert np.array_equal(prob.residual(p, n), res_p) and len(runs) == 2 and not prob.diverged
+    prob.residual(r, n)  # remembered now: p (served last) and r; q forgotten
+    assert len(runs) == 3
+    prob.residual(p, n)
+    assert len(runs) == 3
+    prob.residual(q, n)
+    assert len(runs) == 4
