@@ -423,10 +423,12 @@ def check_force_impact(force: np.ndarray, where: str) -> None:
     ------
     InputFileError
     """
+    from eddi.median import median  # numpy.median's float by selection: ~5x faster on a long record
+
     f = np.asarray(force, dtype=float)
-    centred = np.abs(f - np.median(f))
+    centred = np.abs(f - median(f))
     peak = float(np.max(centred)) if f.size else 0.0
-    noise = 1.4826 * float(np.median(centred)) if f.size else 0.0
+    noise = 1.4826 * median(centred) if f.size else 0.0
     if not (peak > 0 and peak > 8 * noise):
         raise InputFileError(f"{where} holds no impact (peak {peak:.3g} above its median, noise {noise:.3g}); "
                              "expected a hammer blow, or leave the force channel out for a free ring-down")
