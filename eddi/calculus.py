@@ -80,7 +80,7 @@ def trapezoid(y: np.ndarray, x: np.ndarray | None = None, dx: float = 1.0) -> fl
     return float(np.sum(np.diff(x) * (y[1:] + y[:-1]) / 2.0))
 
 
-def integrate(y: np.ndarray, dt: float, smooth_from: int = 0) -> np.ndarray:
+def integrate(y: np.ndarray, dt: float, smooth_from: int = 0, out: np.ndarray | None = None) -> np.ndarray:
     """Cumulative integral of a sampled signal from ``y[0]``, 4th-order accurate inside.
 
     Parameters
@@ -92,18 +92,25 @@ def integrate(y: np.ndarray, dt: float, smooth_from: int = 0) -> np.ndarray:
         Intervals before this sample use the trapezoid: the 4th-order stencil assumes a
         smooth signal and rings on a kink (a hammer pulse), where the trapezoid is exact for
         the piecewise-linear force a sampled pulse stands for.
+    out : ndarray of float, shape (n,), optional
+        Where to write the integral (not overlapping ``y``; e.g. the slice of a record's
+        array: no temporary of the record's length and no copy into it). Default: a new array.
 
     Returns
     -------
     ndarray, shape (n,)
         ``int_{t0}^{t} y dt`` (units of ``y`` times s), ``0`` at the first sample; trapezoid
-        on the first and last intervals.
+        on the first and last intervals (``out`` when given).
     """
     y = np.asarray(y, dtype=float)
     n = y.size
+    if out is None:
+        out = np.empty(n)
+    elif out.shape != (n,) or out.dtype != np.float64 or np.shares_memory(out, y):
+        raise ValueError("integrate: out must be a float array of y's shape, not overlapping y")
     if n < 2:
-        return np.zeros_like(y)
-    out = np.empty(n)
+        out[:] = 0.0
+        return out
     out[0] = 0.0
     inc = out[1:]  # the increments, summed in place (no temporaries of the record's length)
     k = max(1, int(smooth_from)) if n >= 4 else n - 1

@@ -358,8 +358,8 @@ def _integrate_acceleration(w: _Work, eq: EquilibriumIntegral | None, noise_fact
         # 4th-order integration (the trapezoid loses (w h)^2 / 12 a pass: eddi.calculus),
         # trapezoid over the impact (a pulse is not smooth)
         smooth = _pulse_end(a, start, w.impact_end) - start
-        v_int[start:] = integrate(a[start:], 1.0 / w.rate, smooth_from=smooth)
-        x_int[start:] = integrate(v_int[start:], 1.0 / w.rate, smooth_from=smooth)
+        integrate(a[start:], 1.0 / w.rate, smooth_from=smooth, out=v_int[start:])
+        integrate(v_int[start:], 1.0 / w.rate, smooth_from=smooth, out=x_int[start:])
     else:
         # unknown v0 and x0: a line in x, removed by least squares before the anchored fit (it
         # dwarfs x; the cycle-mean v is biased where a damped response chirps)
@@ -369,7 +369,7 @@ def _integrate_acceleration(w: _Work, eq: EquilibriumIntegral | None, noise_fact
         x_int = x_int - line[0] - line[1] * (t - t[0])
         v_int = v_int - line[1]
     d, dd = _anchored_drift(w, x_int, v_int, a, noise_factor)
-    w.x, w.v = x_int - d, v_int - dd
+    w.x, w.v = np.subtract(x_int, d, out=x_int), np.subtract(v_int, dd, out=v_int)  # no longer needed as integrated
     w.method = ("acc integrated from rest" if w.rest else "acc integrated about the equilibrium") + \
         "; drift anchored at acc zero crossings (x = 0) and the noise tail"
 

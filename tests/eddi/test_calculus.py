@@ -253,3 +253,20 @@ def test_bspline_design_matrix_is_scipys_bit_for_bit(k: int) -> None:
         builtins.min = real_min
     assert not any(len(a) == 1 and isinstance(a[0], np.ndarray) for a in seen)
 
+
+
+def test_integrate_into_a_slice_is_the_same_bits_and_refuses_overlap() -> None:
+    """``integrate(..., out=)`` (the conditioning integrates into its record's arrays: no
+    temporary of the record's length, no copy): the same bits as the returned array."""
+    rng = np.random.default_rng(5)
+    y = np.cumsum(rng.standard_normal(10_001)) * 1e-3
+    for smooth in (0, 7, 500):
+        want = integrate(y[3:], 1e-4, smooth_from=smooth)
+        buf = np.full(y.size, 9.0)
+        got = integrate(y[3:], 1e-4, smooth_from=smooth, out=buf[3:])
+        assert np.shares_memory(got, buf) and np.array_equal(buf[3:], want) and np.all(buf[:3] == 9.0)
+    with pytest.raises(ValueError):
+        integrate(y, 1e-4, out=y)
+    with pytest.raises(ValueError):
+        integrate(y, 1e-4, out=np.empty(y.size - 1))
+    assert np.array_equal(integrate(y[:1], 1e-4, out=np.full(1, 3.0)), [0.0])
