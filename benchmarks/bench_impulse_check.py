@@ -8,6 +8,7 @@ response divided by g, negated, and with the mass 5 % low. Prints per family the
 and how many checks named each fault (a warning on a clean record is a false alarm).
 
     python benchmarks/bench_impulse_check.py --records 60 --seed 0
+    python benchmarks/bench_impulse_check.py --records 60 --seed 3 --coarse
 """
 
 from __future__ import annotations
@@ -27,8 +28,8 @@ from station.impulse_check import G, check_signal  # noqa: E402
 from tests.eddi.impact_cases import impact_record  # noqa: E402
 
 
-def draw(rng: np.random.Generator) -> dict:
-    """One system and its test set-up."""
+def draw(rng: np.random.Generator, coarse: bool = False) -> dict:
+    """One system and its test set-up (``coarse``: 12-60 samples a cycle, blows of 2-8 samples)."""
     m = float(10 ** rng.uniform(-2, 3))
     f = float(10 ** rng.uniform(math.log10(2), math.log10(300)))
     k = m * (2 * math.pi * f) ** 2
@@ -36,6 +37,9 @@ def draw(rng: np.random.Generator) -> dict:
     rate = float(rng.choice([1000.0, 2000.0, 5000.0, 10000.0, 20000.0, 40000.0]))
     rate = max(rate, 20 * f)
     pulse = float(10 ** rng.uniform(math.log10(3e-4), math.log10(3e-3)))
+    if coarse:
+        rate = float(f * rng.uniform(12, 60))
+        pulse = float(rng.uniform(2, 8)) / rate
     pulse = min(pulse, 0.25 / f)
     x_peak = float(10 ** rng.uniform(-4, -2.3))
     peak_n = k * x_peak * math.pi / (2 * math.pi * f * pulse * 2)  # about x_peak after the blow
@@ -53,12 +57,14 @@ def main(argv: list[str] | None = None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--records", type=int, default=60, help="systems drawn (default 60)")
     ap.add_argument("--seed", type=int, default=0, help="draw seed (default 0)")
+    ap.add_argument("--coarse", action="store_true",
+                    help="coarse records: 12-60 samples a cycle, blows of 2-8 samples (session 12)")
     args = ap.parse_args(argv)
     rng = np.random.default_rng(args.seed)
     found: dict[str, Counter] = {k: Counter() for k in ("clean", "g_as_si", "sign", "mass_5pct_low")}
     ratios: dict[str, list[float]] = {k: [] for k in found}
     for i in range(args.records):
-        d = draw(rng)
+        d = draw(rng, args.coarse)
         r = impact_record(d["system"], rate_hz=d["rate_hz"], duration_s=d["duration_s"],
                           pretrigger_s=d["pretrigger_s"], pulse_s=d["pulse_s"], snr_db=d["snr_db"],
                           seed=args.seed * 1000 + i)
@@ -77,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             ratios[fam].append(chk.ratio)
             found[fam][chk.fault or "silent"] += 1
-    print(f"hammer-impulse check, {args.records} drawn systems (seed {args.seed})")
+    print(f"hammer-impulse check, {args.records} drawn {'coarse ' if args.coarse else ''}systems (seed {args.seed})")
     for fam in found:
         q = np.array(ratios[fam])
         rng_txt = f"ratio {q.min():.4g} .. {q.max():.4g}, median {np.median(q):.4g}" if q.size else "no ratio"

@@ -219,6 +219,16 @@ def _impulse_parts(r: Record, f1: float = 0.0) -> tuple[float, float, float] | N
     return j, dv, spring + damper
 
 
+def first_blow(r: Record, f1: float) -> tuple[float, float, float, int] | None:
+    """:func:`_impulse_parts` of the first hammer pulse and the number of samples the pulse
+    spans above its threshold (:func:`_pulses`); None without a force pulse."""
+    parts = _impulse_parts(r, f1)
+    if parts is None:
+        return None
+    a, b, _p = _pulses(r.force, r.rate_hz)[0]
+    return parts[0], parts[1], parts[2], int(b - a)
+
+
 #: Largest damping ratio :func:`_damping_ratio` returns (beyond it the cycles are not a
 #: ring-down's; the correction would be guessing).
 MAX_ZETA = 0.3
