@@ -255,3 +255,52 @@ def test_drift_spline_evaluated_piecewise_equals_the_bspline() -> None:
     np.testing.assert_allclose(d[start:], spl(t[start:]), rtol=0, atol=1e-13)
     np.testing.assert_allclose(dd[start:], spl.derivative()(t[start:]), rtol=0, atol=1e-11)
     assert not d[:start].any() and not dd[:start].any()
+
+
+def _crossings_by_index_list(y, hysteresis, start=0):
+    """The former form of eddi.conditioning.levels.crossings (every beyond-threshold index listed)."""
+    seg = np.asarray(y[start:], float)
+    nz = np.flatnonzero((seg > hysteresis) | (seg < -hysteresis))
+    if seg.size < 3 or nz.size < 2:
+        return np.zeros(0)
+    s = seg[nz] > hysteresis
+    flips = nz[1:][s[1:] != s[:-1]]
+    neg = np.signbit(seg)
+    sign_change = np.flatnonzero(neg[:-1] != neg[1:])
+    if flips.size == 0 or sign_change.size == 0:
+        return np.zeros(0)
+    pos = np.searchsorted(sign_change, flips, side="left") - 1
+    i = sign_change[pos[pos >= 0]]
+    y0, y1 = seg[i], seg[i + 1]
+    return start + i + np.clip(np.where(y1 != y0, y0 / (y0 - y1), 0.5), 0.0, 1.0)
+
+
+@pytest.mark.parametrize("block", [8, 64, 1 << 16])
+def test_crossings_are_the_index_lists_without_listing_every_sample(block, monkeypatch) -> None:
+    """The same crossings as listing every beyond-threshold sample (random walks with noise, any
+    block size), and on a long ring-down no index array of most of its samples (session 12: their
+    page faults were half the call)."""
+    import eddi.conditioning.levels as levels
+
+    monkeypatch.setattr(levels, "CROSSING_BLOCK", block)
+    rng = np.random.default_rng(block)
+    for _ in range(200):
+        n = int(rng.integers(3, 3000))
+        y = np.cumsum(rng.standard_normal(n)) * rng.uniform(0.1, 3.0) + rng.standard_normal(n)
+        h, start = float(rng.uniform(0.0, 2.0)), int(rng.integers(0, 3))
+        assert np.array_equal(levels.crossings(y, h, start=start), _crossings_by_index_list(y, h, start))
+    t = np.arange(400_000) / 19_200.0
+    ring = np.exp(-0.1 * t) * np.sin(2 * np.pi * 15.0 * t) + 1e-3 * rng.standard_normal(t.size)
+    sizes = []
+    real = np.flatnonzero
+
+    def listed(a):
+        out = real(a)
+        sizes.append(out.size)
+        return out
+
+    monkeypatch.setattr(np, "flatnonzero", listed)
+    got = levels.crossings(ring, 3e-3)
+    monkeypatch.setattr(np, "flatnonzero", real)
+    assert np.array_equal(got, _crossings_by_index_list(ring, 3e-3)) and got.size > 600
+    assert max(sizes) <= max(block, 0.1 * t.size)
