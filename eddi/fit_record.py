@@ -47,7 +47,7 @@ from eddi.driven_validation import fused_impact_force, unsharpened, validate_con
 from eddi.energy import noise_level
 from eddi.errors import IdentificationError, SignalError
 from eddi.identify import IdentifiedModel, identify
-from eddi.intervals import loose_coefficient_warnings, sampling_kernel_warning
+from eddi.intervals import loose_coefficient_warnings, sampling_kernel_margin, sampling_kernel_warning
 from eddi.model import EquationOfMotion
 from eddi.pipeline_result import REFINE_CHANNEL, SIGNAL_NAME, PipelineChoices, PipelineResult, units_of
 from eddi.refinement_choice import judge_refinement
@@ -130,6 +130,8 @@ class Pipeline:
         """
         cond = condition(t, acc=acc, vel=vel, disp=disp, force=force, pretrigger_samples=pretrigger_samples,
                          ac_coupling_s=ac_coupling_s)
+        if adc_sinc_order is not None:  # stated: 0 point samples (or a flat passband), K a sinc^K decimator
+            cond = replace(cond, sample_kernel_known=True)
         if adc_sinc_order:
             k = int(adc_sinc_order)
             if not (k == adc_sinc_order and 1 <= k <= 8):
@@ -266,6 +268,8 @@ class Pipeline:
         coarse = samples_per_cycle_note(cond.rate_hz, f_hi)
         if coarse:
             warnings.append(coarse)
+        ci95, margin_note = sampling_kernel_margin(eom, ci95, cond.rate_hz, f_hi, cond.sample_kernel_known)
+        warnings += margin_note
         warnings += sampling_kernel_warning(eom, ci95, cond.rate_hz, f_hi, cond.sample_kernel_var)
         warnings += loose_coefficient_warnings(eom, ci95)
         unsound = model_warnings(eom, cond.x[w0:w1], cond.v[w0:w1])

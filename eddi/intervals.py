@@ -3,7 +3,9 @@
 :func:`sampling_curvature`: a DAQ's sampling kernel in the compared values;
 :func:`noise_covariance_of_fit`: the noise covariance of coloured residuals;
 :func:`sampling_kernel_warning`: a sentence when an untold decimation filter could move a
-coefficient beyond its interval.
+coefficient beyond its interval;
+:func:`sampling_kernel_margin`: the intervals widened by what an unstated sampling kernel (point
+samples or interval means) can do.
 
 The intervals (:mod:`eddi.refine`) are the fit's covariance: they hold the noise, not a gain
 error of the measured signal. A DAQ whose decimation filter droops in the passband (a sinc^K
@@ -107,6 +109,75 @@ def sampling_kernel_warning(eom: EquationOfMotion, ci95: dict[str, dict[str, flo
             f"half widths), a 1-pole analog filter at rate/{ANALOG_CUTOFF_DIVISOR:g} by {100 * rc:.2g} %; if the DAQ "
             "has a decimator, give its order (adc_sinc_order; `station identify --adc-filter sincK[:R]`); an analog "
             "filter is not modelled: record faster",)
+
+
+#: The sampling kernel the intervals make room for when the record does not say how it was
+#: sampled: a mean over each sample interval (sinc1: an integrating ADC, a block-average
+#: decimation, the rig's own force channel), the mildest low-pass a sampled record has had
+#: besides point samples. Session 12 (s12cov, ``benchmarks/bench_ci_coverage_coarse.py``):
+#: records of such samples put ``x^2*v`` and ``x^3`` ``2 (omega dt)^2 / 24`` high (+1.6 % at
+#: 14.6 samples a cycle), 3-128 standard errors at 50-60 dB, while point samples were unbiased;
+#: nothing in a free response tells the two apart (a gain on every sample, see the module notes).
+MARGIN_SINC_ORDER = 1
+#: Say so in a warning when the margin adds more than this fraction of the noise interval to
+#: some coefficient's interval.
+MARGIN_WARN_FRACTION = 0.25
+
+
+def sampling_kernel_margin(eom: EquationOfMotion, ci95: dict[str, dict[str, float]], rate_hz: float,
+                           frequency_hz: float, kernel_known: bool
+                           ) -> tuple[dict[str, dict[str, float]], tuple[str, ...]]:
+    """The intervals widened by what an unknown sampling kernel can do, and a sentence when it matters.
+
+    A record whose sampling is not stated may hold point samples or means over each sample
+    interval (:data:`MARGIN_SINC_ORDER`); the two differ by a gain ``1 - (omega dt)^2 / 24`` on
+    the response at ``omega`` that moves a term of total degree ``d`` by ``(d - 1)`` times it
+    (:func:`droop_bias`; linear terms not at all). The fit cannot see it, so each coefficient's
+    half width gets ``|droop_bias(term, omega dt, 1) c|`` added (a bound: the estimate is
+    unbiased for point samples and off by that much for interval means). When the kernel is
+    known (``kernel_known``: told ``sincK`` or ``none``, point samples) nothing is added.
+
+    Parameters
+    ----------
+    eom : EquationOfMotion
+        The returned model.
+    ci95 : dict
+        Its 95 % half widths from the noise (``{"damping": {term: h}, "stiffness": {...}}``).
+    rate_hz, frequency_hz : float
+        Sample rate and fastest frequency of the response [Hz] (0: unknown, nothing added).
+    kernel_known : bool
+
+    Returns
+    -------
+    ci95 : dict
+        Widened half widths (a new dict; ``ci95`` itself when nothing is added).
+    warnings : tuple of str
+        Empty or one sentence naming the samples per cycle and the largest margin.
+    """
+    if kernel_known or not (frequency_hz > 0 and rate_hz > 0):
+        return ci95, ()
+    omega_dt = 2.0 * math.pi * frequency_hz / rate_hz
+    out: dict[str, dict[str, float]] = {g: dict(ci95.get(g, {})) for g in ci95}
+    worst: tuple[float, str, float] | None = None
+    for group in ("damping", "stiffness"):
+        for term, c in getattr(eom, group).items():
+            half = ci95.get(group, {}).get(term)
+            if half is None or not math.isfinite(half):
+                continue
+            rel = abs(droop_bias(term, omega_dt, MARGIN_SINC_ORDER))
+            margin = rel * abs(c)
+            out.setdefault(group, {})[term] = half + margin
+            ratio = margin / half if half > 0 else math.inf
+            if margin > 0 and (worst is None or ratio > worst[0]):
+                worst = (ratio, term, rel)
+    if worst is None or worst[0] <= MARGIN_WARN_FRACTION:
+        return out, ()
+    _, term, rel = worst
+    return out, (f"coarse sampling: {rate_hz / frequency_hz:.0f} samples per cycle: means over each sample "
+                 f"interval (an integrating ADC) instead of point samples would move {term} by "
+                 f"{100 * rel:.2g} %, which the fit cannot see; the 95 % intervals of the nonlinear terms "
+                 "include it (state the sampling, `--adc-filter none` for point samples or sincK, to "
+                 "drop it; record faster to shrink it)",)
 
 
 #: Cut-off of the analog anti-alias filter the warning sizes: the sample rate over this (the
