@@ -266,10 +266,11 @@ class Pipeline:
         warnings = list(cond_warnings(cond))
         f_hi = highest_frequency(cond)
         coarse = samples_per_cycle_note(cond.rate_hz, f_hi)
-        if coarse:
-            warnings.append(coarse)
         ci95, margin_note = sampling_kernel_margin(eom, ci95, cond.rate_hz, f_hi, cond.sample_kernel_known)
-        warnings += margin_note
+        if coarse:  # one sentence about coarse sampling
+            warnings.append("; ".join((coarse, *margin_note)))
+        else:
+            warnings += margin_note
         warnings += sampling_kernel_warning(eom, ci95, cond.rate_hz, f_hi, cond.sample_kernel_var)
         warnings += loose_coefficient_warnings(eom, ci95)
         unsound = model_warnings(eom, cond.x[w0:w1], cond.v[w0:w1])

@@ -88,13 +88,13 @@ def test_interval_means_at_15_a_cycle_are_covered_when_the_sampling_is_not_state
         assert abs(_z(told_point, "damping", "x^2*v")) > Z95  # the blind cards' miss
         unstated = _fit(t, f, a)
         assert abs(_z(unstated, "damping", "x^2*v")) <= Z95
-        assert any(w.startswith("coarse sampling: 15 samples per cycle") for w in unstated.choices.warnings)
+        assert any("coarse sampling: 15 samples per cycle" in w for w in unstated.choices.warnings)
         for g, term in (("damping", "v"), ("stiffness", "x")):  # linear terms: unchanged, inside
             assert unstated.ci95[g][term] == told_point.ci95[g][term]
             assert abs(_z(unstated, g, term)) <= Z95
         told_means = _fit(t, f, a, adc_sinc_order=1)  # stated: compared through the kernel, no margin
         assert abs(_z(told_means, "damping", "x^2*v")) <= Z95
-        assert not any(w.startswith("coarse sampling:") for w in told_means.choices.warnings)
+        assert not any("coarse sampling:" in w for w in told_means.choices.warnings)
     assert np.mean(errs) == pytest.approx(2 * (2 * math.pi / SPC) ** 2 / 24, rel=0.3)
 
 
@@ -127,4 +127,4 @@ def test_station_identify_on_a_mat_file_states_it_and_adc_filter_none_drops_it(t
     for key, covered in (("unstated", True), ("point", False)):
         js = out[key]
         assert (abs(js["damping"]["x^2*v"] - c) <= js["ci95"]["damping"]["x^2*v"]) is covered
-        assert any(w.startswith("coarse sampling: 15 samples per cycle") for w in js["warnings"]) is covered
+        assert any("coarse sampling: 15 samples per cycle" in w for w in js["warnings"]) is covered
