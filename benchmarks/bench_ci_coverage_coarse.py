@@ -7,7 +7,8 @@ family sits at 20-40 samples per cycle on fixed systems; here every record is a 
 * samples per cycle of the linear frequency 8-40 (``--spc LO:HI``), rate 200 Hz - 2 kHz, mass
   0.1-500 kg, 30-60 dB, damping ratio 0.003-0.02;
 * damping law ``x^2*v``, ``v*abs(v)``, ``v^3`` or ``sign(v)`` (Coulomb) beside ``v``, its share
-  at the first peak 0.3-2 (Coulomb: 0.05-0.3 of the linear damping force there);
+  at the first peak 0.3-2 (Coulomb: 0.05-0.3 of the linear damping force there); ``--laws`` also
+  takes ``abs(x)*v`` and mixed laws ``A+B`` (the share split between the terms);
 * stiffness linear, hardening or softening cubic (share 0.05-0.4 at the first peak);
 * the simulated rig (:func:`simulated_rig.bench.impact_test`: half-sine blow of 0.1-0.3 of a
   period, force + accelerometer, 24 bits), point samples.
@@ -69,7 +70,7 @@ def draw(rng: np.random.Generator, laws: tuple[str, ...], spc: tuple[float, floa
     zeta = float(np.exp(rng.uniform(math.log(0.003), math.log(0.02))))
     law = str(rng.choice(laws))
     stiff = str(rng.choice(STIFF))
-    share = float(rng.uniform(0.05, 0.3) if law == "sign(v)" else rng.uniform(0.3, 2.0))
+    share = float(rng.uniform(0.05, 0.3) if "sign(v)" in law else rng.uniform(0.3, 2.0))
     kshare = {"linear": 0.0, "hardening": float(rng.uniform(0.05, 0.4)),
               "softening": -float(rng.uniform(0.03, 0.12))}[stiff]
     return dict(rate=rate, spc=n_cycle, f=f, mass=mass, zeta=zeta, law=law, share=share, stiff=stiff,
@@ -86,8 +87,11 @@ def true_model(d: dict) -> EquationOfMotion:
     stiffness = {"x": k1}
     if d["kshare"]:
         stiffness["x^3"] = d["kshare"] * k1 / xp**2
-    scale = {"x^2*v": xp**2, "v^3": vp**2, "v*abs(v)": vp, "sign(v)": 1.0 / vp}[d["law"]]
-    damping = {"v": b1, d["law"]: d["share"] * b1 / scale}
+    damping = {"v": b1}
+    laws = d["law"].split("+")  # a mixed law: the share split among its terms
+    for law in laws:
+        scale = {"x^2*v": xp**2, "v^3": vp**2, "v*abs(v)": vp, "sign(v)": 1.0 / vp, "abs(x)*v": xp}[law]
+        damping[law] = d["share"] / len(laws) * b1 / scale
     return EquationOfMotion.create(mass=m, damping=damping, stiffness=stiffness)
 
 

@@ -128,3 +128,29 @@ def test_station_identify_on_a_mat_file_states_it_and_adc_filter_none_drops_it(t
         js = out[key]
         assert (abs(js["damping"]["x^2*v"] - c) <= js["ci95"]["damping"]["x^2*v"]) is covered
         assert any("coarse sampling: 15 samples per cycle" in w for w in js["warnings"]) is covered
+
+
+def test_point_samples_stated_by_import_are_stored_with_the_capture(tmp_path) -> None:
+    """``station import CSV --adc-filter none`` keeps the statement (``adc_sinc_order = 0``): the
+    capture's intervals are the noise's, as ``identify CSV --adc-filter none`` gives."""
+    from station.cli import main
+
+    t, f, a = _record(1, interval_means=False)
+    csv = tmp_path / "coarse.csv"
+    np.savetxt(csv, np.column_stack((t, f, a)), delimiter=",", header="t,force,acc", comments="", fmt="%.12g")
+    h5 = tmp_path / "s.h5"
+
+    def run(argv: list[str]) -> dict:
+        buf = io.StringIO()
+        with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(io.StringIO()):
+            assert main(argv) in (0, 1)
+        return json.loads(buf.getvalue()) if "--json" in argv else {}
+
+    run(["import", str(csv), "--out", str(h5), "--adc-filter", "none"])
+    terms = ["--mass", "1", "--damping", "v,x^2*v", "--stiffness", "x", "--json"]
+    stored = run(["identify", f"{h5}:0", *terms])
+    told = run(["identify", str(csv), *terms, "--adc-filter", "none"])
+    unstated = run(["identify", str(csv), *terms])
+    half = {k: js["ci95"]["damping"]["x^2*v"] for k, js in (("stored", stored), ("told", told), ("unstated", unstated))}
+    assert half["stored"] == pytest.approx(half["told"], rel=1e-6)
+    assert half["unstated"] > 1.5 * half["told"]
