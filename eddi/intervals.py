@@ -166,6 +166,7 @@ def sampling_kernel_margin(eom: EquationOfMotion, ci95: dict[str, dict[str, floa
     if kernel_known or not (frequency_hz > 0 and rate_hz > 0):
         return ci95, ()
     omega_dt = 2.0 * math.pi * frequency_hz / rate_hz
+    informative = estimate is not None and 2.0 * estimate[1] < KERNEL_INFORMATIVE
     out: dict[str, dict[str, float]] = {g: dict(ci95.get(g, {})) for g in ci95}
     worst: tuple[float, str, float] | None = None
     for group in ("damping", "stiffness"):
@@ -176,7 +177,9 @@ def sampling_kernel_margin(eom: EquationOfMotion, ci95: dict[str, dict[str, floa
             rel = abs(droop_bias(term, omega_dt, MARGIN_SINC_ORDER))
             margin = rel * abs(c)
             if measured is not None and term in measured.get(group, {}):
-                margin = float(measured[group][term])
+                # read from the record: that bound; not readable: the larger of it (one interval
+                # mean through the fit, which holds what a gain does not) and the formula's
+                margin = float(measured[group][term]) if informative else max(margin, float(measured[group][term]))
                 rel = margin / abs(c) if c else 0.0
             out.setdefault(group, {})[term] = half + margin
             ratio = margin / half if half > 0 else math.inf
@@ -186,7 +189,7 @@ def sampling_kernel_margin(eom: EquationOfMotion, ci95: dict[str, dict[str, floa
         return out, ()
     _, term, rel = worst
     read = ""
-    if estimate is not None and measured is not None and 2.0 * estimate[1] < KERNEL_INFORMATIVE:
+    if informative and measured is not None:
         read = (f"; its harmonics read a kernel of {estimate[0]:.2f} +- {estimate[1]:.2f} interval means (0 point "
                 "samples, 1 an integrating ADC, 3 a sinc3 decimator)")
     return out, (f"coarse sampling: {rate_hz / frequency_hz:.0f} samples per cycle: the record does not say "
@@ -430,8 +433,9 @@ def measured_kernel_margin(prob, p: np.ndarray, half: np.ndarray, jac: np.ndarra
     1.0-1.2 +- 0.04-0.1, session 12), else times 1 (the prior bound). Cost: one simulation
     without sensitivities and a solve with the Jacobian (computed when None). Skipped (None)
     when the formula bound is below 5 % of every interval (densely sampled records) or a
-    simulation diverges, or when the record is too coarse for the estimate
-    (:data:`KERNEL_HARMONIC_MAX`): then :func:`sampling_kernel_margin`'s formula bound applies.
+    simulation diverges. On a record too coarse for the estimate (:data:`KERNEL_HARMONIC_MAX`)
+    ``sigma`` is returned as ``inf`` and the margin is ``|pinv(J) u|`` (one interval mean), which
+    :func:`sampling_kernel_margin` then takes with the formula bound, the larger of the two.
 
     Returns
     -------
@@ -444,7 +448,7 @@ def measured_kernel_margin(prob, p: np.ndarray, half: np.ndarray, jac: np.ndarra
     names = [prob.names[i][1] for i in prob.active]
     scale = prob.scale[prob.active]
     coefs = np.asarray(p[:k_act]) * scale
-    if not (omega > 0 and dt > 0) or 3.0 * omega * dt > KERNEL_HARMONIC_MAX:
+    if not (omega > 0 and dt > 0):
         return None
     formula = np.array([abs(droop_bias(t, omega * dt, MARGIN_SINC_ORDER)) for t in names]) * np.abs(coefs)
     if np.all(formula < 0.05 * np.where(half > 0, half, np.inf)):
@@ -475,6 +479,8 @@ def measured_kernel_margin(prob, p: np.ndarray, half: np.ndarray, jac: np.ndarra
     else:
         k_hat = -float(u_perp @ r) / uu
         sigma = math.sqrt(float(r @ r) / dof / uu)
+    if 3.0 * omega * dt > KERNEL_HARMONIC_MAX:  # too coarse to read the kernel: the prior bound
+        sigma = math.inf
     bound = abs(k_hat) + 2.0 * sigma if 2.0 * sigma < KERNEL_INFORMATIVE else 1.0
     return np.abs(gu[:k_act]) * bound, k_hat, sigma
 
