@@ -11,7 +11,10 @@ family sits at 20-40 samples per cycle on fixed systems; here every record is a 
   takes ``abs(x)*v`` and mixed laws ``A+B`` (the share split between the terms);
 * stiffness linear, hardening or softening cubic (share 0.05-0.4 at the first peak);
 * the simulated rig (:func:`simulated_rig.bench.impact_test`: half-sine blow of 0.1-0.3 of a
-  period, force + accelerometer, 24 bits), point samples.
+  period, force + accelerometer, 24 bits), point samples; ``--kernel mean``: both channels as
+  means over each sample interval (an integrating ADC, made at 15x the rate), not told to the
+  station; ``--record free-acc|free-vel|free-disp``: a free decay from a displaced rest, one
+  channel, no force and no rest.
 
 Each record is identified with its own terms by ``station identify FILE --mass M --damping ...
 --stiffness ... --json`` in this process (``--via mat``: a MATLAB v5 file of ``t, force, acc``;
@@ -21,12 +24,13 @@ and per band of samples per cycle, mean z (the bias in standard errors), RMS z; 
 keeps one JSON row per record.
 
 Draws are seeded: ``--draw-seed`` picks the systems (``--records N`` of them), the noise seed of
-record ``i`` is ``draw_seed * 1000 + i``. Session 12 tuned on draw seed 1 and reported draw
-seed 2 (other systems, other noise) and ``--laws`` not tuned on.
+record ``i`` is ``draw_seed * 1000 + i``. Session 12 tuned on draw seeds 1 and 3 and held out
+seed 5 with the laws ``x^2*v,v*abs(v),v^3,abs(x)*v`` (``docs/eddi-method.md``, "Session 12").
 
 Run: ``python benchmarks/bench_ci_coverage_coarse.py [--records 60] [--draw-seed 1] [--via mat|csv|arrays]
-[--no-refine] [--laws x^2*v,...] [--spc 8:40] [--jobs 2] [--out rows.jsonl]``; ``--summary F.jsonl...``
-reprints stored rows.
+[--kernel point|mean] [--record impact|free-acc|free-vel|free-disp] [--no-refine] [--laws x^2*v,...]
+[--spc 8:40] [--snr 30:60] [--jobs 2] [--out rows.jsonl]``; ``--summary F.jsonl...`` reprints stored
+rows (~0.1-1 s per record).
 """
 
 from __future__ import annotations
@@ -250,7 +254,7 @@ def report(rows: list[dict]) -> None:
         band = next(f"{lo}-{hi}" for lo, hi in bands if lo <= r["spc"] < hi) if r["spc"] < 41 else ">=41"
         for term, t in r["terms"].items():
             kind = term if term in ("v", "x", "x^3") else "law"
-            add(f"all", t)
+            add("all", t)
             add(f"term {term}", t)
             add(f"spc {band} {kind}", t)
             add(f"spc {band} all", t)
