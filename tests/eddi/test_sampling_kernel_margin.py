@@ -6,9 +6,11 @@ out +1.55 % off, outside its ci95, on two seeds, with ``x`` and ``v`` inside. Se
 8-40 samples a cycle; samples that are **means over each sample interval** (an integrating ADC, a
 block-average decimation) measure the response ``1 - (omega dt)^2 / 24`` too small, and a term of
 degree 3 comes out ``2 (omega dt)^2 / 24`` high (1.54 % at 14.6 a cycle), linear ones unmoved. A
-free response cannot tell the two apart, so an unstated kernel now widens each half width by that
-bound (:func:`eddi.intervals.sampling_kernel_margin`); stated (``adc_sinc_order=0`` point samples,
-``1`` interval means) nothing is added.
+free response cannot tell the two apart by their gain, so an unstated kernel now widens each half
+width (:func:`eddi.intervals.sampling_kernel_margin`): by what the fit measures one interval mean to
+do, times the kernel the record's harmonics read when they can (``measured_kernel_margin``), else
+by the larger of that and the formula; stated (``adc_sinc_order=0`` point samples, ``1`` interval
+means) nothing is added.
 """
 
 from __future__ import annotations
