@@ -47,7 +47,7 @@ from eddi.driven_validation import fused_impact_force, unsharpened, validate_con
 from eddi.energy import noise_level
 from eddi.errors import IdentificationError, SignalError
 from eddi.identify import IdentifiedModel, identify
-from eddi.intervals import loose_coefficient_warnings, sampling_kernel_warning
+from eddi.intervals import loose_coefficient_warnings, sampling_kernel_margin, sampling_kernel_warning
 from eddi.model import EquationOfMotion
 from eddi.pipeline_result import REFINE_CHANNEL, SIGNAL_NAME, PipelineChoices, PipelineResult, units_of
 from eddi.refinement_choice import judge_refinement
@@ -130,6 +130,8 @@ class Pipeline:
         """
         cond = condition(t, acc=acc, vel=vel, disp=disp, force=force, pretrigger_samples=pretrigger_samples,
                          ac_coupling_s=ac_coupling_s)
+        if adc_sinc_order is not None:  # stated: 0 point samples (or a flat passband), K a sinc^K decimator
+            cond = replace(cond, sample_kernel_known=True)
         if adc_sinc_order:
             k = int(adc_sinc_order)
             if not (k == adc_sinc_order and 1 <= k <= 8):
@@ -156,7 +158,7 @@ class Pipeline:
             return identify(cond.t, cond.x, cond.v, mass, damping=self.damping, stiffness=self.stiffness,
                             route=self.route, a=cond.a, window=cond.window, refine=channel if self.refine else False,
                             select=self.refine and self.select, mapper=self.mapper,
-                            kernel_var=cond.sample_kernel_var), 1
+                            kernel_var=cond.sample_kernel_var, kernel_known=cond.sample_kernel_known), 1
         td, xd, vd, ad, _ = decimate_centred(tw, xw, vw, aw, q)
         # the noise of the samples (what EDDI would estimate on every sample)
         model = identify(td, xd, vd, mass, damping=self.damping, stiffness=self.stiffness, route=self.route, a=ad,
@@ -166,14 +168,16 @@ class Pipeline:
             from eddi.refine import refine_output_error  # local: scipy.optimize
 
             eom, info = refine_output_error(model.eom, tw, xw, vw, aw, channel=channel, select=self.select,
-                                            mapper=self.mapper, kernel_var=cond.sample_kernel_var)
+                                            mapper=self.mapper, kernel_var=cond.sample_kernel_var,
+                                            kernel_known=cond.sample_kernel_known)
             model = replace(model, eom=eom, unrefined=model.eom, refinement=info)
         return model, q
 
     @staticmethod
     def _intervals(eom: EquationOfMotion, cond: ConditionedSignal, refinement: str,
-                   ref: "Refinement | None") -> dict[str, dict[str, float]]:
-        """95 % intervals of the returned model's coefficients.
+                   ref: "Refinement | None") -> tuple[dict[str, dict[str, float]], dict[str, dict[str, float]] | None]:
+        """95 % intervals of the returned model's coefficients (the noise's), and the margin an
+        unstated sampling kernel needs as the record measured it (None: not measured).
 
         The refined model: the output-error covariance (:attr:`eddi.refine.Refinement.ci95`).
         EDDI's estimate (refinement rejected or off): its distance from the output-error fit
@@ -183,17 +187,18 @@ class Pipeline:
         from eddi.refine import bounded_intervals, confidence_intervals, refine_output_error
 
         if refinement == "kept" and ref is not None and ref.ci95:
-            return ref.ci95
+            return ref.ci95, ref.kernel_margin or None
         w0, w1 = cond.window
         args = (cond.t[w0:w1], cond.x[w0:w1], cond.v[w0:w1], cond.a[w0:w1])
         channel = REFINE_CHANNEL[cond.response]
         kv = cond.sample_kernel_var
         if ref is None or not ref.unselected:
             try:
-                _, ref = refine_output_error(eom, *args, channel=channel, kernel_var=kv)
+                _, ref = refine_output_error(eom, *args, channel=channel, kernel_var=kv,
+                                             kernel_known=cond.sample_kernel_known)
             except (IdentificationError, SignalError):  # too short a window: the covariance at EDDI
-                return confidence_intervals(eom, *args, channel=channel, kernel_var=kv)
-        return bounded_intervals(eom, ref.unselected, ref.unselected_ci95)
+                return confidence_intervals(eom, *args, channel=channel, kernel_var=kv), None
+        return bounded_intervals(eom, ref.unselected, ref.unselected_ci95), ref.unselected_kernel_margin or None
 
     def validate(self, eom: EquationOfMotion, cond: ConditionedSignal) -> tuple[Validation, bool]:
         """Step 3: simulate ``eom`` for a conditioned record, compare over its free response.
@@ -256,7 +261,7 @@ class Pipeline:
         eom = model.eom
         w0, w1 = cond.window
         ref = model.refinement
-        ci95 = self._intervals(eom, cond, refinement, ref)
+        ci95, measured = self._intervals(eom, cond, refinement, ref)
         dropped = {t: "not in the model" for t in self.damping + self.stiffness
                    if t not in eom.damping and t not in eom.stiffness}
         if refinement == "kept" and ref is not None:
@@ -264,8 +269,12 @@ class Pipeline:
         warnings = list(cond_warnings(cond))
         f_hi = highest_frequency(cond)
         coarse = samples_per_cycle_note(cond.rate_hz, f_hi)
-        if coarse:
-            warnings.append(coarse)
+        ci95, margin_note = sampling_kernel_margin(eom, ci95, cond.rate_hz, f_hi, cond.sample_kernel_known,
+                                                   measured, ref.kernel_estimate if ref is not None else None)
+        if coarse:  # one sentence about coarse sampling
+            warnings.append("; ".join((coarse, *margin_note)))
+        else:
+            warnings += margin_note
         warnings += sampling_kernel_warning(eom, ci95, cond.rate_hz, f_hi, cond.sample_kernel_var)
         warnings += loose_coefficient_warnings(eom, ci95)
         unsound = model_warnings(eom, cond.x[w0:w1], cond.v[w0:w1])

@@ -95,6 +95,7 @@ def identify(
     select: bool = False,
     mapper=None,
     kernel_var: float = 0.0,
+    kernel_known: bool = True,
 ) -> IdentifiedModel:
     """Identify an equation of motion from a free response with the EDDI method.
 
@@ -160,6 +161,9 @@ def identify(
     kernel_var : float
         With ``refine``: variance of the DAQ's sampling kernel [sample intervals^2]
         (:func:`eddi.intervals.sampling_curvature`); 0 for point samples.
+    kernel_known : bool
+        With ``refine``: False when the record does not state its sampling (the refinement then
+        measures the margin an unstated kernel needs, ``Refinement.kernel_margin``).
 
     Returns
     -------
@@ -252,7 +256,8 @@ def identify(
         unrefined = eom
         eom, refinement = refine_output_error(eom, tw, xw, vw, aw,
                                               channel=refine if isinstance(refine, str) else None,
-                                              select=select, mapper=mapper, kernel_var=kernel_var)
+                                              select=select, mapper=mapper, kernel_var=kernel_var,
+                                              kernel_known=kernel_known)
     return IdentifiedModel(
         eom=eom, route=chosen, phase_one=p1, phase_two=p2, window=(w0, w1),
         route_scores=scores, alternatives=results, unrefined=unrefined, refinement=refinement,

@@ -3,7 +3,9 @@
 :func:`sampling_curvature`: a DAQ's sampling kernel in the compared values;
 :func:`noise_covariance_of_fit`: the noise covariance of coloured residuals;
 :func:`sampling_kernel_warning`: a sentence when an untold decimation filter could move a
-coefficient beyond its interval.
+coefficient beyond its interval;
+:func:`sampling_kernel_margin`: the intervals widened by what an unstated sampling kernel (point
+samples or interval means) can do.
 
 The intervals (:mod:`eddi.refine`) are the fit's covariance: they hold the noise, not a gain
 error of the measured signal. A DAQ whose decimation filter droops in the passband (a sinc^K
@@ -107,6 +109,94 @@ def sampling_kernel_warning(eom: EquationOfMotion, ci95: dict[str, dict[str, flo
             f"half widths), a 1-pole analog filter at rate/{ANALOG_CUTOFF_DIVISOR:g} by {100 * rc:.2g} %; if the DAQ "
             "has a decimator, give its order (adc_sinc_order; `station identify --adc-filter sincK[:R]`); an analog "
             "filter is not modelled: record faster",)
+
+
+#: The sampling kernel the intervals make room for when the record does not say how it was
+#: sampled: a mean over each sample interval (sinc1: an integrating ADC, a block-average
+#: decimation, the rig's own force channel), the mildest low-pass a sampled record has had
+#: besides point samples. Session 12 (s12cov, ``benchmarks/bench_ci_coverage_coarse.py``):
+#: records of such samples put ``x^2*v`` and ``x^3`` ``2 (omega dt)^2 / 24`` high (+1.6 % at
+#: 14.6 samples a cycle), 3-128 standard errors at 50-60 dB, while point samples were unbiased;
+#: nothing in a free response tells the two apart (a gain on every sample, see the module notes).
+MARGIN_SINC_ORDER = 1
+#: Say so in a warning when the margin adds more than this fraction of the noise interval to
+#: some coefficient's interval.
+MARGIN_WARN_FRACTION = 0.25
+
+
+def sampling_kernel_margin(eom: EquationOfMotion, ci95: dict[str, dict[str, float]], rate_hz: float,
+                           frequency_hz: float, kernel_known: bool,
+                           measured: dict[str, dict[str, float]] | None = None,
+                           estimate: tuple[float, float] | None = None
+                           ) -> tuple[dict[str, dict[str, float]], tuple[str, ...]]:
+    """The intervals widened by what an unknown sampling kernel can do, and a sentence when it matters.
+
+    A record whose sampling is not stated may hold point samples or means over each sample
+    interval (:data:`MARGIN_SINC_ORDER`); the two differ by a gain ``1 - (omega dt)^2 / 24`` on
+    the response at ``omega`` that moves a term of total degree ``d`` by ``(d - 1)`` times it
+    (:func:`droop_bias`; linear terms not at all). The fit cannot see it, so each coefficient's
+    half width gets ``|droop_bias(term, omega dt, 1) c|`` added (a bound: the estimate is
+    unbiased for point samples and off by that much for interval means). When the fit measured
+    the margin itself (``measured``, :func:`measured_kernel_margin`: the record's harmonics bound
+    its kernel), that is added instead. When the kernel is known (``kernel_known``: told
+    ``sincK`` or ``none``, point samples) nothing is added.
+
+    Parameters
+    ----------
+    eom : EquationOfMotion
+        The returned model.
+    ci95 : dict
+        Its 95 % half widths from the noise (``{"damping": {term: h}, "stiffness": {...}}``).
+    rate_hz, frequency_hz : float
+        Sample rate and fastest frequency of the response [Hz] (0: unknown, nothing added).
+    kernel_known : bool
+    measured : dict, optional
+        Margins per coefficient the fit measured (same layout as ``ci95``).
+    estimate : (float, float), optional
+        The record's own estimate of its kernel in interval means and its standard error (named
+        in the sentence when informative).
+
+    Returns
+    -------
+    ci95 : dict
+        Widened half widths (a new dict; ``ci95`` itself when nothing is added).
+    warnings : tuple of str
+        Empty or one sentence naming the samples per cycle and the largest margin.
+    """
+    if kernel_known or not (frequency_hz > 0 and rate_hz > 0):
+        return ci95, ()
+    omega_dt = 2.0 * math.pi * frequency_hz / rate_hz
+    informative = estimate is not None and 2.0 * estimate[1] < KERNEL_INFORMATIVE
+    out: dict[str, dict[str, float]] = {g: dict(ci95.get(g, {})) for g in ci95}
+    worst: tuple[float, str, float] | None = None
+    for group in ("damping", "stiffness"):
+        for term, c in getattr(eom, group).items():
+            half = ci95.get(group, {}).get(term)
+            if half is None or not math.isfinite(half):
+                continue
+            rel = abs(droop_bias(term, omega_dt, MARGIN_SINC_ORDER))
+            margin = rel * abs(c)
+            if measured is not None and term in measured.get(group, {}):
+                # read from the record: that bound; not readable: the larger of it (one interval
+                # mean through the fit, which holds what a gain does not) and the formula's
+                margin = float(measured[group][term]) if informative else max(margin, float(measured[group][term]))
+                rel = margin / abs(c) if c else 0.0
+            out.setdefault(group, {})[term] = half + margin
+            ratio = margin / half if half > 0 else math.inf
+            if margin > 0 and (worst is None or ratio > worst[0]):
+                worst = (ratio, term, rel)
+    if worst is None or worst[0] <= MARGIN_WARN_FRACTION:
+        return out, ()
+    _, term, rel = worst
+    read = ""
+    if informative and measured is not None:
+        read = (f"; its harmonics read a kernel of {estimate[0]:.2f} +- {estimate[1]:.2f} interval means (0 point "
+                "samples, 1 an integrating ADC, 3 a sinc3 decimator)")
+    return out, (f"coarse sampling: {rate_hz / frequency_hz:.0f} samples per cycle: the record does not say "
+                 f"whether its samples are points or means over each sample interval (an integrating ADC), "
+                 f"which moves the nonlinear terms{read}; the 95 % intervals include up to {100 * rel:.2g} % on "
+                 f"{term} for it (state the sampling, `--adc-filter none` for point samples or sincK, to "
+                 "drop it; record faster to shrink it)",)
 
 
 #: Cut-off of the analog anti-alias filter the warning sizes: the sample rate over this (the
@@ -314,6 +404,85 @@ def _simulated_finer(prob, p: np.ndarray, factor: int) -> np.ndarray | None:
     finally:
         prob.steps, prob.substeps, prob._last, prob._memo, prob.count, prob.diverged = saved
     return out if ok else None
+
+
+#: The record bounds its own sampling kernel when ``2 sigma`` of the estimate (in interval means,
+#: sinc1) is below this; otherwise the bound is one interval mean (:data:`MARGIN_SINC_ORDER`).
+KERNEL_INFORMATIVE = 1.0
+#: ...and only when the third harmonic of its fastest oscillation is resolved by the curvature
+#: model of a kernel: ``3 omega dt`` at most this [rad] (>= ~16 samples a cycle). The estimate
+#: reads the kernel in the harmonics, and a second difference gives ``(sin(theta/2)/(theta/2))^2``
+#: of a harmonic's curvature at ``theta`` rad a sample (0.67 at 8 a cycle): session 12's interval
+#: means at 8-10 a cycle were read as ~0 (x^2*v 5 % off, 9.6 half widths).
+KERNEL_HARMONIC_MAX = 1.2
+
+
+def measured_kernel_margin(prob, p: np.ndarray, half: np.ndarray, jac: np.ndarray | None = None
+                           ) -> tuple[np.ndarray, float, float] | None:
+    """How far an unstated sampling kernel can move the fitted coefficients, as the record tells it.
+
+    The compared values of a record of interval means differ from point samples by
+    ``u = y(kernel + 1/12) - y(kernel)`` (:func:`sampling_curvature`): mostly a gain, which
+    moves a degree-``d`` term by ``(d - 1) (omega dt)^2 / 24`` (:func:`sampling_kernel_margin`),
+    and a harmonic-dependent part, which the fit can see: with ``J`` the fit's Jacobian at
+    ``p``, ``k = -(u_perp . r) / (u_perp . u_perp)`` (``u_perp``: ``u`` less its projection on
+    ``J``, ``r`` the residual) is the record's own estimate of its kernel in interval means,
+    ``sigma = s / |u_perp|``. The coefficients move by ``-pinv(J) u`` per interval mean; the
+    margin is that times ``|k| + 2 sigma`` when ``2 sigma`` < :data:`KERNEL_INFORMATIVE`
+    (point samples of a strongly nonlinear record: ``k`` ~0 +- 0.02-0.1; interval means:
+    1.0-1.2 +- 0.04-0.1, session 12), else times 1 (the prior bound). Cost: one simulation
+    without sensitivities and a solve with the Jacobian (computed when None). Skipped (None)
+    when the formula bound is below 5 % of every interval (densely sampled records) or a
+    simulation diverges. On a record too coarse for the estimate (:data:`KERNEL_HARMONIC_MAX`)
+    ``sigma`` is returned as ``inf`` and the margin is ``|pinv(J) u|`` (one interval mean), which
+    :func:`sampling_kernel_margin` then takes with the formula bound, the larger of the two.
+
+    Returns
+    -------
+    (margin, k, sigma) or None
+        ``margin`` in the scaled units of ``p``'s active coefficients (>= 0).
+    """
+    k_act = len(prob.active)
+    dt = float(prob.t[1] - prob.t[0]) / prob.block if prob.t.size > 1 else 0.0
+    omega = prob.omega if hasattr(prob, "omega") else 0.0
+    names = [prob.names[i][1] for i in prob.active]
+    scale = prob.scale[prob.active]
+    coefs = np.asarray(p[:k_act]) * scale
+    if not (omega > 0 and dt > 0):
+        return None
+    formula = np.array([abs(droop_bias(t, omega * dt, MARGIN_SINC_ORDER)) for t in names]) * np.abs(coefs)
+    if np.all(formula < 0.05 * np.where(half > 0, half, np.inf)):
+        return None
+    base = prob.simulated(p, prob.n)
+    if prob.diverged:
+        return None
+    saved = (prob.curvature, prob.quartic, prob._last, prob._memo, prob.count, prob.diverged)
+    try:
+        kv = getattr(prob, "kernel_var", 0.0) + 1.0 / 12.0
+        prob.curvature, prob.quartic = sampling_curvature(prob.block, kv), sampling_quartic(prob.block, kv)
+        alt = prob._simulated(p, prob.n, sensitivities=False)
+        ok = not prob.diverged and bool(np.all(np.isfinite(alt)))
+    finally:
+        prob.curvature, prob.quartic, prob._last, prob._memo, prob.count, prob.diverged = saved
+    if not ok:
+        return None
+    if jac is None:
+        jac = prob.jacobian(p)
+    u = alt - base
+    gu = np.linalg.pinv(jac.T @ jac) @ (jac.T @ u)
+    u_perp = u - jac @ gu
+    uu = float(u_perp @ u_perp)
+    r = base - prob.y[: prob.n]
+    dof = max(1, prob.n - p.size)
+    if not uu > 0:
+        k_hat, sigma = 0.0, math.inf
+    else:
+        k_hat = -float(u_perp @ r) / uu
+        sigma = math.sqrt(float(r @ r) / dof / uu)
+    if 3.0 * omega * dt > KERNEL_HARMONIC_MAX:  # too coarse to read the kernel: the prior bound
+        sigma = math.inf
+    bound = abs(k_hat) + 2.0 * sigma if 2.0 * sigma < KERNEL_INFORMATIVE else 1.0
+    return np.abs(gu[:k_act]) * bound, k_hat, sigma
 
 
 def integration_shift(prob, p: np.ndarray, jac: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:

@@ -57,6 +57,7 @@ class OutputErrorProblem:
         self.t = t[half: half + nb * self.block: self.block]
         # block mean of samples that are themselves the DAQ's kernel-weighted means (variance
         # ``kernel_var`` sample intervals^2, see :func:`eddi.intervals.sampling_curvature`)
+        self.kernel_var = kernel_var
         self.curvature = sampling_curvature(self.block, kernel_var)
         self.quartic = sampling_quartic(self.block, kernel_var)
         d_terms, k_terms = eom.damping_terms(), eom.stiffness_terms()
@@ -84,6 +85,7 @@ class OutputErrorProblem:
         # MAX_SUBSTEPS, as the simulator: a wild starting model (a refit through a bad corner:
         # 1.2e6 steps per sample, 7.6e9 in all) then diverges at once instead of running minutes
         omega = local_angular_frequency(eom, x_amp, v_amp)
+        self.omega = omega
         self.substeps = (min(MAX_SUBSTEPS, max(1, math.ceil(dt * self.block * omega / 0.1)))
                          if math.isfinite(omega) else MAX_SUBSTEPS)
         self.steps = local_substeps(eom, dt * self.block, block_means(np.abs(x), self.block) if self.block > 1

@@ -73,7 +73,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from eddi.errors import IdentificationError, SignalError
-from eddi.intervals import integration_shift
+from eddi.intervals import integration_shift, measured_kernel_margin
 from eddi.model import EquationOfMotion
 from eddi.output_error import DIRECT_NRMSE, NUISANCE, STAGES, OutputErrorProblem
 from eddi.refine_grid import (  # noqa: F401 - re-exported: the grid's rules, importable from here as before
@@ -115,6 +115,13 @@ class Refinement:
         intervals of the returned coefficients (empty when not computed).
     dropped : dict of str to str
         Terms removed by the selection, and why (empty without ``select``).
+    kernel_margin, unselected_kernel_margin : dict of str to dict of str to float
+        Asked for with ``kernel_known=False``: how far an unstated sampling kernel can move the
+        returned (the unselected) coefficients, as the record bounds it
+        (:func:`eddi.intervals.measured_kernel_margin`); empty when not computed or negligible.
+    kernel_estimate : tuple of float, optional
+        The record's own estimate of its sampling kernel, in means over a sample interval, and
+        its standard error (0 for point samples, 1 for interval means).
     """
 
     channel: str
@@ -129,6 +136,9 @@ class Refinement:
     block: int = 1
     unselected: dict[str, dict[str, float]] = field(default_factory=dict)
     unselected_ci95: dict[str, dict[str, float]] = field(default_factory=dict)
+    kernel_margin: dict[str, dict[str, float]] = field(default_factory=dict)
+    unselected_kernel_margin: dict[str, dict[str, float]] = field(default_factory=dict)
+    kernel_estimate: tuple[float, float] | None = None
 
 
 def _check(t: np.ndarray, x: np.ndarray, v: np.ndarray, a: np.ndarray | None,
@@ -186,6 +196,7 @@ def refine_output_error(
     mapper=None,
     min_gain: float | None = None,
     kernel_var: float = 0.0,
+    kernel_known: bool = True,
 ) -> tuple[EquationOfMotion, Refinement]:
     """Refine the coefficients of ``eom`` by fitting its free response to the measurement.
 
@@ -221,6 +232,9 @@ def refine_output_error(
     kernel_var : float
         Variance of the DAQ's sampling kernel [sample intervals^2] (:func:`eddi.intervals.sampling_curvature`;
         :attr:`eddi.conditioning.ConditionedSignal.sample_kernel_var`): 0 for point samples.
+    kernel_known : bool
+        False when the record does not state its sampling: the fit then also measures how far
+        means over each sample interval would move the coefficients (``Refinement.kernel_margin``).
 
     Returns
     -------
@@ -247,6 +261,8 @@ def refine_output_error(
     shift, spread = integration_shift(prob, p, jac)
     unselected = prob.model_of(_shifted(p, shift))
     unselected_ci = prob.ci_dict(half + spread * prob.scale[prob.active])
+    measured = None if kernel_known else measured_kernel_margin(prob, p, half, jac)
+    unselected_margin = {} if measured is None else prob.ci_dict(measured[0] * prob.scale[prob.active])
     dropped: dict[str, str] = {}
     if select:
         from eddi.selection import core_start, select_terms  # local: it builds on this module
@@ -255,6 +271,8 @@ def refine_output_error(
         after = min(after, float(np.linalg.norm(prob.residual(p, n))) / norm)
         if dropped:
             shift, spread = integration_shift(prob, p)
+            if not kernel_known:
+                measured = measured_kernel_margin(prob, p, half)
     p = _shifted(p, shift)
     half = half + spread * prob.scale[prob.active]
     refined = prob.model_of(p).model_copy(update={"notes": (eom.notes + "; " if eom.notes else "")
@@ -264,7 +282,11 @@ def refine_output_error(
                                evaluations=prob.count, samples=prob.n_samples, ci95=prob.ci_dict(half),
                                dropped=dropped, block=prob.block,
                                unselected={"damping": dict(unselected.damping), "stiffness": dict(unselected.stiffness)},
-                               unselected_ci95=unselected_ci)
+                               unselected_ci95=unselected_ci,
+                               kernel_margin=({} if measured is None
+                                              else prob.ci_dict(measured[0] * prob.scale[prob.active])),
+                               unselected_kernel_margin=unselected_margin,
+                               kernel_estimate=None if measured is None else (measured[1], measured[2]))
 
 
 def _shifted(p: np.ndarray, shift: np.ndarray) -> np.ndarray:

@@ -146,8 +146,10 @@ def add_adc_filter_option(p: argparse.ArgumentParser) -> None:
     """``--adc-filter``: the DAQ's decimation filter, so the fit compares the model through it."""
     p.add_argument("--adc-filter", type=adc_filter, default=None, metavar="sincK[:R]|none",
                    help="the DAQ's decimation filter (e.g. sinc3:128 for an ADS131M04 at OSR 128): "
-                        "the fit compares the model through its kernel; default: what the capture "
-                        "file records, else point samples")
+                        "the fit compares the model through its kernel; none: point samples (or a flat "
+                        "passband); default: what the capture file records, else not stated (the fit "
+                        "assumes point samples and the 95 %% intervals make room for means over each "
+                        "sample interval)")
 
 
 def sensor_highpass(text: str) -> float:

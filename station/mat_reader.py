@@ -91,6 +91,17 @@ def _quantity(name: str) -> str | None:
         return None
 
 
+def _scalar(value: Any, key: str, where: str) -> float:
+    """A sample rate or step variable as a number: MATLAB keeps scalars as 1 x 1 matrices (a
+    -v7.3 file read through h5py gives ``[[500.]]``, which numpy 2 will not turn into a float)."""
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "iuf" or arr.size != 1:
+        what = f"{arr.size} values" if arr.dtype.kind in "iuf" else f"a {arr.dtype.kind!r}-kind value"
+        raise InputFileError(f"{where}: variable {key!r} should be one number (the sample rate [Hz] or "
+                             f"step [s]); it holds {what}")
+    return float(arr.reshape(-1)[0])
+
+
 def read_mat(path: str | Path, capture: str | None = None) -> Any:
     """Read one record of a MATLAB file as a :class:`station.readers.Measurement` (module notes).
 
@@ -130,8 +141,8 @@ def read_mat(path: str | Path, capture: str | None = None) -> Any:
         raise InputFileError(f"{where}: vectors of different lengths ({', '.join(f'{n} {k}' for n, k in sizes.items())})")
     n = next(iter(sizes.values()))
     if "t" not in cols:
-        rate = next((float(np.asarray(lower[k])) for k in RATE_NAMES if k in lower), None)
-        step = next((float(np.asarray(lower[k])) for k in STEP_NAMES if k in lower), None)
+        rate = next((_scalar(lower[k], k, where) for k in RATE_NAMES if k in lower), None)
+        step = next((_scalar(lower[k], k, where) for k in STEP_NAMES if k in lower), None)
         if rate is None and step is not None and step > 0:
             rate = 1.0 / step
         if rate is None or not np.isfinite(rate) or rate <= 0:

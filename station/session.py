@@ -248,9 +248,15 @@ def condition_measurement(meas: Measurement, pipeline: Pipeline | None = None) -
         return (pipeline or Pipeline()).condition(
             meas.t, acc=ch.get("acc"), vel=ch.get("vel"), disp=ch.get("disp"), force=ch.get("force"),
             pretrigger_samples=meas.pretrigger_samples, ac_coupling_s=meas.metadata.get("ac_coupling_s"),
-            adc_sinc_order=meas.metadata.get("adc_sinc_order") or None, adc_osr=meas.metadata.get("adc_osr") or None)
+            adc_sinc_order=_stated_int(meas.metadata.get("adc_sinc_order")),
+            adc_osr=meas.metadata.get("adc_osr") or None)
     except EddiError as exc:
         raise type(exc)(f"{meas.source}: {exc}") from None
+
+
+def _stated_int(value: object) -> int | None:
+    """A stated sampling kernel order (0: point samples, stated) or None (not stated)."""
+    return None if value is None or value == "" else int(value)  # type: ignore[call-overload]
 
 
 def with_adc_filter(meas: Measurement, adc: tuple[int, int | None] | None) -> Measurement:

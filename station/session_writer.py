@@ -396,7 +396,7 @@ def import_measurement(writer: CaptureWriter, measurement: Any, notes: str = "",
         extra={"t0_s": float(t[0]) if t.size else 0.0, "import_metadata": json.dumps(meta, default=str),
                "pretrigger_known": int(measurement.pretrigger_samples is not None),
                **({"adc_sinc_order": int(meta["adc_sinc_order"]), "adc_osr": int(meta.get("adc_osr") or 0)}
-                  if meta.get("adc_sinc_order") else {}),
+                  if meta.get("adc_sinc_order") is not None else {}),  # 0: point samples, stated
                **({"ac_coupling_s": float(meta["ac_coupling_s"])} if meta.get("ac_coupling_s") else {})},
     )
 

@@ -447,7 +447,7 @@ def measurement_of(cap: StoredCapture, path: str | os.PathLike[str]) -> Any:
         "units": {MEASUREMENT_KEYS[c.info.quantity]: c.info.unit for c in cap.channels.values() if c.info.quantity in MEASUREMENT_KEYS},
         "sensitivities": {c.info.name: [c.info.sensitivity, c.info.sensitivity_unit] for c in cap.channels.values()},
     }
-    if int(cap.attrs.get("adc_sinc_order", 0) or 0):  # the DAQ's decimation filter (station import --adc-filter)
+    if "adc_sinc_order" in cap.attrs:  # the DAQ's decimation filter (station import --adc-filter; 0: point samples)
         meta["adc_sinc_order"] = int(cap.attrs["adc_sinc_order"])
         meta["adc_osr"] = int(cap.attrs.get("adc_osr", 0) or 0)
     if float(cap.attrs.get("ac_coupling_s", 0) or 0) > 0:  # the accelerometer's AC coupling (import --sensor-highpass)

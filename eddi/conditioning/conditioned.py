@@ -55,6 +55,10 @@ class ConditionedSignal:
         signal's weighted mean over that kernel (its decimation filter: 0 for point samples
         or a flat passband, ``K / 12`` for a sinc^K decimator). The output-error fit compares
         the model through the same kernel (:func:`eddi.intervals.sampling_curvature`).
+    sample_kernel_known : bool
+        True when the sampling was stated (point samples or a decimation filter); otherwise the
+        95 % intervals make room for means over each sample interval
+        (:func:`eddi.intervals.sampling_kernel_margin`).
     """
 
     t: np.ndarray
@@ -74,6 +78,7 @@ class ConditionedSignal:
     acc_measured: bool = False
     response: str = "acc"
     sample_kernel_var: float = 0.0
+    sample_kernel_known: bool = False
 
     def __post_init__(self) -> None:
         n = self.t.size

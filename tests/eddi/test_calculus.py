@@ -111,7 +111,12 @@ def test_41_samples_per_period_k3_within_1_percent(snr_db: float | None) -> None
     assert eom.stiffness["x^3"] == pytest.approx(2.8e8, rel=0.01)
     assert eom.stiffness["x"] == pytest.approx(98696.0, rel=0.002)
     assert eom.damping["v"] == pytest.approx(6.28, rel=0.01)
-    assert res.warnings == ()
+    # noisy: only the sampling-kernel margin's note (session 12: x^3's interval holds interval means
+    # too); clean: the harmonics show point samples (kernel ~0), no margin worth a sentence
+    if snr_db is None:
+        assert res.warnings == ()
+    else:
+        assert len(res.warnings) == 1 and res.warnings[0].startswith("coarse sampling: 40 samples per cycle")
 
 
 def test_pipeline_warns_below_20_samples_per_cycle() -> None:

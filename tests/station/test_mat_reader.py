@@ -54,6 +54,25 @@ def test_v73_hdf5_file(example: np.ndarray, tmp_path: Path) -> None:
     np.testing.assert_array_equal(read_measurement(str(path)).channels["acc"], example[:, 2])
 
 
+def test_v73_rate_as_a_one_by_one_matrix(example: np.ndarray, tmp_path: Path) -> None:
+    # MATLAB -v7.3 keeps a scalar as a 1 x 1 matrix: `fs` read back as [[rate]] (blind unseen9,
+    # session 12: `float()` of it raised TypeError under numpy 2, a traceback from identify)
+    path = tmp_path / "v73rate.mat"
+    rate = 1.0 / float(example[1, 0] - example[0, 0])
+    with h5py.File(path, "w") as fh:
+        fh["force"] = example[:, 1][None, :]
+        fh["acceleration"] = example[:, 2][None, :]
+        fh["fs"] = np.array([[rate]])
+    m = read_measurement(str(path))
+    assert m.rate_hz == pytest.approx(rate, rel=1e-9)
+    np.testing.assert_array_equal(m.channels["acc"], example[:, 2])
+    with h5py.File(path, "a") as fh:  # a rate of two numbers: one line, not a traceback
+        del fh["fs"]
+        fh["fs"] = np.array([[rate, rate]])
+    with pytest.raises(InputFileError, match="'fs' should be one number"):
+        read_measurement(str(path))
+
+
 @pytest.mark.parametrize("content,message", [
     ({"t": np.arange(100) / 1e3, "notes": "x"}, "no response variable"),
     ({"acc": np.sin(np.arange(100.0))}, "no time vector"),
