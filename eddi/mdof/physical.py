@@ -148,7 +148,7 @@ def _weak_cubics(records: Sequence[ChannelRecord], err: float, fit: LumpedFit, n
     """
     keep: set[Element] = set()
     note = ""
-    while True:
+    while err > floor:  # else no cubic can pass: the error it removes is at most ``err``
         tries = []
         for e in list(fit.constants):
             cubic = Element("k3", e.a, e.b)
