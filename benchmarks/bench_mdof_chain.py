@@ -16,6 +16,7 @@ true model's nrmse on a FRESH capture (another blow size and noise seed).
     PYTHONPATH=. nice -n 5 python benchmarks/bench_mdof_chain.py --set tune
     PYTHONPATH=. nice -n 5 python benchmarks/bench_mdof_chain.py --case t-light-end-2k --no-refine
     PYTHONPATH=. nice -n 5 python benchmarks/bench_mdof_chain.py --set tune11   # session 11 (heldout11 held out)
+    PYTHONPATH=. nice -n 5 python benchmarks/bench_mdof_chain.py --set heldout12   # session 12's held-out chains
 """
 
 from __future__ import annotations
@@ -71,8 +72,19 @@ HELDOUT11 = {
                          3, 3000.0, 3.0, (30.0, 90.0, 180.0)),
 }
 
+#: Session 12 (helper s12mfit): ``--set heldout12`` written before any run of the session's changes
+#: (the coupled folds always polished, weak cubics kept by the training error, the IV refit's
+#: rescaling) and run once at the end: a light middle mass between two cubic springs, and a chain
+#: struck at mass 2 whose one cubic is weak at two of three blows.
+HELDOUT12 = {
+    "h12-light-mid-3k": ((1.5, 0.25, 1.0), [((0, 1), 9e4, 5.0, 0.0), ((1, 2), 1.8e4, 0.8, 0.12), ((2, 3), 2.5e4, 1.2, 0.2)],
+                         1, 3000.0, 3.0, (40.0, 120.0, 260.0)),
+    "h12-weak-6k": ((1.0, 0.8, 2.0), [((0, 1), 6e4, 3.0, 0.0), ((1, 2), 3e4, 1.5, 0.05), ((2, 3), 4e4, 2.0, 0.0)],
+                    2, 6000.0, 3.0, (30.0, 35.0, 90.0)),
+}
 
-SETS = {"tune": TUNE, "heldout": HELDOUT, "tune11": TUNE11, "heldout11": HELDOUT11}
+
+SETS = {"tune": TUNE, "heldout": HELDOUT, "tune11": TUNE11, "heldout11": HELDOUT11, "heldout12": HELDOUT12}
 
 
 def chain_system(name: str, spec: tuple):
@@ -163,7 +175,8 @@ def run_case(name: str, spec: tuple, args: argparse.Namespace, tmp: Path) -> dic
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--set", choices=tuple(SETS), default="tune")
+    ap.add_argument("--set", choices=tuple(SETS), default="tune",
+                    help="tune/heldout (session 10), tune11/heldout11 (session 11), heldout12 (session 12)")
     ap.add_argument("--case", default="", help="comma-separated case names (from either set)")
     ap.add_argument("--snr-db", type=float, default=45.0)
     ap.add_argument("--seed", type=int, default=3)

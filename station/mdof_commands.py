@@ -375,10 +375,13 @@ def _fold_fits(records: Sequence[Any], names: tuple[str, ...], dp: str, k: int
 
 def _polish_folds(fits: list[dict[str, tuple]], records: Sequence[Any], names: tuple[str, ...],
                   margin: float, mapper: Callable | None = None) -> dict[str, list[int]]:
-    """Polish the folds (in place in ``fits``) where it can change the verdict; the indices polished.
+    """Polish the coupled folds, and the baseline folds where it can change the verdict (in place in
+    ``fits``); the indices polished.
 
-    A polished fold is kept when it predicts its held-out capture better than the unpolished one
-    (as the variants of a fold are chosen), so a polish only lowers a fold's error. Then:
+    A polished baseline fold is kept when it predicts its held-out capture better than the
+    unpolished one (as the variants of a fold are chosen), so a polish only lowers its error; a
+    polished coupled fold is kept whenever its simulation stays finite (its figure is the delivered
+    kind's). Then:
 
     - baseline folds are polished (their lower errors can take the gain under the margin), except
       those above :data:`POLISH_MAX_NRMSE`, and none when the gain (per fold,
@@ -389,17 +392,15 @@ def _polish_folds(fits: list[dict[str, tuple]], records: Sequence[Any], names: t
       accepted risk of skipping); session 11: the 10 kHz three-mass chain,
       baseline folds 1.19 / 1.18 / 0.69 / 1.13 against coupled 0.02, polished its 0.69 fold for
       19 s of its 115 s CPU and the verdict stayed ``modal_coupling`` at gain 0.98);
-    - coupled folds only lower the coupled error, which raises the gain and keeps every channel
-      within its allowance if it already was: they are polished only when the gain with the
-      polished baseline is within the margin, or a channel of the coupled folds is above
-      ``NONE_FACTOR`` x its floor (:mod:`eddi.mdof.verdict`: there it is a symptom, and the figure
-      printed should be the delivered kind of model's, polished; session 10: three-mass chains
-      with a light driven mass had unpolished coupled folds at 0.46-0.59, 6-9x their floors, while
-      the polished final model predicted a fresh blow as well as the true one); otherwise the
-      polish cannot change the verdict and the coupled folds are reported unpolished (an upper
-      bound near the floor).
+    - coupled folds are always polished (those under :data:`POLISH_MAX_NRMSE`): with the polish
+      on, the coupled model the station delivers is polished, and the per-channel held-out figure
+      printed for it is a claim about that kind of model, not an upper bound. Session 11 skipped
+      the polish where it could not change the verdict: the own chain ``t-two-cubic-2k`` then
+      printed 0.060 / 0.061 on two channels (3x their floors) while the polished folds and the
+      delivered model were at 0.02-0.03 (session 12, ``bench_mdof_chain.py``).
+    The baseline folds left unpolished (the kind not delivered) are upper bounds; the JSON's
+    ``polished_folds`` and the text say which kind was polished.
     """
-    from eddi.diagnosis.settings import NONE_FACTOR
     from eddi.mdof.verdict import channel_floor, held_out_gain
 
     done: dict[str, list[int]] = {"baseline": [], "coupled": []}
@@ -416,12 +417,15 @@ def _polish_folds(fits: list[dict[str, tuple]], records: Sequence[Any], names: t
                      todo)
         for k, p in zip(todo, got):
             v, ident, train = fits[k][kind]
-            if p.nrmse < v.nrmse:
+            # the coupled figure is the polished model's (the kind delivered), even where the
+            # unpolished one happened to predict the held-out capture better; a baseline fold keeps
+            # the lower (the comparison made harder for the coupling, never easier)
+            if p.nrmse < v.nrmse or (kind == "coupled" and p is not v and math.isfinite(p.nrmse)):
                 fits[k][kind] = (p, ident, train)
             done[kind].append(k)
 
+    polish("coupled")  # first: the baseline's polish is then judged against the coupled figures printed
     floors = channel_floor(records, names)
-    cpl = float(np.mean([f["coupled"][0].nrmse for f in fits]))
     touched = set(eligible("baseline"))
     # the best a polish could do: a fold it touches down to the noise floor (mean over channels)
     reach = float(np.mean([floors[c] for c in names]))
@@ -429,11 +433,6 @@ def _polish_folds(fits: list[dict[str, tuple]], records: Sequence[Any], names: t
             for k, f in enumerate(fits)]
     if not held_out_gain(best, [f["coupled"][0].nrmse for f in fits]) > margin:  # the polish may change it
         polish("baseline")
-    gain = held_out_gain([f["baseline"][0].nrmse for f in fits], [f["coupled"][0].nrmse for f in fits])
-    above = any(float(np.mean([f["coupled"][0].channel_nrmse[c] for f in fits])) > NONE_FACTOR * floors[c]
-                for c in names)
-    if gain <= margin or above or not math.isfinite(cpl):
-        polish("coupled")
     return done
 
 
@@ -522,14 +521,28 @@ def _coords(text: str) -> set[int]:
     return {int(k) - 1 for k in re.findall(r"[xv](\d+)", text)}
 
 
+def _polish_tag(obj: dict[str, Any], kind: str) -> str:
+    """Whether ``kind``'s held-out figures are those of polished fold models (with the polish on,
+    the delivered model is polished; an unpolished fold's figure is an upper bound)."""
+    done = obj.get("polished_folds")
+    if done is None:  # no polish: the folds are of the kind delivered
+        return ""
+    k, n = len(done[kind]), len(obj[kind]["folds"])
+    if k == n:
+        return "   (folds polished)"
+    return f"   ({k} of {n} folds polished; the others unpolished: upper bounds)"
+
+
 def diagnose_mdof_text(obj: dict[str, Any]) -> str:
     b, c = obj["baseline"], obj["coupled"]
     chans = lambda d: "  ".join(f"{k} {v:.4g}" for k, v in d["channel_nrmse"].items())  # noqa: E731
     modes = lambda d: "  ".join(f"q{i + 1} {v:.4g}" for i, v in enumerate(d["mode_nrmse"]))  # noqa: E731
     lines = [f"Held-out judging: {obj['scheme']}; channels {', '.join(obj['channels'])} "
              f"(driving point {obj['driving_point']}); {obj['coordinates']} coordinates",
-             f"  uncoupled baseline  held-out nrmse {b['nrmse']:.4g}   per channel: {chans(b)}   per mode: {modes(b)}",
-             f"  with coupling       held-out nrmse {c['nrmse']:.4g}   per channel: {chans(c)}   per mode: {modes(c)}",
+             f"  uncoupled baseline  held-out nrmse {b['nrmse']:.4g}   per channel: {chans(b)}   per mode: {modes(b)}"
+             + _polish_tag(obj, "baseline"),
+             f"  with coupling       held-out nrmse {c['nrmse']:.4g}   per channel: {chans(c)}   per mode: {modes(c)}"
+             + _polish_tag(obj, "coupled"),
              f"  gain {100 * obj['gain']:.0f} % (margin {100 * obj['margin']:.0f} %)",
              f"Cause: {obj['cause']}" + ("" if obj["cause"] != "modal_coupling" else
                                          f" (coupling terms: {obj['coupling_terms']})")

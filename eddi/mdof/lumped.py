@@ -223,7 +223,7 @@ def _jackknife_blocks(lengths: Sequence[int]) -> np.ndarray:
 
 def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: int, *,
                elements: list[Element] | None = None, prune: float = 3e-3, prefilter: bool = True,
-               instruments: Sequence[tuple] | None = None) -> LumpedFit:
+               instruments: Sequence[tuple] | None = None, keep: frozenset | set = frozenset()) -> LumpedFit:
     """Masses and element constants from the records (module docstring).
 
     Parameters
@@ -252,6 +252,9 @@ def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: in
         ordinary least squares towards zero - no longer enters the normal equations; residuals
         and forces are those of the measured columns. The intervals take the projected design as
         known (the first stage's own spread is not in them).
+    keep : set of Element, optional
+        Elements never dropped for a small force (a weak cubic spring whose effect the simulated
+        training records show: :func:`eddi.mdof.physical.identify_lumped`).
     """
     elements = list(candidate_elements(n) if elements is None else elements)
     lengths = [r[4][1] - r[4][0] for r in records]
@@ -269,7 +272,7 @@ def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: in
         ne = len(elements)
         ecoef = p[n - 1: n - 1 + ne]
         force_rms = _relative_force(a_mat[:, n - 1: n - 1 + ne] * ecoef, eq_of, p[: n - 1], n, d)
-        small = [e for e, f in zip(elements, force_rms) if f < prune]
+        small = [e for e, f in zip(elements, force_rms) if f < prune and e not in keep]
         # a dashpot or linear spring with a negative constant is not passive: it stands in for
         # what the drift filter removed (or for noise), not for an element (a cubic may soften)
         active = [e for e, c in zip(elements, ecoef) if e.kind != "k3" and c < 0]

@@ -50,8 +50,10 @@ def test_weak_cubic_coupling_is_named_and_its_spring_found(tmp_path, capsys):
     assert obj["cause"] == "modal_coupling"
     assert obj["coordinates"] == "physical"
     base, cpl = obj["baseline"]["folds"], obj["coupled"]["folds"]
-    assert sum(c < 0.2 * b for b, c in zip(base, cpl)) == 3  # three folds 5x better or more ...
-    assert sum(c > b for b, c in zip(base, cpl)) == 1  # ... the largest blow held out worse
+    assert sum(c < 0.2 * b for b, c in zip(base, cpl[:2] + cpl[3:])) == 3  # the small blows 5x better or more
+    # the 28 N blow held out: the folds trained on the small blows keep the weak cubic since session
+    # 12 (eddi.mdof.physical._weak_cubics); before, they pruned it and that fold was 1.8x worse
+    assert cpl[2] < 0.5 * base[2]
     assert obj["gain"] > 0.7
     assert obj["noise_floor"] == {"acc1": 0.01, "acc2": 0.01}
     # the cubic spring between the masses: x1^3 enters the second mass's equation as -k3
