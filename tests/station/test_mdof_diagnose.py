@@ -140,7 +140,7 @@ def test_similar_blows_earn_none_only_when_the_backbone_holds_and_say_how_far(tm
     assert "extrapolation in amplitude not tested" in diagnose_mdof_text(null)
 
 
-def test_coupled_folds_are_always_polished_and_baseline_folds_only_where_it_can_change_the_verdict(monkeypatch):
+def test_folds_are_polished_where_the_verdict_or_a_printed_channel_figure_needs_it(monkeypatch):
     import math
     from types import SimpleNamespace
 
@@ -163,29 +163,35 @@ def test_coupled_folds_are_always_polished_and_baseline_folds_only_where_it_can_
         return [{"baseline": (fold(b), f"b{k}", []), "coupled": (fold(c), f"c{k}", [])}
                 for k, (b, c) in enumerate(zip(base, cpl))]
 
-    # coupling wins by far: the baseline's polish cannot change the verdict and is skipped (the
-    # diverged-like fold at 40 > 1 is never polished; session 11); the coupled folds are polished
-    # all the same: their printed figures are those of the kind of model delivered (polished),
-    # not upper bounds (session 12: t-two-cubic-2k printed 0.060 / 0.061 from unpolished folds)
+    # coupling wins by far and every channel's coupled figure is within 0.05: nothing is polished
+    # (the diverged-like fold at 40 > 1 never is; session 11); the coupled figures are printed as
+    # upper bounds of the delivered (polished) kind
     f = fits([0.5, 40.0, 0.6], [0.03, 0.02, 0.04])
+    assert mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5) == {"baseline": [], "coupled": []}
+    assert calls == []
+    # the same win with a channel figure above 0.05: the coupled folds are polished, so the printed
+    # figure is the delivered kind's (session 12: t-two-cubic-2k printed 0.060 / 0.061 unpolished)
+    f = fits([0.5, 40.0, 0.6], [0.06, 0.05, 0.07])
     done = mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)
     assert done == {"baseline": [], "coupled": [0, 1, 2]} and calls == ["c0", "c1", "c2"]
     assert [x["baseline"][0].nrmse for x in f] == [0.5, 40.0, 0.6]
-    assert [x["coupled"][0].nrmse for x in f] == [0.015, 0.01, 0.02]
-    # the same with a diverged (infinite) baseline fold: the baseline stays infinite, gain 1
-    f = fits([0.5, math.inf, 0.6], [0.03, 0.02, 0.04])
+    assert [x["coupled"][0].nrmse for x in f] == [0.03, 0.025, 0.035]
+    # with a diverged (infinite) baseline fold: the baseline stays infinite
+    f = fits([0.5, math.inf, 0.6], [0.06, 0.05, 0.07])
     assert mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)["baseline"] == []
     # the 10 kHz chain's folds (bench_mdof_diagnose_cost.py): no polish can take gain 0.98 under 0.1
+    # and the coupled figures are within 0.05: neither kind is polished (s12mfit's always-polish
+    # cost it +52 % CPU to print 0.0070 where the bound says 0.020)
     calls.clear()
     f = fits([1.19, 1.18, 0.69, 1.13], [0.022, 0.023, 0.019, 0.014])
-    assert mc._polish_folds(f, [None] * 4, ("acc1", "acc2"), margin=0.1)["baseline"] == []
-    assert calls == ["c0", "c1", "c2", "c3"]
+    assert mc._polish_folds(f, [None] * 4, ("acc1", "acc2"), margin=0.1) == {"baseline": [], "coupled": []}
+    assert calls == []
     # baseline folds all within the polish's reach: polished to the floor they would win, so they are polished
     calls.clear()
     f = fits([0.5, 0.7, 0.6], [0.03, 0.02, 0.04])
     assert mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)["baseline"] == [0, 1, 2]
     assert [x["baseline"][0].nrmse for x in f] == [0.25, 0.35, 0.3]
-    assert calls == ["c0", "c1", "c2", "b0", "b1", "b2"]
+    assert calls == ["b0", "b1", "b2"]
     # a coupled polish that predicts worse is still the figure (the delivered kind); a baseline one is not kept
     monkeypatch.setattr(mc, "_polished_fold", lambda ident, train, held, v: fold(v.nrmse * 1.5))
     f = fits([0.06, 0.05, 0.07], [0.04, 0.03, 0.05])
