@@ -185,5 +185,8 @@ def data_floor(fold: Sequence[float], part_cond: Sequence[float], preds: Sequenc
             out.append(f)  # a part whose draws failed keeps the filled floor
             continue
         own = float(np.hypot(c, ch))
-        out.append(max(MIN_FLOOR, min(f, float(np.hypot(own, min(p, PRED_CAP * own))))))
+        if p <= PRED_CAP * own:
+            out.append(f)  # the refit's spread is what the noise costs a model of these records: kept
+            continue
+        out.append(max(MIN_FLOOR, min(f, float(np.hypot(own, PRED_CAP * own)))))
     return tuple(out)
