@@ -149,7 +149,8 @@ def summary(path: str) -> None:
             best = max(r["candidates"], key=lambda c: 1 - c[1] / r["judged"] if c[5] else -9, default=None)
             print(f"   seed {r['seed']:>5} {r['mass_kg']:7.1f} kg {r['f1_hz']:5.1f} Hz {r['rate_hz']:5.0f} Hz "
                   f"{r['snr_db']:4.1f} dB {r['captures']} cap -> {r['cause']:<18}{'plain' if r['plain_none'] else '':6}"
-                  f"judged {r['judged']:.3g} floor {r['floor']:.3g} (pred {np.mean(r['pred']):.3g} cond "
+                  f"judged {r['judged']:.3g} floor {r['floor']:.3g} data {r.get('data_floor', r['floor']):.3g} "
+                  f"(pred {np.mean(r['pred']):.3g} cond "
                   f"{np.mean(r['cond']):.3g}) best {best[0] if best else '-'} "
                   f"{(1 - best[1] / r['judged']) if best else 0:+.2f}{'' if not best or best[6] else ' inconsistent'}"
                   f"{'' if not best or best[5] else ' loses a part'} cpu {r['cpu_s']:.0f} s")

@@ -18,6 +18,17 @@ gave a floor of 0.02-0.087 on a part the baseline reproduced to 0.008. It needs 
 synthetic "truth" from the fitted baseline was tried first: where the baseline is wrong, e.g.
 fitted to a high-passed acceleration, its synthetic records gave a floor of 0.4-0.7 and the
 verdict ``none`` at nrmse 0.92). ``cause: "none"`` is only given within a factor of it.
+
+**The floor of the data** (session 12, :func:`data_floor`). ``d_pred`` is the baseline's own
+estimator spread: what another draw of the noise does to *this model's* refit. For a model of
+the records that is what the noise costs a prediction; for an ill-determined one (a 9-term
+polynomial standing in for a clearance, coefficients +-70-120 %) it is the model's instability,
+and counting it in full let the worse model earn the larger excuse: two blind sets read
+``none`` over a poor fit whose floor was almost all ``d_pred`` (0.11-0.43 per part against
+0.04 for the conditioned records). ``none`` is judged against the floor with ``d_pred`` counted
+at most :data:`~eddi.diagnosis.settings.PRED_CAP` times the part's own share
+``sqrt(d_cond^2 + d_chain^2)``; a part whose ``d_pred`` is within that keeps its floor exactly.
+The full floor stays in :attr:`NoiseFloor.fold_nrmse` (what the draws measured).
 """
 
 from __future__ import annotations
