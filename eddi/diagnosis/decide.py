@@ -61,7 +61,9 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
            reference_margin: float = REFERENCE_MARGIN, strong_margin: float | None = None,
            eddi_fold: Sequence[float] | None = None, departs: str = "") -> Decision:
     """``none`` when the baseline's mean held-out nrmse is within ``none_factor`` of the
-    floor's (the mean: one noise realisation per part makes a per-part floor noisy); a mechanism when it beats its reference on every part by more than ``margin``
+    floor of the data's (:attr:`NoiseFloor.data_nrmse`; the mean: one noise realisation per part
+    makes a per-part floor noisy; within the full floor only by the baseline's own refit spread it
+    is ``unexplained`` with that reason, :func:`ill_determined`); a mechanism when it beats its reference on every part by more than ``margin``
     (halves the error at 0.5), its strength agrees over folds, and its held-out nrmse is
     within ``named_factor`` of the floor; otherwise ``unexplained`` with the best partial
     explanation. A candidate judged against another reference than the baseline (refitted by
