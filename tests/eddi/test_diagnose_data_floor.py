@@ -124,7 +124,9 @@ def test_the_cli_on_text_records_is_not_none_and_prints_the_floor_of_the_data(
         np.savetxt(p, np.column_stack((r.t, r.force_n, r.acc_m_s2)), delimiter=",", header="t,force,acc",
                    comments="", fmt="%.9g")
         paths.append(str(p))
-    main(["diagnose", *paths, "--mass", str(MASS)])
+    main(["diagnose", *paths, "--mass", str(MASS), "--report", str(tmp_path / "report")])
     out = capsys.readouterr().out
     assert "the floor of the data, which `none` is judged against" in out
     assert "Cause: unexplained." in out and "Cause: none" not in out
+    page = (tmp_path / "report" / "index.html").read_text()
+    assert "floor of the data" in page and "Cause: unexplained." in page
