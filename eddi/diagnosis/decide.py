@@ -43,8 +43,6 @@ def ill_determined(base_fold: Sequence[float], floor: NoiseFloor, none_factor: f
             f"share) the baseline is {base / floor.data_nrmse:.1f}x, over the {none_factor:g}x allowed")
 
 
-
-
 @dataclass(frozen=True)
 class Decision:
     """The verdict: ``cause``, the winner (if named) and the best partial explanation."""
