@@ -130,8 +130,11 @@ def _noise_only(d):
     fl = d.noise_floor
     if not fl.noise_fold_nrmse:
         return d
+    from eddi.diagnosis.measure import data_floor
+
     nf = dataclasses.replace(fl, fold_nrmse=fl.noise_fold_nrmse, nrmse=float(np.mean(fl.noise_fold_nrmse)),
-                             chain_nrmse=())
+                             chain_nrmse=(), data_fold_nrmse=data_floor(fl.noise_fold_nrmse, fl.part_conditioning_nrmse,
+                                                                        fl.prediction_nrmse, ()))
     return dataclasses.replace(d, noise_floor=nf)
 
 
@@ -155,9 +158,10 @@ def _verdicts(d, factors, measured: list | None = None) -> tuple[dict[str, str],
 
     out, raw = {}, {}
     pipe = d.pipeline
-    floor = d.noise_floor.nrmse
+    floor = d.noise_floor.data_nrmse  # as the loop: the floor of the data (session 12)
     if pipe is not None and pipe.held_out:  # as the loop: the floor over the records it did not fit
-        floors = [fl for p, fl in zip(d.parts, d.noise_floor.fold_nrmse) if p.record in pipe.held_out]
+        floors = [fl for p, fl in zip(d.parts, d.noise_floor.data_fold_nrmse or d.noise_floor.fold_nrmse)
+                  if p.record in pipe.held_out]
         floor = float(np.mean(floors)) if floors else floor
     for f in factors:
         for strong in STRONG:
@@ -167,7 +171,7 @@ def _verdicts(d, factors, measured: list | None = None) -> tuple[dict[str, str],
                          strong_margin=strong, eddi_fold=d.reference_fold or None, departs=departs)
             raw[f"{f:g}|{strong}"] = dec.cause
             sy = d.symptoms if measured is None else _symptoms_for(dec, d, measured)
-            dec = earn(dec, d.judging.nrmse / d.noise_floor.nrmse, sy)
+            dec = earn(dec, d.judging.nrmse / d.noise_floor.data_nrmse, sy)
             out[f"{f:g}|{strong}"] = dec.cause
     return out, raw
 
@@ -179,9 +183,10 @@ def _named_verdicts(d, measured: list | None = None) -> dict[str, str]:
     from eddi.diagnosis.settings import NONE_FACTOR, STRONG_MARGIN
 
     pipe = d.pipeline
-    floor = d.noise_floor.nrmse
+    floor = d.noise_floor.data_nrmse  # as the loop: the floor of the data (session 12)
     if pipe is not None and pipe.held_out:
-        floors = [fl for p, fl in zip(d.parts, d.noise_floor.fold_nrmse) if p.record in pipe.held_out]
+        floors = [fl for p, fl in zip(d.parts, d.noise_floor.data_fold_nrmse or d.noise_floor.fold_nrmse)
+                  if p.record in pipe.held_out]
         floor = float(np.mean(floors)) if floors else floor
     departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= NONE_FACTOR * floor) else ""
     out = {}
@@ -189,7 +194,7 @@ def _named_verdicts(d, measured: list | None = None) -> dict[str, str]:
         dec = decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, NONE_FACTOR, nf,
                      strong_margin=STRONG_MARGIN, eddi_fold=d.reference_fold or None, departs=departs)
         sy = d.symptoms if measured is None else _symptoms_for(dec, d, measured)
-        out[f"{nf:g}"] = earn(dec, d.judging.nrmse / d.noise_floor.nrmse, sy).cause
+        out[f"{nf:g}"] = earn(dec, d.judging.nrmse / d.noise_floor.data_nrmse, sy).cause
     return out
 
 
@@ -226,7 +231,10 @@ def _diagnose(recs, mass: float, factors, stiffness: str | None = None) -> tuple
             "causes_nochain": _verdicts(before, factors, measured)[0],
             "named_causes_nochain": _named_verdicts(before, measured),
             "pipeline_nrmse": d.pipeline.nrmse if d.pipeline is not None else None,
-            "floor": d.noise_floor.nrmse, "partial": d.partial,
+            "floor": d.noise_floor.nrmse, "partial": d.partial, "data_floor": d.noise_floor.data_nrmse,
+            "floor_parts": {"judged": list(d.judging.fold_nrmse), "fold": list(d.noise_floor.fold_nrmse),
+                            "cond": list(d.noise_floor.part_conditioning_nrmse),
+                            "pred": list(d.noise_floor.prediction_nrmse), "chain": list(d.noise_floor.chain_nrmse)},
             "chain_nrmse": list(d.noise_floor.chain_nrmse),
             "gain_per_part": list(d.noise_floor.chain.get("gain_per_part", [])),
             **dict(zip(("causes", "decided"), _verdicts(d, factors, measured))), "named_causes": _named_verdicts(d, measured),

@@ -34,6 +34,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
 from eddi.diagnosis import Diagnosis, HeldOut, Record, backbone, energy_per_cycle, residual_force, spectrum  # noqa: E402
+from eddi.diagnosis.settings import PRED_CAP  # noqa: E402
 from eddi.multimode import ModalSumModel, separate_modes  # noqa: E402
 from eddi.terms import parse_term  # noqa: E402
 from station.figures import envelope, save  # noqa: E402
@@ -448,6 +449,9 @@ def _html(diag: Diagnosis, records: Sequence[Record], figures: Sequence[Path]) -
         "<tr><th>model</th><th>held-out nrmse [-]</th><th>gain</th><th>better on every part</th>"
         "<th>parameters (SI)</th></tr>",
         f"<tr><td>noise floor</td><td>{fl.nrmse:.4g}</td><td></td><td></td><td>{esc(fl.method)}</td></tr>"
+        + (f"<tr><td>floor of the data</td><td>{fl.data_nrmse:.4g}</td><td></td><td></td><td>the noise floor with "
+           f"the baseline's own refit spread counted at most {PRED_CAP:g}x the records' share: what "
+           "<code>none</code> is judged against</td></tr>" if fl.data_fold_nrmse and fl.data_nrmse < 0.999 * fl.nrmse else "")
         if fl is not None else "",
         (f"<tr><td>baseline (the pipeline's, as station identify"
          f"{'' if diag.pipeline and diag.pipeline.held_out else '; on its fit record, not held out'})</td>"

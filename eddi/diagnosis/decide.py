@@ -14,12 +14,33 @@ import numpy as np
 
 from eddi.diagnosis.candidates import UNREFINED
 from eddi.diagnosis.results import Candidate, NoiseFloor
-from eddi.diagnosis.settings import COUPLING_CUT, FULL_REFERENCE_MARGIN, NRMSE_CAP, REFERENCE_MARGIN
+from eddi.diagnosis.settings import COUPLING_CUT, FULL_REFERENCE_MARGIN, NRMSE_CAP, PRED_CAP, REFERENCE_MARGIN
 
 
 def within_floor(base_fold: Sequence[float], floor: NoiseFloor, none_factor: float) -> bool:
-    """The baseline's mean held-out nrmse within ``none_factor`` of the floor, no part lost."""
-    return float(np.mean(base_fold)) <= none_factor * floor.nrmse and max(base_fold) < NRMSE_CAP
+    """The baseline's mean held-out nrmse within ``none_factor`` of the floor of the data
+    (:attr:`NoiseFloor.data_nrmse`: the floor with the baseline's own refit spread capped), no part lost."""
+    return float(np.mean(base_fold)) <= none_factor * floor.data_nrmse and max(base_fold) < NRMSE_CAP
+
+
+def ill_determined(base_fold: Sequence[float], floor: NoiseFloor, none_factor: float) -> str:
+    """Why the baseline is not within the floor of the data although it is within the floor
+    with its own refit's spread (``''`` when that is not the case): the excuse would be the
+    baseline's ill-determination, not the records' noise (session 12)."""
+    base = float(np.mean(base_fold))
+    if not floor.data_fold_nrmse or max(base_fold) >= NRMSE_CAP or not base <= none_factor * floor.nrmse:
+        return ""
+    if within_floor(base_fold, floor, none_factor):
+        return ""
+    preds = [p for p in floor.prediction_nrmse if np.isfinite(p)]
+    conds = [c for c in floor.part_conditioning_nrmse if np.isfinite(c)]
+    return (f"the noise floor {floor.nrmse:.3g} is mostly how far the baseline's own refit moves under another draw "
+            f"of the noise (d_pred up to {max(preds, default=float('nan')):.3g} per part, against "
+            f"{max(conds, default=float('nan')):.3g} for the conditioned records"
+            + (f" and {max(floor.chain_nrmse):.3g} for the measurement chain" if floor.chain_nrmse else "")
+            + f"): the records do not determine this baseline, which is no excuse for its error; against the "
+            f"floor of the data ({floor.data_nrmse:.3g}, d_pred counted at most {PRED_CAP:g}x the records' own "
+            f"share) the baseline is {base / floor.data_nrmse:.1f}x, over the {none_factor:g}x allowed")
 
 
 @dataclass(frozen=True)
@@ -38,7 +59,9 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
            reference_margin: float = REFERENCE_MARGIN, strong_margin: float | None = None,
            eddi_fold: Sequence[float] | None = None, departs: str = "") -> Decision:
     """``none`` when the baseline's mean held-out nrmse is within ``none_factor`` of the
-    floor's (the mean: one noise realisation per part makes a per-part floor noisy); a mechanism when it beats its reference on every part by more than ``margin``
+    floor of the data's (:attr:`NoiseFloor.data_nrmse`; the mean: one noise realisation per part
+    makes a per-part floor noisy; within the full floor only by the baseline's own refit spread it
+    is ``unexplained`` with that reason, :func:`ill_determined`); a mechanism when it beats its reference on every part by more than ``margin``
     (halves the error at 0.5), its strength agrees over folds, and its held-out nrmse is
     within ``named_factor`` of the floor; otherwise ``unexplained`` with the best partial
     explanation. A candidate judged against another reference than the baseline (refitted by
@@ -58,6 +81,7 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
     base = float(np.mean(base_fold))
     eddi = float(np.mean(eddi_fold)) if eddi_fold is not None and len(eddi_fold) else base
     within = within_floor(base_fold, floor, none_factor) and not departs
+    unsure = "" if departs else ill_determined(base_fold, floor, none_factor)
     tried = [c for c in candidates if not c.skipped and c.model is not None]
     helpful = [c for c in tried if c.wins_every_part and c.gain > 0 and not c.contradicted]
     partial = helpful[0] if helpful else None
@@ -101,6 +125,8 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
                         f"margin and passes every test except: " + "; ".join(ambiguous_fails))
     if within:
         return Decision("none", None, None, True, "within the noise floor")
+    if unsure:  # the floor excused the baseline only by its own refit's spread: say so, and why no name
+        return Decision("unexplained", None, partial, False, "; ".join([unsure, *why[:2]]))
     return Decision("unexplained", None, partial, False, departs or "; ".join(why[:2]))
 
 

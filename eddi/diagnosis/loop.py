@@ -41,7 +41,7 @@ from eddi.diagnosis.records import Part, Record, split
 from eddi.diagnosis.results import Candidate, Diagnosis, HeldOut, NoiseFloor, PipelineBaseline, Score, Symptom
 from eddi.diagnosis.settings import (
     DEFAULT_CONSISTENCY, DEFAULT_MARGIN, FITS, MIN_FLOOR, MODAL_DIAGNOSE_STIFFNESS, NAMED_FACTOR, NONE_FACTOR,
-    STRONG_MARGIN,
+    PRED_CAP, STRONG_MARGIN,
 )
 from eddi.diagnosis.symptoms import baseline_symptoms, notable
 from eddi.diagnosis.tolerance import ChainTolerance, chain_floor, chain_text
@@ -253,8 +253,9 @@ def _pipeline_check(pipeline: PipelineBaseline | None, sh: _Shown, none_factor: 
     """Why the pipeline's model is not within the floor on the records it did not fit ('' if it is)."""
     if pipeline is None or not pipeline.held_out:
         return ""
-    floors = [f for p, f in zip(sh.parts, sh.floor.fold_nrmse) if p.record in pipeline.held_out]
-    floor = float(np.mean(floors)) if floors else sh.floor.nrmse
+    floors = [f for p, f in zip(sh.parts, sh.floor.data_fold_nrmse or sh.floor.fold_nrmse)
+              if p.record in pipeline.held_out]
+    floor = float(np.mean(floors)) if floors else sh.floor.data_nrmse
     if pipeline.nrmse <= none_factor * floor:
         return ""
     return (f"the pipeline's model (as station identify gives it, fitted on {sh.records[pipeline.fit_record].label or 'one record'}) "
@@ -299,7 +300,7 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
                  eddi_fold=res.ref_fold, departs=_pipeline_check(pipeline, sh, none_factor))
     symptoms = _impulse_through_coupling(dec, records, sh.setup.mass, f1, symptoms)
     # a chain that cannot be trusted earns neither silence nor a name (eddi.diagnosis.earn)
-    dec = earn(dec, baseline.nrmse / floor.nrmse if floor.nrmse > 0 else math.inf, symptoms)
+    dec = earn(dec, baseline.nrmse / floor.data_nrmse if floor.data_nrmse > 0 else math.inf, symptoms)
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
     verdict += reported_text(symptoms)
@@ -436,7 +437,7 @@ def _texts(dec: Decision, baseline: Score, floor: NoiseFloor, candidates: Sequen
            symptoms: Sequence[Symptom], margin: float, none_factor: float,
            named_factor: float) -> tuple[str, str]:
     """The verdict in one paragraph and what the baseline got wrong."""
-    b, f = baseline.nrmse, floor.nrmse
+    b, f = baseline.nrmse, floor.data_nrmse  # the floor of the data (the baseline's own refit spread capped)
     tried = [c for c in candidates if not c.skipped and c.model is not None]
     said = [s.text for s in symptoms if notable(s)]
     if dec.cause == "none":
@@ -450,7 +451,10 @@ def _texts(dec: Decision, baseline: Score, floor: NoiseFloor, candidates: Sequen
         verdict = (f"Cause: none (uncertain). The baseline's held-out error is {b / f:.1f}x the noise floor "
                    f"(held-out nrmse {b:.3g}; floor {f:.3g}, measured from the records' noise and conditioning): "
                    f"above the floor, within the {none_factor:g}x allowed, and no mechanism of the catalogue "
-                   "earns its place; the symptoms below are the only account of the rest.")
+                   "earns its place; the symptoms below are the only account of the rest."
+                   + (f" The floor counts the baseline's own refit spread at most {PRED_CAP:g}x the records' share "
+                      f"(in full it would be {floor.nrmse:.3g}: the records do not determine this baseline well)."
+                      if floor.nrmse > 1.001 * f else ""))
         return verdict, (f"a held-out error {b / f:.1f}x the noise floor (nrmse {b:.3g}, floor {f:.3g}) that no "
                          f"mechanism explains; within the {none_factor:g}x the floor's own spread allows"
                          + (f"; symptoms: {'; '.join(said)}" if said else ""))

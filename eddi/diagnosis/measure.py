@@ -18,6 +18,17 @@ gave a floor of 0.02-0.087 on a part the baseline reproduced to 0.008. It needs 
 synthetic "truth" from the fitted baseline was tried first: where the baseline is wrong, e.g.
 fitted to a high-passed acceleration, its synthetic records gave a floor of 0.4-0.7 and the
 verdict ``none`` at nrmse 0.92). ``cause: "none"`` is only given within a factor of it.
+
+**The floor of the data** (session 12, :func:`data_floor`). ``d_pred`` is the baseline's own
+estimator spread: what another draw of the noise does to *this model's* refit. For a model of
+the records that is what the noise costs a prediction; for an ill-determined one (a 9-term
+polynomial standing in for a clearance, coefficients +-70-120 %) it is the model's instability,
+and counting it in full let the worse model earn the larger excuse: two blind sets read
+``none`` over a poor fit whose floor was almost all ``d_pred`` (0.11-0.43 per part against
+0.04 for the conditioned records). ``none`` is judged against the floor with ``d_pred`` counted
+at most :data:`~eddi.diagnosis.settings.PRED_CAP` times the part's own share
+``sqrt(d_cond^2 + d_chain^2)``; a part whose ``d_pred`` is within that keeps its floor exactly.
+The full floor stays in :attr:`NoiseFloor.fold_nrmse` (what the draws measured).
 """
 
 from __future__ import annotations
@@ -31,7 +42,7 @@ from eddi.diagnosis.mapping import Mapper, serial_map
 from eddi.diagnosis.fitter import Fitter
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.results import NoiseFloor
-from eddi.diagnosis.settings import MIN_FLOOR, NRMSE_CAP
+from eddi.diagnosis.settings import MIN_FLOOR, NRMSE_CAP, PRED_CAP
 from eddi.diagnosis.show import simulate_part
 from eddi.errors import EddiError
 
@@ -100,7 +111,7 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
         cond.append(float(np.median([np.linalg.norm(p[i].x[s:e] - r.x[s:e]) for p, _ in draws])
                           / (np.linalg.norm(r.x[s:e]) or 1.0)))
 
-    def one(item: tuple[int, int]) -> tuple[float, float]:
+    def one(item: tuple[int, int]) -> tuple[float, float, float]:
         j, k = item
         pert, fitter = draws[j]
         part, masks, xb = parts[k], fold_masks[k], base_sims[k]
@@ -109,43 +120,44 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
         den = float(np.linalg.norm(xm)) or 1.0
         d_cond = float(np.linalg.norm(q.x[part.start:part.stop] - xm)) / den
         if not np.all(np.isfinite(xb)):
-            return float("nan"), float("nan")
+            return float("nan"), float("nan"), float("nan")
         if float(np.linalg.norm(xb - xm)) / den >= LOST:
             # the baseline is lost on this part: d_pred counts 0 whatever the perturbed refit
             # gives (below), so that refit (and its refinement) is not run
-            return d_cond, 0.0
+            return d_cond, 0.0, d_cond
         try:
             fit = fitter(masks).judged_baseline()[1]
         except EddiError:
             fit = None
         xs = simulate_part(fit.eom, q, part) if fit is not None else None
         if xs is None or not (np.all(np.isfinite(xs)) and np.all(np.isfinite(xb))):
-            return float("nan"), float("nan")
+            return float("nan"), float("nan"), float("nan")
         d_pred = float(np.linalg.norm(xs - xb)) / den
         if max(float(np.linalg.norm(xb - xm)), float(np.linalg.norm(xs - xm))) / den >= LOST:
             # a baseline that is lost on this part (diverges, or misses by the whole signal)
             # moves wildly with any perturbation: that says nothing of the noise
             d_pred = 0.0
-        return float(np.hypot(d_cond, d_pred)), d_pred
+        return float(np.hypot(d_cond, d_pred)), d_pred, d_cond
 
     # the parts are independent: through ``mapper`` (other processes when the caller has cores)
     n = len(parts)
     out = (mapper or serial_map)(one, [(j, k) for j in range(DRAWS) for k in range(n)])
     # per part the median over the draws (a draw that failed or diverged is left out)
-    fold, preds = [], []
+    fold, preds, part_cond = [], [], []
     for k in range(n):
         got = [out[j * n + k] for j in range(DRAWS)]
         ok = [g for g in got if np.isfinite(g[0])]
         fold.append(float(np.median([g[0] for g in ok])) if ok else float("nan"))
         preds.append(float(np.median([g[1] for g in ok])) if ok else float("nan"))
+        part_cond.append(float(np.median([g[2] for g in ok])) if ok else float("nan"))
     known = [f for f in fold if np.isfinite(f) and f < NRMSE_CAP]
     fill = min(known) if known else MIN_FLOOR
     fold = [f if (np.isfinite(f) and f < NRMSE_CAP) else fill for f in fold]
-    return _floor(records, fold, cond, preds, chain)
+    return _floor(records, fold, cond, preds, chain, part_cond)
 
 
 def _floor(records: Sequence[Record], fold: list[float], cond: list[float], preds: list[float],
-           chain: tuple[Sequence[float], dict] | None) -> NoiseFloor:
+           chain: tuple[Sequence[float], dict] | None, part_cond: Sequence[float] = ()) -> NoiseFloor:
     """The :class:`NoiseFloor` of the noise's per-part floors ``fold``, the chain's share
     (``chain``: per part, and the tolerances used) joined in quadrature, at least
     :data:`MIN_FLOOR` per part."""
@@ -161,7 +173,31 @@ def _floor(records: Sequence[Record], fold: list[float], cond: list[float], pred
         method += ("; joined in quadrature by the measurement chain's tolerance, the change of the part's "
                    "held-out simulation under the stated gain and clock differences (eddi.diagnosis.tolerance)")
     fold = [max(MIN_FLOOR, f) for f in fold]
+    data = data_floor(fold, part_cond, preds, chain_parts)
     return NoiseFloor(nrmse=float(np.mean(fold)), fold_nrmse=tuple(fold),
                       noise_rms=tuple(float(r.noise_rms) for r in records),
                       conditioning_nrmse=tuple(cond), prediction_nrmse=tuple(preds),
-                      method=method, chain_nrmse=chain_parts, chain=info, noise_fold_nrmse=noise_only)
+                      method=method, chain_nrmse=chain_parts, chain=info, noise_fold_nrmse=noise_only,
+                      part_conditioning_nrmse=tuple(float(c) for c in part_cond), data_fold_nrmse=data)
+
+
+def data_floor(fold: Sequence[float], part_cond: Sequence[float], preds: Sequence[float],
+               chain_parts: Sequence[float]) -> tuple[float, ...]:
+    """Per part, the floor of the data: ``fold`` with the baseline's ``d_pred`` counted at most
+    :data:`PRED_CAP` times the data's own share ``sqrt(d_cond^2 + d_chain^2)`` (module notes,
+    "the floor of the data"); ``()`` when the parts' ``d_cond`` were not measured."""
+    if len(part_cond) != len(fold) or len(preds) != len(fold):
+        return ()
+    out = []
+    for k, f in enumerate(fold):
+        c, p = float(part_cond[k]), float(preds[k])
+        ch = float(chain_parts[k]) if len(chain_parts) == len(fold) else 0.0
+        if not (np.isfinite(c) and np.isfinite(p)):
+            out.append(f)  # a part whose draws failed keeps the filled floor
+            continue
+        own = float(np.hypot(c, ch))
+        if p <= PRED_CAP * own:
+            out.append(f)  # the refit's spread is what the noise costs a model of these records: kept
+            continue
+        out.append(max(MIN_FLOOR, min(f, float(np.hypot(own, PRED_CAP * own)))))
+    return tuple(out)

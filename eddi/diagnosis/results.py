@@ -67,6 +67,15 @@ class NoiseFloor:
     noise_fold_nrmse : tuple of float
         Per held-out part: the floor of the noise and conditioning alone (the session-8 floor,
         at least :data:`~eddi.diagnosis.settings.MIN_FLOOR`), before the chain's share joined.
+    part_conditioning_nrmse : tuple of float
+        Per held-out part: ``d_cond``, how far a draw moves the conditioned coordinate over the
+        part (the median over the draws; NaN where the draws failed).
+    data_fold_nrmse : tuple of float
+        Per held-out part: the floor of the data, :attr:`fold_nrmse` with ``d_pred`` counted
+        at most :data:`~eddi.diagnosis.settings.PRED_CAP` times ``sqrt(d_cond^2 + d_chain^2)``
+        (session 12): a baseline whose own refit swings with the noise is ill-determined, and
+        that is no excuse for its error. ``none`` is judged against it (its mean
+        :attr:`data_nrmse`). Empty when not measured (then :attr:`nrmse` serves).
     """
 
     nrmse: float
@@ -78,12 +87,21 @@ class NoiseFloor:
     chain_nrmse: tuple[float, ...] = ()
     chain: dict[str, Any] = field(default_factory=dict)
     noise_fold_nrmse: tuple[float, ...] = ()
+    part_conditioning_nrmse: tuple[float, ...] = ()
+    data_fold_nrmse: tuple[float, ...] = ()
+
+    @property
+    def data_nrmse(self) -> float:
+        """Mean of :attr:`data_fold_nrmse` (:attr:`nrmse` when it was not measured)."""
+        return float(sum(self.data_fold_nrmse) / len(self.data_fold_nrmse)) if self.data_fold_nrmse else self.nrmse
 
     def to_dict(self) -> dict[str, Any]:
         return {"nrmse": self.nrmse, "fold_nrmse": list(self.fold_nrmse),
                 "noise_rms": list(self.noise_rms), "conditioning_nrmse": list(self.conditioning_nrmse),
                 "prediction_nrmse": list(self.prediction_nrmse), "chain_nrmse": list(self.chain_nrmse),
-                "chain": dict(self.chain), "noise_fold_nrmse": list(self.noise_fold_nrmse), "method": self.method}
+                "chain": dict(self.chain), "noise_fold_nrmse": list(self.noise_fold_nrmse),
+                "part_conditioning_nrmse": list(self.part_conditioning_nrmse),
+                "data_nrmse": self.data_nrmse, "data_fold_nrmse": list(self.data_fold_nrmse), "method": self.method}
 
 
 @dataclass(frozen=True)

@@ -49,6 +49,12 @@ MIN_BAND_CROSSINGS = 6
 #: (hard system, x^2*v damping, ratio 3.3) unexplained. The former 5 left effects at 3.5-5x
 #: the floor silent (docs/diagnosis.md, "Calibration").
 NONE_FACTOR = 3.5
+#: In the floor of the data (:func:`eddi.diagnosis.measure.data_floor`, which ``none`` is judged
+#: against) the baseline's ``d_pred`` (how far its own refit's held-out simulation moves under one
+#: more draw of the noise) counts at most this many times the part's own share
+#: ``sqrt(d_cond^2 + d_chain^2)``: beyond it the refit's spread is the baseline's ill-determination,
+#: not what the noise costs a model of the records (session 12, docs/diagnosis.md).
+PRED_CAP = 2.0
 #: A named mechanism must leave the extended model within this factor of the noise floor
 #: (mean over the held-out parts); otherwise it is the best partial explanation.
 NAMED_FACTOR = 10.0

@@ -389,12 +389,17 @@ def render_text(diag: Diagnosis, obj: dict[str, Any]) -> str:
                         if c.reference != "baseline" else ""))
     fl = diag.noise_floor
     if fl is not None:
+        from eddi.diagnosis.settings import PRED_CAP
         from eddi.diagnosis.tolerance import chain_text
 
         lines.insert(1, f"Noise floor of the held-out nrmse (from the records' noise and conditioning"
                         + (" and the chain's tolerance" if fl.chain_nrmse else "") + f"): "
                         f"{fl.nrmse:.3g} (per part " + ", ".join(f"{f:.3g}" for f in fl.fold_nrmse) + ")"
-                        + (f"; {chain_text(fl)}" if fl.chain_nrmse else ""))
+                        + (f"; {chain_text(fl)}" if fl.chain_nrmse else "")
+                        + (f"; the floor of the data, which `none` is judged against (the baseline's own refit "
+                           f"spread counted at most {PRED_CAP:g}x the records' share): {fl.data_nrmse:.3g} (per part "
+                           + ", ".join(f"{f:.3g}" for f in fl.data_fold_nrmse) + ")"
+                           if fl.data_fold_nrmse and fl.data_nrmse < 0.999 * fl.nrmse else ""))
     lines += ["", diag.verdict, f"What the baseline got wrong: {diag.symptom}."]
     if diag.symptoms:
         lines.append("Symptoms (held-out parts, median; measurement chain):")

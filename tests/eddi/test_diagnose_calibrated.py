@@ -72,8 +72,11 @@ def test_weak_second_mode_above_the_factor_is_not_silent() -> None:
 def test_none_on_an_inflated_floor_is_flagged_uncertain() -> None:
     """Friction (0.03 of ``k1 A``) on a 0.3 kg, 7.1 Hz softening system at 20 kHz, 35 dB (a
     held-out ladder rung): the baseline's own refit swings with the noise, so the floor (0.09)
-    nearly equals the baseline's error (0.11) and the verdict is ``none``, while the friction
-    model reaches 0.046. The verdict must then say that it is uncertain and why."""
+    nearly equals the baseline's error (0.11), while the friction model reaches 0.046. Until
+    session 11 the verdict was ``none`` with an "uncertain none" note. Since session 12 ``none``
+    is judged against the floor of the data (the refit's spread counted at most ``PRED_CAP``
+    times the records' own share): 0.04, the baseline 2.8x it with its frequency off by
+    0.5-0.8 %, so the verdict is no longer ``none``."""
     system = EquationOfMotion.create(mass=0.3, damping={"v": 2 * 0.006 * np.sqrt(600.0 * 0.3)},
                                      stiffness={"x": 600.0, "x^3": -3e5})
     r = impact_test(system, 75.0, rate_hz=20000.0, pretrigger_s=0.05, record_s=0.5, snr_db=None, seed=0)
@@ -86,8 +89,8 @@ def test_none_on_an_inflated_floor_is_flagged_uncertain() -> None:
         c = condition(m.t, acc=m.acc_m_s2, force=m.force_n, pretrigger_samples=m.pretrigger_samples)
         recs.append(Record.from_conditioned(c, label=f"impact {i + 1}", pretrigger_samples=m.pretrigger_samples))
     d = diagnose(recs, system.mass)
-    assert d.cause in ("none", "coulomb_friction"), d.verdict
-    if d.cause == "none":
-        note = next(n for n in d.notes if n.startswith("uncertain none"))
-        assert "coulomb_friction" in note
-        assert max(d.noise_floor.prediction_nrmse) > 2 * max(d.noise_floor.conditioning_nrmse)
+    fl = d.noise_floor
+    assert max(fl.prediction_nrmse) > 2 * max(fl.conditioning_nrmse)  # the floor is mostly the refit's spread
+    assert fl.data_nrmse < 0.6 * fl.nrmse
+    assert 2.5 * fl.data_nrmse < d.baseline.nrmse < 3.5 * fl.nrmse  # within the full floor's factor, not the data's by much
+    assert d.cause in ("unexplained", "coulomb_friction"), d.verdict

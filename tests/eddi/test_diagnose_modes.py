@@ -82,7 +82,13 @@ def test_synthetic_single_mode_free_decay_gives_none() -> None:
     d = diagnose(_records(AMPLITUDES, 2, two=False), 1.0)
     assert d.cause == "none", d.verdict
     assert d.gain == 0.0 and d.extended.model == d.baseline.model
-    assert "follows the held-out measurements" in d.symptom
+    fl = d.noise_floor
+    assert d.baseline.nrmse <= fl.nrmse  # within the floor the draws measured ("follows" until session 11)
+    # session 12: the refit of a free decay swings 7-10x the records' own share under another draw
+    # (d_pred 0.25-0.38, d_cond 0.03-0.04); in the floor of the data it counts at most PRED_CAP
+    # times that share, and the baseline is 1.9x that floor: `none (uncertain)`, not "follows"
+    assert 1.0 < d.baseline.nrmse / fl.data_nrmse < 2.5
+    assert d.verdict.startswith("Cause: none (uncertain)") and "follows" not in d.symptom
     # the observed form found no second resonance the baseline lacks, or could not win
     sm = next(c for c in d.candidates if c.name == "second_mode")
     assert not (sm.form == "observed" and sm.gain > d.margin)
