@@ -7,7 +7,10 @@ set-up (~0.5 s of CPU even when its on-disk cache holds them) and the first run 
 installation ~2.5 s of compilation. Built ahead of time (``python -m eddi.kernels``: the same
 source through ``numba.pycc`` into one extension module, ``eddi/_aot_kernels*.so``) they load
 like any extension, with no numba at run time, and give the same numbers bit for bit (same
-source, same LLVM, no fast-math; tested in ``tests/eddi/test_kernels.py``).
+source, same LLVM, no fast-math; tested in ``tests/eddi/test_kernels.py``). They are built for
+this machine's processor, as the JIT compiles (``--cpu generic``: for any processor of the
+architecture, the sensitivity kernel then ~2x slower); a module built for another processor
+is not used.
 
 :class:`Kernels` picks, at the first call of a kernel:
 
@@ -61,9 +64,33 @@ def _load_aot_module() -> types.ModuleType | None:
                 spec.loader.exec_module(mod)
             except ImportError:
                 return None
+            built_for = getattr(mod, "aot__cpu", None)
+            if built_for is not None and built_for() not in (0, cpu_stamp()):
+                return None  # built for another processor's instructions: the JIT runs instead
             sys.modules[name] = mod
             return mod
     return None
+
+
+def cpu_stamp() -> int:
+    """A 60-bit hash of this machine's processor (model name and instruction-set flags in
+    ``/proc/cpuinfo``); -1 where that is not readable (a module built for the host is then
+    never used)."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as f:
+            text = f.read(1 << 16)
+    except OSError:
+        return -1
+    keys = {}
+    for line in text.splitlines():
+        if not line.strip():
+            break  # the first processor's block
+        k, _, v = line.partition(":")
+        if k.strip() in ("vendor_id", "model name", "flags"):
+            keys[k.strip()] = v.strip()
+    if "flags" not in keys:
+        return -1
+    return int(hashlib.sha256(repr(sorted(keys.items())).encode()).hexdigest()[:15], 16)
 
 
 class Kernels:
@@ -212,8 +239,14 @@ def _arg_checks(sig: str) -> list[Callable[[Any], bool]]:
     return checks
 
 
-def build(output_dir: str | Path | None = None) -> Path:
+def build(output_dir: str | Path | None = None, cpu: str = "host") -> Path:
     """Compile every kernel of :data:`KERNEL_MODULES` ahead of time into one extension module.
+
+    ``cpu="host"`` (default) compiles for this machine's processor, as the JIT does: numba's
+    generic x86-64 target made the sensitivity kernel (`_rk4_sens`, most of an output-error
+    refinement) 1.8-2.3x slower than the JIT (session 12), with the same numbers. The module
+    records the processor (:func:`cpu_stamp`) and is not used on another one (the JIT runs).
+    ``cpu="generic"``: a module for any processor of the architecture.
 
     Returns
     -------
@@ -231,6 +264,14 @@ def build(output_dir: str | Path | None = None) -> Path:
     cc = CC(AOT_NAME)
     cc.output_dir = str(output_dir or Path(__file__).resolve().parent)
     cc.verbose = False
+    stamp_cpu = 0
+    if cpu == "host":
+        stamp_cpu = cpu_stamp()
+        if stamp_cpu < 0:
+            raise RuntimeError("no /proc/cpuinfo to stamp a module built for this processor: use cpu='generic'")
+        cc.target_cpu = "host"
+    elif cpu != "generic":
+        raise ValueError("cpu must be 'host' or 'generic'")
     for modname in KERNEL_MODULES:
         mod = importlib.import_module(modname)
         k: Kernels = mod._KERNELS
@@ -245,6 +286,7 @@ def build(output_dir: str | Path | None = None) -> Path:
                 clone = types.FunctionType(fn.__code__, ns, fn.__name__, fn.__defaults__, fn.__closure__)
                 cc.export(k.exported_name(name, i), sig)(clone)
         cc.export(f"{k._prefix}__fingerprint", "i8()")(eval(f"lambda: {stamp}"))  # noqa: S307 - an int literal
+    cc.export("aot__cpu", "i8()")(eval(f"lambda: {stamp_cpu}"))  # noqa: S307 - an int literal
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         cc.compile()
@@ -257,4 +299,9 @@ if __name__ == "__main__":  # pragma: no cover - the build command
 
     ap = argparse.ArgumentParser(description="Build the simulator's kernels ahead of time (numba.pycc).")
     ap.add_argument("--output-dir", default=None, help="where to write the module (default: the eddi package)")
-    print(build(ap.parse_args().output_dir))
+    ap.add_argument("--cpu", choices=("host", "generic"), default="host",
+                    help="host (default): this machine's processor, as fast as the JIT, not used on another "
+                         "processor; generic: any processor of the architecture (the sensitivity kernel "
+                         "~2x slower)")
+    a = ap.parse_args()
+    print(build(a.output_dir, a.cpu))

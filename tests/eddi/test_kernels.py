@@ -184,3 +184,17 @@ def test_the_hysteresis_operator_with_built_kernels_imports_no_numba(aot_dir: Pa
     assert done.returncode == 0, done.stderr[-500:]
     ptp, numba = done.stdout.split()
     assert numba == "NO-NUMBA" and float(ptp) > 1.0
+
+
+def test_the_module_is_built_for_this_processor_and_not_used_on_another(aot_dir: Path,
+                                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    # numba's generic target made the sensitivity kernel 1.8-2.3x slower than the JIT (session 12):
+    # the module is built for the host, stamped with it, and refused elsewhere (no illegal
+    # instruction: the JIT runs)
+    import eddi.kernels as kernels
+
+    assert kernels.cpu_stamp() > 0
+    assert _fresh("eddi.sensitivity", aot_dir).source == "ahead of time"
+    sys.modules.pop("eddi._aot_kernels", None)
+    monkeypatch.setattr(kernels, "cpu_stamp", lambda: 12345)
+    assert _fresh("eddi.sensitivity", aot_dir).source == "numba JIT"
