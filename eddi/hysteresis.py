@@ -12,8 +12,9 @@ dimensionless, ``|z| <= 1``. The law is rate independent: ``z`` depends on the p
 only, not on how fast it is traversed, so :func:`bouc_wen_z` computes it from a sampled
 displacement alone (the diagnosis regressor, and :func:`eddi.model.effect_force` on a time
 series). :func:`simulate_hysteretic` integrates ``x, v, z`` by RK4 on the grid of
-:func:`eddi.simulate.simulate` (which calls it for such a model). Its kernels are compiled by
-numba at first use (cached on disk), not ahead of time.
+:func:`eddi.simulate.simulate` (which calls it for such a model). Its kernels are built ahead of
+time with the simulator's (:mod:`eddi.kernels`), else compiled by numba at first use: the
+diagnosis tries the Bouc-Wen candidate every time, so with the built module it imports no numba.
 """
 
 from __future__ import annotations

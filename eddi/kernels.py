@@ -1,12 +1,16 @@
 """The compiled kernels of the simulator: built ahead of time, or compiled by numba when used.
 
-The RK4 kernels of :mod:`eddi.simulate` and :mod:`eddi.sensitivity` are plain Python source
+The RK4 kernels of :mod:`eddi.simulate` and :mod:`eddi.sensitivity` (and the IIR filter of
+:mod:`eddi.iir`, the Bouc-Wen operator of :mod:`eddi.hysteresis`) are plain Python source
 compiled by numba. Compiled at first use (JIT) they cost every process numba's import and
 set-up (~0.5 s of CPU even when its on-disk cache holds them) and the first run after an
 installation ~2.5 s of compilation. Built ahead of time (``python -m eddi.kernels``: the same
 source through ``numba.pycc`` into one extension module, ``eddi/_aot_kernels*.so``) they load
 like any extension, with no numba at run time, and give the same numbers bit for bit (same
-source, same LLVM, no fast-math; tested in ``tests/eddi/test_kernels.py``).
+source, same LLVM, no fast-math; tested in ``tests/eddi/test_kernels.py``). They are built for
+this machine's processor, as the JIT compiles (``--cpu generic``: for any processor of the
+architecture, the sensitivity kernel then ~2x slower); a module built for another processor
+is not used.
 
 :class:`Kernels` picks, at the first call of a kernel:
 
@@ -37,7 +41,7 @@ from typing import Any, Callable
 
 AOT_NAME = "_aot_kernels"
 #: The modules whose kernels go into the built module.
-KERNEL_MODULES = ("eddi.simulate", "eddi.sensitivity", "eddi.iir")
+KERNEL_MODULES = ("eddi.simulate", "eddi.sensitivity", "eddi.iir", "eddi.hysteresis")
 
 
 def _aot_dir() -> Path:
@@ -60,9 +64,33 @@ def _load_aot_module() -> types.ModuleType | None:
                 spec.loader.exec_module(mod)
             except ImportError:
                 return None
+            built_for = getattr(mod, "aot__cpu", None)
+            if built_for is not None and built_for() not in (0, cpu_stamp()):
+                return None  # built for another processor's instructions: the JIT runs instead
             sys.modules[name] = mod
             return mod
     return None
+
+
+def cpu_stamp() -> int:
+    """A 60-bit hash of this machine's processor (model name and instruction-set flags in
+    ``/proc/cpuinfo``); -1 where that is not readable (a module built for the host is then
+    never used)."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as f:
+            text = f.read(1 << 16)
+    except OSError:
+        return -1
+    keys = {}
+    for line in text.splitlines():
+        if not line.strip():
+            break  # the first processor's block
+        k, _, v = line.partition(":")
+        if k.strip() in ("vendor_id", "model name", "flags"):
+            keys[k.strip()] = v.strip()
+    if "flags" not in keys:
+        return -1
+    return int(hashlib.sha256(repr(sorted(keys.items())).encode()).hexdigest()[:15], 16)
 
 
 class Kernels:
@@ -143,13 +171,13 @@ class Kernels:
         return out
 
     def _with_fallback(self, name: str, built: list[Callable[..., Any]]) -> Callable[..., Any]:
-        checks = [_arg_checks(sig) for sig in self._signatures[name]]
+        checks = [_signature_check(sig) for sig in self._signatures[name]]
 
         def call(*args: Any) -> Any:
             for fn, check in zip(built, checks):
                 # the built wrappers do not check an array's layout (a strided array would be
                 # read as if contiguous): every argument is checked here first
-                if len(args) == len(check) and all(ok(a) for ok, a in zip(check, args)):
+                if check(args):
                     return fn(*args)
             return self.jit_functions()[name](*args)
 
@@ -172,6 +200,67 @@ class Kernels:
 
 
 _DTYPES = {"f8": "float64", "i8": "int64"}
+
+
+def _signature_check(sig: str) -> Callable[[tuple], bool]:
+    """``check(args)``: whether every argument has exactly the type of ``sig`` (the tests of
+    :func:`_arg_checks`, in one function with the common cases first: the per-argument
+    closures cost ~8 us a call, ~0.25 s of CPU in a diagnosis of the double beam's ~31k
+    kernel calls)."""
+    import numpy as np
+
+    per_arg = _arg_checks(sig)
+    specs = _arg_specs(sig)
+    n = len(specs)
+    arrays = tuple((i, np.dtype(_DTYPES[base]), dims, c_order)
+                   for i, (base, dims, c_order) in enumerate(specs) if dims)
+    scalars = tuple((i, base == "f8") for i, (base, dims, _c) in enumerate(specs) if not dims)
+    ndarray = np.ndarray
+
+    def check(args: tuple) -> bool:
+        if len(args) != n:
+            return False
+        for i, dtype, dims, c_order in arrays:
+            a = args[i]
+            if not isinstance(a, ndarray) or a.ndim != dims or not (a.dtype is dtype or a.dtype == dtype):
+                return False
+            fl = a.flags
+            if not fl.aligned or (c_order and not fl.c_contiguous):
+                return False
+        for i, real in scalars:
+            t = type(args[i])
+            if t is float and real or t is int:
+                continue
+            if not per_arg[i](args[i]):
+                return False
+        return True
+
+    return check
+
+
+def _arg_specs(sig: str) -> list[tuple[str, int, bool]]:
+    """Per argument of a signature: base type (``f8``, ``i8``), array dimensions (0: a
+    scalar) and whether C order is required."""
+    inner = sig[sig.index("(") + 1: sig.rindex(")")]
+    parts, depth, cur = [], 0, ""
+    for ch in inner:
+        depth += ch == "["
+        depth -= ch == "]"
+        if ch == "," and depth == 0:
+            parts.append(cur.strip())
+            cur = ""
+        else:
+            cur += ch
+    if cur.strip():
+        parts.append(cur.strip())
+    out = []
+    for p in parts:
+        base = p.split("[")[0].strip()
+        if "[" in p:
+            out.append((base, p[p.index("[") + 1: p.rindex("]")].count(",") + 1, "::1" in p))
+        else:
+            out.append((base, 0, False))
+    return out
 
 
 def _arg_checks(sig: str) -> list[Callable[[Any], bool]]:
@@ -211,8 +300,14 @@ def _arg_checks(sig: str) -> list[Callable[[Any], bool]]:
     return checks
 
 
-def build(output_dir: str | Path | None = None) -> Path:
+def build(output_dir: str | Path | None = None, cpu: str = "host") -> Path:
     """Compile every kernel of :data:`KERNEL_MODULES` ahead of time into one extension module.
+
+    ``cpu="host"`` (default) compiles for this machine's processor, as the JIT does: numba's
+    generic x86-64 target made the sensitivity kernel (`_rk4_sens`, most of an output-error
+    refinement) 1.8-2.3x slower than the JIT (session 12), with the same numbers. The module
+    records the processor (:func:`cpu_stamp`) and is not used on another one (the JIT runs).
+    ``cpu="generic"``: a module for any processor of the architecture.
 
     Returns
     -------
@@ -230,6 +325,14 @@ def build(output_dir: str | Path | None = None) -> Path:
     cc = CC(AOT_NAME)
     cc.output_dir = str(output_dir or Path(__file__).resolve().parent)
     cc.verbose = False
+    stamp_cpu = 0
+    if cpu == "host":
+        stamp_cpu = cpu_stamp()
+        if stamp_cpu < 0:
+            raise RuntimeError("no /proc/cpuinfo to stamp a module built for this processor: use cpu='generic'")
+        cc.target_cpu = "host"
+    elif cpu != "generic":
+        raise ValueError("cpu must be 'host' or 'generic'")
     for modname in KERNEL_MODULES:
         mod = importlib.import_module(modname)
         k: Kernels = mod._KERNELS
@@ -244,6 +347,7 @@ def build(output_dir: str | Path | None = None) -> Path:
                 clone = types.FunctionType(fn.__code__, ns, fn.__name__, fn.__defaults__, fn.__closure__)
                 cc.export(k.exported_name(name, i), sig)(clone)
         cc.export(f"{k._prefix}__fingerprint", "i8()")(eval(f"lambda: {stamp}"))  # noqa: S307 - an int literal
+    cc.export("aot__cpu", "i8()")(eval(f"lambda: {stamp_cpu}"))  # noqa: S307 - an int literal
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         cc.compile()
@@ -256,4 +360,9 @@ if __name__ == "__main__":  # pragma: no cover - the build command
 
     ap = argparse.ArgumentParser(description="Build the simulator's kernels ahead of time (numba.pycc).")
     ap.add_argument("--output-dir", default=None, help="where to write the module (default: the eddi package)")
-    print(build(ap.parse_args().output_dir))
+    ap.add_argument("--cpu", choices=("host", "generic"), default="host",
+                    help="host (default): this machine's processor, as fast as the JIT, not used on another "
+                         "processor; generic: any processor of the architecture (the sensitivity kernel "
+                         "~2x slower)")
+    a = ap.parse_args()
+    print(build(a.output_dir, a.cpu))

@@ -134,3 +134,94 @@ def test_identify_with_built_kernels_imports_no_numba(aot_dir: Path) -> None:
     assert done.returncode == 0, done.stderr[-500:]
     assert done.stderr.strip().endswith("NO-NUMBA"), done.stderr[-500:]
     assert json.loads(done.stdout)["validation"]["nrmse"] < 0.1
+
+
+def test_the_hysteresis_kernels_are_built_and_give_the_jits_numbers_bit_for_bit(aot_dir: Path) -> None:
+    # the Bouc-Wen candidate runs in every diagnosis: with its kernels built, a diagnosis
+    # imports no numba (~0.45 s of CPU per process, session 12)
+    mod = importlib.import_module("eddi.hysteresis")
+    aot, jit = _fresh("eddi.hysteresis", aot_dir), _fresh("eddi.hysteresis", None)
+    assert (aot.source, jit.source) == ("ahead of time", "numba JIT")
+    rng = np.random.default_rng(7)
+    x = np.cumsum(rng.normal(0.0, 1e-4, 4000)) + 2e-3 * np.sin(np.arange(4000) / 9.0)
+    need = np.flatnonzero(rng.random(4000) < 0.6).astype(np.int64)
+    got = []
+    for k in (aot, jit):
+        outs = []
+        for n_exp in (0.7, 1.0, 2.5, 8.0):
+            g0, d = np.empty(mod._R_CELLS + 1), np.empty(mod._R_CELLS + 1)
+            k._bw_table(n_exp, mod._R_STEP, g0, d)
+            z = np.zeros(need.size)
+            k._bw_exact(x, 1.5e-3, n_exp, need, mod._R_STEP, g0, d, z)
+            rk2 = np.zeros(x.size)
+            k._bw_path(x, 1.5e-3, n_exp, rk2)
+            outs += [g0, d, z, rk2]
+        eom = EquationOfMotion.create(mass=0.5, damping={"v": 0.3}, stiffness={"x": 8e3, "x^3": 5e8})
+        from eddi.simulate import _effect_vector
+        from eddi.terms import exponent_table
+
+        exps = exponent_table(eom.damping_terms() + eom.stiffness_terms())
+        coefs = np.array(list(eom.damping.values()) + list(eom.stiffness.values()))
+        force = np.where(np.arange(3000) < 10, 50.0, 0.0)
+        sim = np.empty((3000, 4))
+        div = k._rk4_hyst(force, 2e-4, 3, np.array([0.0, 0.0, 0.0]), 2.0, exps, coefs, _effect_vector(eom),
+                          4.0, 1e-3, 1.5, sim)
+        outs += [sim, np.array([div])]
+        got.append(outs)
+    assert len(got[0]) == len(got[1]) == 18
+    for a, b in zip(*got):
+        assert np.array_equal(a, b)
+    assert np.ptp(got[0][2]) > 0.5 and np.ptp(got[0][16][:, 0]) > 1e-4  # z and x moved
+
+
+def test_the_hysteresis_operator_with_built_kernels_imports_no_numba(aot_dir: Path) -> None:
+    code = ("import sys\nimport numpy as np\nfrom eddi.hysteresis import bouc_wen_z\n"
+            "z = bouc_wen_z(np.sin(np.arange(500) / 7.0), 0.3, 2.0)\n"
+            "print(round(float(np.ptp(z)), 6), 'NUMBA' if 'numba' in sys.modules else 'NO-NUMBA')\n")
+    env = {**os.environ, "PYTHONPATH": str(REPO), "EDDI_AOT_DIR": str(aot_dir)}
+    env.pop("EDDI_JIT", None)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert done.returncode == 0, done.stderr[-500:]
+    ptp, numba = done.stdout.split()
+    assert numba == "NO-NUMBA" and float(ptp) > 1.0
+
+
+def test_the_module_is_built_for_this_processor_and_not_used_on_another(aot_dir: Path,
+                                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    # numba's generic target made the sensitivity kernel 1.8-2.3x slower than the JIT (session 12):
+    # the module is built for the host, stamped with it, and refused elsewhere (no illegal
+    # instruction: the JIT runs)
+    import eddi.kernels as kernels
+
+    assert kernels.cpu_stamp() > 0
+    assert _fresh("eddi.sensitivity", aot_dir).source == "ahead of time"
+    sys.modules.pop("eddi._aot_kernels", None)
+    monkeypatch.setattr(kernels, "cpu_stamp", lambda: 12345)
+    assert _fresh("eddi.sensitivity", aot_dir).source == "numba JIT"
+
+
+def test_the_one_function_signature_check_agrees_with_the_per_argument_checks() -> None:
+    # session 12: one check per call instead of a closure per argument (~8 -> ~4 us a call)
+    from eddi.kernels import _arg_checks, _signature_check
+
+    sig = "i8(f8[::1], f8, i8, f8[:, ::1], i8[::1], f8[:])"
+    fast, slow = _signature_check(sig), _arg_checks(sig)
+    good = [np.zeros(5), 0.5, 3, np.zeros((4, 3)), np.arange(4, dtype=np.int64), np.zeros(9)[::3]]
+    variants = {
+        0: [np.zeros(10)[::2], np.zeros(5, dtype=np.float32), np.zeros((5, 1)), [0.0] * 5, np.zeros(5).view(np.matrix)],
+        1: [1, np.float64(0.5), np.int32(2), True, "0.5", None, 1 + 0j],
+        2: [np.int64(3), 3.0, False, np.uint8(3)],
+        3: [np.zeros((4, 3), order="F"), np.zeros((3, 4)).T, np.zeros(12), np.zeros((4, 3), dtype=np.int64)],
+        4: [np.arange(4), np.arange(4, dtype=np.int32), np.arange(8, dtype=np.int64)[::2]],
+        5: [np.zeros(9), np.zeros((3, 3)), np.zeros(9, dtype=np.int64)],
+    }
+    cases = [good, good[:-1], good + [1.0]]
+    for k, alts in variants.items():
+        for alt in alts:
+            cases.append(good[:k] + [alt] + good[k + 1:])
+    seen = set()
+    for args in cases:
+        want = len(args) == len(slow) and all(ok(a) for ok, a in zip(slow, args))
+        assert fast(tuple(args)) == want
+        seen.add(want)
+    assert seen == {True, False}
