@@ -145,10 +145,10 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         "polished_folds": polished if refine else None,
         "baseline": {"nrmse": base, "folds": folds["baseline"],
                      "channel_nrmse": {c: float(np.mean(v)) for c, v in per_channel["baseline"].items()},
-                     "mode_nrmse": np.mean(per_mode["baseline"], axis=0).tolist()},
+                     "mode_nrmse": fold_mean_per_mode(per_mode["baseline"])},
         "coupled": {"nrmse": cpl, "folds": folds["coupled"],
                     "channel_nrmse": {c: float(np.mean(v)) for c, v in per_channel["coupled"].items()},
-                    "mode_nrmse": np.mean(per_mode["coupled"], axis=0).tolist()},
+                    "mode_nrmse": fold_mean_per_mode(per_mode["coupled"])},
         "gain": gain, "margin": margin, "cause": cause, "coordinates": final.coordinates,
         "noise_floor": verdict.noise_floor, "symptoms": symptoms,
         "amplitude": {"span": amp_span.as_dict(), "backbones": backbone_json(modes)},
@@ -173,6 +173,19 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         Path(save_model).write_text(model.to_json() + "\n")
         obj["saved_model"] = save_model
     return obj
+
+
+def fold_mean_per_mode(rows: Sequence[Sequence[float]]) -> list[float]:
+    """Mean over the folds of each coordinate's held-out nrmse. The folds' models need not have the
+    same number of coordinates (a fold whose tail resolves one mode fewer keeps fewer): coordinate
+    ``k`` is averaged over the folds that have it (session 12: a 3-mass chain with 2 blows and a
+    2-mass chain with 6 stopped on a ragged array, a traceback instead of a verdict)."""
+    width = max((len(r) for r in rows), default=0)
+    out = []
+    for k in range(width):
+        vals = [float(r[k]) for r in rows if len(r) > k]
+        out.append(float(np.mean(vals)))
+    return out
 
 
 def _final_coupled(records: Sequence[Any], names: tuple[str, ...], dp: str, refine: bool, quiet: bool = False
