@@ -130,6 +130,7 @@ def draw(index: int, seed: int) -> Case:
         els.append(Element(between=(0, n), k=ks[n], c=beta * ks[n]))
     # blows: the largest gives a displacement of order 1 mm at the struck mass's first mode
     peak = masses[drive - 1] * (2 * np.pi * f1) ** 2 * 1e-3 * _loguni(g, 0.3, 3)
+    peak = max(peak, 2.0)  # a hammer blow of at least 2 N (the force channel's noise is absolute)
     levels = np.sort(g.uniform(0.25, 1.0, n_blows))
     levels[-1] = 1.0
     order = g.permutation(n_blows)
