@@ -38,6 +38,7 @@ import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
+from math import comb
 from pathlib import Path
 
 import numpy as np
@@ -187,8 +188,6 @@ def _truth(case: Case):
                 if q:
                     powers[nodes[1]] = powers.get(nodes[1], 0) + q
                 term = "*".join(f"{letter}{k + 1}" + (f"^{e}" if e > 1 else "") for k, e in sorted(powers.items()))
-                from math import comb
-
                 target[node][term] = target[node].get(term, 0.0) + sign * coef * comb(order, p) * (-1.0) ** q
     chans = list(base.channels)
     shapes = [list(r) for r in base.phi]
@@ -253,6 +252,8 @@ def show(row: dict) -> None:
             f"| {len(row['blows_n'])} blows | drive {row['drive']} {'named' if row['named'] else 'unnamed'}"
             f"{' +sensor' if row['extra_sensor'] else ''} | {row['snr_db']} dB")
     print(head, flush=True)
+    if "cause" not in row:  # --list
+        return
     if "baseline" not in row:
         print(f"    -> {row.get('cause')}  {'OK' if ok else 'MISS'}", flush=True)
         return
