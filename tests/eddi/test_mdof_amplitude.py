@@ -86,3 +86,26 @@ def test_capture_span_says_whether_leave_one_out_extrapolates(tmp_path):
     wide = capture_span([rec(40.0), rec(120.0), rec(250.0)], ("acc1", "acc2"), "acc1")
     assert wide.tested and wide.up == pytest.approx(250 / 120) and wide.down == pytest.approx(3.0)
     assert wide.as_dict()["extrapolation_tested"] is True
+
+
+def test_a_tone_leaking_into_a_modes_band_from_outside_is_not_read_as_that_mode():
+    # session 12: the 2 f_1 tone of a quadratic coupling under a weak upper mode; here a synthetic
+    # record: a strong 24 Hz ring-down plus its 48 Hz tone and a weak, fast 120 Hz mode, the model
+    # the same without the 48 Hz tone. The 120 Hz band starts at sqrt(24 * 120) = 53.7 Hz.
+    from types import SimpleNamespace
+
+    rate, t = 2000.0, np.arange(0, 4.0, 1 / 2000.0)
+    low = np.exp(-0.5 * t) * np.sin(2 * np.pi * 24 * t)
+    tone = 0.05 * np.exp(-1.0 * t) * np.sin(2 * np.pi * 48 * t)
+    upper = 0.2 * np.exp(-10.0 * t) * np.sin(2 * np.pi * 120 * t)
+    meas, sim = (low + tone + upper)[None, :], (low + upper)[None, :]
+    model = SimpleNamespace(natural_frequencies_hz=lambda: np.array([24.0, 120.0]), channels=("acc1",))
+    rec = SimpleNamespace(window=(0, t.size), t=t, x=meas, a=meas * (2 * np.pi * 24) ** 2,
+                          noise=np.array([1e-9]))
+    val = SimpleNamespace(diverged=False, t=t, measured=meas, simulated=sim)
+    modes = backbones(model, [rec], [val])
+    up = next(b for b in modes if b.mode_hz == 120.0)
+    lo, hi = np.sqrt(24 * 120), 120 * 1.6  # the last mode's band ends at EDGE times it
+    assert up.measured_hz.size and np.all((up.measured_hz >= lo) & (up.measured_hz <= hi))
+    # (the 24 Hz mode's band holds the tone: a difference there is the model's, and may be a symptom)
+    assert [s for s in amplitude_symptoms(modes, {"acc1": 0.01}, NONE_FACTOR) if s["mode_hz"] == 120.0] == []

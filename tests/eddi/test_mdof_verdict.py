@@ -122,3 +122,26 @@ def test_held_out_gain_is_the_typical_ratio_per_fold():
     assert held_out_gain([0.01, 0.02], [0.001, np.inf]) == -np.inf
     assert held_out_gain([0.01, np.inf], [0.01, 0.02]) == 1.0
     assert held_out_gain([np.inf], [np.inf]) == 0.0 and held_out_gain([], []) == 0.0
+
+
+def test_coupling_is_earned_on_the_error_above_the_floor_only_where_the_baseline_cannot_be_complete():
+    # session 12, blind-card-like: the baseline 4.8x its floor on every fold, the coupled model at
+    # 2.5x: a raw gain of 48 % (under the 50 % margin: `unexplained`, the coupling not named) while
+    # it removes 51 % of the error above the floor
+    from eddi.mdof.verdict import coupling_earned, excess_gain
+
+    base, cpl, floors = [0.048, 0.050, 0.046], [0.025, 0.026, 0.024], [0.01, 0.01, 0.01]
+    chans, chan_floors = {"acc1": 0.048, "acc2": 0.048}, {"acc1": 0.01, "acc2": 0.01}
+    assert held_out_gain(base, cpl) == pytest.approx(0.48, abs=0.005)
+    assert excess_gain(base, cpl, floors) == pytest.approx(0.512, abs=0.003)
+    won, gain = coupling_earned(base, cpl, floors, chans, chan_floors, 0.5)
+    assert won and gain == pytest.approx(excess_gain(base, cpl, floors))
+    # one fold where the coupled model is worse: not earned (the raw rule alone)
+    assert coupling_earned(base, [0.025, 0.026, 0.047], floors, chans, chan_floors, 0.5)[0] is False
+    # a null: the baseline within 3.5x its floor - the ratio of excesses near the floor is not consulted
+    near = [0.020, 0.021, 0.019]
+    assert excess_gain(near, [0.011, 0.012, 0.011], floors) > 0.5
+    assert coupling_earned(near, [0.011, 0.012, 0.011], floors, {"acc1": 0.02, "acc2": 0.02}, chan_floors,
+                           0.5) == (False, pytest.approx(held_out_gain(near, [0.011, 0.012, 0.011])))
+    # the floor bounds the excess from below: a coupled fold at the floor counts as f / 2
+    assert excess_gain([0.05], [0.005], [0.01]) == pytest.approx(1 - 0.005 / np.sqrt(0.05**2 - 0.01**2))
