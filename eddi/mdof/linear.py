@@ -22,14 +22,20 @@ def receptance(model: MdofModel):
     phi = model.phi
 
     def h(freqs_hz: np.ndarray) -> np.ndarray:
-        out = np.empty((phi.shape[0], len(freqs_hz)), complex)
-        for j, f in enumerate(freqs_hz):
-            w = 2 * math.pi * f
-            try:
-                out[:, j] = phi @ np.linalg.solve(k - w**2 * m + 1j * w * c, u)
-            except np.linalg.LinAlgError:
-                out[:, j] = 0.0
-        return np.nan_to_num(out)
+        w = 2 * math.pi * np.asarray(freqs_hz, float)
+        # every bin in one batched solve (session 12: a bin at a time was 217 000 calls and 17 of the
+        # 26 s CPU of one identification of six 10 s captures); a singular bin (0 there) one at a time
+        mats = k[None] - (w**2)[:, None, None] * m[None] + (1j * w)[:, None, None] * c[None]
+        try:
+            q = np.linalg.solve(mats, np.broadcast_to(u.astype(complex), (w.size, u.size))[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            q = np.zeros((w.size, u.size), complex)
+            for j in range(w.size):
+                try:
+                    q[j] = np.linalg.solve(mats[j], u)
+                except np.linalg.LinAlgError:
+                    q[j] = 0.0
+        return np.nan_to_num((phi @ q.T).astype(complex))
 
     return h
 
