@@ -138,8 +138,31 @@ def condition_all(measurements: Sequence[Measurement], driving_point: str | None
                                  f"{measurements[0].source}'s ({', '.join(names)})")
         if abs(float(m.rate_hz) - rate) > 1e-6 * rate:
             raise InputFileError(f"{m.source}: sample rate {m.rate_hz:g} Hz differs from {rate:g} Hz")
+    for m in measurements:
+        _refuse_copies(m)
     dp = resolve_driving_point(measurements[0], driving_point)
     return [condition_multichannel(m, dp) for m in measurements], names, dp
+
+
+#: Two response channels whose difference is below this fraction of their rms are one signal.
+SAME_SIGNAL = 1e-9
+
+
+def _refuse_copies(meas: Measurement) -> None:
+    """Refuse a record whose response channels include the same signal twice (a column copied,
+    or one sensor logged on two channels): the coordinates cannot be told apart, and the model
+    identified from it had a zero-frequency mode, returned with exit 0 (session 12)."""
+    chans = response_channels(meas.channels)
+    names = list(chans)
+    for i, a in enumerate(names):
+        xa = np.asarray(chans[a][1], dtype=float)
+        scale = float(np.sqrt(np.mean(xa * xa))) if xa.size else 0.0
+        for b in names[i + 1:]:
+            xb = np.asarray(chans[b][1], dtype=float)
+            if scale > 0 and xa.shape == xb.shape and float(np.sqrt(np.mean((xa - xb) ** 2))) <= SAME_SIGNAL * scale:
+                raise InputFileError(f"{meas.source}: channels {a} and {b} hold the same signal (a copied column "
+                                     "or one sensor logged twice): a multi-DOF model needs sensors at different "
+                                     "points; drop one of them")
 
 
 def _in_order(meas: Measurement, names: tuple[str, ...]) -> Measurement:

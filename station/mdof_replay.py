@@ -50,6 +50,9 @@ def replay_mdof_object(measurements: Sequence[Any], driving_point: str | None = 
         out[0]["role"] = "train (single capture: validated on itself)"
     held = [o for o in out if o["role"] == "held out"]
     model = ident.model
+    flags = replay_flags(model, validations)
+    fitted = [o["nrmse"] for o in out if o["role"] != "held out"]
+    warnings = flags + _poor_fit(fitted, [o["nrmse"] for o in held])
     return {"model_kind": "mdof", "channels": list(names), "driving_point": dp,
             "captures": [r.label for r in records], "fit_records": [r.label for r in train],
             "coordinates": ident.coordinates, "notes": list(ident.notes),
@@ -57,9 +60,42 @@ def replay_mdof_object(measurements: Sequence[Any], driving_point: str | None = 
             "equation": model.equation_text(), "model": model.model_dump(mode="json"),
             "records": out,
             "held_out_nrmse": float(np.mean([o["nrmse"] for o in held])) if held else None,
-            "warnings": check_driving_point(ident.modes, records, names, dp,
-                                            driving_point_how(measurements[0], driving_point)),
-            "_validations": validations}
+            "warnings": warnings + check_driving_point(ident.modes, records, names, dp,
+                                                       driving_point_how(measurements[0], driving_point)),
+            "unstable": bool(flags), "_validations": validations}
+
+
+def replay_flags(model: Any, validations: Sequence[Any]) -> list[str]:
+    """Why the identified model cannot be trusted as a simulation (the command then exits with
+    :data:`station.cli.EXIT_FLAGGED`): its linear part grows, or its simulation of a capture
+    diverged (as ``station diagnose`` flags a multi-DOF model)."""
+    from eddi.mdof.identify import linear_growth_rate
+
+    out = []
+    growth = linear_growth_rate(model)
+    if growth > 0:
+        out.append(f"the model's linear part is unstable: a mode grows at {growth:.3g} 1/s")
+    if any(v.diverged for v in validations):
+        out.append("the model's simulation diverged on a capture")
+    return out
+
+
+def _poor_fit(fitted: Sequence[float], held: Sequence[float]) -> list[str]:
+    """The one-coordinate commands' "poor fit" / "poor prediction" sentences (:data:`eddi.stability.
+    POOR_FIT_NRMSE`), on the captures' mean per-channel nrmse."""
+    from eddi.stability import POOR_FIT_NRMSE
+
+    out = []
+    worst = max((f for f in fitted if np.isfinite(f)), default=float("nan"))
+    if np.isfinite(worst) and worst > POOR_FIT_NRMSE:
+        out.append(f"poor fit: the model reproduces the captures it was fitted on with nrmse up to {worst:.3g} "
+                   f"(> {POOR_FIT_NRMSE:g}, mean over channels): a mechanism outside the model's library or a "
+                   "measurement problem; `station diagnose` on several captures lists the symptoms")
+    bad = [h for h in held if np.isfinite(h) and h > POOR_FIT_NRMSE]
+    if bad:
+        out.append(f"poor prediction: held-out nrmse up to {max(bad):.3g} (> {POOR_FIT_NRMSE:g}) on {len(bad)} "
+                   f"of {len(held)} held-out captures")
+    return out
 
 
 def replay_mdof_text(obj: dict[str, Any]) -> str:

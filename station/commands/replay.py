@@ -198,7 +198,13 @@ def handle(args: argparse.Namespace) -> int:
         obj.pop("_validations")
         lines.append(replay_mdof_text(obj))
         emit(args.json, "\n".join(lines), obj)
-        return 1 if args.through_device and not obj["bit_exact"] else 0
+        if args.through_device and not obj["bit_exact"]:
+            return 1
+        if obj["unstable"]:
+            from station.cli import flagged
+
+            return flagged("replay", "the identified model is unstable or its simulation diverges")
+        return 0
     terms = (terms_or_default(args.damping, DEFAULT_DAMPING), terms_or_default(args.stiffness, DEFAULT_STIFFNESS),
              "auto")
     session = run_session(read_all(specs, command="replay"), args.mass, damping=terms[0], stiffness=terms[1],

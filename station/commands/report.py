@@ -102,4 +102,8 @@ def _mdof_report(args: argparse.Namespace, measurements: list, t0: float) -> int
     obj["figures"] = [str(p) for p in figures]
     obj["elapsed_s"] = {"identify_validate": t1 - t0, "report": time.perf_counter() - t1}
     emit(args.json, replay_mdof_text(obj) + f"\nreport: {obj['report']} ({len(figures)} figures)", obj)
+    if obj["unstable"]:
+        from station.cli import flagged
+
+        return flagged("report", "the identified model is unstable or its simulation diverges")
     return 0
