@@ -221,3 +221,24 @@ def test_an_unstable_or_diverging_mdof_model_is_flagged() -> None:
     grows = sound.model_copy(update={"damping": damping})
     (w,) = _model_flags(grows, [0.02, 0.03])
     assert "linear part is unstable" in w and "grows at" in w
+
+
+def test_modal_coupling_needs_a_determined_nonlinear_coupling_coefficient():
+    # blind unseen9 (session 12): uncoupled folds all diverged, the coupled model "won" by 100 %
+    # with every nonlinear coupling coefficient's interval 3-20x its value: no coupling is earned
+    import station.mdof_commands as mc
+
+    def obj(coeffs):
+        return {"cause": "modal_coupling", "gain": 1.0, "notes": [], "coupling_coefficients": coeffs}
+
+    undetermined = obj([{"x1*x2^2": [-2.0e12, 1.4e13], "x2": [-472.1, 370.0], "x2^3": [9.4e12, 5.7e13]},
+                        {"x1": [61.8, 25.0], "x1^3": [4.6e10, 5.3e10]}])
+    mc._coupling_determined(undetermined)
+    assert undetermined["cause"] == "unexplained"  # the determined terms are linear cross terms only
+    assert "none of its 3 nonlinear coupling coefficients is determined" in undetermined["notes"][0]
+    one = obj([{"x1*x2^2": [-2.0e12, 1.4e13], "x2^3": [9.4e12, 5.7e12]}, {}])
+    mc._coupling_determined(one)
+    assert one["cause"] == "modal_coupling" and one["notes"] == []
+    no_intervals = obj([{"x2^3": [9.4e12, None]}, {}])  # without the polish no intervals: not judged
+    mc._coupling_determined(no_intervals)
+    assert no_intervals["cause"] == "modal_coupling"
