@@ -76,7 +76,7 @@ def test_none_on_an_inflated_floor_is_flagged_uncertain() -> None:
     session 11 the verdict was ``none`` with an "uncertain none" note. Since session 12 ``none``
     is judged against the floor of the data (the refit's spread counted at most ``PRED_CAP``
     times the records' own share): 0.04, the baseline 2.8x it with its frequency off by
-    0.5-0.8 %, so the verdict is no longer ``none``."""
+    0.5-0.8 %, so the verdict is no longer a plain ``none``."""
     system = EquationOfMotion.create(mass=0.3, damping={"v": 2 * 0.006 * np.sqrt(600.0 * 0.3)},
                                      stiffness={"x": 600.0, "x^3": -3e5})
     r = impact_test(system, 75.0, rate_hz=20000.0, pretrigger_s=0.05, record_s=0.5, snr_db=None, seed=0)
@@ -93,4 +93,9 @@ def test_none_on_an_inflated_floor_is_flagged_uncertain() -> None:
     assert max(fl.prediction_nrmse) > 2 * max(fl.conditioning_nrmse)  # the floor is mostly the refit's spread
     assert fl.data_nrmse < 0.6 * fl.nrmse
     assert 2.5 * fl.data_nrmse < d.baseline.nrmse < 3.5 * fl.nrmse  # within the full floor's factor, not the data's by much
-    assert d.cause in ("unexplained", "coulomb_friction"), d.verdict
+    # `none` is judged against the floor of the data: 2.8x it, within the 3.5x, so at most an
+    # uncertain `none` with the symptoms (the band rule's "above the floor" stays against the full
+    # floor, as calibrated: a blind short noisy null turned `unexplained` against the data's)
+    assert d.cause in ("none", "unexplained", "coulomb_friction"), d.verdict
+    if d.cause == "none":
+        assert d.verdict.startswith("Cause: none (uncertain)"), d.verdict
