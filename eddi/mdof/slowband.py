@@ -124,7 +124,7 @@ def _record_blocks(data: tuple, beta: np.ndarray, theta: np.ndarray, elements: l
         jt_i = np.zeros((x.shape[1], theta.size)) if jacobian else None
         if jacobian and i in free:
             jt_i[:, free.index(i)] = a[i]
-        blocks = [None] * n  # this equation's d r / d beta_j (sparse: the basis is local)
+        slopes: list = [None] * n  # this equation's d r / d x_j, d r / d v_j (summed over elements)
         for k, e in enumerate(elements):
             s = _sign(e, i)
             if s == 0.0:
@@ -132,26 +132,31 @@ def _record_blocks(data: tuple, beta: np.ndarray, theta: np.ndarray, elements: l
             r = r + s * consts[k] * cols[k]
             if jacobian:
                 jt_i[:, nm + k] = s * cols[k]
-                _beta_slopes(blocks, e, s * consts[k], xs, b, bd)
+                _add_slopes(slopes, e, s * consts[k], xs)
         res.append(r / scales[i])
         if jacobian:
             jt.append(jt_i / scales[i])
-            jb.append(sparse.hstack([blk if blk is not None else sparse.csr_matrix((x.shape[1], nb))
-                                     for blk in blocks]) * (1.0 / scales[i]))
+            jb.append(sparse.hstack([_beta_block(sl, b, bd) for sl in slopes]) * (1.0 / scales[i]))
     if not jacobian:
         return np.concatenate(res)
     return np.concatenate(res), np.vstack(jt), sparse.vstack(jb).tocsr()
 
 
-def _beta_slopes(blocks: list, e: Element, factor: float, xs: np.ndarray, b, bd) -> None:
-    """Add ``factor`` x the element column's derivative in each channel's ``beta`` to ``blocks``."""
-    for j in range(len(blocks)):
+def _add_slopes(slopes: list, e: Element, factor: float, xs: np.ndarray) -> None:
+    """Add ``factor`` x the element column's derivatives in each channel's ``x`` and ``v`` to ``slopes``."""
+    for j in range(len(slopes)):
         gx, gv = _slope(e, xs, j)
         if np.any(gx) or gv:
-            gxa = np.asarray(gx, float)
-            g = (sparse.diags(gxa) @ b if gxa.ndim else float(gxa) * b) + gv * bd
-            g = factor * g
-            blocks[j] = g if blocks[j] is None else blocks[j] + g
+            got = (factor * np.asarray(gx, float), factor * gv)
+            slopes[j] = got if slopes[j] is None else (slopes[j][0] + got[0], slopes[j][1] + got[1])
+
+
+def _beta_block(slope, b: sparse.csr_matrix, bd: sparse.csr_matrix) -> sparse.csr_matrix:
+    """``d r / d beta_j = diag(d r / d x_j) B + (d r / d v_j) B'`` (sparse: the basis is local)."""
+    if slope is None:
+        return sparse.csr_matrix(b.shape)
+    gx, gv = slope
+    return (sparse.diags(gx) @ b if gx.ndim else float(gx) * b) + gv * bd
 
 
 def _normal(data, betas, theta, elements, n, d, scales, free):
