@@ -90,3 +90,24 @@ def test_restore_slow_band_equals_the_dense_solve(seed, n, monkeypatch):
     for (xg, vg, *_), (xw, vw, *_) in zip(got[0], want[0]):
         assert np.allclose(xg, xw, rtol=0, atol=1e-9 * np.max(np.abs(xw)))
         assert np.allclose(vg, vw, rtol=0, atol=1e-9 * np.max(np.abs(vw)))
+
+
+def test_a_tie_in_the_cubic_intervals_goes_to_the_restored_slow_band_not_to_the_last_bit():
+    """The slow-band fit's intervals are floored at its start's (``_slow_fit``): equal to rounding,
+    the tie went to whichever sum was an ulp smaller (fails without the tolerance in ``_pick``)."""
+    from eddi.mdof.lumped import LumpedFit
+    from eddi.mdof.physical import _informative, _pick
+
+    e = Element("k3", 1, 2)
+    pre = LumpedFit(np.array([1.0, 2.0]), {e: 4.0e10}, {e: 0.37 * 4.0e10}, np.zeros(2))
+    half = 0.37 * 4.7e10
+    while _informative(LumpedFit(pre.masses, {e: 4.7e10}, {e: half}, pre.residual)) <= _informative(pre):
+        half = np.nextafter(half, np.inf)
+    slow = LumpedFit(pre.masses, {e: 4.7e10}, {e: half}, pre.residual)
+    assert 0 < _informative(slow) - _informative(pre) < 1e-12 * _informative(pre)
+    tried = [(0.0039, pre, "prefiltered"), (0.0040, slow, "restored")]
+    assert _pick(tried, 0.003, frozenset({"restored"}))[2] == "restored"
+    assert _pick(tried, 0.003)[2] == "prefiltered"  # no preference: the lower training nrmse
+    wider = LumpedFit(pre.masses, {e: 4.7e10}, {e: 0.5 * 4.7e10}, pre.residual)
+    assert _pick([(0.0039, pre, "prefiltered"), (0.0040, wider, "restored")], 0.003,
+                 frozenset({"restored"}))[2] == "prefiltered"  # a real difference still decides
