@@ -251,12 +251,9 @@ def _coupling_determined(obj: dict[str, Any]) -> None:
 def _model_flags(model: Any, folds: Sequence[float]) -> list[str]:
     """Why the delivered model cannot be trusted as a simulation: its linear part grows, or the
     variant it was chosen from diverged on a held-out capture (as ``station identify`` flags)."""
-    from eddi.mdof.identify import linear_growth_rate
+    from station.mdof_replay import growth_flag
 
-    out = []
-    growth = linear_growth_rate(model)
-    if growth > 0:
-        out.append(f"the model's linear part is unstable: a mode grows at {growth:.3g} 1/s")
+    out = growth_flag(model)
     if any(not math.isfinite(float(f)) for f in folds):
         out.append("the model's simulation diverged on a held-out capture")
     return out

@@ -65,16 +65,19 @@ def replay_mdof_object(measurements: Sequence[Any], driving_point: str | None = 
             "unstable": bool(flags), "_validations": validations}
 
 
+def growth_flag(model: Any) -> list[str]:
+    """A sentence when the model's linear part grows (shared by replay, report and diagnose)."""
+    from eddi.mdof.identify import linear_growth_rate
+
+    growth = linear_growth_rate(model)
+    return [f"the model's linear part is unstable: a mode grows at {growth:.3g} 1/s"] if growth > 0 else []
+
+
 def replay_flags(model: Any, validations: Sequence[Any]) -> list[str]:
     """Why the identified model cannot be trusted as a simulation (the command then exits with
     :data:`station.cli.EXIT_FLAGGED`): its linear part grows, or its simulation of a capture
     diverged (as ``station diagnose`` flags a multi-DOF model)."""
-    from eddi.mdof.identify import linear_growth_rate
-
-    out = []
-    growth = linear_growth_rate(model)
-    if growth > 0:
-        out.append(f"the model's linear part is unstable: a mode grows at {growth:.3g} 1/s")
+    out = growth_flag(model)
     if any(v.diverged for v in validations):
         out.append("the model's simulation diverged on a capture")
     return out
