@@ -228,24 +228,14 @@ def _final_coupled(records: Sequence[Any], names: tuple[str, ...], dp: str, refi
 
 
 def _coupling_determined(obj: dict[str, Any]) -> None:
-    """``modal_coupling`` names a nonlinear coupling: at least one nonlinear coupling coefficient
-    of the delivered model must be determined by the records (its value outside its 95 % interval),
-    else the verdict is ``unexplained`` with the reason (in place in ``obj``). Blind unseen9 (session
-    12): a two-channel set whose uncoupled folds all diverged was named ``modal_coupling`` at "gain
-    100 %" with every nonlinear coupling coefficient's interval 3-20x its value (only the linear
-    cross terms determined). Without intervals (no polish) the check is not made."""
-    if obj["cause"] != "modal_coupling":
-        return
-    pairs = [(t, vc) for eq in obj["coupling_coefficients"] for t, vc in eq.items()
-             if "^" in t or "*" in t]  # degree >= 2: x1*x2^2, x2^3 (a linear cross term x2 is not a nonlinear coupling)
-    if not pairs or any(vc[1] is None for _t, vc in pairs):
-        return
-    if any(abs(float(vc[0])) > abs(float(vc[1])) for _t, vc in pairs):
-        return
-    obj["cause"] = "unexplained"
-    obj["notes"].append(f"no coupling named: the coupled model wins held out (gain {100 * obj['gain']:.0f} %), but "
-                        f"none of its {len(pairs)} nonlinear coupling coefficients is determined by these "
-                        "records (each 95 % interval wider than its value)")
+    """``modal_coupling`` becomes ``unexplained`` with the reason when no nonlinear coupling
+    coefficient is determined (:func:`eddi.mdof.verdict.undetermined_coupling`; in place in ``obj``)."""
+    from eddi.mdof.verdict import undetermined_coupling
+
+    why = undetermined_coupling(obj["coupling_coefficients"], obj["gain"]) if obj["cause"] == "modal_coupling" else None
+    if why is not None:
+        obj["cause"] = "unexplained"
+        obj["notes"].append(why)
 
 
 def _model_flags(model: Any, folds: Sequence[float]) -> list[str]:
