@@ -38,6 +38,7 @@ from eddi.mdof.validate import validate_mdof
 from eddi.mdof.verdict import held_out_gain
 from station.errors import InputFileError
 from station.mdof_data import condition_all, driving_point_how, reduce_rate
+from station.mdof_polish import polish_folds, polish_tag
 
 
 def _read(specs: Sequence[str]):
@@ -293,18 +294,6 @@ def _amplitude_heard(cause: str, amp: list[dict], span: Any, notes: list[str]) -
     return cause
 
 
-#: A fold whose model misses its held-out capture by more than this (nrmse) is not polished: the
-#: output-error polish is a local least squares from the EDDI model, and a simulation this far
-#: from the record (as far as silence is) has slipped phase by cycles, where the cost has other
-#: minima; on the three-mass chain the polish took such baseline folds from 154 to 144 and from 44
-#: to 42 (the verdict the same) for ~8 s CPU. Same rule for both kinds (fair comparison).
-POLISH_MAX_NRMSE = 1.0
-
-#: Coupled folds are polished, whatever the verdict, when an unpolished channel figure (mean over
-#: the folds) is above this: the issue's held-out target per channel (#14). Below it the
-#: unpolished figures are printed as what they are, upper bounds of the delivered (polished) kind.
-CHANNEL_CLAIM_NRMSE = 0.05
-
 #: Wall seconds of held-out folds past which a multi-channel diagnosis says on stderr that the
 #: final model comes next (progress, not a measurement).
 PROGRESS_S = 30.0
@@ -342,7 +331,7 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, ref
     errors, and the largest span residual of the tail's shapes (``folds["polished"]``: per kind,
     which folds were polished). With ``refine`` the folds' models are polished on their
     training records (:func:`eddi.mdof.refine.refine_identified`) before they predict the
-    held-out capture, where the polish can change the verdict (:func:`_polish_folds`). The folds
+    held-out capture, where the polish can change the verdict (:func:`station.mdof_polish.polish_folds`). The folds
     are independent: ``mapper(fn, items)`` (default in turn; :class:`station.forkmap.ForkMap` runs
     them in forked workers, the same results) computes them. Once a fold's CPU time (``clock``)
     projects past :data:`BUDGET_CPU_S`, the process that ran it says so through ``say`` (default:
@@ -369,7 +358,7 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, ref
         train = [r for j, r in enumerate(records) if j != k]
         fits.append({kind: (v, ident, train) for kind, (v, ident) in fit.items()})
         span = max(span, s)
-    polished = (_polish_folds(fits, records, names, margin, mapper) if refine
+    polished = (polish_folds(fits, records, names, margin, mapper) if refine
                 else {"baseline": [], "coupled": []})
     folds: dict[str, list] = {"baseline": [], "coupled": []}
     per_channel = {kind: {c: [] for c in names} for kind in folds}
@@ -419,77 +408,6 @@ def _fold_fits(records: Sequence[Any], names: tuple[str, ...], dp: str, k: int
     return out, span
 
 
-def _polish_folds(fits: list[dict[str, tuple]], records: Sequence[Any], names: tuple[str, ...],
-                  margin: float, mapper: Callable | None = None) -> dict[str, list[int]]:
-    """Polish the coupled folds, and the baseline folds where it can change the verdict (in place in
-    ``fits``); the indices polished.
-
-    A polished baseline fold is kept when it predicts its held-out capture better than the
-    unpolished one (as the variants of a fold are chosen), so a polish only lowers its error; a
-    polished coupled fold is kept whenever its simulation stays finite (its figure is the delivered
-    kind's). Then:
-
-    - baseline folds are polished (their lower errors can take the gain under the margin), except
-      those above :data:`POLISH_MAX_NRMSE`, and none when the gain (per fold,
-      :func:`eddi.mdof.verdict.held_out_gain`) stays above the margin even with every fold the
-      polish may touch at the noise floor (what the true model reaches; the per-fold gain makes 0
-      no bound): a polish that stops at the floor cannot change the verdict (the floor is a
-      typical value, not a strict bound: a fold polished well below it could, which is the
-      accepted risk of skipping); session 11: the 10 kHz three-mass chain,
-      baseline folds 1.19 / 1.18 / 0.69 / 1.13 against coupled 0.02, polished its 0.69 fold for
-      19 s of its 115 s CPU and the verdict stayed ``modal_coupling`` at gain 0.98);
-    - coupled folds are polished (those under :data:`POLISH_MAX_NRMSE`) unless the coupling
-      already wins by the margin and every channel's unpolished figure is within
-      :data:`CHANNEL_CLAIM_NRMSE`: with the polish on, the coupled model the station delivers is
-      polished, so an unpolished coupled figure is an upper bound of it (said so in the text).
-      Session 11 skipped the polish wherever it could not change the verdict: the own chain
-      ``t-two-cubic-2k`` then printed 0.060 / 0.061 on two channels (3x their floors) while the
-      polished folds and the delivered model were at 0.02-0.03; polishing always (s12mfit) cost the
-      10 kHz three-mass chain +52 % CPU (77 -> 117 s) to print 0.0070 where the bound said 0.020
-      (session 12, ``bench_mdof_chain.py``).
-    The baseline folds left unpolished (the kind not delivered) are upper bounds; the JSON's
-    ``polished_folds`` and the text say which kind was polished.
-    """
-    from eddi.mdof.verdict import channel_floor, held_out_gain
-
-    done: dict[str, list[int]] = {"baseline": [], "coupled": []}
-    mapper = mapper if mapper is not None else (lambda fn, items: [fn(x) for x in items])
-
-    def eligible(kind: str) -> list[int]:
-        return [k for k, fit in enumerate(fits)
-                if math.isfinite(fit[kind][0].nrmse) and fit[kind][0].nrmse <= POLISH_MAX_NRMSE]
-
-    def polish(kind: str) -> None:
-        todo = eligible(kind)
-        # independent folds: ``mapper`` may run them in forked workers (each returns its validation)
-        got = mapper(lambda k: _polished_fold(fits[k][kind][1], fits[k][kind][2], records[k], fits[k][kind][0]),
-                     todo)
-        for k, p in zip(todo, got):
-            v, ident, train = fits[k][kind]
-            # the coupled figure is the polished model's (the kind delivered), even where the
-            # unpolished one happened to predict the held-out capture better; a baseline fold keeps
-            # the lower (the comparison made harder for the coupling, never easier)
-            if p.nrmse < v.nrmse or (kind == "coupled" and p is not v and math.isfinite(p.nrmse)):
-                fits[k][kind] = (p, ident, train)
-            done[kind].append(k)
-
-    baseline_now = [f["baseline"][0].nrmse for f in fits]
-    coupled_now = [f["coupled"][0].nrmse for f in fits]
-    channels_now = [float(np.mean([f["coupled"][0].channel_nrmse[c] for f in fits])) for c in names]
-    if not (held_out_gain(baseline_now, coupled_now) > margin
-            and all(math.isfinite(v) and v <= CHANNEL_CLAIM_NRMSE for v in channels_now)):
-        polish("coupled")  # first: the baseline's polish is then judged against the coupled figures printed
-    floors = channel_floor(records, names)
-    touched = set(eligible("baseline"))
-    # the best a polish could do: a fold it touches down to the noise floor (mean over channels)
-    reach = float(np.mean([floors[c] for c in names]))
-    best = [min(reach, f["baseline"][0].nrmse) if k in touched else f["baseline"][0].nrmse
-            for k, f in enumerate(fits)]
-    if not held_out_gain(best, [f["coupled"][0].nrmse for f in fits]) > margin:  # the polish may change it
-        polish("baseline")
-    return done
-
-
 def _final_baseline(records: Sequence[Any], names: tuple[str, ...], dp: str) -> Any:
     """The baseline on every capture, from the variants the folds choose among (uncoupled modes;
     physical coordinates joined by linear springs only), the one that reproduces the records best.
@@ -511,18 +429,6 @@ def _final_baseline(records: Sequence[Any], names: tuple[str, ...], dp: str) -> 
     return replace(linear, modal_basis=auto.modal_basis, unresolved=auto.unresolved,
                    notes=linear.notes + (f"baseline in physical coordinates joined by linear springs kept: training "
                                          f"nrmse {err[1]:.3g}; uncoupled modes {err[0]:.3g}",))
-
-
-def _polished_fold(ident: Any, train: Sequence[Any], held: Any, unpolished: Any) -> Any:
-    """The held-out validation of ``ident``'s model polished on ``train`` (``unpolished`` if it diverges)."""
-    from eddi.mdof.refine import refine_identified
-
-    try:
-        model, _b, _a = refine_identified(ident, train)
-    except (IdentificationError, ValueError, FloatingPointError):
-        return unpolished
-    v = validate_mdof(model, held)
-    return v if math.isfinite(v.nrmse) else unpolished
 
 
 def _earned(cause: str, per_channel: dict[str, list], records: Sequence[Any], names: tuple[str, ...],
@@ -575,18 +481,6 @@ def _coords(text: str) -> set[int]:
     return {int(k) - 1 for k in re.findall(r"[xv](\d+)", text)}
 
 
-def _polish_tag(obj: dict[str, Any], kind: str) -> str:
-    """Whether ``kind``'s held-out figures are those of polished fold models (with the polish on,
-    the delivered model is polished; an unpolished fold's figure is an upper bound)."""
-    done = obj.get("polished_folds")
-    if done is None:  # no polish: the folds are of the kind delivered
-        return ""
-    k, n = len(done[kind]), len(obj[kind]["folds"])
-    if k == n:
-        return "   (folds polished)"
-    return f"   ({k} of {n} folds polished; the others unpolished: upper bounds)"
-
-
 def diagnose_mdof_text(obj: dict[str, Any]) -> str:
     b, c = obj["baseline"], obj["coupled"]
     chans = lambda d: "  ".join(f"{k} {v:.4g}" for k, v in d["channel_nrmse"].items())  # noqa: E731
@@ -594,9 +488,9 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
     lines = [f"Held-out judging: {obj['scheme']}; channels {', '.join(obj['channels'])} "
              f"(driving point {obj['driving_point']}); {obj['coordinates']} coordinates",
              f"  uncoupled baseline  held-out nrmse {b['nrmse']:.4g}   per channel: {chans(b)}   per mode: {modes(b)}"
-             + _polish_tag(obj, "baseline"),
+             + polish_tag(obj, "baseline"),
              f"  with coupling       held-out nrmse {c['nrmse']:.4g}   per channel: {chans(c)}   per mode: {modes(c)}"
-             + _polish_tag(obj, "coupled"),
+             + polish_tag(obj, "coupled"),
              f"  gain {100 * obj['gain']:.0f} % (margin {100 * obj['margin']:.0f} %)",
              f"Cause: {obj['cause']}" + ("" if obj["cause"] != "modal_coupling" else
                                          f" (coupling terms: {obj['coupling_terms']})")

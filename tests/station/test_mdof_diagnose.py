@@ -145,7 +145,7 @@ def test_folds_are_polished_where_the_verdict_or_a_printed_channel_figure_needs_
     from types import SimpleNamespace
 
     import eddi.mdof.verdict
-    import station.mdof_commands as mc
+    import station.mdof_polish as mc
 
     def fold(e):
         return SimpleNamespace(nrmse=e, channel_nrmse={"acc1": e, "acc2": e})
@@ -156,7 +156,7 @@ def test_folds_are_polished_where_the_verdict_or_a_printed_channel_figure_needs_
         calls.append(ident)
         return fold(v.nrmse / 2)
 
-    monkeypatch.setattr(mc, "_polished_fold", polished)
+    monkeypatch.setattr(mc, "polished_fold", polished)
     monkeypatch.setattr(eddi.mdof.verdict, "channel_floor", lambda records, names: {c: 0.02 for c in names})
 
     def fits(base, cpl):
@@ -167,44 +167,44 @@ def test_folds_are_polished_where_the_verdict_or_a_printed_channel_figure_needs_
     # (the diverged-like fold at 40 > 1 never is; session 11); the coupled figures are printed as
     # upper bounds of the delivered (polished) kind
     f = fits([0.5, 40.0, 0.6], [0.03, 0.02, 0.04])
-    assert mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5) == {"baseline": [], "coupled": []}
+    assert mc.polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5) == {"baseline": [], "coupled": []}
     assert calls == []
     # the same win with a channel figure above 0.05: the coupled folds are polished, so the printed
     # figure is the delivered kind's (session 12: t-two-cubic-2k printed 0.060 / 0.061 unpolished)
     f = fits([0.5, 40.0, 0.6], [0.06, 0.05, 0.07])
-    done = mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)
+    done = mc.polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)
     assert done == {"baseline": [], "coupled": [0, 1, 2]} and calls == ["c0", "c1", "c2"]
     assert [x["baseline"][0].nrmse for x in f] == [0.5, 40.0, 0.6]
     assert [x["coupled"][0].nrmse for x in f] == [0.03, 0.025, 0.035]
     # with a diverged (infinite) baseline fold: the baseline stays infinite
     f = fits([0.5, math.inf, 0.6], [0.06, 0.05, 0.07])
-    assert mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)["baseline"] == []
+    assert mc.polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)["baseline"] == []
     # the 10 kHz chain's folds (bench_mdof_diagnose_cost.py): no polish can take gain 0.98 under 0.1
     # and the coupled figures are within 0.05: neither kind is polished (s12mfit's always-polish
     # cost it +52 % CPU to print 0.0070 where the bound says 0.020)
     calls.clear()
     f = fits([1.19, 1.18, 0.69, 1.13], [0.022, 0.023, 0.019, 0.014])
-    assert mc._polish_folds(f, [None] * 4, ("acc1", "acc2"), margin=0.1) == {"baseline": [], "coupled": []}
+    assert mc.polish_folds(f, [None] * 4, ("acc1", "acc2"), margin=0.1) == {"baseline": [], "coupled": []}
     assert calls == []
     # baseline folds all within the polish's reach: polished to the floor they would win, so they are polished
     calls.clear()
     f = fits([0.5, 0.7, 0.6], [0.03, 0.02, 0.04])
-    assert mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)["baseline"] == [0, 1, 2]
+    assert mc.polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5)["baseline"] == [0, 1, 2]
     assert [x["baseline"][0].nrmse for x in f] == [0.25, 0.35, 0.3]
     assert calls == ["b0", "b1", "b2"]
     # a coupled polish that predicts worse is still the figure (the delivered kind); a baseline one is not kept
-    monkeypatch.setattr(mc, "_polished_fold", lambda ident, train, held, v: fold(v.nrmse * 1.5))
+    monkeypatch.setattr(mc, "polished_fold", lambda ident, train, held, v: fold(v.nrmse * 1.5))
     f = fits([0.06, 0.05, 0.07], [0.04, 0.03, 0.05])
-    assert mc._polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5) == {"baseline": [0, 1, 2],
+    assert mc.polish_folds(f, [None] * 3, ("acc1", "acc2"), margin=0.5) == {"baseline": [0, 1, 2],
                                                                              "coupled": [0, 1, 2]}
     assert [x["baseline"][0].nrmse for x in f] == [0.06, 0.05, 0.07]
     assert [round(x["coupled"][0].nrmse, 6) for x in f] == [0.06, 0.045, 0.075]
     # the text says which kind's figures are polished
     obj = {"polished_folds": {"baseline": [], "coupled": [0, 1, 2]}, "baseline": {"folds": [1, 2, 3]},
            "coupled": {"folds": [1, 2, 3]}}
-    assert mc._polish_tag(obj, "coupled") == "   (folds polished)"
-    assert "0 of 3 folds polished" in mc._polish_tag(obj, "baseline")
-    assert mc._polish_tag({**obj, "polished_folds": None}, "coupled") == ""
+    assert mc.polish_tag(obj, "coupled") == "   (folds polished)"
+    assert "0 of 3 folds polished" in mc.polish_tag(obj, "baseline")
+    assert mc.polish_tag({**obj, "polished_folds": None}, "coupled") == ""
 
 
 def test_an_unstable_or_diverging_mdof_model_is_flagged() -> None:
