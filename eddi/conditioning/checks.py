@@ -66,7 +66,11 @@ def clipped_run(y: np.ndarray, min_run: int = 5) -> int | None:
     """Index where ``y`` sits flat at its global maximum or minimum for ``min_run`` samples.
 
     A clipped channel is flat-topped at its extreme value; a smooth signal sampled with
-    enough resolution does not repeat its extreme value several samples in a row.
+    enough resolution does not repeat its extreme value several samples in a row. A coarse
+    converter does, at a slow peak (an 8-bit displacement channel at 1 kHz sits 7 samples on its
+    last count at a 7 Hz peak; blind unseen9, session 13: refused as clipped): a flat run whose
+    flanks trace a parabola that tops out at the flat level (:func:`_quantised_peak`) is the
+    converter's resolution, not its limit.
 
     Returns
     -------
@@ -76,6 +80,41 @@ def clipped_run(y: np.ndarray, min_run: int = 5) -> int | None:
     y = np.asarray(y, dtype=float)
     if y.size < min_run or np.ptp(y) == 0:
         return None
+    for extreme in (np.max(y), np.min(y)):
+        if extreme == 0:
+            continue
+        hit = (y == extreme).astype(np.int8)
+        if hit.sum() < min_run:
+            continue
+        # run lengths of consecutive hits
+        edges = np.diff(np.concatenate(([0], hit, [0])))
+        starts = np.nonzero(edges == 1)[0]
+        stops = np.nonzero(edges == -1)[0]
+        for a, b in zip(starts, stops):
+            if b - a >= min_run and not _quantised_peak(y, int(a), int(b)):
+                return int(a)
+    return None
+
+
+def _quantised_peak(y: np.ndarray, start: int, stop: int) -> bool:
+    """Whether the flat run ``y[start:stop]`` at an extreme is a smooth peak held by the converter's
+    resolution: a parabola through the flanks (as many samples as the run on each side, at least
+    3) fits them within one count ``q`` (the smallest step between the channel's values) and its
+    vertex is within 2 ``q`` of the flat level. A limit cuts a peak that would have gone on: its
+    flanks point beyond the level (a sine clipped at 0.9 of its amplitude: vertex 7000 counts
+    beyond at 16 bit; a 6-bit one clipped at 1/1.3: 2.7 counts) or do not trace one smooth peak."""
+    levels = np.unique(y)
+    q = float(np.min(np.diff(levels)))
+    w = min(stop - start, start, y.size - stop)
+    if w < 3:
+        return False  # a run at the record's edge or at the blow: no flanks to judge by
+    idx = np.r_[start - w:start, stop:stop + w]
+    x = idx - 0.5 * (start + stop - 1)
+    c = np.polyfit(x, y[idx], 2)
+    if c[0] == 0 or np.std(y[idx] - np.polyval(c, x)) > q:
+        return False
+    vertex = c[2] - c[1] ** 2 / (4 * c[0])
+    return bool(abs(vertex - y[start]) <= 2 * q)
     for extreme in (np.max(y), np.min(y)):
         if extreme == 0:
             continue

@@ -112,6 +112,24 @@ def test_clipped_run() -> None:
     assert clipped_run(yc) is not None
 
 
+@pytest.mark.parametrize("bits", [6, 8, 10])
+def test_a_coarse_converter_at_a_slow_peak_is_not_clipped(bits: int) -> None:
+    # blind unseen9 (session 13): an 8-bit displacement channel at 1 kHz sat 7 samples on its
+    # last count at a 7 Hz peak and the record was refused as clipped; the same channel driven
+    # 1.3x past the converter's limit still is
+    t = np.arange(4000) / 1024.0
+    y = np.exp(-0.3 * t) * np.sin(2 * np.pi * 3 * t)
+    q = 2.0 / 2**bits
+    quantised = np.round(y / q) * q
+    assert np.max(np.bincount(np.unique(quantised, return_inverse=True)[1])) >= 5  # it does sit flat
+    assert clipped_run(quantised) is None
+    at = clipped_run(np.clip(np.round(1.3 * y / q) * q, -1.0, 1.0))
+    assert at is not None and 45 <= at <= 52  # the first peak, 12 ms after the start
+    # with noise of 3 counts the flanks are no parabola within a count: a limit is a limit
+    noisy = y + 3 * q * np.random.default_rng(2).standard_normal(t.size)
+    assert clipped_run(np.clip(np.round(noisy / q) * q, -0.8, 0.8)) is not None
+
+
 @pytest.mark.parametrize(
     "kwargs, match",
     [
