@@ -131,7 +131,8 @@ def nrmse(x_sim: np.ndarray, x_meas: np.ndarray) -> float:
     return float(min(NRMSE_CAP, np.linalg.norm(x_sim - x_meas) / den))
 
 
-def energy_per_cycle(t: np.ndarray, x: np.ndarray, v: np.ndarray, mass: float) -> tuple[np.ndarray, np.ndarray]:
+def energy_per_cycle(t: np.ndarray, x: np.ndarray, v: np.ndarray, mass: float,
+                     hysteresis: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Energy lost per cycle versus amplitude, from the kinetic energy at zero crossings.
 
     At a zero crossing the potential energy is zero, so ``E = m v^2 / 2`` there; the energy
@@ -142,6 +143,8 @@ def energy_per_cycle(t: np.ndarray, x: np.ndarray, v: np.ndarray, mass: float) -
     t : ndarray, shape (n,), [s]
     x, v : ndarray, shape (n,)
     mass : float, [kg]
+    hysteresis : float, [m]
+        Dead band of the zero crossings (:func:`eddi.energy.zero_crossings`; 0: every sign change).
 
     Returns
     -------
@@ -158,7 +161,7 @@ def energy_per_cycle(t: np.ndarray, x: np.ndarray, v: np.ndarray, mass: float) -
         t, x, v = t[:n], x[:n], v[:n]
     if t.size < 4:
         return np.zeros(0), np.zeros(0)
-    g = zero_crossings(t, x, v)
+    g = zero_crossings(t, x, v, hysteresis)
     if g.size < 3:
         return np.zeros(0), np.zeros(0)
     vg = np.interp(g, t, v)
@@ -168,8 +171,10 @@ def energy_per_cycle(t: np.ndarray, x: np.ndarray, v: np.ndarray, mass: float) -
     return amp, e[:-2] - e[2:]
 
 
-def backbone(t: np.ndarray, x: np.ndarray, v: np.ndarray, mass: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Instantaneous frequency and damping ratio versus amplitude, cycle by cycle.
+def backbone(t: np.ndarray, x: np.ndarray, v: np.ndarray, mass: float,
+             hysteresis: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Instantaneous frequency and damping ratio versus amplitude, cycle by cycle (zero crossings
+    with the dead band ``hysteresis``, as :func:`energy_per_cycle`).
 
     Returns
     -------
@@ -188,12 +193,12 @@ def backbone(t: np.ndarray, x: np.ndarray, v: np.ndarray, mass: float) -> tuple[
         t, x, v = t[:n], x[:n], v[:n]
     if t.size < 4:
         return np.zeros(0), np.zeros(0), np.zeros(0)
-    g = zero_crossings(t, x, v)
+    g = zero_crossings(t, x, v, hysteresis)
     if g.size < 3:
         return np.zeros(0), np.zeros(0), np.zeros(0)
     vg = np.interp(g, t, v)
     e = 0.5 * mass * vg**2
-    amp, de = energy_per_cycle(t, x, v, mass)
+    amp, de = energy_per_cycle(t, x, v, mass, hysteresis)
     freq = 1.0 / (g[2:] - g[:-2])
     with np.errstate(divide="ignore", invalid="ignore"):
         zeta = np.where(e[:-2] > 0, de / (4 * np.pi * e[:-2]), np.nan)
