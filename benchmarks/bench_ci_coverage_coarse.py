@@ -27,9 +27,17 @@ Draws are seeded: ``--draw-seed`` picks the systems (``--records N`` of them), t
 record ``i`` is ``draw_seed * 1000 + i``. Session 12 tuned on draw seeds 1 and 3 and held out
 seed 5 with the laws ``x^2*v,v*abs(v),v^3,abs(x)*v`` (``docs/eddi-method.md``, "Session 12").
 
+Session 13 (s13ci95) families: ``--family stick`` (Coulomb ``sign(v)``; a row's ``stuck`` is the
+fraction of the record after the response stopped in the friction band, and the summary splits
+stuck and moving records) and ``--family mixed`` (``x^2*v + v^3`` together, the split drawn;
+``--library wide`` identifies with ``v,x^2*v,v^3``). Tuned on draw seeds 1 and 2, held out 7 and 8
+(``docs/eddi-method.md``, "Session 13"). ``--compare BEFORE.jsonl AFTER.jsonl`` prints coverage
+before/after per term and the median ratio of the half widths (the price).
+
 Run: ``python benchmarks/bench_ci_coverage_coarse.py [--records 60] [--draw-seed 1] [--via mat|csv|arrays]
 [--kernel point|mean] [--record impact|free-acc|free-vel|free-disp] [--no-refine] [--laws x^2*v,...]
-[--spc 8:40] [--snr 30:60] [--jobs 2] [--out rows.jsonl]``; ``--summary F.jsonl...`` reprints stored
+[--spc 8:40] [--snr 30:60] [--family default|stick|mixed] [--library true|wide] [--jobs 2] [--out rows.jsonl]``;
+``--summary F.jsonl...`` reprints stored
 rows (~0.1-1 s per record).
 """
 
@@ -82,6 +90,23 @@ def draw(rng: np.random.Generator, laws: tuple[str, ...], spc: tuple[float, floa
                 vp=0.1)
 
 
+#: ``--family``: preset laws (and for ``mixed`` the split of the share between the pair drawn).
+#: ``stick``: Coulomb records, most of which stop in the friction band before the record ends
+#: (the row's ``stuck``: the fraction of the record after the response stopped); ``mixed``:
+#: ``x^2*v + v^3`` together (two damping terms whose loss per cycle both grows like the amplitude
+#: cubed: the selection may drop one), the share of ``x^2*v`` drawn in 0.2-0.8.
+FAMILIES = {"stick": ("sign(v)",), "mixed": ("x^2*v+v^3",)}
+
+
+def draw_family(rng: np.random.Generator, family: str, laws: tuple[str, ...], spc: tuple[float, float],
+                snr: tuple[float, float]) -> dict:
+    """One draw of ``family`` (``default``: :func:`draw` from ``laws``)."""
+    d = draw(rng, FAMILIES.get(family, laws), spc, snr)
+    if family == "mixed":
+        d["split"] = float(rng.uniform(0.2, 0.8))
+    return d
+
+
 def true_model(d: dict) -> EquationOfMotion:
     """The drawn system: linear part from ``f, zeta``, shares at the first peak ``v_p``."""
     m, w = d["mass"], 2.0 * math.pi * d["f"]
@@ -92,10 +117,11 @@ def true_model(d: dict) -> EquationOfMotion:
     if d["kshare"]:
         stiffness["x^3"] = d["kshare"] * k1 / xp**2
     damping = {"v": b1}
-    laws = d["law"].split("+")  # a mixed law: the share split among its terms
-    for law in laws:
+    laws = d["law"].split("+")  # a mixed law: the share split among its terms (``split``: the first's)
+    parts = [d["split"], 1.0 - d["split"]] if "split" in d and len(laws) == 2 else [1.0 / len(laws)] * len(laws)
+    for law, part in zip(laws, parts):
         scale = {"x^2*v": xp**2, "v^3": vp**2, "v*abs(v)": vp, "sign(v)": 1.0 / vp, "abs(x)*v": xp}[law]
-        damping[law] = d["share"] / len(laws) * b1 / scale
+        damping[law] = d["share"] * part * b1 / scale
     return EquationOfMotion.create(mass=m, damping=damping, stiffness=stiffness)
 
 
@@ -164,9 +190,12 @@ def free_record(d: dict, seed: int, channel: str) -> Free:
     return Free(t=res.t, channel=channel, values=noisy)
 
 
-def identify(d: dict, r, via: str, tmp: Path, refine: bool) -> dict:
-    """``{"damping": {...}, "stiffness": {...}, "ci95": {...}, "warnings": [...], "refinement": ...}``."""
+def identify(d: dict, r, via: str, tmp: Path, refine: bool, library: str = "true") -> dict:
+    """``{"damping": {...}, "stiffness": {...}, "ci95": {...}, "warnings": [...], "refinement": ...}``;
+    ``library``: ``true`` (the system's own terms) or ``wide`` (``v,x^2*v,v^3`` and the stiffness's)."""
     eom = true_model(d)
+    if library == "wide":
+        eom = eom.model_copy(update={"damping": {"v": 1.0, "x^2*v": 1.0, "v^3": 1.0}})
     if via == "arrays":
         from eddi.fit_record import Pipeline
 
@@ -178,7 +207,8 @@ def identify(d: dict, r, via: str, tmp: Path, refine: bool) -> dict:
         res = pipe.fit(cond, d["mass"])
         return dict(damping=dict(res.model.eom.damping), stiffness=dict(res.model.eom.stiffness),
                     ci95={g: dict(res.ci95[g]) for g in ("damping", "stiffness")},
-                    warnings=list(res.choices.warnings), refinement=res.choices.refinement)
+                    warnings=list(res.choices.warnings), refinement=res.choices.refinement,
+                    dropped=list(res.choices.dropped))
     from station.cli import main as station_main
 
     path = tmp / f"rec.{via}"
@@ -200,18 +230,29 @@ def identify(d: dict, r, via: str, tmp: Path, refine: bool) -> dict:
         raise RuntimeError(f"station identify exit {code}: {err.getvalue().strip()}")
     js = json.loads(out.getvalue())
     return dict(damping=js["damping"], stiffness=js["stiffness"], ci95=js["ci95"], warnings=js["warnings"],
-                refinement=js["pipeline"]["refinement"])
+                refinement=js["pipeline"]["refinement"], dropped=list(js["pipeline"].get("dropped", {})))
 
 
-def one(args: tuple[int, dict, int, str, bool, str]) -> dict:
+def stuck_fraction(r) -> float | None:
+    """Fraction of an impact record after its true response stopped (``|v| < 1e-4 v_p`` from there
+    on: stuck in the friction band); None when the record holds no truth (interval means)."""
+    v = getattr(r, "truth_v", None)
+    if v is None:
+        return None
+    moving = np.flatnonzero(np.abs(v) > 1e-5)
+    return 0.0 if moving.size == 0 else float(1.0 - (moving[-1] + 1) / v.size)
+
+
+def one(args: tuple) -> dict:
     """One record: the draw, and per true term ``z``, relative error and relative half width."""
-    i, d, seed, via, refine, kind, kernel = args
+    i, d, seed, via, refine, kind, kernel, library = args
     eom = true_model(d)
     row = dict(i=i, seed=seed, kind=kind, **d, terms={})
     try:
         r = record(d, seed, kernel) if kind == "impact" else free_record(d, seed, kind.split("-")[1])
+        row["stuck"] = stuck_fraction(r)
         with tempfile.TemporaryDirectory() as tmp:
-            js = identify(d, r, via, Path(tmp), refine)
+            js = identify(d, r, via, Path(tmp), refine, library)
     except Exception as exc:  # a refused record is a row too, not the end of the run
         row["error"] = f"{type(exc).__name__}: {str(exc).splitlines()[0][:200] if str(exc) else ''}"
         return row
@@ -222,7 +263,8 @@ def one(args: tuple[int, dict, int, str, bool, str]) -> dict:
             got = js[group].get(term)
             half = js["ci95"].get(group, {}).get(term, math.nan)
             z = math.inf if got is None or not half > 0 else (got - c) / (half / Z95)
-            row["terms"][term] = dict(z=z, err=math.nan if got is None else got / c - 1.0, half=half / abs(c))
+            row["terms"][term] = dict(z=z, err=math.nan if got is None else got / c - 1.0, half=half / abs(c),
+                                      dropped=got is None)
     return row
 
 
@@ -252,20 +294,66 @@ def report(rows: list[dict]) -> None:
     bands = ((8, 12), (12, 16), (16, 24), (24, 32), (32, 41))
     for r in ok:
         band = next(f"{lo}-{hi}" for lo, hi in bands if lo <= r["spc"] < hi) if r["spc"] < 41 else ">=41"
+        stuck = r.get("stuck")
         for term, t in r["terms"].items():
             kind = term if term in ("v", "x", "x^3") else "law"
+            if stuck is not None and "sign(v)" in r["law"]:
+                add(f"{'stuck' if stuck > STUCK_MIN else 'moving'} records {term}", t)
+            if not t.get("dropped"):
+                add("kept terms", t)
             add("all", t)
             add(f"term {term}", t)
             add(f"spc {band} {kind}", t)
             add(f"spc {band} all", t)
     for key in sorted(groups):
         print(_line(key, *groups[key]))
+    lost = sum(t.get("dropped", False) for r in ok for t in r["terms"].values())
+    print(f"true terms dropped by the selection: {lost} (counted as not covered in 'all', left out of 'kept terms')")
     kept = sum(r.get("refinement") == "kept" for r in ok)
     warned = sum(any("sampl" in w for w in r.get("warnings", [])) for r in ok)
     print(f"records {len(rows)}: identified {len(ok)}, refused {len(bad)}, refinement kept {kept}, "
           f"warned of sampling {warned}")
     for r in bad:
         print(f"  refused #{r['i']} ({r['law']}, {r['spc']:.1f} a cycle, {r['snr']:.0f} dB): {r['error']}")
+
+
+#: A Coulomb record counts as stuck when its response stopped before this fraction of it was left.
+STUCK_MIN = 0.02
+
+
+def compare(before: list[dict], after: list[dict]) -> None:
+    """Same records before and after a change: coverage per group and the ratio of the half widths
+    (after / before: the price of the change): the median over all, the share of intervals that
+    changed by more than 5 % and the median ratio among those. A true term the selection dropped
+    (in either run) counts as not covered in its group and in ``all``, and is left out of ``kept``."""
+    key = {(r["seed"], r["i"]): r for r in before if "error" not in r}
+    groups: dict[str, list[tuple[float, float, float]]] = {}
+    for r in after:
+        b = key.get((r["seed"], r["i"]))
+        if b is None or "error" in r:
+            continue
+        stuck = r.get("stuck")
+        tag = ("stuck " if stuck is not None and stuck > STUCK_MIN and "sign(v)" in r["law"] else "")
+        for term, t in r["terms"].items():
+            tb = b["terms"].get(term)
+            if tb is None:
+                continue
+            ratio = t["half"] / tb["half"] if tb["half"] > 0 else math.nan
+            kept = not (t.get("dropped") or tb.get("dropped") or not math.isfinite(t["z"]) or not math.isfinite(tb["z"]))
+            for g in ("all", f"{tag}term {term}") + (("kept",) if kept else ()):
+                groups.setdefault(g, []).append((tb["z"], t["z"], ratio))
+    print(f"{'group':<22} {'before':>22} {'after':>22}   half after/before: median, changed >5 %: share, median")
+    for g in sorted(groups):
+        zb, za, ratio = (np.array(c) for c in zip(*groups[g]))
+        cov = []
+        for z in (zb, za):
+            k, n = int(np.sum(np.abs(z) <= Z95)), z.size
+            lo, hi = wilson(k, n)
+            cov.append(f"{k / n:5.3f} [{lo:.2f}, {hi:.2f}]")
+        changed = ratio[np.isfinite(ratio) & (np.abs(np.log(np.where(ratio > 0, ratio, 1.0))) > math.log(1.05))]
+        med_changed = f"{np.median(changed):8.3g}" if changed.size else "       -"
+        print(f"{g:<22} {cov[0]:>22} {cov[1]:>22}   {np.nanmedian(ratio):7.3g} {changed.size / zb.size:6.2f} {med_changed}"
+              f"  n={zb.size}")
 
 
 def _cpu() -> float:
@@ -292,7 +380,18 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (at most 2 on a shared machine)")
     ap.add_argument("--out", help="write one JSON row per record here")
     ap.add_argument("--summary", nargs="+", metavar="JSONL", help="only print the summary of stored rows")
+    ap.add_argument("--family", choices=("default", *FAMILIES), default="default",
+                    help="default: the laws of --laws; stick: Coulomb sign(v) (most records stop in the friction "
+                         "band before they end; rows carry 'stuck'); mixed: x^2*v + v^3 together, the split drawn")
+    ap.add_argument("--library", choices=("true", "wide"), default="true",
+                    help="identify with the system's own terms (default) or damping v,x^2*v,v^3 (the station's)")
+    ap.add_argument("--compare", nargs=2, metavar=("BEFORE", "AFTER"),
+                    help="two row files of the same draws: coverage before/after and the half-width ratio")
     args = ap.parse_args()
+    if args.compare:
+        b, a = ([json.loads(line) for line in Path(f).read_text().splitlines() if line] for f in args.compare)
+        compare(b, a)
+        return
     if args.summary:
         report([json.loads(line) for f in args.summary for line in Path(f).read_text().splitlines() if line])
         return
@@ -300,10 +399,11 @@ def main() -> None:
     lo, hi = (float(s) for s in args.spc.split(":"))
     laws = tuple(args.laws.split(","))
     snr = tuple(float(s) for s in args.snr.split(":"))
-    jobs = [(i, draw(rng, laws, (lo, hi), snr), args.draw_seed * 1000 + i, args.via, not args.no_refine,
-             args.record, args.kernel)
+    jobs = [(i, draw_family(rng, args.family, laws, (lo, hi), snr), args.draw_seed * 1000 + i, args.via,
+             not args.no_refine, args.record, args.kernel, args.library)
             for i in range(args.records)]
-    print(f"coarse ci95 coverage: {args.records} draws (seed {args.draw_seed}), {args.spc} samples a cycle, "
+    print(f"coarse ci95 coverage: {args.records} draws (seed {args.draw_seed}, family {args.family}, library "
+          f"{args.library}), {args.spc} samples a cycle, "
           f"{args.record}, via {args.via}, {'--no-refine' if args.no_refine else 'refined'} (load {os.getloadavg()[0]:.1f})")
     c0 = _cpu()
     rows: list[dict] = []

@@ -47,7 +47,8 @@ from eddi.driven_validation import fused_impact_force, unsharpened, validate_con
 from eddi.energy import noise_level
 from eddi.errors import IdentificationError, SignalError
 from eddi.identify import IdentifiedModel, identify
-from eddi.intervals import loose_coefficient_warnings, sampling_kernel_margin, sampling_kernel_warning
+from eddi.intervals import (loose_coefficient_warnings, sampling_kernel_margin, sampling_kernel_warning,
+                            selection_warning)
 from eddi.model import EquationOfMotion
 from eddi.pipeline_result import REFINE_CHANNEL, SIGNAL_NAME, PipelineChoices, PipelineResult, units_of
 from eddi.refinement_choice import judge_refinement
@@ -276,6 +277,8 @@ class Pipeline:
         else:
             warnings += margin_note
         warnings += sampling_kernel_warning(eom, ci95, cond.rate_hz, f_hi, cond.sample_kernel_var)
+        if refinement == "kept" and ref is not None and ref.ci95_given_selection:
+            warnings += selection_warning(eom, ref.ci95, ref.ci95_given_selection, tuple(ref.dropped))
         warnings += loose_coefficient_warnings(eom, ci95)
         unsound = model_warnings(eom, cond.x[w0:w1], cond.v[w0:w1])
         warnings += unsound

@@ -18,6 +18,7 @@ import numpy as np
 from eddi.intervals import noise_covariance_of_fit, sampling_curvature, sampling_quartic, through_sampling
 from eddi.model import EquationOfMotion
 from eddi.refine_grid import block_means, block_size, local_substeps, smooth_model
+from eddi.secant_jacobian import secant_jacobian, switching_model
 from eddi.simulate import MAX_SUBSTEPS, local_angular_frequency, simulate
 from eddi.terms import evaluate
 
@@ -103,6 +104,8 @@ class OutputErrorProblem:
         self._last: tuple[tuple[bytes, int, np.ndarray, bool], ...] = ()
         # the last :data:`MEMORY` simulated signals: ((parameters key, stop), signal, diverged)
         self._memo: tuple[tuple[tuple[bytes, int], np.ndarray, bool], ...] = ()
+        # a switching model's secant Jacobian at the last point asked for ((key, stop), jacobian)
+        self._secant: tuple[tuple[bytes, int], np.ndarray] | None = None
 
     @property
     def n(self) -> int:
@@ -268,7 +271,7 @@ class OutputErrorProblem:
         rss = float(r @ r)
         if self.diverged:
             return np.full(len(self.active), math.inf), rss
-        if jac is None:
+        if jac is None or switching_model(self.model_of(p)):  # MINPACK's step: see eddi.secant_jacobian
             jac = self.jacobian(p)
         dof = max(1, n - p.size)
         jtj = jac.T @ jac
@@ -285,12 +288,18 @@ class OutputErrorProblem:
     def jacobian(self, p: np.ndarray, stop: int | None = None) -> np.ndarray:
         """Jacobian of the simulated signal over ``[0, stop)`` (default: the whole window).
 
-        Sensitivity equations when the model allows, else forward differences.
+        Sensitivity equations when the model allows; central secants over one standard error
+        for a model with a ``sign`` factor (:mod:`eddi.secant_jacobian`); else forward differences.
         """
         n = self.n if stop is None else stop
         sens = self.sensitivities(p, n)
         if sens is not None:
             return sens
+        if switching_model(self.model_of(p)):  # a step of 1e-6 divides the switches' jumps by it
+            key = (self._key(p), n)
+            if self._secant is None or self._secant[0] != key:
+                self._secant = (key, secant_jacobian(self, p, n))
+            return self._secant[1].copy()
         base = self.simulated(p, n)
         cols = []
         for k in range(p.size):
