@@ -366,6 +366,22 @@ COLOUR_Q = 29.6
 PSD_SMOOTH = 1.0 / 400
 
 
+def normal_pinv(jac: np.ndarray) -> np.ndarray | None:
+    """``pinv(J^T J)`` of a fit's Jacobian, or None when it has none: a sensitivity that overflowed
+    (a column not finite) or an SVD that does not converge (numpy's LinAlgError). Every interval
+    and shift of the output-error fit solves through here, so such a fit says "not determined"
+    (infinite interval, no shift) instead of raising (blind unseen10, session 13: a 67 g set's
+    diagnose exited 1 on "SVD did not converge" in :func:`integration_shift`)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        jtj = jac.T @ jac
+    if not np.all(np.isfinite(jtj)):
+        return None
+    try:
+        return np.linalg.pinv(jtj)
+    except np.linalg.LinAlgError:
+        return None
+
+
 def noise_covariance_of_fit(jac: np.ndarray, r: np.ndarray, dof: int, jtj: np.ndarray | None = None) -> np.ndarray:
     """``J^T Sigma J``: the middle of the coefficients' covariance ``(J^T J)^-1 J^T Sigma J (J^T J)^-1``.
 
@@ -500,7 +516,10 @@ def measured_kernel_margin(prob, p: np.ndarray, half: np.ndarray, jac: np.ndarra
     if jac is None:
         jac = prob.jacobian(p)
     u = alt - base
-    gu = np.linalg.pinv(jac.T @ jac) @ (jac.T @ u)
+    inv = normal_pinv(jac)
+    if inv is None:
+        return None
+    gu = inv @ (jac.T @ u)
     u_perp = u - jac @ gu
     uu = float(u_perp @ u_perp)
     r = base - prob.y[: prob.n]
@@ -565,7 +584,10 @@ def integration_shift(prob, p: np.ndarray, jac: np.ndarray | None = None) -> tup
     if jac is None:
         jac = prob.jacobian(p)
     err = (fine - coarse) / (1.0 - float(FINER) ** -4)
-    dp = -(np.linalg.pinv(jac.T @ jac) @ (jac.T @ err))[:k]
+    inv = normal_pinv(jac)
+    if inv is None or not np.all(np.isfinite(err)):
+        return zero
+    dp = -(inv @ (jac.T @ err))[:k]
     if switching_model(prob.model_of(p)):
         # a sign term's switch inside a step: an error of low order that changes at random with the
         # step (no h^4 law to extrapolate): not corrected, bounded by the two step sizes' difference

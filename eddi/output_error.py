@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from eddi.intervals import noise_covariance_of_fit, sampling_curvature, sampling_quartic, through_sampling
+from eddi.intervals import noise_covariance_of_fit, normal_pinv, sampling_curvature, sampling_quartic, through_sampling
 from eddi.model import EquationOfMotion
 from eddi.refine_grid import block_means, block_size, local_substeps, smooth_model
 from eddi.secant_jacobian import secant_jacobian, switching_model
@@ -274,8 +274,10 @@ class OutputErrorProblem:
         if jac is None or switching_model(self.model_of(p)):  # MINPACK's step: see eddi.secant_jacobian
             jac = self.jacobian(p)
         dof = max(1, n - p.size)
+        inv = normal_pinv(jac)
+        if inv is None:  # the data fix nothing here (see eddi.intervals.normal_pinv)
+            return np.full(len(self.active), math.inf), rss
         jtj = jac.T @ jac
-        inv = np.linalg.pinv(jtj)
         # the coloured-noise covariance only ever widens an interval: a drift's low-frequency
         # power lies outside the response's band, but a slow ramp still leaks into the
         # coefficients, which the white s^2 (raised by it) happened to hold (see

@@ -87,6 +87,10 @@ EXIT_INTERRUPTED = 130
 #: simulation blows up, grows or does not decay (``station identify/validate/demo/replay``),
 #: or a replay through the device that is not bit exact. Scripts must not take such a model.
 EXIT_FLAGGED = 1
+#: The station failed in its own code (a bug, not the input): one line naming the error, and the
+#: traceback only with ``STATION_DEBUG=1``. Blind unseen10 (session 13): a diagnose ended in a
+#: numpy traceback ("SVD did not converge") with exit 1, the code of a flagged result.
+EXIT_INTERNAL = 3
 
 
 def flagged(command: str, why: str) -> int:
@@ -210,7 +214,20 @@ def main(argv: Sequence[str] | None = None) -> int:
             where = f": {exc.filename}" if getattr(exc, "filename", None) else ""
             print(f"station: error: {what}{where}", file=sys.stderr)
             return EXIT_USER_ERROR
-        raise
+        return _internal_error(args.command, exc)
+
+
+def _internal_error(command: str, exc: Exception) -> int:
+    """One line for a failure of the station's own code (:data:`EXIT_INTERNAL`); with
+    ``STATION_DEBUG=1`` in the environment the exception propagates (traceback) instead."""
+    import os
+
+    if os.environ.get("STATION_DEBUG", "") not in ("", "0"):
+        raise exc
+    what = f"{type(exc).__name__}: {exc}".splitlines()[0][:300]
+    print(f"station {command}: internal error ({what}); this is a bug in the station, not your input: "
+          "please report it with the command (STATION_DEBUG=1 prints the traceback)", file=sys.stderr)
+    return EXIT_INTERNAL
 
 
 def run() -> None:  # pragma: no cover - console-script entry
