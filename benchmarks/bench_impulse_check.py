@@ -59,9 +59,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0, help="draw seed (default 0)")
     ap.add_argument("--coarse", action="store_true",
                     help="coarse records: 12-60 samples a cycle, blows of 2-8 samples (session 12)")
+    ap.add_argument("--lag", action="store_true",
+                    help="also a 4th-order Butterworth low-pass on the acceleration only, cut-off 1.5-5 / blow "
+                         "(session 13): how often the response's lag is named and the ratios then; the lag is "
+                         "also counted on every family")
     args = ap.parse_args(argv)
     rng = np.random.default_rng(args.seed)
-    found: dict[str, Counter] = {k: Counter() for k in ("clean", "g_as_si", "sign", "mass_5pct_low")}
+    lag_rng = np.random.default_rng(args.seed + 7919)  # the systems drawn stay those without --lag
+    fams = ("clean", "g_as_si", "sign", "mass_5pct_low") + (("lowpass_acc",) if args.lag else ())
+    found: dict[str, Counter] = {k: Counter() for k in fams}
     ratios: dict[str, list[float]] = {k: [] for k in found}
     for i in range(args.records):
         d = draw(rng, args.coarse)
@@ -70,8 +76,14 @@ def main(argv: list[str] | None = None) -> int:
                           seed=args.seed * 1000 + i)
         pre = int(d["pretrigger_s"] * d["rate_hz"])
         mass = d["system"]["mass"]
-        for fam, acc, m in (("clean", r.acc, mass), ("g_as_si", r.acc / G, mass), ("sign", -r.acc, mass),
-                            ("mass_5pct_low", r.acc, 0.95 * mass)):
+        cases = [("clean", r.acc, mass), ("g_as_si", r.acc / G, mass), ("sign", -r.acc, mass),
+                 ("mass_5pct_low", r.acc, 0.95 * mass)]
+        if args.lag:
+            from scipy.signal import butter, lfilter
+
+            fc = min(lag_rng.uniform(1.5, 5.0) / d["pulse_s"], 0.45 * d["rate_hz"])
+            cases.append(("lowpass_acc", lfilter(*butter(4, fc / (d["rate_hz"] / 2)), r.acc), mass))
+        for fam, acc, m in cases:
             try:
                 sig = condition(r.t, acc=acc, force=r.force, pretrigger_samples=pre)
             except Exception as exc:  # noqa: BLE001 - a record the conditioner refuses is counted
@@ -83,6 +95,8 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             ratios[fam].append(chk.ratio)
             found[fam][chk.fault or "silent"] += 1
+            if args.lag and chk.lag is not None:
+                found[fam]["lag named"] += 1
     print(f"hammer-impulse check, {args.records} drawn {'coarse ' if args.coarse else ''}systems (seed {args.seed})")
     for fam in found:
         q = np.array(ratios[fam])

@@ -67,10 +67,13 @@ class ImpulseCheck:
     ratio: float
     mass_kg: float
     fault: str
+    #: the response's lag behind the force where one is claimed (:mod:`eddi.diagnosis.lag`)
+    lag: Any = None
 
     def as_dict(self) -> dict[str, Any]:
         return {"impulse_momentum_ratio": self.ratio, "mass_kg": self.mass_kg,
-                "impulse_mass_kg": self.ratio * self.mass_kg, "fault": self.fault or None}
+                "impulse_mass_kg": self.ratio * self.mass_kg, "fault": self.fault or None,
+                "response_lag": self.lag.as_dict() if self.lag is not None else None}
 
     @property
     def biases_drive(self) -> bool:
@@ -113,7 +116,7 @@ def check_signal(sig: Any, mass: float) -> ImpulseCheck | None:
     during the blow cannot be taken out), or when the blow is not mostly momentum (a long
     pulse on a fast structure: beyond :data:`IMPULSE_SHARE_MAX` only a sign or a unit slip is
     named, up to :data:`UNIT_SHARE_MAX`)."""
-    from eddi.diagnosis.chain import IMPULSE_SHARE_MAX, first_blow, measured_frequency
+    from eddi.diagnosis.chain import IMPULSE_SHARE_MAX, first_blow, measured_frequency, response_lag
     from eddi.diagnosis.records import Record
 
     if getattr(sig, "force", None) is None:
@@ -122,6 +125,7 @@ def check_signal(sig: Any, mass: float) -> ImpulseCheck | None:
         rec = Record.from_conditioned(sig)
         f1 = measured_frequency([rec])
         blow = first_blow(rec, f1) if f1 > 0 else None
+        lag = response_lag(rec, f1) if blow is not None else None
     except (ValueError, ArithmeticError):  # a record the check cannot read: no check, not no result
         return None
     if blow is None:
@@ -132,9 +136,10 @@ def check_signal(sig: Any, mass: float) -> ImpulseCheck | None:
     ratio, share = j / (mass * (dv + c)), abs(c) / abs(dv + c)
     tol = max(SINGLE_RECORD_TOLERANCE, COARSE_PULSE_SLACK * share if samples <= COARSE_PULSE_SAMPLES else 0.0)
     fault = classify(ratio, tol)
+    lag = lag if lag is not None and lag.claimed else None
     if share > UNIT_SHARE_MAX or (share > IMPULSE_SHARE_MAX and fault not in UNIT_FAULTS):
         return None
-    return ImpulseCheck(ratio, float(mass), fault)
+    return ImpulseCheck(ratio, float(mass), fault, lag)
 
 
 def impulse_warning(chk: ImpulseCheck, which: str = "the record") -> str | None:
@@ -168,7 +173,14 @@ def add_impulse_check(res: PipelineResult, obj: dict[str, Any], which: str = "th
     if chk is None:
         return None
     obj.setdefault("conditioning", {})["impulse_check"] = chk.as_dict()
-    text = impulse_warning(chk, which)
-    if text is not None:
-        obj.setdefault("warnings", []).append(text)
+    for text in (lag_warning(chk, which), impulse_warning(chk, which)):
+        if text is not None:
+            obj.setdefault("warnings", []).append(text)
     return chk
+
+
+def lag_warning(chk: ImpulseCheck, which: str = "the record") -> str | None:
+    """The warning for a response that lags the force (:mod:`eddi.diagnosis.lag`), None without."""
+    if chk.lag is None:
+        return None
+    return f"{which}: {chk.lag.text()}; align the channels (or remove the filter) and fit again"

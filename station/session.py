@@ -335,11 +335,12 @@ def validate_measurement(model: EquationOfMotion | ModalSumModel, meas: Measurem
                            p.v_measured, p.v_predicted, "velocity", not math.isfinite(p.errors.nrmse))
     cond = condition_measurement(meas)
     val, by_force = validate_conditioned(model, cond)
-    from station.impulse_check import check_signal, impulse_warning
+    from station.impulse_check import check_signal, impulse_warning, lag_warning
 
     chk = check_signal(cond, float(model.mass))  # the hammer impulse at the model's mass, as identify
-    said = impulse_warning(chk, "the record") if chk is not None else None
-    return record_check(meas, val, by_force, () if said is None else (said,))
+    said = () if chk is None else tuple(w for w in (lag_warning(chk, "the record"), impulse_warning(chk, "the record"))
+                                        if w is not None)
+    return record_check(meas, val, by_force, said)
 
 
 def record_check(meas: Measurement | RecordInfo, val: Validation, by_force: bool,

@@ -5,8 +5,10 @@
 * Detected and reported (:func:`inspect`): clipping/overload (a channel flat at its extreme,
   also for 2-4 samples: :func:`_short_plateau`),
   double hits (a second force pulse), base motion (a slow resonance in the acceleration well
-  below the structure's), and a mass that disagrees with the hammer impulse (impulse of the
-  measured force against the momentum the measured acceleration gives).
+  below the structure's), a response that lags the force (a filter on one channel:
+  :mod:`eddi.diagnosis.lag`), and a mass that disagrees with the hammer impulse (impulse of
+  the measured force against the momentum the measured acceleration gives, over a window
+  widened by a claimed lag).
 """
 
 from __future__ import annotations
@@ -208,7 +210,11 @@ def _impulse_parts(r: Record, f1: float = 0.0) -> tuple[float, float, float] | N
         return None
     a, b, _p = pulses[0]
     pad = max(1, int(2e-4 * r.rate_hz))
-    a, b = max(0, a - pad), min(r.t.size - 1, b + pad)
+    # a response that lags the force (a filter on one channel) is still gaining momentum when the
+    # pulse ends: the window is widened by the lag (blind unseen10, session 13: 11 samples of lag
+    # read a mass 97 % high; eddi.diagnosis.lag)
+    late = _lag_samples(r, f1)
+    a, b = max(0, a - pad - max(0, -late)), min(r.t.size - 1, b + pad + max(0, late))
     dt = 1.0 / r.rate_hz
     j = trapezoid(r.force[a:b + 1], dx=dt)  # over the same samples as v[b] - v[a]
     dv = float(r.v[b] - r.v[a])
@@ -217,6 +223,28 @@ def _impulse_parts(r: Record, f1: float = 0.0) -> tuple[float, float, float] | N
     spring = w1 ** 2 * trapezoid(r.x[a:b + 1] - r.x[a], dx=dt)
     damper = 2.0 * _damping_ratio(r) * w1 * float(r.x[b] - r.x[a])
     return j, dv, spring + damper
+
+
+def _lag_samples(r: Record, f1: float) -> int:
+    """Samples the acceleration lags the force where a lag is claimed (:func:`response_lag`;
+    negative: the force lags), else 0."""
+    lag = response_lag(r, f1)
+    return int(math.ceil(abs(lag.samples)) * np.sign(lag.samples)) if lag is not None and lag.claimed else 0
+
+
+def response_lag(r: Record, f1: float):
+    """:func:`eddi.diagnosis.lag.response_lag` with the record's damping ratio."""
+    from eddi.diagnosis.lag import response_lag as lag_of
+
+    return lag_of(r, f1, _damping_ratio(r)) if f1 > 0 else None
+
+
+def _lag_symptom(r: Record, f1: float) -> Symptom | None:
+    lag = response_lag(r, f1)
+    if lag is None or not lag.claimed:
+        return None
+    return Symptom("response_lag", f"{r.label}: {lag.text()}", {"lag_s": lag.lag_s, "sd_s": lag.sd_s,
+                                                                 "blow_s": lag.blow_s})
 
 
 def first_blow(r: Record, f1: float) -> tuple[float, float, float, int] | None:
@@ -392,9 +420,9 @@ def inspect(records: Sequence[Record], mass: float | None, f1: float, measured_f
                 out.append(Symptom(s.kind, s.text, {**s.values, "record": float(i)}))
                 if s.kind == "clipping":
                     clipped.add(i)
-        s = _base_motion(r, f1)
-        if s is not None:
-            out.append(Symptom(s.kind, s.text, {**s.values, "record": float(i)}))
+        for s in (_base_motion(r, f1), _lag_symptom(r, f1)):
+            if s is not None:
+                out.append(Symptom(s.kind, s.text, {**s.values, "record": float(i)}))
     out += _short_clipping(records, clipped)
     m = impulse_mass_ratio(records, mass, f1) if mass is not None else None
     if m is not None and mass is not None:

@@ -55,7 +55,7 @@ from eddi.diagnosis.results import Symptom
 from eddi.diagnosis.symptoms import notable
 
 #: Measurement-chain findings that forbid ``none`` and a name (module notes).
-CHAIN_KINDS = ("impulse_mass", "clipping", "base_motion")
+CHAIN_KINDS = ("impulse_mass", "clipping", "base_motion", "response_lag")
 #: Measurement-chain findings reported with the verdict but not overturning it (module notes).
 REPORTED_KINDS = ("double_hit",)
 #: How the reason of a verdict the chain overturned begins.
