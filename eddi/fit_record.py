@@ -8,8 +8,9 @@ defaults, and its steps add no numerics of their own:
 1. :meth:`Pipeline.condition`: :func:`eddi.conditioning.condition` (drift-free integration,
    impact end, free-response window);
 2. :meth:`Pipeline.fit`: :func:`eddi.identify.identify` (EDDI) on the free-response window
-   (``route="auto"`` with the refinement and no held-out record: phase two on
-   :data:`FIRST_ROUTE` alone, both routes scored only when EDDI's estimate is delivered), then the output-error refinement it seeds
+   (``route="auto"`` with the refinement and no held-out record: a seed, phase two on
+   :data:`FIRST_ROUTE` alone on a coarser grid; both routes scored, on the default grid, only
+   when EDDI's estimate is delivered), then the output-error refinement it seeds
    (:mod:`eddi.refine`), kept when it lowers the
    displacement nrmse of records not used for the fit or, with none, unless it fits the
    signal the fit record's sensor measured measurably worse (:mod:`eddi.judge`: the
@@ -70,6 +71,10 @@ __all__ = ["Pipeline", "PipelineChoices", "PipelineResult", "REFINE_CHANNEL", "S
 #: and no held-out record judges it (the cheaper of the two: ~10 of EDDI's ~50 ms on the 45 s
 #: record, where the potential route and the two route scores cost ~28); "" scores both first.
 FIRST_ROUTE = "lagrangian"
+#: ... and the grid EDDI seeds it on: ``omega q dt`` at most this [rad] (~21 samples a cycle of the
+#: fastest local oscillation, against :data:`eddi.calculus.DECIMATE_H_OMEGA`'s ~63 for an EDDI
+#: estimate that is delivered): the refinement fits every block mean from it.
+SEED_H_OMEGA = 0.3
 
 
 def _texts(spec: str | Sequence[str]) -> tuple[str, ...]:
@@ -152,15 +157,16 @@ class Pipeline:
                            notes=cond.notes + (f"samples are sinc{k} means (decimation filter): compared through it",))
         return cond
 
-    def _eddi(self, cond: ConditionedSignal, mass: float, route: str) -> tuple[IdentifiedModel, int]:
+    def _eddi(self, cond: ConditionedSignal, mass: float, route: str,
+              h_omega: float | None = None) -> tuple[IdentifiedModel, int]:
         """EDDI with phase two on ``route`` (on a decimated copy of a densely sampled window).
 
         Returns the model (``window`` in the indices of ``cond``) and the decimation factor
-        EDDI ran at (1: every sample; :func:`eddi.calculus.decimation_factor`).
+        EDDI ran at (1: every sample; :func:`eddi.calculus.decimation_factor` with ``h_omega``).
         """
         w0, w1 = cond.window
         tw, xw, vw, aw = cond.t[w0:w1], cond.x[w0:w1], cond.v[w0:w1], cond.a[w0:w1]
-        q = decimation_factor(cond.rate_hz, signal_angular_frequency(xw, vw, aw))
+        q = decimation_factor(cond.rate_hz, signal_angular_frequency(xw, vw, aw), h_omega)
         if q == 1:
             return identify(cond.t, cond.x, cond.v, mass, damping=self.damping, stiffness=self.stiffness,
                             route=route, a=cond.a, window=cond.window), 1
@@ -170,9 +176,10 @@ class Pipeline:
                          noise=(noise_level(xw), noise_level(vw)))
         return replace(model, window=cond.window), q
 
-    def _identify(self, cond: ConditionedSignal, mass: float, route: str) -> tuple[IdentifiedModel, int]:
+    def _identify(self, cond: ConditionedSignal, mass: float, route: str,
+                  h_omega: float | None = None) -> tuple[IdentifiedModel, int]:
         """:meth:`_eddi`, then the refinement it seeds (when asked for)."""
-        model, q = self._eddi(cond, mass, route)
+        model, q = self._eddi(cond, mass, route, h_omega)
         if self.refine:
             from eddi.refine import refine_output_error  # local: scipy.optimize
 
@@ -250,24 +257,20 @@ class Pipeline:
             As :func:`eddi.identify.identify`.
         """
         if self.route == "auto" and self.refine and FIRST_ROUTE and not held_out:
-            # one route seeds the refinement (from either route it reaches the same optimum: <= 5e-6
-            # of its ci95 on 55 records, docs/speed.md); both are scored only when EDDI's estimate
-            # is delivered, the one route="auto" would deliver (the better scored). Held-out
-            # records judge the refinement against EDDI's better-scored estimate (diagnose's
-            # baseline, sessions): both routes, as before.
-            res = self._fit(cond, mass, held_out, sensor_only, FIRST_ROUTE)
+            # one route on a coarse grid seeds the refinement (from either route, on either grid, it
+            # reaches the same optimum: <= 2.5e-4 of its ci95 on 55 records, docs/speed.md). When
+            # the refinement is not kept EDDI's estimate is delivered: the scored pipeline's (both
+            # routes on the default grid), run again. Held-out records judge the refinement against
+            # that estimate (diagnose's baseline, sessions): the scored pipeline, as before.
+            res = self._fit(cond, mass, held_out, sensor_only, FIRST_ROUTE, SEED_H_OMEGA)
             if res.choices is None or res.choices.refinement == "kept":
                 return res
-            both, _ = self._eddi(cond, mass, "auto")
-            if both.route == FIRST_ROUTE:  # the same estimate, refinement and judgement: add the scores
-                model = replace(res.model, route_scores=both.route_scores, alternatives=both.alternatives)
-                return replace(res, model=model, choices=replace(res.choices, route_scores=dict(both.route_scores)))
         return self._fit(cond, mass, held_out, sensor_only, self.route)
 
     def _fit(self, cond: ConditionedSignal, mass: float, held_out: Sequence[ConditionedSignal],
-             sensor_only: bool, route: str) -> PipelineResult:
-        """:meth:`fit` with EDDI's phase two on ``route``."""
-        model, q = self._identify(cond, mass, route)
+             sensor_only: bool, route: str, h_omega: float | None = None) -> PipelineResult:
+        """:meth:`fit` with EDDI's phase two on ``route``, on a grid of ``h_omega`` (None: the default)."""
+        model, q = self._identify(cond, mass, route, h_omega)
         # the fit record and the held-out ones validated with the model and with EDDI's (the
         # refinement's judge): independent simulations, through the mapper (station diagnose:
         # forked processes; 0.7 s of the double beam's ~5 s that ran in turn)
