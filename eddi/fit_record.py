@@ -39,6 +39,7 @@ and 1.6x the wall time at load 7.6 (``benchmarks/bench_identify_speed.py --in-pr
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Sequence
 
@@ -54,7 +55,7 @@ from eddi.intervals import loose_coefficient_warnings, sampling_kernel_margin, s
 from eddi.model import EquationOfMotion
 from eddi.pipeline_result import REFINE_CHANNEL, SIGNAL_NAME, PipelineChoices, PipelineResult, units_of
 from eddi.refinement_choice import judge_refinement
-from eddi.stability import model_warnings, poor_fit_warnings
+from eddi.stability import POOR_FIT_NRMSE, model_warnings, poor_fit_warnings
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, parse_terms
 from eddi.threads import one_blas_thread
 from eddi.validate import Validation
@@ -258,12 +259,12 @@ class Pipeline:
         """
         if self.route == "auto" and self.refine and FIRST_ROUTE and not held_out:
             # one route on a coarse grid seeds the refinement (from either route, on either grid, it
-            # reaches the same optimum: <= 2.5e-4 of its ci95 on 55 records, docs/speed.md). When
-            # the refinement is not kept EDDI's estimate is delivered: the scored pipeline's (both
-            # routes on the default grid), run again. Held-out records judge the refinement against
-            # that estimate (diagnose's baseline, sessions): the scored pipeline, as before.
+            # reaches the same optimum: <= 2.5e-4 of its ci95 on 55 records, docs/speed.md). The
+            # scored pipeline (both routes on the default grid) runs again on the symptoms that it
+            # may deliver something else (_needs_scored_pipeline). Held-out records judge the
+            # refinement against its estimate (diagnose's baseline, sessions): scored, as before.
             res = self._fit(cond, mass, held_out, sensor_only, FIRST_ROUTE, SEED_H_OMEGA)
-            if res.choices is None or res.choices.refinement == "kept":
+            if not _needs_scored_pipeline(res):
                 return res
         return self._fit(cond, mass, held_out, sensor_only, self.route)
 
@@ -323,6 +324,23 @@ class Pipeline:
             unstable=bool(unsound) or val.diverged or any(h.diverged for h in held))
         return PipelineResult(cond, model, val, by_force, nrmse_sensor, choices, held, eddi_held, held_force,
                               ci95, units_of(eom))
+
+
+def _needs_scored_pipeline(res: PipelineResult) -> bool:
+    """Whether a fit seeded by :data:`FIRST_ROUTE` may differ from the scored pipeline's.
+
+    The refinement not kept (EDDI's estimate is delivered: the better-scored route's), the seed's
+    or the delivered model's validation diverged (the judge compared the refinement with a seed
+    that blew up: session 13's Coulomb record kept a refined model that blew up too), or a poor
+    fit (nrmse above :data:`eddi.stability.POOR_FIT_NRMSE`: a model outside the library, where the
+    start can decide the optimum).
+    """
+    ch = res.choices
+    if ch is None or ch.refinement != "kept" or ch.unstable or res.validation.diverged:
+        return True
+    if ch.nrmse_eddi is None or not math.isfinite(ch.nrmse_eddi):
+        return True
+    return not res.validation.nrmse <= POOR_FIT_NRMSE
 
 
 def highest_frequency(cond: ConditionedSignal, half_cycles: int = 10) -> float:
