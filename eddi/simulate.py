@@ -524,9 +524,11 @@ def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: flo
     In up to :data:`DENSE_SEGMENTS` segments: the first with the grid (``q``) and RK4 steps of
     ``omega`` (the caller's scales), each later one with those of the amplitude the previous
     segment reached (:func:`local_angular_frequency` at its largest ``|x|, |v|`` times
-    :data:`DENSE_AMPLITUDE_MARGIN`): a free response decays, and a hardening (softening)
-    model's local frequency with it, so the steps keep ``omega h`` within the same bounds
-    with fewer of them (the 45 s, 19.2 kHz ring-down: ~0.4 of the steps of one grid).
+    :data:`DENSE_AMPLITUDE_MARGIN`, never above the caller's): a free response decays, and a
+    hardening model's local frequency with it, so the steps keep ``omega h`` within the same
+    bounds with fewer of them (the 45 s, 19.2 kHz ring-down: ~0.4 of the steps of one grid; a
+    softening or linear model keeps its steps). A model whose response grows is stepped at the
+    frequency of the amplitude before the growth, as the single grid was at the caller's scales.
     Returns (diverged, RK4 steps per grid interval of the first segment).
     """
     n = x.size
@@ -553,6 +555,7 @@ def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: flo
                 q = max(q, int(DENSE_H_OMEGA / (omega * dt)))
         s = stop
     return False, first
+
 
 #: The compiled kernels (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
 _KERNELS = Kernels(globals(), {
