@@ -7,8 +7,11 @@ defaults, and its steps add no numerics of their own:
 
 1. :meth:`Pipeline.condition`: :func:`eddi.conditioning.condition` (drift-free integration,
    impact end, free-response window);
-2. :meth:`Pipeline.fit`: :func:`eddi.identify.identify` (EDDI) on the free-response window,
-   then the output-error refinement it seeds (:mod:`eddi.refine`), kept when it lowers the
+2. :meth:`Pipeline.fit`: :func:`eddi.identify.identify` (EDDI) on the free-response window
+   (``route="auto"`` with the refinement and no held-out record: a seed, phase two on
+   :data:`FIRST_ROUTE` alone on a coarser grid; both routes scored, on the default grid, only
+   when EDDI's estimate is delivered), then the output-error refinement it seeds
+   (:mod:`eddi.refine`), kept when it lowers the
    displacement nrmse of records not used for the fit or, with none, unless it fits the
    signal the fit record's sensor measured measurably worse (:mod:`eddi.judge`: the
    validation simulation, driven from rest by the measured force, against the measured
@@ -36,6 +39,7 @@ and 1.6x the wall time at load 7.6 (``benchmarks/bench_identify_speed.py --in-pr
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Sequence
 
@@ -52,7 +56,7 @@ from eddi.intervals import (loose_coefficient_warnings, sampling_kernel_margin, 
 from eddi.model import EquationOfMotion
 from eddi.pipeline_result import REFINE_CHANNEL, SIGNAL_NAME, PipelineChoices, PipelineResult, units_of
 from eddi.refinement_choice import judge_refinement
-from eddi.stability import model_warnings, poor_fit_warnings
+from eddi.stability import POOR_FIT_NRMSE, model_warnings, poor_fit_warnings
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS, parse_terms
 from eddi.threads import one_blas_thread
 from eddi.validate import Validation
@@ -63,6 +67,16 @@ if TYPE_CHECKING:
 __all__ = ["Pipeline", "PipelineChoices", "PipelineResult", "REFINE_CHANNEL", "SIGNAL_NAME", "cond_warnings",
            "fused_impact_force", "highest_frequency", "identify_measurement", "units_of", "unsharpened",
            "validate_conditioned"]
+
+
+#: Phase-two route that seeds the refinement when ``route="auto"``, the refinement is asked for
+#: and no held-out record judges it (the cheaper of the two: ~10 of EDDI's ~50 ms on the 45 s
+#: record, where the potential route and the two route scores cost ~28); "" scores both first.
+FIRST_ROUTE = "lagrangian"
+#: ... and the grid EDDI seeds it on: ``omega q dt`` at most this [rad] (~21 samples a cycle of the
+#: fastest local oscillation, against :data:`eddi.calculus.DECIMATE_H_OMEGA`'s ~63 for an EDDI
+#: estimate that is delivered): the refinement fits every block mean from it.
+SEED_H_OMEGA = 0.3
 
 
 def _texts(spec: str | Sequence[str]) -> tuple[str, ...]:
@@ -145,31 +159,37 @@ class Pipeline:
                            notes=cond.notes + (f"samples are sinc{k} means (decimation filter): compared through it",))
         return cond
 
-    def _identify(self, cond: ConditionedSignal, mass: float) -> tuple[IdentifiedModel, int]:
-        """EDDI (on a decimated copy of a densely sampled window), then the refinement.
+    def _eddi(self, cond: ConditionedSignal, mass: float, route: str,
+              h_omega: float | None = None) -> tuple[IdentifiedModel, int]:
+        """EDDI with phase two on ``route`` (on a decimated copy of a densely sampled window).
 
         Returns the model (``window`` in the indices of ``cond``) and the decimation factor
-        EDDI ran at (1: every sample; :func:`eddi.calculus.decimation_factor`).
+        EDDI ran at (1: every sample; :func:`eddi.calculus.decimation_factor` with ``h_omega``).
         """
         w0, w1 = cond.window
         tw, xw, vw, aw = cond.t[w0:w1], cond.x[w0:w1], cond.v[w0:w1], cond.a[w0:w1]
-        channel = REFINE_CHANNEL[cond.response]
-        q = decimation_factor(cond.rate_hz, signal_angular_frequency(xw, vw, aw))
+        q = decimation_factor(cond.rate_hz, signal_angular_frequency(xw, vw, aw), h_omega)
         if q == 1:
             return identify(cond.t, cond.x, cond.v, mass, damping=self.damping, stiffness=self.stiffness,
-                            route=self.route, a=cond.a, window=cond.window, refine=channel if self.refine else False,
-                            select=self.refine and self.select, mapper=self.mapper,
-                            kernel_var=cond.sample_kernel_var, kernel_known=cond.sample_kernel_known), 1
+                            route=route, a=cond.a, window=cond.window), 1
         td, xd, vd, ad, _ = decimate_centred(tw, xw, vw, aw, q)
         # the noise of the samples (what EDDI would estimate on every sample)
-        model = identify(td, xd, vd, mass, damping=self.damping, stiffness=self.stiffness, route=self.route, a=ad,
+        model = identify(td, xd, vd, mass, damping=self.damping, stiffness=self.stiffness, route=route, a=ad,
                          noise=(noise_level(xw), noise_level(vw)))
-        model = replace(model, window=cond.window)
+        return replace(model, window=cond.window), q
+
+    def _identify(self, cond: ConditionedSignal, mass: float, route: str,
+                  h_omega: float | None = None) -> tuple[IdentifiedModel, int]:
+        """:meth:`_eddi`, then the refinement it seeds (when asked for)."""
+        model, q = self._eddi(cond, mass, route, h_omega)
         if self.refine:
             from eddi.refine import refine_output_error  # local: scipy.optimize
 
-            eom, info = refine_output_error(model.eom, tw, xw, vw, aw, channel=channel, select=self.select,
-                                            mapper=self.mapper, kernel_var=cond.sample_kernel_var,
+            w0, w1 = cond.window
+            eom, info = refine_output_error(model.eom, cond.t[w0:w1], cond.x[w0:w1], cond.v[w0:w1],
+                                            cond.a[w0:w1], channel=REFINE_CHANNEL[cond.response],
+                                            select=self.select, mapper=self.mapper,
+                                            kernel_var=cond.sample_kernel_var,
                                             kernel_known=cond.sample_kernel_known)
             model = replace(model, eom=eom, unrefined=model.eom, refinement=info)
         return model, q
@@ -238,7 +258,21 @@ class Pipeline:
         ModelError, TermError, SignalError, IdentificationError
             As :func:`eddi.identify.identify`.
         """
-        model, q = self._identify(cond, mass)
+        if self.route == "auto" and self.refine and FIRST_ROUTE and not held_out:
+            # one route on a coarse grid seeds the refinement (from either route, on either grid, it
+            # reaches the same optimum: <= 2.5e-4 of its ci95 on 55 records, docs/speed.md). The
+            # scored pipeline (both routes on the default grid) runs again on the symptoms that it
+            # may deliver something else (_needs_scored_pipeline). Held-out records judge the
+            # refinement against its estimate (diagnose's baseline, sessions): scored, as before.
+            res = self._fit(cond, mass, held_out, sensor_only, FIRST_ROUTE, SEED_H_OMEGA)
+            if not _needs_scored_pipeline(res):
+                return res
+        return self._fit(cond, mass, held_out, sensor_only, self.route)
+
+    def _fit(self, cond: ConditionedSignal, mass: float, held_out: Sequence[ConditionedSignal],
+             sensor_only: bool, route: str, h_omega: float | None = None) -> PipelineResult:
+        """:meth:`fit` with EDDI's phase two on ``route``, on a grid of ``h_omega`` (None: the default)."""
+        model, q = self._identify(cond, mass, route, h_omega)
         # the fit record and the held-out ones validated with the model and with EDDI's (the
         # refinement's judge): independent simulations, through the mapper (station diagnose:
         # forked processes; 0.7 s of the double beam's ~5 s that ran in turn)
@@ -293,6 +327,23 @@ class Pipeline:
             unstable=bool(unsound) or val.diverged or any(h.diverged for h in held))
         return PipelineResult(cond, model, val, by_force, nrmse_sensor, choices, held, eddi_held, held_force,
                               ci95, units_of(eom))
+
+
+def _needs_scored_pipeline(res: PipelineResult) -> bool:
+    """Whether a fit seeded by :data:`FIRST_ROUTE` may differ from the scored pipeline's.
+
+    The refinement not kept (EDDI's estimate is delivered: the better-scored route's), the seed's
+    or the delivered model's validation diverged (the judge compared the refinement with a seed
+    that blew up: session 13's Coulomb record kept a refined model that blew up too), or a poor
+    fit (nrmse above :data:`eddi.stability.POOR_FIT_NRMSE`: a model outside the library, where the
+    start can decide the optimum).
+    """
+    ch = res.choices
+    if ch is None or ch.refinement != "kept" or ch.unstable or res.validation.diverged:
+        return True
+    if ch.nrmse_eddi is None or not math.isfinite(ch.nrmse_eddi):
+        return True
+    return not res.validation.nrmse <= POOR_FIT_NRMSE
 
 
 def highest_frequency(cond: ConditionedSignal, half_cycles: int = 10) -> float:

@@ -21,16 +21,31 @@ the one place that owns it (the diagnosis loop and ``eddi.mdof`` both use it).
 from __future__ import annotations
 
 import contextlib
+import sys
 from collections.abc import Iterator
+
+#: threadpoolctl's view of the loaded BLAS libraries and ``len(sys.modules)`` when it was taken:
+#: finding the libraries walks every loaded shared object (``dl_iterate_phdr``, ~2.4 ms a call,
+#: two calls per in-process identify); a new BLAS can only arrive with a newly imported module,
+#: so the view is taken again when the module count changed.
+_CONTROLLER: list = [None, -1]
+
+
+def _controller():
+    from threadpoolctl import ThreadpoolController
+
+    if _CONTROLLER[0] is None or _CONTROLLER[1] != len(sys.modules):
+        _CONTROLLER[:] = [ThreadpoolController(), len(sys.modules)]
+    return _CONTROLLER[0]
 
 
 @contextlib.contextmanager
 def one_blas_thread() -> Iterator[None]:
     """Limit the BLAS thread pools to one thread inside the ``with`` block (or a decorated call)."""
     try:
-        from threadpoolctl import threadpool_limits
+        controller = _controller()
     except ImportError:  # optional: without it the BLAS pools keep their size
         yield
         return
-    with threadpool_limits(limits=1, user_api="blas"):
+    with controller.limit(limits=1, user_api="blas"):
         yield
