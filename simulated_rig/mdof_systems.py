@@ -10,9 +10,11 @@ masses and the elements joining them; node 0 is the ground, nodes 1..N the masse
     k = 26000.0                # linear spring [N/m]
     k3 = 2.0e10                # cubic spring [N/m^3]
     c = 0.5                    # dashpot [N s/m]
+    k2 = 3.0e6                 # quadratic (asymmetric) spring [N/m^2], optional
+    c3 = 40.0                  # cubic damper [N s^3/m^3], optional
 
 An element between nodes ``i`` and ``j`` with stretch ``d = x_i - x_j`` pushes node ``i`` with
-``-(k d + k3 d^3 + c d')`` and node ``j`` with the opposite. The system becomes a physical
+``-(k d + k2 d^2 + k3 d^3 + c d' + c3 d'^3)`` and node ``j`` with the opposite. The system becomes a physical
 :class:`eddi.mdof.model.MdofModel` (one coordinate per mass, the cubic springs expanded into
 monomials ``x1^3, x1^2*x2, ...``), which is also what ``station validate`` and the rig load.
 
@@ -56,6 +58,8 @@ class Element(BaseModel):
     k: float = 0.0
     k3: float = 0.0
     c: float = 0.0
+    k2: float = 0.0
+    c3: float = 0.0
 
 
 class MdofSystem(BaseModel):
@@ -106,7 +110,8 @@ class MdofSystem(BaseModel):
                     continue
                 sign = 1.0 if side == 0 else -1.0  # d = x_i - x_j; force on j is -force on i
                 for (deg, coef, target, rate) in ((1, e.k, stiffness, False), (3, e.k3, stiffness, False),
-                                                  (1, e.c, damping, True)):
+                                                  (2, e.k2, stiffness, False), (1, e.c, damping, True),
+                                                  (3, e.c3, damping, True)):
                     if coef == 0.0:
                         continue
                     for term, c in _power_of_difference(nodes, deg, n, rate).items():

@@ -38,6 +38,7 @@ from eddi.mdof.validate import validate_mdof
 from eddi.mdof.verdict import held_out_gain
 from station.errors import InputFileError
 from station.mdof_data import condition_all, driving_point_how, reduce_rate
+from station.mdof_mechanism import add_mechanisms, mechanism_lines
 from station.mdof_polish import polish_folds, polish_tag
 
 
@@ -171,6 +172,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         "model": model.equation_text(), "notes": notes,
     }
     _coupling_determined(obj)
+    add_mechanisms(obj, final)
     obj["warnings"] = _model_flags(model, folds["coupled" if wins else "baseline"])
     obj["unstable"] = bool(obj["warnings"])
     # the declared driving point checked against the signs of every channel's residues (warned only)
@@ -497,6 +499,7 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
              + ("" if obj["amplitude"]["span"]["extrapolation_tested"] else
                 f" (within {min(obj['amplitude']['span']['peak_m_s2']):.3g}..{max(obj['amplitude']['span']['peak_m_s2']):.3g}"
                 f" m/s^2 at {obj['amplitude']['span']['channel']}; extrapolation in amplitude not tested)"),
+             *mechanism_lines(obj),
              f"Natural frequencies: {', '.join(f'{f:.5g} Hz' for f in obj['natural_frequencies_hz'])}",
              "Coupling coefficients (value +- 95 % half-width; SI: N/m^k per physical coordinate, per unit "
              "modal coordinate otherwise; an interval wider than the value: not determined by these records): "

@@ -88,15 +88,18 @@ def _sign(e: Element, i: int) -> float:
     return 1.0 if e.a - 1 == i else -1.0 if e.b - 1 == i else 0.0
 
 
-def _slope(e: Element, x: np.ndarray, j: int) -> tuple[np.ndarray | float, float]:
-    """``(d col / d x_j, d col / d v_j)`` of the element's column."""
+def _slope(e: Element, x: np.ndarray, j: int, v: np.ndarray | None = None
+           ) -> tuple[np.ndarray | float, np.ndarray | float]:
+    """``(d col / d x_j, d col / d v_j)`` of the element's column (``v`` needed for a nonlinear damper)."""
     s = _sign(e, j)
-    if s == 0.0 or e.kind == "c":
-        return 0.0, s
-    if e.kind == "k":
-        return s, 0.0
-    xa = x[e.a - 1] if e.a else 0.0
-    return s * 3.0 * (xa - x[e.b - 1]) ** 2, 0.0
+    if s == 0.0:
+        return 0.0, 0.0
+    if e.power == 1:
+        return (0.0, s) if e.on_rate else (s, 0.0)
+    y = v if e.on_rate else x
+    ya = y[e.a - 1] if e.a else 0.0
+    g = s * e.power * (ya - y[e.b - 1]) ** (e.power - 1)
+    return (0.0, g) if e.on_rate else (g, 0.0)
 
 
 def _masses(theta: np.ndarray, n: int, d: int, driven_free: bool) -> tuple[np.ndarray, list[int]]:
@@ -132,7 +135,7 @@ def _record_blocks(data: tuple, beta: np.ndarray, theta: np.ndarray, elements: l
             r = r + s * consts[k] * cols[k]
             if jacobian:
                 jt_i[:, nm + k] = s * cols[k]
-                _add_slopes(slopes, e, s * consts[k], xs)
+                _add_slopes(slopes, e, s * consts[k], xs, vs)
         res.append(r / scales[i])
         if jacobian:
             jt.append(jt_i / scales[i])
@@ -142,12 +145,12 @@ def _record_blocks(data: tuple, beta: np.ndarray, theta: np.ndarray, elements: l
     return np.concatenate(res), np.vstack(jt), sparse.vstack(jb).tocsr()
 
 
-def _add_slopes(slopes: list, e: Element, factor: float, xs: np.ndarray) -> None:
+def _add_slopes(slopes: list, e: Element, factor: float, xs: np.ndarray, vs: np.ndarray | None = None) -> None:
     """Add ``factor`` x the element column's derivatives in each channel's ``x`` and ``v`` to ``slopes``."""
     for j in range(len(slopes)):
-        gx, gv = _slope(e, xs, j)
-        if np.any(gx) or gv:
-            got = (factor * np.asarray(gx, float), factor * gv)
+        gx, gv = _slope(e, xs, j, vs)
+        if np.any(gx) or np.any(gv):
+            got = (factor * np.asarray(gx, float), factor * np.asarray(gv, float))
             slopes[j] = got if slopes[j] is None else (slopes[j][0] + got[0], slopes[j][1] + got[1])
 
 
@@ -156,7 +159,8 @@ def _beta_block(slope, b: sparse.csr_matrix, bd: sparse.csr_matrix) -> sparse.cs
     if slope is None:
         return sparse.csr_matrix(b.shape)
     gx, gv = slope
-    return (sparse.diags(gx) @ b if gx.ndim else float(gx) * b) + gv * bd
+    return ((sparse.diags(gx) @ b if gx.ndim else float(gx) * b)
+            + (sparse.diags(gv) @ bd if gv.ndim else float(gv) * bd))
 
 
 def _normal(data, betas, theta, elements, n, d, scales, free):
