@@ -243,7 +243,7 @@ def _coupling_determined(obj: dict[str, Any]) -> None:
     from eddi.mdof.allowance import undetermined_weak
     from eddi.mdof.verdict import undetermined_coupling
 
-    weak = (obj["allowance"] or {}).get("earned")  # named within the allowance: a stronger cut
+    weak = (obj.get("allowance") or {}).get("earned")  # named within the allowance: a stronger cut
     why = None if obj["cause"] != "modal_coupling" else (
         undetermined_weak(obj["coupling_coefficients"], obj["gain"]) if weak
         else undetermined_coupling(obj["coupling_coefficients"], obj["gain"]))
