@@ -120,7 +120,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     base = float(np.mean(folds["baseline"]))
     cpl = float(np.mean(folds["coupled"]))
     raw_gain = held_out_gain(folds["baseline"], folds["coupled"])  # per fold (eddi.mdof.verdict)
-    wins, gain = _coupling_earned(folds, per_channel, records, names, margin)
+    wins, gain, allowance = _coupling_earned(folds, per_channel, records, names, margin)
     if wins:
         final, model = computed if computed is not None else _final_coupled(records, names, dp, refine)
     else:  # no coupling earns its place: the baseline
@@ -132,7 +132,9 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
             model, _b, _a = refine_identified(final, records)
     # (with ``refine`` the model is polished: the verdict judges the model delivered)
     notes = list(final.notes) + ([rate_note] if rate_note else [])
-    if wins and raw_gain <= margin:
+    if allowance is not None and allowance.earned:
+        notes.append(allowance.note(raw_gain, margin))
+    elif wins and raw_gain <= margin:
         notes.append(f"the coupled model removes {100 * gain:.0f} % of the baseline's error above the noise floor "
                      f"held out (better on every fold; raw gain {100 * raw_gain:.0f} %, margin {100 * margin:.0f} %), "
                      "and the baseline is not within its allowance")
@@ -157,6 +159,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
                     "channel_nrmse": {c: float(np.mean(v)) for c, v in per_channel["coupled"].items()},
                     "mode_nrmse": fold_mean_per_mode(per_mode["coupled"])},
         "gain": gain, "raw_gain": raw_gain, "margin": margin, "cause": cause, "coordinates": final.coordinates,
+        "allowance": allowance.as_dict() if allowance is not None else None,
         "noise_floor": verdict.noise_floor, "symptoms": symptoms,
         "amplitude": {"span": amp_span.as_dict(), "backbones": backbone_json(modes)},
         "span_residual": final.span_residual,
@@ -185,17 +188,23 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
 
 
 def _coupling_earned(folds: dict[str, list], per_channel: dict[str, dict[str, list]], records: Sequence[Any],
-                     names: tuple[str, ...], margin: float) -> tuple[bool, float]:
+                     names: tuple[str, ...], margin: float) -> tuple[bool, float, Any]:
     """:func:`eddi.mdof.verdict.coupling_earned` on the folds (each fold's floor: the mean over the
-    channels of its held-out capture's, at least the least floor)."""
+    channels of its held-out capture's, at least the least floor), else the within-allowance rule
+    (:func:`eddi.mdof.allowance.within_allowance`; its evidence, None when the first rule won)."""
+    from eddi.mdof.allowance import within_allowance
     from eddi.mdof.validate import noise_floor
     from eddi.mdof.verdict import MDOF_MIN_FLOOR, channel_floor, coupling_earned
 
     fold_floors = [float(np.mean(np.maximum(np.nan_to_num(noise_floor(r), nan=MDOF_MIN_FLOOR), MDOF_MIN_FLOOR)))
                    for r in records]
-    base_ch = {c: float(np.mean(v)) for c, v in per_channel["baseline"].items()}
-    return coupling_earned(folds["baseline"], folds["coupled"], fold_floors, base_ch, channel_floor(records, names),
-                           margin)
+    base_ch, cpl_ch = ({c: float(np.mean(v)) for c, v in per_channel[k].items()} for k in ("baseline", "coupled"))
+    floors = channel_floor(records, names)
+    wins, gain = coupling_earned(folds["baseline"], folds["coupled"], fold_floors, base_ch, floors, margin)
+    if wins:
+        return wins, gain, None
+    ev = within_allowance(folds["baseline"], folds["coupled"], fold_floors, base_ch, cpl_ch, floors, margin)
+    return ev.earned, (ev.excess_gain if ev.earned else gain), ev
 
 
 def fold_mean_per_mode(rows: Sequence[Sequence[float]]) -> list[float]:
@@ -233,9 +242,13 @@ def _final_coupled(records: Sequence[Any], names: tuple[str, ...], dp: str, refi
 def _coupling_determined(obj: dict[str, Any]) -> None:
     """``modal_coupling`` becomes ``unexplained`` with the reason when no nonlinear coupling
     coefficient is determined (:func:`eddi.mdof.verdict.undetermined_coupling`; in place in ``obj``)."""
+    from eddi.mdof.allowance import undetermined_weak
     from eddi.mdof.verdict import undetermined_coupling
 
-    why = undetermined_coupling(obj["coupling_coefficients"], obj["gain"]) if obj["cause"] == "modal_coupling" else None
+    weak = (obj.get("allowance") or {}).get("earned")  # named within the allowance: a stronger cut
+    why = None if obj["cause"] != "modal_coupling" else (
+        undetermined_weak(obj["coupling_coefficients"], obj["gain"]) if weak
+        else undetermined_coupling(obj["coupling_coefficients"], obj["gain"]))
     if why is not None:
         obj["cause"] = "unexplained"
         obj["notes"].append(why)
