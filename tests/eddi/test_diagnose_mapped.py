@@ -15,24 +15,30 @@ from tests.eddi.diagnose_cases import DAMPING, STIFFNESS, rig_records
 
 def test_symptoms_and_lookalike_forces_are_computed_inside_the_mapper(monkeypatch: pytest.MonkeyPatch) -> None:
     """The baseline's symptoms (held-out simulations compared cycle by cycle: ~0.13 s of CPU on
-    the double beam) are an item of the candidates' map, and the look-alikes' residual forces
+    the double beam) are the last item of the candidates' map, and the look-alikes' residual forces
     are computed in the folds' items, not in turn after the map; the diagnosis is the same as
     with the plain loop (within-cycle comparisons included)."""
     recs = rig_records(3, effects=[{"name": "coulomb_friction", "params": {"force_n": 0.006}}], record_s=1.5)
     kw = dict(damping=DAMPING, stiffness=STIFFNESS)
     plain = diagnose(recs, 0.1, **kw)
     depth = [0]
-    where: list[bool] = []
+    position: list[int] = [0, 0]  # the item being run and the map's item count
+    where: list[tuple[bool, int, int]] = []
     real = loop.baseline_symptoms
 
     def recorded(*args, **kwargs):  # type: ignore[no-untyped-def]
-        where.append(depth[0] > 0)
+        where.append((depth[0] > 0, position[0], position[1]))
         return real(*args, **kwargs)
 
     def mapper(fn, items):  # type: ignore[no-untyped-def]
         depth[0] += 1
+        items = list(items)
+        out = []
         try:
-            return [fn(x) for x in items]
+            for i, x in enumerate(items):
+                position[:] = [i, len(items)]
+                out.append(fn(x))
+            return out
         finally:
             depth[0] -= 1
 
@@ -48,7 +54,8 @@ def test_symptoms_and_lookalike_forces_are_computed_inside_the_mapper(monkeypatc
     monkeypatch.setattr(folds, "residual_force", recorded_force, raising=False)
     monkeypatch.setattr(lookalike, "residual_force", recorded_force)
     mapped = diagnose(recs, 0.1, mapper=mapper, **kw)
-    assert where == [True]
+    # inside the candidates' map, its last item (short: it fills a process's end)
+    assert len(where) == 1 and where[0][0] and where[0][1] == where[0][2] - 1 > len(plain.parts)
     assert len(forces) >= 2 * len(plain.parts) and all(forces)
     compared = [c.within_cycle for c in plain.candidates if c.within_cycle]
     assert any(v["same_fitter"] == 1 and v["cycles"] > 0 for wc in compared for v in wc.values())
