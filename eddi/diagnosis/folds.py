@@ -17,7 +17,6 @@ import numpy as np
 from eddi.diagnosis.catalogue import Mechanism
 from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.fitter import Fitter, FoldFitter, refined_baseline
-from eddi.diagnosis.lookalike import compared_natively, cycles, residual_force
 from eddi.diagnosis.mapping import Mapper, serial_map
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.settings import NRMSE_CAP
@@ -43,9 +42,6 @@ class FoldResults:
     cand_sims: dict[str, list[np.ndarray]] = field(default_factory=dict)
     cand_fits: dict[str, list[Fit | None]] = field(default_factory=dict)  # per fold (native ones)
     cand_refined: dict[str, bool] = field(default_factory=dict)  # judged refined, as the baseline
-    # the look-alike comparison's residual forces and cycles (eddi.diagnosis.lookalike.compare's
-    # memo), computed in the folds' items: keyed by id() of the fits in ``cand_fits``
-    lookalike_memo: dict = field(default_factory=dict)
 
 
 def judge_baseline(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
@@ -127,7 +123,6 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
     res.cand_fits = {m.name: [] for m in cat}
     tried = [m for m in cat if not skipped[m.name]]
     need_ee = setup.fit == "eddi" and any(not m.native for m in tried)
-    within = compared_natively(cat)  # their residual forces are compared within the cycle
 
     def fold(k: int) -> tuple[float | None, list[tuple[str, float, np.ndarray, dict[str, float] | None,
                                                       Fit | None]]]:
@@ -143,16 +138,14 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
         out = []
         for mech in tried:
             fit = fit_fold(mech, bfit)
-            # (res.cand_fits, filled below): native ones are refined, look-alikes compared (their
-            # residual forces here, in the fold's item, rather than in turn after the map)
+            # (res.cand_fits, filled below): native ones are refined, look-alikes compared
             kept = fit if (mech.native or mech.lookalikes) else None
-            force = residual_force(kept, rec, part) if kept is not None and mech.name in within else None
             if fit is None or fit.mech is None:
-                out.append((mech.name, NRMSE_CAP, np.full_like(xm, np.nan), None, kept, force))
+                out.append((mech.name, NRMSE_CAP, np.full_like(xm, np.nan), None, kept))
                 continue
             xe = simulate_part(fit.eom, rec, part)
-            out.append((mech.name, nrmse(xe, xm), xe, fit.mech.params, kept, force))
-        return ee_ref, out, cycles(rec, part) if within else None
+            out.append((mech.name, nrmse(xe, xm), xe, fit.mech.params, kept))
+        return ee_ref, out
 
     n = len(fits)
 
@@ -174,15 +167,10 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
     out_all: list[Any] = [None] * total
     for k, got in zip(order, fitter.map(item, order)):
         out_all[k] = got
-    for part, (ee_ref, out, part_cycles) in zip(parts, out_all[:n]):
+    for ee_ref, out in out_all[:n]:
         if ee_ref is not None:
             res.ee_ref.append(ee_ref)
-        where = (part.record, part.start, part.stop)
-        if part_cycles is not None:
-            res.lookalike_memo[("cycles", *where)] = part_cycles
-        for name, value, sim, params, kept, force in out:
-            if force is not None:
-                res.lookalike_memo[("residual", id(kept), *where)] = force
+        for name, value, sim, params, kept in out:
             res.cand_fits[name].append(kept)
             res.cand_fold[name].append(value)
             res.cand_sims[name].append(sim)

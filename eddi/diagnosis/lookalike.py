@@ -126,31 +126,16 @@ def told_apart(result: dict[str, float] | None) -> bool:
             and result["parts_won"] == result["parts"])
 
 
-def compared_natively(mechanisms: Sequence) -> set[str]:
-    """Names of the mechanisms :func:`attach` may compare within the cycle: those with a
-    look-alike (either way) fitted natively the same way (the only pairs whose residual
-    forces :func:`compare` reads)."""
-    native = {m.name: m.native for m in mechanisms}
-    out: set[str] = set()
-    for m in mechanisms:
-        for b in m.lookalikes:
-            if native.get(m.name) and native.get(m.name) == native.get(b):
-                out |= {m.name, b}
-    return out
-
-
 def attach(candidates: Sequence, lookalikes: dict[str, tuple[str, ...]], fold_fits: dict[str, list],
-           records: Sequence[Record], parts: Sequence[Part], native: dict[str, str],
-           memo: dict | None = None) -> list:
+           records: Sequence[Record], parts: Sequence[Part], native: dict[str, str]) -> list:
     """``candidates`` with :attr:`~eddi.diagnosis.results.Candidate.within_cycle` filled: each
     tried candidate against each of its ``lookalikes`` (by name) tried too, from the per-fold
     fits ``fold_fits`` (by name); a pair fitted differently (``native``: how each is fitted)
-    is not compared within the cycle (``same_fitter`` 0, ``z`` NaN). ``memo``: :func:`compare`'s,
-    possibly filled already (the residual forces computed with the fits)."""
+    is not compared within the cycle (``same_fitter`` 0, ``z`` NaN)."""
     from dataclasses import replace
 
     tried = {c.name for c in candidates if not c.skipped and c.model is not None}
-    memo = {} if memo is None else memo  # residuals and cycles shared by the pairs (the fits live until the return)
+    memo: dict = {}  # residuals and cycles shared by the pairs (the fits live until the return)
     out = []
     for c in candidates:
         if c.name in tried and c.form != "observed":

@@ -242,7 +242,7 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
                                                   len(sh.parts), consistency, sh.setup.stiffness, observed)
     # look-alikes (same held-out displacement) compared within the cycle on the held-out parts
     candidates = attach(candidates, {m.name: m.lookalikes for m in cat}, res.cand_fits, records, sh.parts,
-                        {m.name: m.native for m in cat}, res.lookalike_memo)
+                        {m.name: m.native for m in cat})
     chain_sims: list[np.ndarray] = []
     if "sensor_highpass" in chosen:
         if sh.quiet:
