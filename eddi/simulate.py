@@ -290,6 +290,34 @@ def simulate(
     -------
     SimulationResult
     """
+    t, dt, n, f, substeps = _prepared(eom, t, rate_hz, n_samples, force, x0, v0, x_scale, v_scale, substeps)
+    exps = exponent_table(eom.damping_terms() + eom.stiffness_terms())
+    coefs = np.array(list(eom.damping.values()) + list(eom.stiffness.values()), dtype=float)
+    eff = _effect_vector(eom)
+    if eom.effect("hysteresis") is not None:
+        from eddi.hysteresis import simulate_hysteretic
+
+        out, div = simulate_hysteretic(eom, f, dt, n, x0, v0, substeps, exps, coefs, eff)
+    else:
+        out = np.empty((n, 4))
+        state0 = np.array([float(x0), float(v0), 0.0, 0.0])
+        div = _KERNELS._rk4(f, dt, substeps, state0, 1.0 / eom.mass, exps, coefs, eff, out)
+    has_mode = eom.effect("second_mode") is not None
+    return SimulationResult(
+        t=t,
+        x=out[:, 0].copy(),
+        v=out[:, 1].copy(),
+        a=out[:, 2].copy(),
+        y=out[:, 3].copy() if has_mode else None,
+        diverged=bool(div >= 0),
+        substeps=substeps,
+    )
+
+
+def _prepared(eom: EquationOfMotion, t: np.ndarray | None, rate_hz: float | None, n_samples: int | None,
+              force: np.ndarray | None, x0: float, v0: float, x_scale: float | None, v_scale: float | None,
+              substeps: int | None) -> tuple[np.ndarray, float, int, np.ndarray, int]:
+    """:func:`simulate`'s checks and choices: the times, step [s], samples, force and sub-steps."""
     if t is not None:
         t = np.asarray(t, dtype=float)
         if t.ndim != 1 or t.size < 2:
@@ -320,27 +348,7 @@ def simulate(
     substeps = int(substeps)
     if substeps < 1:
         raise SignalError("substeps must be >= 1")
-    exps = exponent_table(eom.damping_terms() + eom.stiffness_terms())
-    coefs = np.array(list(eom.damping.values()) + list(eom.stiffness.values()), dtype=float)
-    eff = _effect_vector(eom)
-    if eom.effect("hysteresis") is not None:
-        from eddi.hysteresis import simulate_hysteretic
-
-        out, div = simulate_hysteretic(eom, f, dt, n, x0, v0, substeps, exps, coefs, eff)
-    else:
-        out = np.empty((n, 4))
-        state0 = np.array([float(x0), float(v0), 0.0, 0.0])
-        div = _KERNELS._rk4(f, dt, substeps, state0, 1.0 / eom.mass, exps, coefs, eff, out)
-    has_mode = eom.effect("second_mode") is not None
-    return SimulationResult(
-        t=t,
-        x=out[:, 0].copy(),
-        v=out[:, 1].copy(),
-        a=out[:, 2].copy(),
-        y=out[:, 3].copy() if has_mode else None,
-        diverged=bool(div >= 0),
-        substeps=substeps,
-    )
+    return t, dt, n, f, substeps
 
 
 def free_simulator(eom: EquationOfMotion, t: np.ndarray, *, force: np.ndarray | None = None,
@@ -355,10 +363,8 @@ def free_simulator(eom: EquationOfMotion, t: np.ndarray, *, force: np.ndarray | 
         ``run(x0, v0) -> (x, v)``, each ndarray of shape (n,): the same numbers bit for bit
         as :func:`simulate`'s ``x`` and ``v``.
     """
-    probe = simulate(eom, t, force=force, x0=0.0, v0=0.0, x_scale=x_scale, v_scale=v_scale)
-    t = np.asarray(t, dtype=float)
-    dt, n, substeps = float(t[1] - t[0]), t.size, probe.substeps
-    f = np.zeros(0) if force is None else np.ascontiguousarray(force, dtype=float)
+    # simulate's checks and sub-steps (from the scales, not the state), without its run
+    _t, dt, n, f, substeps = _prepared(eom, t, None, None, force, 0.0, 0.0, x_scale, v_scale, None)
     exps = exponent_table(eom.damping_terms() + eom.stiffness_terms())
     coefs = np.array(list(eom.damping.values()) + list(eom.stiffness.values()), dtype=float)
     eff = _effect_vector(eom)

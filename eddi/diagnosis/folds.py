@@ -106,14 +106,16 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
                      setup: Setup, cat: Sequence[Mechanism], skipped: dict[str, str | None],
                      parts: Sequence[Part], fold_masks: Sequence[Sequence[np.ndarray]],
                      fitter: Fitter, final: tuple[FoldFitter, Fit] | None = None,
-                     extra: Sequence[Callable[[], Any]] = ()) -> tuple[dict[str, Fit | None], list]:
+                     extra: Sequence[Callable[[], Any]] = (), tail: Sequence[Callable[[], Any]] = ()
+                     ) -> tuple[dict[str, Fit | None], list]:
     """Per fold: every mechanism added to the fold's baseline, fitted on the training parts
     and simulated on the held-out one (filled into ``res``).
 
     The folds, every mechanism's fit on all the data (``final``: the all-data fitter and
     baseline fit; for :func:`build_candidates`, see :func:`final_fits`) and the ``extra``
-    calls (independent work of the caller's) run through ``fitter.map``. Returns the final
-    fits by mechanism name (empty without ``final``) and the ``extra`` calls' results.
+    calls (independent work of the caller's) run through ``fitter.map``; ``tail``: more such
+    calls, short ones, handed out last (they fill the processes' ends). Returns the final
+    fits by mechanism name (empty without ``final``) and the ``extra`` then ``tail`` calls' results.
     """
     res.cand_fold = {m.name: [] for m in cat}
     res.cand_params = {m.name: [] for m in cat}
@@ -152,14 +154,16 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
             return fold(k)
         if k == n and final is not None:
             return {m.name: final[0](m, final[1]) for m in tried}
-        return extra[k - n - (final is not None)]()
+        return calls[k - n - (final is not None)]()
 
     # all independent: through ``fitter.map`` (other processes when the caller has cores); the
     # caller's extra work first, then the final fits, then the folds: a mapper that hands out
     # items as processes free up then starts the longest (the observed second mode's fold
-    # fits, ~3x a fold on the double beam) first instead of last
-    total = n + (final is not None) + len(extra)
-    order = list(range(n, total)) + list(range(n))
+    # fits, ~3x a fold on the double beam) first instead of last; the short tail calls last
+    head = n + (final is not None) + len(extra)
+    total = head + len(tail)
+    order = list(range(n, head)) + list(range(n)) + list(range(head, total))
+    calls = [*extra, *tail]
     out_all: list[Any] = [None] * total
     for k, got in zip(order, fitter.map(item, order)):
         out_all[k] = got
