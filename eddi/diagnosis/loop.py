@@ -293,7 +293,8 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     model and the held-out views."""
     margin, none_factor, named_factor, strong_margin = rules
     records, res, baseline, floor = sh.records, sh.res, sh.baseline, sh.floor
-    symptoms = baseline_symptoms(records, sh.parts, res.base_sims, res.base_vsims, sh.setup.mass)
+    symptoms = baseline_symptoms(records, sh.parts, res.base_sims, res.base_vsims, sh.setup.mass,
+                                 floor.part_conditioning_nrmse)
     f1 = _frequency(sh.bfit_all.eom)
     symptoms += inspect(records, sh.setup.mass, f1)
     dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor, strong_margin=strong_margin,
