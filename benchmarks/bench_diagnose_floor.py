@@ -40,8 +40,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 KINDS = ("clearance", "preload", "coulomb_friction", "null")
 
 
-def recipe(kind: str, seed: int) -> tuple[list, dict]:
-    """The records of one case (``kind`` hidden, drawn from ``seed``) and what was drawn."""
+def recipe(kind: str, seed: int, snr_range: tuple[float, float] = (20.0, 40.0)) -> tuple[list, dict]:
+    """The records of one case (``kind`` hidden, drawn from ``seed``) and what was drawn.
+    ``snr_range``: the noise drawn in [20, 40] dB is mapped onto it (the same system otherwise)."""
     from eddi.conditioning import condition
     from eddi.diagnosis import Record
     from eddi.model import EquationOfMotion
@@ -56,6 +57,7 @@ def recipe(kind: str, seed: int) -> tuple[list, dict]:
     rates = [r for r in (256.0, 512.0, 1000.0, 2000.0) if r >= 12 * f1]
     rate = float(rng.choice(rates))
     snr = float(rng.uniform(20.0, 40.0))
+    snr = snr_range[0] + (snr - 20.0) / 20.0 * (snr_range[1] - snr_range[0])
     captures = int(rng.integers(2, 6))
     record_s = min(float(rng.uniform(15.0, 40.0)) / f1, 4.0)
     spread = float(rng.uniform(1.3, 2.0))
@@ -96,14 +98,14 @@ def recipe(kind: str, seed: int) -> tuple[list, dict]:
 
 
 def run_case(args: tuple) -> dict:
-    kind, seed = args
+    kind, seed, snr_range = args
     from eddi.diagnosis import diagnose
     from eddi.diagnosis.pipeline_base import pipeline_baseline
     from eddi.terms import DEFAULT_STIFFNESS
 
     t0 = time.process_time()
     try:
-        recs, info = recipe(kind, seed)
+        recs, info = recipe(kind, seed, snr_range)
         pipe = pipeline_baseline(recs, info["mass_kg"], stiffness=DEFAULT_STIFFNESS)
         d = diagnose(recs, info["mass_kg"], stiffness=DEFAULT_STIFFNESS, pipeline=pipe)
     except Exception as exc:  # a refusal is a result too
@@ -119,6 +121,8 @@ def run_case(args: tuple) -> dict:
             "pred": list(fl.prediction_nrmse), "chain": list(fl.chain_nrmse), "partial": d.partial,
             "candidates": [[c.name, round(c.nrmse, 5), [round(v, 5) for v in c.fold_nrmse], round(c.gain, 4),
                             c.reference, c.wins_every_part, c.consistent, bool(c.contradicted)] for c in tried],
+            "symptoms": {s.kind: s.values for s in d.symptoms if s.kind in ("frequency_bias", "growth",
+                                                                               "low_frequency_drift")},
             "notes": list(d.notes), "verdict": d.verdict, "cpu_s": time.process_time() - t0}
 
 
@@ -163,6 +167,8 @@ def main() -> None:
     ap.add_argument("--seeds", default="100-104")
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--out", metavar="FILE")
+    ap.add_argument("--snr", default="20,40", metavar="LO,HI",
+                    help="the noise range in dB (the drawn value mapped onto it; default 20,40)")
     ap.add_argument("--summary", metavar="FILE")
     args = ap.parse_args()
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -170,7 +176,8 @@ def main() -> None:
     if args.summary:
         summary(args.summary)
         return
-    tasks = [(k, s) for s in parse_seeds(args.seeds) for k in args.kinds.split(",")]
+    lo, hi = (float(v) for v in args.snr.split(","))
+    tasks = [(k, s, (lo, hi)) for s in parse_seeds(args.seeds) for k in args.kinds.split(",")]
     with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
         for row in pool.map(run_case, tasks):
             line = json.dumps(row)

@@ -226,9 +226,11 @@ class OutputErrorProblem:
         return j * self.scale[self.active + [-3, -2, -1]]
 
     def fit(self, p: np.ndarray, stop: int, max_nfev: int, free: np.ndarray | None = None):
-        """Levenberg-Marquardt from ``p`` over ``[0, stop)``; ``free`` masks the fitted parameters."""
+        """Levenberg-Marquardt from ``p`` over ``[0, stop)``; ``free`` masks the fitted parameters.
+        A ``stop`` beyond the record is the whole record (the stages' 64 on a short one)."""
         from scipy.optimize import least_squares  # local: scipy.optimize only when refining
 
+        stop = min(int(stop), self.n)
         if free is None:
             return least_squares(lambda q: self.residual(q, stop), p, jac=self._jac_function(stop), method="lm",
                                  x_scale=self.x_scale, max_nfev=max_nfev, xtol=1e-12,

@@ -151,12 +151,22 @@ class Refinement:
     ci95_given_selection: dict[str, dict[str, float]] = field(default_factory=dict)
 
 
+#: Fewest samples an output-error fit is tried on. Its stages start over the first 64 compared
+#: values (``max(64, ...)``: every stage is the whole record on a shorter one), which once was
+#: also the least record refined: a 256 Hz, 18.7 Hz ring-down of 56 samples (4 cycles, 13.7
+#: samples a cycle) was then refused (``station diagnose``: no verdict). What a fit needs is
+#: more compared values than parameters (:data:`VALUES_PER_PARAMETER`).
+MIN_SAMPLES = 16
+#: Compared values a fitted parameter (coefficients and the initial state) needs at least.
+VALUES_PER_PARAMETER = 4
+
+
 def _check(t: np.ndarray, x: np.ndarray, v: np.ndarray, a: np.ndarray | None,
            channel: str | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, str]:
     t = np.asarray(t, dtype=float)
     n = t.size
-    if n < 64:
-        raise IdentificationError(f"output-error refinement needs >= 64 samples, got {n}")
+    if n < MIN_SAMPLES:
+        raise IdentificationError(f"output-error refinement needs >= {MIN_SAMPLES} samples, got {n}")
     x = np.asarray(x, dtype=float)
     v = np.asarray(v, dtype=float)
     if channel is None:
@@ -258,13 +268,17 @@ def refine_output_error(
     Raises
     ------
     IdentificationError
-        If the window is too short (fewer than 64 samples).
+        If the window is too short (fewer than :data:`MIN_SAMPLES` samples, or than
+        :data:`VALUES_PER_PARAMETER` compared values per fitted parameter).
     SignalError
         If ``channel`` is unknown, or ``"a"`` without ``a``.
     """
     t, x, v, y, channel = _check(t, x, v, a, channel)
     prob = OutputErrorProblem(eom, t, x, v, y, channel, kernel_var)
     n = prob.n
+    if n < VALUES_PER_PARAMETER * prob.p0.size:
+        raise IdentificationError(f"output-error refinement of {prob.p0.size} parameters needs >= "
+                                  f"{VALUES_PER_PARAMETER * prob.p0.size} compared values, got {n}")
     prob.min_gain = None if min_gain is None else float(min_gain)
     norm = float(np.linalg.norm(prob.y)) or 1.0
     p, before, after, jac = _fit_in_stages(prob, max_nfev, norm)

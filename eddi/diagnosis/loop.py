@@ -258,7 +258,8 @@ def _symptoms(sh: _Shown) -> list[Symptom]:
     """What the baseline's held-out simulations get wrong, in numbers, and the measurement
     chain's own findings (:func:`~eddi.diagnosis.symptoms.baseline_symptoms`,
     :func:`~eddi.diagnosis.chain.inspect`)."""
-    symptoms = baseline_symptoms(sh.records, sh.parts, sh.res.base_sims, sh.res.base_vsims, sh.setup.mass)
+    symptoms = baseline_symptoms(sh.records, sh.parts, sh.res.base_sims, sh.res.base_vsims, sh.setup.mass,
+                                 sh.floor.part_conditioning_nrmse)
     return symptoms + inspect(sh.records, sh.setup.mass, _frequency(sh.bfit_all.eom))
 
 

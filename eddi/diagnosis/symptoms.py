@@ -31,6 +31,13 @@ from eddi.diagnosis.show import backbone, energy_per_cycle, spectrum
 #: A symptom is worth a sentence beyond these values.
 THRESHOLDS = {"frequency_bias_pct": 0.5, "energy_mismatch_pct": 15.0, "low_frequency_drift_pct": 5.0,
               "growth_ratio": 1.5}
+#: A frequency bias is notable only beyond this many of its standard errors too
+#: (:func:`bias_threshold_pct`; 3: a null's bias beyond it once in ~370 bands if normal).
+BIAS_SE_FACTOR = 3.0
+#: A cycle gives a frequency only when its amplitude is at least this many times the RMS noise
+#: of the coordinate (a crossing moves by the noise over the speed, ``sigma / A`` of a radian:
+#: 0.2 here; nearer the noise the noise makes crossings of its own and the cycles read short).
+NOISE_AMPLITUDE = 5.0
 
 
 def _thirds(amp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -55,11 +62,32 @@ def _interp_loglog(xq: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 CROSSING_DEADBAND_SD = 3.0
 
 
+def bias_uncertainty_pct(r: np.ndarray) -> float:
+    """Standard error [%] of the median of the cycle-by-cycle frequency ratios ``r`` (model over
+    measured, in the order of the record) from their own scatter.
+
+    A cycle's measured frequency moves with the noise at its zero crossings (a crossing shifts by
+    the noise over the speed there, so the relative error grows as the amplitude falls to the
+    noise); the model's frequency is smooth in amplitude. The scatter is read from successive
+    differences (``r_i`` and ``r_i+1`` share no crossing, so their difference has twice a cycle's
+    variance; a slow trend of the bias with amplitude cancels), robustly (median absolute
+    deviation), and the median of ``n`` values has a standard error of ``1.2533 sigma / sqrt(n)``.
+    Fewer than 4 cycles: infinite (no claim can rest on them)."""
+    r = np.asarray(r, float)
+    if r.size < 4:
+        return float("inf")
+    d = np.diff(r)
+    sigma = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(2.0)
+    return float(100.0 * 1.2533 * sigma / np.sqrt(r.size))
+
+
 def _part_numbers(t: np.ndarray, xm: np.ndarray, vm: np.ndarray, xs: np.ndarray, vs: np.ndarray | None,
-                  mass: float, rate: float, noise_x: float = 0.0) -> dict[str, float]:
+                  mass: float, rate: float, noise_x: float = 0.0, coord_noise: float = 0.0) -> dict[str, float]:
     """The symptoms' numbers on one part; ``noise_x`` the measured coordinate's noise sd [m] where
     it is measured as such (a displacement channel; 0 for one integrated from acc or vel, whose
-    noise is a slow walk that does not chatter about zero)."""
+    noise is a slow walk that does not chatter about zero).
+    ``coord_noise``: the coordinate's RMS noise as the noise floor's draws measure it (any
+    channel); cycles under :data:`NOISE_AMPLITUDE` times it give no frequency."""
     out: dict[str, float] = {}
     finite = np.all(np.isfinite(xs))
     q = max(4, xm.size // 4)
@@ -73,10 +101,12 @@ def _part_numbers(t: np.ndarray, xm: np.ndarray, vm: np.ndarray, xs: np.ndarray,
     if a_m.size >= 6 and a_s.size >= 3:
         hi, lo = _thirds(a_m)
         fs_at = np.interp(a_m, a_s[np.argsort(a_s)], f_s[np.argsort(a_s)], left=np.nan, right=np.nan)
+        above = a_m >= NOISE_AMPLITUDE * coord_noise  # cycles whose crossings the noise cannot make
         for key, sel in (("high", hi), ("low", lo)):
-            r = fs_at[sel] / f_m[sel]
+            r = fs_at[sel & above] / f_m[sel & above]
             r = r[np.isfinite(r)]
             out[f"frequency_bias_{key}_pct"] = float(100 * (np.median(r) - 1)) if r.size else float("nan")
+            out[f"frequency_bias_{key}_se_pct"] = bias_uncertainty_pct(r)
         e_m_amp, de_m = energy_per_cycle(t, xm, vm, mass, h)
         e_s_amp, de_s = energy_per_cycle(t, xs, vs, mass)
         if e_m_amp.size >= 6 and e_s_amp.size >= 3:
@@ -113,14 +143,25 @@ def _displacement_noise(r: Record, x: np.ndarray) -> float:
 
 
 def baseline_symptoms(records: Sequence[Record], parts: Sequence[Part], sims: Sequence[np.ndarray],
-                      vsims: Sequence[np.ndarray | None], mass: float) -> list[Symptom]:
-    """The symptoms listed in the module notes, median over the held-out parts."""
+                      vsims: Sequence[np.ndarray | None], mass: float,
+                      cond_nrmse: Sequence[float] | None = None) -> list[Symptom]:
+    """The symptoms listed in the module notes, median over the held-out parts.
+
+    ``cond_nrmse``: per part, how far one more draw of the noise moves the conditioned
+    coordinate, over the part's norm (the noise floor's ``d_cond``,
+    :attr:`eddi.diagnosis.results.NoiseFloor.part_conditioning_nrmse`); with it the RMS noise
+    of the coordinate is ``d_cond`` times the part's RMS, and cycles whose amplitude is within
+    :data:`NOISE_AMPLITUDE` times it give no frequency (their zero crossings are the noise's
+    as much as the motion's)."""
     rows = []
-    for p, xs, vs in zip(parts, sims, vsims):
+    for i, (p, xs, vs) in enumerate(zip(parts, sims, vsims)):
         r = records[p.record]
         sl = slice(p.start, p.stop)
-        noise_x = _displacement_noise(r, r.x[sl]) if r.response == "disp" else 0.0
-        rows.append(_part_numbers(r.t[sl], r.x[sl], r.v[sl], xs, vs, mass, r.rate_hz, noise_x))
+        xm = r.x[sl]
+        noise_x = _displacement_noise(r, xm) if r.response == "disp" else 0.0
+        d = cond_nrmse[i] if cond_nrmse is not None and i < len(cond_nrmse) else float("nan")
+        coord = float(d * np.sqrt(np.mean(xm ** 2))) if np.isfinite(d) and xm.size else 0.0
+        rows.append(_part_numbers(r.t[sl], xm, r.v[sl], xs, vs, mass, r.rate_hz, noise_x, coord))
 
     def med(key: str) -> float:
         vals = [row[key] for row in rows if key in row and np.isfinite(row[key])]
@@ -130,12 +171,20 @@ def baseline_symptoms(records: Sequence[Record], parts: Sequence[Part], sims: Se
 
     out: list[Symptom] = []
     fh, fl = med("frequency_bias_high_pct"), med("frequency_bias_low_pct")
+    sh, sl = med("frequency_bias_high_se_pct"), med("frequency_bias_low_se_pct")
     if np.isfinite(fh) or np.isfinite(fl):
-        words = (f"the model's frequency is off by {fh:+.2f} % at large amplitude and {fl:+.2f} % at "
-                 "small amplitude")
-        if np.isfinite(fh) and np.isfinite(fl) and abs(fh - fl) > THRESHOLDS["frequency_bias_pct"]:
+        def said(b: float, se: float) -> str:
+            return (f"{b:+.2f} % (+-{se:.2g} %)" if np.isfinite(b) and np.isfinite(se) else f"{b:+.2f} %"
+                    if np.isfinite(b) else "not measured (the cycles there are at the noise)")
+        words = (f"the model's frequency is off by {said(fh, sh)} at large amplitude and "
+                 f"{said(fl, sl)} at small amplitude")
+        if np.isfinite(fh) and np.isfinite(fl) and abs(fh - fl) > max(
+                bias_threshold_pct(sh), bias_threshold_pct(sl)):
             words += ": the stiffness changes with amplitude differently from the model"
-        out.append(Symptom("frequency_bias", words, {"high_amplitude_pct": fh, "low_amplitude_pct": fl}))
+        elif not (_bias_beyond(fh, sh) or _bias_beyond(fl, sl)):
+            words += " (within what the noise lets the cycles' frequencies tell)"
+        out.append(Symptom("frequency_bias", words, {"high_amplitude_pct": fh, "low_amplitude_pct": fl,
+                                                     "high_amplitude_se_pct": sh, "low_amplitude_se_pct": sl}))
     eh, el = med("energy_mismatch_high_pct"), med("energy_mismatch_low_pct")
     if np.isfinite(eh) or np.isfinite(el):
         def side(v: float) -> str:
@@ -164,11 +213,27 @@ def baseline_symptoms(records: Sequence[Record], parts: Sequence[Part], sims: Se
     return out
 
 
+def bias_threshold_pct(se_pct: float) -> float:
+    """The frequency bias [%] beyond which it is notable, given its standard error: the larger
+    of ``THRESHOLDS["frequency_bias_pct"]`` (0.5 %, set on nulls at 30-60 dB, where the noise
+    moves the median cycle frequency by hundredths of a percent) and ``BIAS_SE_FACTOR`` standard
+    errors (noisy records, and the cycles at small amplitude where the signal nears the noise).
+    An unknown standard error (a symptom built elsewhere) leaves the constant."""
+    if np.isnan(se_pct):
+        return THRESHOLDS["frequency_bias_pct"]
+    return max(THRESHOLDS["frequency_bias_pct"], BIAS_SE_FACTOR * se_pct)
+
+
+def _bias_beyond(bias_pct: float, se_pct: float) -> bool:
+    return bool(np.isfinite(bias_pct) and abs(bias_pct) > bias_threshold_pct(se_pct))
+
+
 def notable(s: Symptom) -> bool:
     """True when the symptom is beyond its threshold (worth saying)."""
     v = s.values
     if s.kind == "frequency_bias":
-        return any(abs(v.get(k, 0.0)) > THRESHOLDS["frequency_bias_pct"] for k in v if np.isfinite(v[k]))
+        return any(_bias_beyond(v.get(f"{key}_amplitude_pct", float("nan")),
+                                v.get(f"{key}_amplitude_se_pct", float("nan"))) for key in ("high", "low"))
     if s.kind == "energy_mismatch":
         return any(abs(v.get(k, 0.0)) > THRESHOLDS["energy_mismatch_pct"] for k in v if np.isfinite(v[k]))
     if s.kind == "low_frequency_drift":
