@@ -176,11 +176,15 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
             rhs.append(dt_)
             kin0.append(k0)
         dq, dr, k0 = np.vstack(rows), np.concatenate(rhs), np.concatenate(kin0)
-        if dr.size < len(e_terms) + 1:
+        # fewer half cycles than energy terms (three coordinates: 14 terms; a slow mode on one
+        # short training capture has as few): the half-cycle balance cannot resolve them, so
+        # damping and stiffness are fitted together on the force balance (sample by sample)
+        few = dr.size < len(e_terms) + 1
+        if few and not samples_suffice(data, len(e_terms) + len(_terms(own + cpl, n))):
             raise IdentificationError(f"coordinate {i + 1}: {dr.size} half cycles for {len(e_terms)} terms; "
                                       "need longer or more records")
-        w = 1.0 / np.maximum(k0, 1e-12 * float(k0.max()))
-        coef1, _cond = scaled_lstsq(dq * w[:, None], dr * w)
+        w = np.ones(dr.size) if few else 1.0 / np.maximum(k0, 1e-12 * float(k0.max()))
+        coef1 = np.zeros(len(e_terms)) if few else scaled_lstsq(dq * w[:, None], dr * w)[0]
         b = coef1[: len(d_terms)]
         theta = coef1[len(d_terms):]
         # phase two: conservative force sample by sample
@@ -189,7 +193,7 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
         k_force = target - dmat @ b
         k = scaled_lstsq(np.hstack([smat, fcol]), k_force)[0][: smat.shape[1]]
         exchanged = float(np.sum(np.abs(dq[:, len(d_terms):] @ theta))) if theta.size else 0.0
-        joint = exchanged > max_exchange * float(np.sum(np.abs(dq[:, : len(d_terms)] @ b)))
+        joint = few or exchanged > max_exchange * float(np.sum(np.abs(dq[:, : len(d_terms)] @ b)))
         if joint:
             # the coordinate's energy is mostly exchanged, not dissipated (physical coordinates
             # joined by springs): the half-cycle balance cannot resolve the damping; fit damping
@@ -212,7 +216,7 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
             else jackknife_lstsq_ci95(np.hstack([smat, fcol]), k_force, blocks, slice(0, ns)))  # of the final fit
     dissipated = float(np.sum(np.abs(dq[:, : len(d_terms)] @ b)))
     exchanged = float(np.sum(np.abs(dq[:, len(d_terms):] @ theta))) if theta.size else 0.0
-    residual = float(np.sqrt(np.mean(((dq @ coef1 - dr) * w) ** 2)))
+    residual = float(np.sqrt(np.mean(((dq @ coef1 - dr) * w) ** 2))) if dr.size else 0.0
     damping = {t: float(c) for t, c in zip(damp, b)}
     stiffness = {t: float(c) for t, c in zip(own + cpl, k)}
     ci95 = {t: float(h) for t, h in zip(own + cpl, k_ci)}
@@ -224,6 +228,11 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
                       / (float(np.sqrt(np.mean(qdd_i ** 2))) or 1.0))
     return EquationFit(damping, stiffness, gain, residual, exchanged / max(dissipated, 1e-300), int(dr.size),
                        force_res, ci95)
+
+
+def samples_suffice(data: list[tuple], n_terms: int, per_term: int = 10) -> bool:
+    """Enough free-window samples for a force-balance fit of ``n_terms`` (``per_term`` each)."""
+    return sum(int(r[1].shape[1]) for r in data) >= per_term * n_terms
 
 
 def _input_gain(i: int, impacts: list[tuple], d_terms: list[MultiTerm], s_terms: list[MultiTerm],
