@@ -61,7 +61,8 @@ class ImpulseCheck:
     ratio : float
         1 when the mass and the sensitivities are right.
     fault : str
-        ``""`` (none), ``"sign"``, ``"g_as_si"``, ``"si_as_g"`` or ``"scale"``.
+        ``""`` (none), ``"sign"``, ``"g_as_si"``, ``"si_as_g"``, ``"scale"`` or ``"clipped"`` (the
+        acceleration flat at its limit during the blow).
     """
 
     ratio: float
@@ -137,15 +138,33 @@ def check_signal(sig: Any, mass: float) -> ImpulseCheck | None:
     tol = max(SINGLE_RECORD_TOLERANCE, COARSE_PULSE_SLACK * share if samples <= COARSE_PULSE_SAMPLES else 0.0)
     fault = classify(ratio, tol)
     lag = lag if lag is not None and lag.claimed else None
+    if _clipped_on_blow(sig):  # the momentum under a flat-topped blow is short: no mass to weigh
+        return ImpulseCheck(ratio, float(mass), "clipped", lag)
     if share > UNIT_SHARE_MAX or (share > IMPULSE_SHARE_MAX and fault not in UNIT_FAULTS):
         return None
     return ImpulseCheck(ratio, float(mass), fault, lag)
+
+
+def _clipped_on_blow(sig: Any) -> bool:
+    """The measured acceleration flat at its extreme during the blow only
+    (:func:`eddi.conditioning.clip_on_blow`; the reader lets such a record through)."""
+    from eddi.conditioning import clip_on_blow, clipped_run
+
+    if not getattr(sig, "acc_measured", False):
+        return False
+    c = clipped_run(sig.a)
+    return c is not None and clip_on_blow(sig.a, sig.force, c) is not None
 
 
 def impulse_warning(chk: ImpulseCheck, which: str = "the record") -> str | None:
     """The warning for a fault, None when the ratio is within the tolerance."""
     q, m = chk.ratio, chk.mass_kg
     head = f"{which}: the hammer impulse over the momentum change is {q:.3g}"
+    if chk.fault == "clipped":
+        return (f"{which}: the acceleration is clipped during the hammer blow (flat at the converter's or the "
+                f"sensor's limit while the force peaks): an overload; the impulse over the momentum ({q:.3g}) "
+                f"cannot weigh the mass, and the force-driven validation starts from a clipped blow (the free "
+                f"decay the coefficients come from is after it): a softer tip or a larger range")
     if chk.fault == "sign":
         return (f"{head} (negative): the response moves against the hammer force - an accelerometer "
                 f"mounted upside down, a negative sensitivity or a force channel of the other sign; the "

@@ -283,11 +283,16 @@ def checked_measurement(cols: dict[str, np.ndarray], where: str, at: Any, since:
         if not np.ptp(cols[name]) > 0:
             raise InputFileError(f"{where}: column {name!r} is constant ({cols[name][0]:g}); expected a measured "
                                  "response")
-    from eddi.conditioning import clipped_run  # local: the engine (scipy) only once a file is read
+    from eddi.conditioning import clip_on_blow, clipped_run  # local: the engine (scipy) only once a file is read
 
     for name, col in cols.items():
         c = clipped_run(col)
-        if c is not None:
+        on_blow = clip_on_blow(col, cols.get("force"), c) if c is not None and name != "force" else None
+        if on_blow is not None:  # read; the impulse check and diagnose name the overload
+            note(f"{where}: column {name!r} is flat at its extreme value {col[c]:g} for {on_blow} samples "
+                 f"{since(c)}, during the hammer blow: overloaded by the blow (the free response after it "
+                 "is used; the impulse check and the force-driven validation cannot trust the blow)")
+        elif c is not None:
             raise InputFileError(
                 f"{where}: column {name!r} looks clipped: flat at its extreme value {col[c]:g} "
                 f"{since(c)}; expected a signal within the sensor's range"

@@ -424,7 +424,9 @@ def inspect(records: Sequence[Record], mass: float | None, f1: float, measured_f
             if s is not None:
                 out.append(Symptom(s.kind, s.text, {**s.values, "record": float(i)}))
     out += _short_clipping(records, clipped)
-    m = impulse_mass_ratio(records, mass, f1) if mass is not None else None
+    # a clipped capture's momentum is short by the flat top (not a mass error): not weighed
+    weighed = [r for i, r in enumerate(records) if i not in clipped]
+    m = impulse_mass_ratio(weighed, mass, f1) if mass is not None and weighed else None
     if m is not None and mass is not None:
         med, spread, n = m
         if abs(med - 1.0) > IMPULSE_MASS_TOLERANCE and abs(med - 1.0) > IMPULSE_MASS_SPREADS * spread:

@@ -41,8 +41,12 @@ def test_force_and_acc_only_45db(system: str, seed: int) -> None:
     assert res.model.unrefined is None and res.model.refinement is None
     ref = identify_measurement(cond, spec["mass"], damping=tuple(spec["damping"]),
                                stiffness=tuple(spec["stiffness"]), refine=True)
-    # the EDDI estimate is kept, bit for bit, beside the refined one
-    assert ref.model.unrefined == res.model.eom
+    # the EDDI estimate that seeded the refinement is kept beside the refined one; since session 13
+    # (s13ident) it is the Lagrangian route's on a coarser grid, no longer bit for bit the scored
+    # pipeline's (docs/speed.md), and as accurate as EDDI is
+    seed_eom = ref.model.unrefined
+    assert seed_eom is not None
+    _check(seed_eom, spec, 0.0)
     eom = ref.model.eom
     assert eom.stiffness["x"] == pytest.approx(spec["stiffness"]["x"], rel=1e-3)
     assert eom.stiffness["x^3"] == pytest.approx(spec["stiffness"]["x^3"], rel=1e-3)
