@@ -89,7 +89,7 @@ def response_lag(r: Record, f1: float, zeta: float = 0.0) -> ResponseLag | None:
     width = b - a
     if width < MIN_BLOW_SAMPLES:
         return None
-    lo, hi = max(0, a - 2 * width), min(r.t.size, b + 3 * width)
+    lo, hi = max(0, a - 3 * width), min(r.t.size, b + 4 * width)
     if hi - lo < 4 * width:
         return None
     w1 = 2 * math.pi * f1
@@ -97,10 +97,13 @@ def response_lag(r: Record, f1: float, zeta: float = 0.0) -> ResponseLag | None:
     acc = r.a[lo:hi] + w1**2 * x + 2 * zeta * w1 * v
     force = r.force[lo:hi] - np.median(r.force[lo:a]) if a > lo else r.force[lo:hi]
     acc = acc - (np.median(acc[:a - lo]) if a > lo else 0.0)
-    lags = np.arange(-width, width + 1)
+    # up to twice the blow either way (blind unseen10: a lag of 9 samples on a 9-sample blow)
+    lags = np.arange(-2 * width, 2 * width + 1)
     n = acc.size
     corr = np.array([np.dot(force[max(0, -k):n - max(0, k)], acc[max(0, k):n - max(0, -k)]) for k in lags])
-    k = int(np.argmax(corr))
+    k = int(np.argmax(np.abs(corr)))
+    if corr[k] <= 0:
+        return None  # the response against the force (an inverted sensor): the impulse check's "sign"
     if k == 0 or k == lags.size - 1:
         return None  # the peak at the edge of the lags searched: no lag of this kind
     c0, c1, c2 = corr[k - 1], corr[k], corr[k + 1]

@@ -57,3 +57,12 @@ def test_an_anti_alias_filter_on_the_acceleration_is_named_and_the_mass_not_blam
     found = [s for s in inspect([rec], SYSTEM["mass"], 40.0) if s.kind == "response_lag"]
     assert len(found) == 1 and "acceleration lags the force" in found[0].text
     assert not [s for s in inspect([rec], SYSTEM["mass"], 40.0) if s.kind == "impulse_mass"]
+
+
+def test_an_inverted_accelerometer_is_no_lag():
+    # the correlation's largest value is then negative: the impulse check's "sign", not a lag
+    r = impact_record(SYSTEM, rate_hz=RATE, duration_s=1.5, pretrigger_s=0.2, pulse_s=PULSE, snr_db=45.0, seed=5)
+    sig = condition(r.t, acc=-r.acc, force=r.force, pretrigger_samples=int(0.2 * RATE))
+    lag, _ = _lag(sig)
+    assert lag is None
+    assert check_signal(sig, SYSTEM["mass"]).fault == "sign"
