@@ -148,18 +148,4 @@ def _quantised_peak(y: np.ndarray, start: int, stop: int) -> bool:
         return False
     vertex = c[2] - c[1] ** 2 / (4 * c[0])
     return bool(abs(vertex - y[start]) <= 2 * q)
-    for extreme in (np.max(y), np.min(y)):
-        if extreme == 0:
-            continue
-        hit = (y == extreme).astype(np.int8)
-        if hit.sum() < min_run:
-            continue
-        # run lengths of consecutive hits
-        edges = np.diff(np.concatenate(([0], hit, [0])))
-        starts = np.nonzero(edges == 1)[0]
-        stops = np.nonzero(edges == -1)[0]
-        long = np.nonzero(stops - starts >= min_run)[0]
-        if long.size:
-            return int(starts[long[0]])
-    return None
 
