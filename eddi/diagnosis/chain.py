@@ -213,7 +213,8 @@ def _impulse_parts(r: Record, f1: float = 0.0) -> tuple[float, float, float] | N
     # a response that lags the force (a filter on one channel) is still gaining momentum when the
     # pulse ends: the window is widened by the lag (blind unseen10, session 13: 11 samples of lag
     # read a mass 97 % high; eddi.diagnosis.lag)
-    late = _lag_samples(r, f1)
+    zeta = _damping_ratio(r)
+    late = _lag_samples(r, f1, zeta)
     a, b = max(0, a - pad - max(0, -late)), min(r.t.size - 1, b + pad + max(0, late))
     dt = 1.0 / r.rate_hz
     j = trapezoid(r.force[a:b + 1], dx=dt)  # over the same samples as v[b] - v[a]
@@ -221,22 +222,25 @@ def _impulse_parts(r: Record, f1: float = 0.0) -> tuple[float, float, float] | N
     w1 = 2 * math.pi * f1 if f1 > 0 else 0.0
     # the displacement from its value before the blow (the spring pushes on the deflection)
     spring = w1 ** 2 * trapezoid(r.x[a:b + 1] - r.x[a], dx=dt)
-    damper = 2.0 * _damping_ratio(r) * w1 * float(r.x[b] - r.x[a])
+    damper = 2.0 * zeta * w1 * float(r.x[b] - r.x[a])
     return j, dv, spring + damper
 
 
-def _lag_samples(r: Record, f1: float) -> int:
+def _lag_samples(r: Record, f1: float, zeta: float) -> int:
     """Samples the acceleration lags the force where a lag is claimed (:func:`response_lag`;
-    negative: the force lags), else 0."""
-    lag = response_lag(r, f1)
+    negative: the force lags), else 0; ``zeta`` the record's damping ratio."""
+    lag = response_lag(r, f1, zeta)
     return int(math.ceil(abs(lag.samples)) * np.sign(lag.samples)) if lag is not None and lag.claimed else 0
 
 
-def response_lag(r: Record, f1: float):
-    """:func:`eddi.diagnosis.lag.response_lag` with the record's damping ratio."""
+def response_lag(r: Record, f1: float, zeta: float | None = None):
+    """:func:`eddi.diagnosis.lag.response_lag` with the record's damping ratio (``zeta``, computed
+    when not given: :func:`_damping_ratio`)."""
     from eddi.diagnosis.lag import response_lag as lag_of
 
-    return lag_of(r, f1, _damping_ratio(r)) if f1 > 0 else None
+    if not f1 > 0:
+        return None
+    return lag_of(r, f1, _damping_ratio(r) if zeta is None else zeta)
 
 
 def _lag_symptom(r: Record, f1: float) -> Symptom | None:
