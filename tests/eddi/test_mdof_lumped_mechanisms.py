@@ -19,8 +19,7 @@ from eddi.mdof.model import MdofModel
 from eddi.mdof.physical import identify_lumped
 from eddi.mdof.validate import validate_mdof
 from simulated_rig.mdof_systems import MdofSystem, mdof_impact_test
-from station.mdof_data import condition_multichannel
-from station.readers import Measurement
+from tests.eddi.test_mdof_lumped import _records  # the same records (seeds 7.., 45 dB)
 
 #: Hidden constants: 15 % of the link spring's force at the largest blow's peak stretch (4.4 mm),
 #: the cubic damper 100 % of the link dashpot's at the peak stretch rate (1.15 m/s).
@@ -33,16 +32,6 @@ def _system(**link) -> MdofSystem:
         "impacts_n": [60.0, 150.0, 300.0],
         "elements": [{"between": [0, 1], "k": 35000.0, "c": 5.0},
                      {"between": [1, 2], "k": 15000.0, "c": 1.5, **link}]})
-
-
-def _records(system: MdofSystem) -> list:
-    out = []
-    for k, peak in enumerate(system.impacts_n):
-        rec = mdof_impact_test(system, peak, seed=7 + k, snr_db=45.0)
-        meas = Measurement(t=rec.t, channels=rec.columns(), rate_hz=rec.rate_hz,
-                           pretrigger_samples=rec.pretrigger_samples, mass=None, source=f"{peak} N", metadata={})
-        out.append(condition_multichannel(meas))
-    return out
 
 
 def _identify(**link):
