@@ -450,10 +450,19 @@ def internal_force(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> np.nd
 
 
 def _hermite_fill(xc, vc, ac, q, h, x, v, a):  # pragma: no cover - compiled
-    """Cubic Hermite from every ``q``-th sample (``x, v`` and ``v, a``) onto every sample."""
+    """Cubic Hermite from every ``q``-th sample (``x, v`` and ``v, a``) onto every sample.
+
+    A sample on the grid takes the grid's value: it reads no point after it (the last
+    sample of a segment ending on the grid has none; reading past the end gave a NaN
+    on some machines)."""
     for j in range(x.shape[0]):
         k = j // q
         s = (j - k * q) / q
+        if s == 0.0:  # on the grid: the last sample may have no grid point after it
+            x[j] = xc[k]
+            v[j] = vc[k]
+            a[j] = ac[k]
+            continue
         s2 = s * s
         s3 = s2 * s
         h00 = 2.0 * s3 - 3.0 * s2 + 1.0

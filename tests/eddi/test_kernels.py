@@ -225,3 +225,15 @@ def test_the_one_function_signature_check_agrees_with_the_per_argument_checks() 
         assert fast(tuple(args)) == want
         seen.add(want)
     assert seen == {True, False}
+
+
+def test_hermite_fill_reads_no_grid_point_past_the_last_sample() -> None:
+    """A segment whose last sample sits on the grid has no grid point after it; the fill must
+    not read one (compiled, that read was garbage: a NaN last sample on CI's machine)."""
+    fill = simulate_mod._hermite_fill  # the Python source the kernels compile: bounds checked
+    q, n = 4, 9  # samples 0..8, grid 0, 4, 8: the last sample is the last grid point
+    xc, vc, ac = np.array([0.0, 1.0, 2.0]), np.array([1.0, 1.0, 1.0]), np.zeros(3)
+    x, v, a = np.empty(n), np.empty(n), np.empty(n)
+    fill(xc, vc, ac, q, 1.0, x, v, a)
+    assert x[-1] == 2.0 and v[-1] == 1.0 and a[-1] == 0.0
+    assert x[4] == 1.0 and np.allclose(x, np.arange(n) / 4.0)  # linear data: Hermite is exact
