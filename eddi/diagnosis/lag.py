@@ -78,11 +78,11 @@ def response_lag(r: Record, f1: float, zeta: float = 0.0) -> ResponseLag | None:
     """The lag of ``r``'s measured acceleration behind its force (module notes); None without a
     force, a measured acceleration, a measured frequency ``f1`` [Hz], or a blow on at least
     :data:`MIN_BLOW_SAMPLES` samples."""
-    from eddi.diagnosis.chain import _pulses
+    from eddi.diagnosis.chain import _record_pulses
 
     if r.force is None or not r.acc_measured or not f1 > 0:
         return None
-    pulses = _pulses(r.force, r.rate_hz)
+    pulses = _record_pulses(r)
     if not pulses:
         return None
     a, b, _p = pulses[0]
