@@ -29,6 +29,26 @@ from collections.abc import Iterator
 #: two calls per in-process identify); a new BLAS can only arrive with a newly imported module,
 #: so the view is taken again when the module count changed.
 _CONTROLLER: list = [None, -1]
+#: True once a program has declared (:func:`declare_one_thread_environment`) that every BLAS pool
+#: of this process starts with one thread: then there is nothing to limit, and the look-up is skipped.
+_ENVIRONMENT_ONE_THREAD: list = [False]
+
+#: The variables that size the BLAS pools at their load: OpenBLAS, OpenMP (BLAS built on it), MKL.
+THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def declare_one_thread_environment() -> bool:
+    """Note that the BLAS pools of this process start with one thread, when that is sure: every
+    one of :data:`THREAD_VARIABLES` is "1" and numpy (which loads the BLAS) is not imported yet.
+    Returns whether it was noted. station's command line calls this after setting them (it does,
+    unless the user set other counts): :func:`one_blas_thread` then skips threadpoolctl, whose
+    import and look-up of the loaded libraries (every shared object walked) cost ~7 ms of CPU per
+    ``station identify`` (session 14), to set a limit the pools already have."""
+    import os
+
+    sure = "numpy" not in sys.modules and all(os.environ.get(v, "").strip() == "1" for v in THREAD_VARIABLES)
+    _ENVIRONMENT_ONE_THREAD[0] = sure
+    return sure
 
 
 def _controller():
@@ -42,6 +62,9 @@ def _controller():
 @contextlib.contextmanager
 def one_blas_thread() -> Iterator[None]:
     """Limit the BLAS thread pools to one thread inside the ``with`` block (or a decorated call)."""
+    if _ENVIRONMENT_ONE_THREAD[0]:  # they have one already (declare_one_thread_environment)
+        yield
+        return
     try:
         controller = _controller()
     except ImportError:  # optional: without it the BLAS pools keep their size

@@ -25,6 +25,9 @@ from typing import Any, Sequence
 # numpy is imported by any command module.
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
+# ... and when all three are 1 before numpy is imported, the engine need not limit the pools again
+# per call (eddi.threads: threadpoolctl's look-up, ~7 ms of CPU a `station identify`)
+importlib.import_module("eddi.threads").declare_one_thread_environment()
 
 
 #: Sub-command name -> (module that provides it with ``register(subparsers)``, one-line help).
