@@ -147,17 +147,22 @@ def check_signal(sig: Any, mass: float) -> ImpulseCheck | None:
     return ImpulseCheck(ratio, float(mass), fault, lag)
 
 
+#: Blows on fewer samples have their lag measured coarsely or not at all (session 13 judged from 5
+#: samples; :data:`eddi.diagnosis.lag.MIN_BLOW_SAMPLES`): a filter's sub-sample delay there is
+#: not claimed, and the ratio's bend (:func:`_bends`) is what tells a filter from a scale error.
+SHORT_BLOW_SAMPLES = 5
+
+
 def _bends(rec: Any, f1: float, samples: int, tol: float) -> bool:
-    """A blow too short for the lag to be measured (:data:`eddi.diagnosis.lag.MIN_BLOW_SAMPLES`)
+    """A blow too short for the lag to be measured well (:data:`SHORT_BLOW_SAMPLES`)
     whose ratio bends with the window's end (:func:`eddi.diagnosis.chain.momentum_bend`) by more
     than the scale claim's own tolerance ``tol``: a bend that large could make or unmake the
     claim. Clean and 5 %-mass records with 1-3-sample blows bend at most 0.018 at the standard
     draws, 0.035 on coarse 2-sample blows (where ``tol`` is 0.4 of the spring's share); 1-sample
     blows behind a near-Nyquist low-pass 0.09-0.15 (session 14, ``bench_impulse_check.py --lag``)."""
     from eddi.diagnosis.chain import momentum_bend
-    from eddi.diagnosis.lag import MIN_BLOW_SAMPLES
 
-    if samples >= MIN_BLOW_SAMPLES:
+    if samples >= SHORT_BLOW_SAMPLES:
         return False
     bend = momentum_bend(rec, f1)
     return bend is not None and bend > tol

@@ -60,8 +60,22 @@ def aligned(rec: Record, lag_samples: float) -> Record:
     if not rec.impact_end > rec.impact_start:
         return rec.replace(force=force)
     late, early = max(0, math.ceil(lag_samples)), max(0, math.ceil(-lag_samples))
+    # the response's blow ends ``late`` samples after the force's: its free response starts there
+    free = min(rec.free_stop - 1, rec.free_start + late)
     return rec.replace(force=force, impact_start=max(0, rec.impact_start - early),
-                       impact_end=min(rec.t.size, rec.impact_end + late))
+                       impact_end=min(free, rec.impact_end + late), free_start=free)
+
+
+def _trimmed(masks: Sequence[np.ndarray], records: Sequence[Record], al: Sequence[Record]) -> list[np.ndarray]:
+    """A fold's training masks without the samples the aligned records no longer count as free
+    response (the lagging response's blow: a 12-sample delay at 5 kHz on a 59 Hz structure left
+    the fit 2.0 off held out with them in, the true model 0.018)."""
+    out = []
+    for m, r, a in zip(masks, records, al):
+        m = m.copy()
+        m[r.free_start:a.free_start] = False
+        out.append(m)
+    return out
 
 
 def lag_candidate(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
@@ -89,7 +103,7 @@ def lag_candidate(records: Sequence[Record], setup: Setup, parts: Sequence[Part]
     consistent = bool(spread["lag_samples"] < consistency * abs(params["lag_samples"]))
     try:
         fitter = Fitter([r.signal() for r in al], setup, al, refine, mapper)
-        res, _fits = judge_baseline(al, setup, parts, fold_masks, fitter)
+        res, _fits = judge_baseline(al, setup, parts, [_trimmed(m, records, al) for m in fold_masks], fitter)
         fit_all = fitter(all_masks(al))(None, None)
     except EddiError as exc:
         return (Candidate(NAME, float("nan"), (), float("nan"), False, False, params, spread, None, "",
@@ -101,18 +115,27 @@ def lag_candidate(records: Sequence[Record], setup: Setup, parts: Sequence[Part]
                "one channel: anti-alias, conditioner, the accelerometer's mounting, or channels sampled apart): "
                "the force-driven simulation slips; the force aligned with the response fixes it")
     return (Candidate(NAME, mean, tuple(folds), 1.0 - mean / ref if ref > 0 else 0.0,
-                      _wins(folds, base_fold), consistent, params, spread,
+                      _wins(folds, base_fold, parts), consistent, params, spread,
                       fit_all.eom if fit_all is not None else None, symptom, "", ref, "baseline"),
             list(res.base_sims))
 
 
-def _wins(folds: Sequence[float], base_fold: Sequence[float]) -> bool:
-    """Better than the baseline on some part and no worse on any: a part judged from its measured
-    state (not driven by the force: the largest capture's, judged where it decays into the
-    training range) is the same simulation either way, a tie, not a loss (my 0.8 kg, 40 Hz case
-    behind a 1 kHz Butterworth: 0.0037 and 0.0037 there, 0.039 -> 0.007 on the driven parts)."""
-    return (len(folds) == len(base_fold) and all(a <= b for a, b in zip(folds, base_fold))
-            and any(a < b for a, b in zip(folds, base_fold)))
+#: On a held-out part the force does not drive (judged from its measured state) the aligned fit
+#: must be within this fraction of the baseline: there the two simulations differ only by the
+#: refit without the samples of the response's blow (:func:`_trimmed`).
+TIE_SHARE = 0.01
+
+
+def _wins(folds: Sequence[float], base_fold: Sequence[float], parts: Sequence[Part]) -> bool:
+    """Better than the baseline on every part the force drives (simulated from rest through the
+    blow) and no worse than :data:`TIE_SHARE` on the others: a part judged from its measured
+    state (the largest capture's, where it decays into the training range) is the same
+    simulation either way but for the refit (my 0.8 kg, 40 Hz case behind a 1 kHz Butterworth:
+    0.0037 both ways there, 0.039 -> 0.007 on the driven parts); at least one driven part."""
+    if len(folds) != len(base_fold) or not any(p.from_rest for p in parts):
+        return False
+    return all((a < b) if p.from_rest else (a <= (1.0 + TIE_SHARE) * b)
+               for a, b, p in zip(folds, base_fold, parts))
 
 
 def correction_note(c: Candidate) -> str:

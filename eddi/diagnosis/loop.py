@@ -344,7 +344,7 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
                                             and dec.winner.name == LAG_NAME)])
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
-    verdict += reported_text(symptoms)
+    verdict += reported_text(symptoms) + _lag_text(dec, candidates)
     notes = notes + _floor_note(dec, candidates, floor, baseline.nrmse, margin)
     if floor.chain_nrmse and max(floor.chain_nrmse) > 0.5 * MIN_FLOOR:
         # the floor says what the chain's calibration allows, in the verdict too (session 9)
@@ -408,6 +408,15 @@ def _impulse_through_coupling(dec: Decision, records: Sequence[Record], mass: fl
         return symptoms
     again = [s for s in inspect(fixed, mass, f1) if s.kind == "impulse_mass"]  # type: ignore[arg-type]
     return [s for s in symptoms if s.kind != "impulse_mass"] + again
+
+
+def _lag_text(dec: Decision, candidates: Sequence[Candidate]) -> str:
+    """A sentence for the verdict on the ``response_lag`` correction when it was measured and not
+    named (its figures: :func:`eddi.diagnosis.align.correction_note`), else ''."""
+    lag = next((c for c in candidates if c.name == LAG_NAME), None)
+    if lag is None or dec.winner is lag:
+        return ""
+    return " Corrected for the lag: " + correction_note(lag).split(": ", 1)[1] + "."
 
 
 def _lag_named(dec: Decision, candidates: Sequence[Candidate], res: FoldResults, floor: NoiseFloor,
