@@ -200,10 +200,12 @@ def _impulse_mass(r: Record, mass: float, f1: float = 0.0) -> tuple[float, float
     return (j, mass * mom) if abs(mom) > 0 else None
 
 
-def _impulse_parts(r: Record, f1: float = 0.0, extra: int = 0) -> tuple[float, float, float] | None:
+def _impulse_parts(r: Record, f1: float = 0.0, extra: int = 0, lag_window: bool = True
+                   ) -> tuple[float, float, float] | None:
     """(impulse [N s], velocity change [m/s], the spring's and the damper's share [m/s]) over
     the first hammer pulse (:func:`_impulse_mass`), the window ending ``extra`` samples later
-    (:func:`momentum_bend`); None without a force pulse."""
+    (:func:`momentum_bend`; ``lag_window=False``: not widened by a claimed lag, as before session
+    13); None without a force pulse."""
     if r.force is None:
         return None
     pulses = _pulses(r.force, r.rate_hz)
@@ -215,7 +217,7 @@ def _impulse_parts(r: Record, f1: float = 0.0, extra: int = 0) -> tuple[float, f
     # pulse ends: the window is widened by the lag (blind unseen10, session 13: 11 samples of lag
     # read a mass 97 % high; eddi.diagnosis.lag)
     zeta = _damping_ratio(r)
-    late = _lag_samples(r, f1, zeta)
+    late = _lag_samples(r, f1, zeta) if lag_window else 0
     a, b = max(0, a - pad - max(0, -late)), min(r.t.size - 1, b + pad + max(0, late) + extra)
     dt = 1.0 / r.rate_hz
     j = trapezoid(r.force[a:b + 1], dx=dt)  # over the same samples as v[b] - v[a]
@@ -404,15 +406,16 @@ IMPULSE_MASS_SPREADS = 3.0
 IMPULSE_SHARE_MAX = 0.25
 
 
-def impulse_mass_ratio(records: Sequence[Record], mass: float, f1: float | None = None
-                       ) -> tuple[float, float, int] | None:
+def impulse_mass_ratio(records: Sequence[Record], mass: float, f1: float | None = None,
+                       lag_window: bool = True) -> tuple[float, float, int] | None:
     """(median, sample standard deviation, count) over the records of the hammer impulse over
     the momentum change of the first pulse, the spring's share during the pulse taken out
     (:func:`_impulse_mass`; ``f1`` [Hz], default :func:`measured_frequency`): 1 when the mass
     is right; None without force or when no record's blow is mostly momentum
-    (:data:`IMPULSE_SHARE_MAX`). One record: spread 0."""
+    (:data:`IMPULSE_SHARE_MAX`). One record: spread 0. ``lag_window=False``: the window ends
+    with the force pulse whatever lag is claimed (the ratio as if there were none)."""
     f1 = measured_frequency(records) if f1 is None else f1
-    parts = [p for p in (_impulse_parts(r, f1) for r in records) if p is not None]
+    parts = [p for p in (_impulse_parts(r, f1, lag_window=lag_window) for r in records) if p is not None]
     ratios = np.array([j / (mass * (dv + c)) for j, dv, c in parts
                        if dv + c != 0 and abs(c) <= IMPULSE_SHARE_MAX * abs(dv + c)
                        and np.isfinite(j / (mass * (dv + c)))])

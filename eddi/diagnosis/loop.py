@@ -22,7 +22,7 @@ from typing import Sequence
 import numpy as np
 
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
-from eddi.diagnosis.align import NAME as LAG_NAME, aligned, correction_note, lag_candidate, record_lags
+from eddi.diagnosis.align import NAME as LAG_NAME, correction_note, lag_candidate
 from eddi.diagnosis.chain import inspect, measured_frequency
 from eddi.diagnosis.highpass import recondition, sensor_highpass
 from eddi.diagnosis.earn import CHAIN_REASON, earn, reported_text
@@ -333,7 +333,6 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
                  eddi_fold=res.ref_fold, departs=_pipeline_check(pipeline, sh, none_factor))
     dec = _lag_named(dec, candidates, res, floor, rules)
     symptoms = _impulse_through_coupling(dec, records, sh.setup.mass, f1, symptoms)
-    symptoms = _impulse_after_alignment(dec, records, sh.setup.mass, symptoms)
     # a chain that cannot be trusted earns neither silence nor a name (eddi.diagnosis.earn); the band
     # rule's "above the floor" is against the full floor, as calibrated: against the floor of the
     # data a short noisy null (blind unseen8, session 12: baseline 0.357, floor 0.358, data floor
@@ -433,22 +432,6 @@ def _lag_named(dec: Decision, candidates: Sequence[Candidate], res: FoldResults,
                    strong_margin=margin if strong_margin is None else min(margin, strong_margin),
                    eddi_fold=res.ref_fold)
     return again if again.winner is lag else dec
-
-
-def _impulse_after_alignment(dec: Decision, records: Sequence[Record], mass: float | None,
-                             symptoms: list[Symptom]) -> list[Symptom]:
-    """``symptoms`` with the impulse-mass finding made on the aligned records when
-    ``response_lag`` wins (:mod:`eddi.diagnosis.align`): the lag is the named cause, so the
-    impulse over the momentum is weighed with the force where the response says it acted."""
-    if mass is None or dec.winner is None or dec.winner.name != LAG_NAME:
-        return symptoms
-    f1 = measured_frequency(records)
-    lags = record_lags(records, f1)
-    if lags is None:
-        return symptoms
-    fixed = [aligned(r, g) for r, g in zip(records, lags)]
-    again = [s for s in inspect(fixed, mass, f1) if s.kind == "impulse_mass"]
-    return [s for s in symptoms if s.kind != "impulse_mass"] + again
 
 
 def selected_terms(pipeline: PipelineBaseline | None, base: EquationOfMotion | None,
