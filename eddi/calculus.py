@@ -22,6 +22,8 @@ One module owns these so that conditioning (:mod:`eddi.conditioning`), the modal
   what the Lagrangian route of phase two uses when no acceleration was measured);
 * :func:`resample`: band-limited (FFT / polyphase-free) resampling of records whose clocks
   differ slightly onto one grid (:func:`common_rate`);
+* :func:`delay`: a signal moved later by a fraction of a sample through the same spline (the
+  hammer force aligned with a response that lags it: :mod:`eddi.diagnosis.align`);
 * :func:`samples_per_cycle_note`: what accuracy to expect from a given sampling;
 * :func:`decimation_factor`, :func:`decimate_centred`: a record sampled far faster than it
   moves (19.2 kHz for a 4 Hz oscillator) onto a coarser grid for the regression;
@@ -249,6 +251,39 @@ def resample(t: np.ndarray, y: np.ndarray, rate_hz: float) -> tuple[np.ndarray, 
     t_new = t[0] + np.arange(m) / rate_hz
     t_new = t_new[t_new <= t[-1] + 1e-12]
     return t_new, make_interp_spline(t, y, k=5)(t_new)
+
+
+def delay(y: np.ndarray, samples: float) -> np.ndarray:
+    """``y`` moved later by ``samples`` (any real number; negative: earlier) on its own grid.
+
+    Through the record's 5th-order interpolating spline, as :func:`resample`: ``out[n] =
+    y(n - samples)``; before the first and after the last sample the signal is continued by
+    its end values (the force of a hammer blow at rest: its offset). An integer delay moves
+    the samples exactly.
+
+    Parameters
+    ----------
+    y : ndarray, shape (n,)
+    samples : float
+        The delay in samples.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    y = np.asarray(y, dtype=float)
+    n = y.size
+    idx = np.arange(n) - float(samples)
+    inside = (idx >= 0) & (idx <= n - 1)
+    out = np.where(idx < 0, y[0], y[-1]) if n else y.copy()
+    k = round(float(samples))
+    if abs(float(samples) - k) < 1e-9 or n < 6:
+        j = np.clip(np.round(idx).astype(int), 0, max(n - 1, 0))
+        return np.where(inside, y[j], out)
+    from scipy.interpolate import make_interp_spline
+
+    out[inside] = make_interp_spline(np.arange(n, dtype=float), y, k=5)(idx[inside])
+    return out
 
 
 def samples_per_cycle_note(rate_hz: float, freq_hz: float) -> str | None:

@@ -142,7 +142,30 @@ def check_signal(sig: Any, mass: float) -> ImpulseCheck | None:
         return ImpulseCheck(ratio, float(mass), "clipped", lag)
     if share > UNIT_SHARE_MAX or (share > IMPULSE_SHARE_MAX and fault not in UNIT_FAULTS):
         return None
+    if fault == "scale" and lag is None and _bends(rec, f1, samples, tol):
+        fault = "uncertain"
     return ImpulseCheck(ratio, float(mass), fault, lag)
+
+
+#: Blows on fewer samples have their lag measured coarsely or not at all (session 13 judged from 5
+#: samples; :data:`eddi.diagnosis.lag.MIN_BLOW_SAMPLES`): a filter's sub-sample delay there is
+#: not claimed, and the ratio's bend (:func:`_bends`) is what tells a filter from a scale error.
+SHORT_BLOW_SAMPLES = 5
+
+
+def _bends(rec: Any, f1: float, samples: int, tol: float) -> bool:
+    """A blow too short for the lag to be measured well (:data:`SHORT_BLOW_SAMPLES`)
+    whose ratio bends with the window's end (:func:`eddi.diagnosis.chain.momentum_bend`) by more
+    than the scale claim's own tolerance ``tol``: a bend that large could make or unmake the
+    claim. Clean and 5 %-mass records with 1-3-sample blows bend at most 0.018 at the standard
+    draws, 0.035 on coarse 2-sample blows (where ``tol`` is 0.4 of the spring's share); 1-sample
+    blows behind a near-Nyquist low-pass 0.09-0.15 (session 14, ``bench_impulse_check.py --lag``)."""
+    from eddi.diagnosis.chain import momentum_bend
+
+    if samples >= SHORT_BLOW_SAMPLES:
+        return False
+    bend = momentum_bend(rec, f1)
+    return bend is not None and bend > tol
 
 
 def _clipped_on_blow(sig: Any) -> bool:
@@ -177,6 +200,12 @@ def impulse_warning(chk: ImpulseCheck, which: str = "the record") -> str | None:
     if chk.fault == "si_as_g":
         return (f"{head}, close to 1/g: the response looks recorded in m/s^2 but read as g (or scaled "
                 f"by g twice); nonlinear coefficients are off by powers of g: check the channel's unit")
+    if chk.fault == "uncertain":
+        return (f"{head} ({100 * (q - 1):+.1f} %), but the blow spans too few samples to measure the response's "
+                f"lag and the ratio still moves as the window's end moves on by a sample: the acceleration "
+                f"is still arriving after the blow (a filter on one channel, an anti-alias low-pass, channels "
+                f"sampled apart) - a mass or sensitivity error cannot be told from it (uncertain); a softer "
+                f"tip (a longer blow) or a higher rate tells them apart")
     if chk.fault == "scale":
         return (f"{head} ({100 * (q - 1):+.1f} %): the hammer impulse gives a mass of {q * m:.4g} kg "
                 f"where {m:.4g} kg is used - the mass, the force sensitivity or the accelerometer "

@@ -212,9 +212,12 @@ def _impulse_mass(r: Record, mass: float, f1: float = 0.0) -> tuple[float, float
     return (j, mass * mom) if abs(mom) > 0 else None
 
 
-def _impulse_parts(r: Record, f1: float = 0.0) -> tuple[float, float, float] | None:
+def _impulse_parts(r: Record, f1: float = 0.0, extra: int = 0, lag_window: bool = True
+                   ) -> tuple[float, float, float] | None:
     """(impulse [N s], velocity change [m/s], the spring's and the damper's share [m/s]) over
-    the first hammer pulse (:func:`_impulse_mass`); None without a force pulse."""
+    the first hammer pulse (:func:`_impulse_mass`), the window ending ``extra`` samples later
+    (:func:`momentum_bend`; ``lag_window=False``: not widened by a claimed lag, as before session
+    13); None without a force pulse."""
     if r.force is None:
         return None
     pulses = _record_pulses(r)
@@ -226,8 +229,8 @@ def _impulse_parts(r: Record, f1: float = 0.0) -> tuple[float, float, float] | N
     # pulse ends: the window is widened by the lag (blind unseen10, session 13: 11 samples of lag
     # read a mass 97 % high; eddi.diagnosis.lag)
     zeta = _damping_ratio(r)
-    late = _lag_samples(r, f1, zeta)
-    a, b = max(0, a - pad - max(0, -late)), min(r.t.size - 1, b + pad + max(0, late))
+    late = _lag_samples(r, f1, zeta) if lag_window else 0
+    a, b = max(0, a - pad - max(0, -late)), min(r.t.size - 1, b + pad + max(0, late) + extra)
     dt = 1.0 / r.rate_hz
     j = trapezoid(r.force[a:b + 1], dx=dt)  # over the same samples as v[b] - v[a]
     dv = float(r.v[b] - r.v[a])
@@ -236,6 +239,38 @@ def _impulse_parts(r: Record, f1: float = 0.0) -> tuple[float, float, float] | N
     spring = w1 ** 2 * trapezoid(r.x[a:b + 1] - r.x[a], dx=dt)
     damper = 2.0 * zeta * w1 * float(r.x[b] - r.x[a])
     return j, dv, spring + damper
+
+
+#: Window ends :func:`momentum_bend` reads the ratio at (0 .. this many samples after the usual end).
+BEND_SAMPLES = 4
+
+
+def momentum_bend(r: Record, f1: float) -> float | None:
+    """How much the impulse over the momentum bends as the window's end moves on by a sample:
+    the largest second difference of the ratio over window ends 0 .. :data:`BEND_SAMPLES`
+    samples later, relative to its median; None without a force pulse or a momentum.
+
+    After the blow the structure's momentum changes only through the spring and the damper,
+    whose share the ratio takes out, so on a response delivered within the window the ratio
+    is flat in the window's end, or drifts smoothly where that correction is coarse (its
+    second difference: at most 0.018 on clean and 5 %-mass records of
+    ``bench_impulse_check.py --lag`` seed 2 with 1-3-sample blows). A response filtered or
+    delayed against the force is still arriving when the window ends: a delay puts a step in
+    the ratio, a low-pass near the Nyquist rate rings in it by the sample (0.09-0.15 on the
+    same seed's 1-sample blows behind a 4th-order Butterworth at 0.45 of the rate). On a blow
+    too short for :func:`response_lag` to measure a lag, a ratio that bends cannot tell a
+    scale error from the filter (session 14)."""
+    vals = []
+    for e in range(BEND_SAMPLES + 1):
+        p = _impulse_parts(r, f1, e)
+        if p is None or p[1] + p[2] == 0:
+            return None
+        vals.append(p[0] / (p[1] + p[2]))
+    q = np.asarray(vals)
+    mid = float(np.median(q))
+    if not (math.isfinite(mid) and mid != 0):
+        return None
+    return float(np.max(np.abs(np.diff(q / mid, 2))))
 
 
 def _lag_samples(r: Record, f1: float, zeta: float) -> int:
@@ -383,15 +418,16 @@ IMPULSE_MASS_SPREADS = 3.0
 IMPULSE_SHARE_MAX = 0.25
 
 
-def impulse_mass_ratio(records: Sequence[Record], mass: float, f1: float | None = None
-                       ) -> tuple[float, float, int] | None:
+def impulse_mass_ratio(records: Sequence[Record], mass: float, f1: float | None = None,
+                       lag_window: bool = True) -> tuple[float, float, int] | None:
     """(median, sample standard deviation, count) over the records of the hammer impulse over
     the momentum change of the first pulse, the spring's share during the pulse taken out
     (:func:`_impulse_mass`; ``f1`` [Hz], default :func:`measured_frequency`): 1 when the mass
     is right; None without force or when no record's blow is mostly momentum
-    (:data:`IMPULSE_SHARE_MAX`). One record: spread 0."""
+    (:data:`IMPULSE_SHARE_MAX`). One record: spread 0. ``lag_window=False``: the window ends
+    with the force pulse whatever lag is claimed (the ratio as if there were none)."""
     f1 = measured_frequency(records) if f1 is None else f1
-    parts = [p for p in (_impulse_parts(r, f1) for r in records) if p is not None]
+    parts = [p for p in (_impulse_parts(r, f1, lag_window=lag_window) for r in records) if p is not None]
     ratios = np.array([j / (mass * (dv + c)) for j, dv, c in parts
                        if dv + c != 0 and abs(c) <= IMPULSE_SHARE_MAX * abs(dv + c)
                        and np.isfinite(j / (mass * (dv + c)))])

@@ -33,9 +33,25 @@ LAG_SIGMAS = 4.0
 LAG_MIN_PHASE = 0.02
 #: ... or beyond this fraction of the blow (the impulse check's window ends with the pulse).
 LAG_MIN_BLOW = 0.15
-#: Blows on fewer samples are not judged (the correlation's peak is a parabola through 3
-#: coarse points; session 12's coarse blows span 2-8 samples).
-MIN_BLOW_SAMPLES = 5
+#: Blows on fewer samples are not judged. Session 13 judged only blows of 5 samples or more (the
+#: correlation's peak is a parabola through 3 coarse points); session 14: on 2-4-sample blows a
+#: lag of 2-5 samples went unmeasured and uncorrected (my bench_lag_correction.py tuning set: a
+#: 3.3-sample delay on a 2.9-sample blow, held-out nrmse 0.49; a 4.4-sample delay, 0.70), while
+#: clean records of 2-4 samples claim none (bench_impulse_check.py --lag seed 2, --coarse seeds
+#: 1 and 3: 0 clean lags named).
+MIN_BLOW_SAMPLES = 2
+
+
+#: Lags searched up to twice the blow, and at least this many samples (session 14: a 12-sample
+#: delay on a 6-sample blow sat at the edge of the search and went unmeasured, held-out 1.63) ...
+LAG_SEARCH_SAMPLES = 24
+
+
+def _reach(width: int, rate_hz: float, f1: float) -> int:
+    """Samples searched either way: twice the blow, at least :data:`LAG_SEARCH_SAMPLES`, but not
+    beyond a quarter of the resonance's period when that is longer than twice the blow."""
+    quarter = int(rate_hz / (4 * f1)) if f1 > 0 else LAG_SEARCH_SAMPLES
+    return max(2 * width, min(LAG_SEARCH_SAMPLES, quarter))
 
 
 @dataclass(frozen=True)
@@ -89,7 +105,8 @@ def response_lag(r: Record, f1: float, zeta: float = 0.0) -> ResponseLag | None:
     width = b - a
     if width < MIN_BLOW_SAMPLES:
         return None
-    lo, hi = max(0, a - 3 * width), min(r.t.size, b + 4 * width)
+    reach = _reach(width, r.rate_hz, f1)
+    lo, hi = max(0, a - max(3 * width, reach)), min(r.t.size, b + max(4 * width, reach + 2 * width))
     if hi - lo < 4 * width:
         return None
     w1 = 2 * math.pi * f1
@@ -97,8 +114,9 @@ def response_lag(r: Record, f1: float, zeta: float = 0.0) -> ResponseLag | None:
     acc = r.a[lo:hi] + w1**2 * x + 2 * zeta * w1 * v
     force = r.force[lo:hi] - np.median(r.force[lo:a]) if a > lo else r.force[lo:hi]
     acc = acc - (np.median(acc[:a - lo]) if a > lo else 0.0)
-    # up to twice the blow either way (blind unseen10: a lag of 9 samples on a 9-sample blow)
-    lags = np.arange(-2 * width, 2 * width + 1)
+    # up to twice the blow either way (blind unseen10: a lag of 9 samples on a 9-sample blow), and
+    # at least LAG_SEARCH_SAMPLES (_reach)
+    lags = np.arange(-reach, reach + 1)
     n = acc.size
     corr = np.array([np.dot(force[max(0, -k):n - max(0, k)], acc[max(0, k):n - max(0, -k)]) for k in lags])
     k = int(np.argmax(np.abs(corr)))

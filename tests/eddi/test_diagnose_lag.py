@@ -66,3 +66,18 @@ def test_an_inverted_accelerometer_is_no_lag():
     lag, _ = _lag(sig)
     assert lag is None
     assert check_signal(sig, SYSTEM["mass"]).fault == "sign"
+
+
+@pytest.mark.parametrize("pulse_s, shift, rate", [(6e-4, 3.3, 5000.0), (1.2e-3, 12.25, 5000.0)])
+def test_a_short_blow_s_lag_and_a_lag_beyond_twice_the_blow_are_measured(pulse_s, shift, rate):
+    # session 14: a 3-sample blow was not judged (session 13 judged from 5 samples) and a 12-sample
+    # lag on a 6-sample blow sat at the edge of the search (twice the blow): both went unmeasured
+    from eddi.calculus import delay
+
+    r = impact_record(SYSTEM, rate_hz=rate, duration_s=1.5, pretrigger_s=0.2, pulse_s=pulse_s, snr_db=45.0, seed=5)
+    sig = condition(r.t, acc=delay(r.acc, shift), force=r.force, pretrigger_samples=int(0.2 * rate))
+    lag, _ = _lag(sig)
+    assert lag is not None and lag.claimed and abs(lag.samples - shift) < 0.3
+    clean = condition(r.t, acc=r.acc, force=r.force, pretrigger_samples=int(0.2 * rate))
+    lag0, _ = _lag(clean)
+    assert lag0 is not None and not lag0.claimed and abs(lag0.samples) < 0.3
