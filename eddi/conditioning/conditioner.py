@@ -223,12 +223,56 @@ def _impact_end_from_force(w: _Work) -> None:
     if f is None or not np.ptp(f) > 0:
         return  # decided after integration (first extremum of x)
     w.f_sigma = noise_rms(f, w.noise_stop)
-    f_peak_i = int(np.argmax(np.abs(f)))
+    f_peak_i = _first_blow_peak(f, w.rate)
     thr = max(5.0 * w.f_sigma, 0.01 * abs(float(f[f_peak_i])))
     look = f[f_peak_i: min(w.n, f_peak_i + int(0.1 * w.rate))]
     above = np.nonzero(np.abs(look) > thr)[0]
     w.impact_end = min(w.n - 1, f_peak_i + int(above[-1]) + 1 + w.margin)
     w.notes.append(f"impact ends at sample {w.impact_end} (force within {thr:.3g} N of zero)")
+    _cut_at_second_blow(w, abs(float(f[f_peak_i])))
+
+
+#: A later force pulse above this fraction of the first blow's peak (and 10 noise sd) is a
+#: second blow; the record is used up to it (the free response it ends is the first blow's).
+SECOND_BLOW_FRACTION = 0.05
+
+
+def _first_blow_peak(f: np.ndarray, rate: float) -> int:
+    """The first blow's peak: the largest ``|f|`` within 0.1 s of the first sample at half the
+    record's largest force (a second, larger blow later in the record is not the impact)."""
+    mag = np.abs(f)
+    first = int(np.argmax(mag >= 0.5 * float(mag.max())))
+    stop = min(mag.size, first + max(1, int(0.1 * rate)))
+    return first + int(np.argmax(mag[first:stop]))
+
+
+def _cut_at_second_blow(w: _Work, peak: float) -> None:
+    """Drop the record from a second blow on (a hammer struck again while recording).
+
+    A second blow is a force above ``SECOND_BLOW_FRACTION`` of the first peak and 10 noise sd
+    after at least 0.05 s of quiet force since the impact ended (a continuous excitation has no
+    such quiet and is left whole). The record's channels end ``margin`` samples before the
+    second blow's onset, with a warning: the free response after the first blow is what EDDI
+    reads, and the second blow's response would read as a mechanism.
+    """
+    f = w.force
+    assert f is not None
+    thr = max(10.0 * w.f_sigma, SECOND_BLOW_FRACTION * peak)
+    after = np.flatnonzero(np.abs(f[w.impact_end:]) > thr)
+    if after.size == 0 or after[0] < int(0.05 * w.rate):
+        return
+    onset = w.impact_end + int(after[0])
+    below = np.flatnonzero(np.abs(f[w.impact_end:onset]) > max(5.0 * w.f_sigma, 0.01 * peak))
+    onset = w.impact_end + int(below[-1]) + 1 if below.size else onset  # the pulse's foot
+    cut = max(w.impact_end + 2, onset - w.margin)
+    t_blow, f_blow = float(w.t[onset]), float(np.max(np.abs(f[onset:onset + int(0.1 * w.rate) + 1])))
+    for name in ("t", "acc", "vel", "disp", "force", "resp"):
+        arr = getattr(w, name)
+        if arr is not None:
+            setattr(w, name, arr[:cut])
+    w.notes.append(f"WARNING: a second blow at {t_blow:.4g} s ({f_blow:.3g} N, the first {peak:.3g} N): "
+                   f"the record is used up to {float(w.t[-1]):.4g} s (strike once per capture, or "
+                   "`on_double_hit = \"reject\"` in the bench config)")
 
 
 
