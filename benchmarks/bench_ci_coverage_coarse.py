@@ -405,6 +405,27 @@ def compare(before: list[dict], after: list[dict]) -> None:
         med_changed = f"{np.median(changed):8.3g}" if changed.size else "       -"
         print(f"{g:<22} {cov[0]:>22} {cov[1]:>22}   {np.nanmedian(ratio):7.3g} {changed.size / zb.size:6.2f} {med_changed}"
               f"  n={zb.size}")
+    switched(key, after)
+
+
+def switched(key: dict, after: list[dict]) -> None:
+    """The records whose refinement went from rejected to kept (and back): on them the median of
+    ``|err| before / |err| after`` (how much closer the returned coefficients came), of the half
+    widths after / before, and the coverage after."""
+    on = [(key[(r["seed"], r["i"])], r) for r in after if "error" not in r and (r["seed"], r["i"]) in key
+          and key[(r["seed"], r["i"])].get("refinement") == "rejected" and r.get("refinement") == "kept"]
+    back = sum(1 for r in after if (r["seed"], r["i"]) in key and key[(r["seed"], r["i"])].get("refinement") == "kept"
+               and r.get("refinement") == "rejected")
+    pairs = [(b["terms"][t], a["terms"][t]) for b, a in on for t in a["terms"] if t in b["terms"]]
+    if not pairs:
+        print(f"refinement rejected -> kept: 0 records, kept -> rejected: {back}")
+        return
+    err = np.array([abs(tb["err"]) / max(abs(ta["err"]), 1e-300) for tb, ta in pairs])
+    half = np.array([ta["half"] / tb["half"] for tb, ta in pairs])
+    cov = float(np.mean([abs(ta["z"]) <= Z95 for _, ta in pairs]))
+    print(f"refinement rejected -> kept: {len(on)} records, kept -> rejected: {back}; on them |err| before/after "
+          f"median {np.nanmedian(err):.3g}, half after/before median {np.nanmedian(half):.3g}, coverage after "
+          f"{cov:.3f} (n={len(pairs)})")
 
 
 def _cpu() -> float:
