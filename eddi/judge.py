@@ -33,8 +33,9 @@ displacement of a velocity (or acceleration) record is an integral whose constan
 conditioning anchored over the whole record, and the velocity one noisy sample; EDDI, fitted
 to that integral, then won. Session 14 (s14ci95), ``benchmarks/bench_ci_coverage_coarse.py
 --family sensor --record free-vel`` draw seeds 1 and 2: the refinement was rejected on 12 and
-14 of 40 records, EDDI's coefficients being 3-10x further from the truth (their interval
-``|c_EDDI - c_OE| + ci95_OE`` that much wider); ``free-acc``: 32 and 31 of 40.
+14 of 40 records (``free-acc``: 32 and 31), EDDI's coefficients a median 16-32x further from
+the truth than the refined ones on those records, their interval ``|c_EDDI - c_OE| + ci95_OE``
+6-10x wider (coverage held either way).
 Before (session 5: kept only when its nominal error was lower at all) the refinement was
 rejected on 10 of the 40 held-out records (seeds 1-4, 30 and 45 dB), the refined
 coefficients being the better ones on 7 of them.

@@ -3,7 +3,7 @@ fitted state, not from the first sample's (an integration constant and one noisy
 
 Session 14 (s14ci95): on ``benchmarks/bench_ci_coverage_coarse.py --family sensor --record
 free-vel`` the judge rejected the refinement on 26 of 80 records; EDDI's estimate came back
-with the interval ``|c_EDDI - c_OE| + ci95_OE`` (honest, 3-10x wider). This record is draw 18
+with the interval ``|c_EDDI - c_OE| + ci95_OE`` (honest, 6-10x wider). This record is draw 18
 of seed 1 there (0.37 kg, 19.5 Hz, 9.4 kHz, 47 dB).
 """
 
