@@ -38,7 +38,9 @@ Session 14 (s14ci95): ``--family sensor`` draws lab-rate records for a velocity 
 sensor (1-20 kHz, 0.1-50 kg, 8-60 Hz, 30-50 dB, damping ``v`` or ``v + v*abs(v)``, linear or
 Duffing stiffness, at most 60,000 samples); ``--record impact-vel|impact-disp``: the rig's blow
 measured by force + a velocity or displacement sensor (the true channel plus white noise at the
-draw's SNR, 24 bits). Tuned on draw seeds 1 and 2, held out 5 and 6 (``docs/eddi-method.md``,
+draw's SNR, 24 bits); ``--sensor-corner SHARE``: that sensor AC-coupled (first order, corner
+SHARE of the linear frequency), told to the station (``--sensor-highpass``) unless
+``--untold-corner``. Tuned on draw seeds 1 and 2, held out 5 and 6 (``docs/eddi-method.md``,
 "Session 14").
 
 Run: ``python benchmarks/bench_ci_coverage_coarse.py [--records 60] [--draw-seed 1] [--via mat|csv|arrays]
@@ -215,6 +217,10 @@ def sensor_record(d: dict, seed: int, channel: str) -> Free:
 
     r = record(d, seed)
     sig = {"vel": r.truth_v, "disp": r.truth_x}[channel]
+    if d.get("corner"):  # the sensor's first-order AC coupling (--sensor-corner)
+        from simulated_rig.sensors import ac_couple
+
+        sig = ac_couple(sig, d["corner"] * d["f"], d["rate"])
     sigma = active_rms(sig[r.pretrigger_samples:]) * 10.0 ** (-d["snr"] / 20.0)
     noisy = sig + sigma * np.random.default_rng(seed + 7919).standard_normal(sig.size)
     q = 1.5 * float(np.max(np.abs(sig))) / 2.0**23
@@ -250,7 +256,8 @@ def identify(d: dict, r, via: str, tmp: Path, refine: bool, library: str = "true
 
         pipe = Pipeline(damping=tuple(eom.damping), stiffness=tuple(eom.stiffness), refine=refine)
         if isinstance(r, Free):
-            cond = pipe.condition(r.t, **{r.channel: r.values}, force=r.force)
+            tau = 1.0 / (2.0 * math.pi * d["corner"] * d["f"]) if d.get("corner") and d.get("told", True) else None
+            cond = pipe.condition(r.t, **{r.channel: r.values}, force=r.force, ac_coupling_s=tau)
         else:
             cond = pipe.condition(r.t, acc=r.acc_m_s2, force=r.force_n)
         res = pipe.fit(cond, d["mass"])
@@ -270,7 +277,9 @@ def identify(d: dict, r, via: str, tmp: Path, refine: bool, library: str = "true
     else:
         np.savetxt(path, np.column_stack(tuple(cols.values())), delimiter=",", header=",".join(cols),
                    comments="", fmt="%.10g")
-    argv = ["identify", str(path), "--mass", repr(d["mass"]), "--damping", ",".join(eom.damping),
+    corner = (("--sensor-highpass", repr(d["corner"] * d["f"])) if d.get("corner") and d.get("told", True)
+              else ())
+    argv = ["identify", str(path), "--mass", repr(d["mass"]), *corner, "--damping", ",".join(eom.damping),
             "--stiffness", ",".join(eom.stiffness), "--json", *(() if refine else ("--no-refine",))]
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
@@ -447,6 +456,10 @@ def main() -> None:
                     help="the rig's impact record (force + acc, default), the blow measured by a velocity or "
                          "displacement sensor (force + vel / disp), or a free decay from a displaced rest "
                          "measured as acc, vel or disp (no force, no rest)")
+    ap.add_argument("--sensor-corner", type=float, default=0.0, metavar="SHARE",
+                    help="impact-vel / impact-disp: the sensor's first-order AC coupling, its corner this share of "
+                         "the linear frequency (told to the station unless --untold-corner)")
+    ap.add_argument("--untold-corner", action="store_true", help="do not tell the station the sensor's corner")
     ap.add_argument("--kernel", choices=("point", "mean"), default="point",
                     help="impact records: point samples of the acceleration (the rig's, default) or both channels "
                          "as means over each sample interval (an integrating ADC; not told to the station)")
@@ -474,7 +487,10 @@ def main() -> None:
     lo, hi = (float(s) for s in args.spc.split(":"))
     laws = tuple(args.laws.split(","))
     snr = tuple(float(s) for s in args.snr.split(":"))
-    jobs = [(i, draw_family(rng, args.family, laws, (lo, hi), snr), args.draw_seed * 1000 + i, args.via,
+    draws = [draw_family(rng, args.family, laws, (lo, hi), snr) for _ in range(args.records)]
+    if args.sensor_corner:
+        draws = [dict(d, corner=args.sensor_corner, told=not args.untold_corner) for d in draws]
+    jobs = [(i, draws[i], args.draw_seed * 1000 + i, args.via,
              not args.no_refine, args.record, args.kernel, args.library)
             for i in range(args.records)]
     print(f"coarse ci95 coverage: {args.records} draws (seed {args.draw_seed}, family {args.family}, library "
