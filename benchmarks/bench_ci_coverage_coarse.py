@@ -34,9 +34,18 @@ stuck and moving records) and ``--family mixed`` (``x^2*v + v^3`` together, the 
 (``docs/eddi-method.md``, "Session 13"). ``--compare BEFORE.jsonl AFTER.jsonl`` prints coverage
 before/after per term and the median ratio of the half widths (the price).
 
+Session 14 (s14ci95): ``--family sensor`` draws lab-rate records for a velocity or displacement
+sensor (1-20 kHz, 0.1-50 kg, 8-60 Hz, 30-50 dB, damping ``v`` or ``v + v*abs(v)``, linear or
+Duffing stiffness, at most 60,000 samples); ``--record impact-vel|impact-disp``: the rig's blow
+measured by force + a velocity or displacement sensor (the true channel plus white noise at the
+draw's SNR, 24 bits); ``--sensor-corner SHARE``: that sensor AC-coupled (first order, corner
+SHARE of the linear frequency), told to the station (``--sensor-highpass``) unless
+``--untold-corner``. Tuned on draw seeds 1 and 2, held out 5 and 6 (``docs/eddi-method.md``,
+"Session 14").
+
 Run: ``python benchmarks/bench_ci_coverage_coarse.py [--records 60] [--draw-seed 1] [--via mat|csv|arrays]
-[--kernel point|mean] [--record impact|free-acc|free-vel|free-disp] [--no-refine] [--laws x^2*v,...]
-[--spc 8:40] [--snr 30:60] [--family default|stick|mixed] [--library true|wide] [--jobs 2] [--out rows.jsonl]``;
+[--kernel point|mean] [--record impact|impact-vel|impact-disp|free-acc|free-vel|free-disp] [--no-refine] [--laws x^2*v,...]
+[--spc 8:40] [--snr 30:60] [--family default|stick|mixed|sensor] [--library true|wide] [--jobs 2] [--out rows.jsonl]``;
 ``--summary F.jsonl...`` reprints stored
 rows (~0.1-1 s per record).
 """
@@ -95,12 +104,33 @@ def draw(rng: np.random.Generator, laws: tuple[str, ...], spc: tuple[float, floa
 #: (the row's ``stuck``: the fraction of the record after the response stopped); ``mixed``:
 #: ``x^2*v + v^3`` together (two damping terms whose loss per cycle both grows like the amplitude
 #: cubed: the selection may drop one), the share of ``x^2*v`` drawn in 0.2-0.8.
-FAMILIES = {"stick": ("sign(v)",), "mixed": ("x^2*v+v^3",)}
+FAMILIES = {"stick": ("sign(v)",), "mixed": ("x^2*v+v^3",), "sensor": ("v", "v*abs(v)")}
+
+
+def draw_sensor(rng: np.random.Generator, snr: tuple[float, float]) -> dict:
+    """``--family sensor`` (session 14): lab-rate records for a velocity or displacement sensor:
+    rate 1-20 kHz, mass 0.1-50 kg, 8-60 Hz, damping ratio 0.005-0.03, 30-50 dB unless ``--snr``
+    says otherwise; damping ``v`` alone or with ``v*abs(v)`` (share 0.3-2 at the first peak),
+    stiffness linear, hardening or softening cubic (Duffing)."""
+    rate = float(np.exp(rng.uniform(math.log(1000.0), math.log(20000.0))))
+    f = float(np.exp(rng.uniform(math.log(8.0), math.log(60.0))))
+    mass = float(np.exp(rng.uniform(math.log(0.1), math.log(50.0))))
+    zeta = float(np.exp(rng.uniform(math.log(0.005), math.log(0.03))))
+    law = str(rng.choice(FAMILIES["sensor"]))
+    stiff = str(rng.choice(STIFF))
+    share = float(rng.uniform(0.3, 2.0))
+    kshare = {"linear": 0.0, "hardening": float(rng.uniform(0.05, 0.4)),
+              "softening": -float(rng.uniform(0.03, 0.12))}[stiff]
+    return dict(rate=rate, spc=rate / f, f=f, mass=mass, zeta=zeta, law=law, share=share, stiff=stiff,
+                kshare=kshare, snr=float(rng.uniform(*snr)), width=float(rng.uniform(0.1, 0.3)) / f,
+                vp=0.1, max_samples=60000)
 
 
 def draw_family(rng: np.random.Generator, family: str, laws: tuple[str, ...], spc: tuple[float, float],
                 snr: tuple[float, float]) -> dict:
     """One draw of ``family`` (``default``: :func:`draw` from ``laws``)."""
+    if family == "sensor":
+        return draw_sensor(rng, (30.0, 50.0) if snr == (30.0, 60.0) else snr)
     d = draw(rng, FAMILIES.get(family, laws), spc, snr)
     if family == "mixed":
         d["split"] = float(rng.uniform(0.2, 0.8))
@@ -120,6 +150,8 @@ def true_model(d: dict) -> EquationOfMotion:
     laws = d["law"].split("+")  # a mixed law: the share split among its terms (``split``: the first's)
     parts = [d["split"], 1.0 - d["split"]] if "split" in d and len(laws) == 2 else [1.0 / len(laws)] * len(laws)
     for law, part in zip(laws, parts):
+        if law == "v":  # linear damping only
+            continue
         scale = {"x^2*v": xp**2, "v^3": vp**2, "v*abs(v)": vp, "sign(v)": 1.0 / vp, "abs(x)*v": xp}[law]
         damping[law] = d["share"] * part * b1 / scale
     return EquationOfMotion.create(mass=m, damping=damping, stiffness=stiffness)
@@ -158,7 +190,8 @@ def record(d: dict, seed: int, kernel: str = "point"):
     hammer = HammerSpec(pulse_width_s=d["width"], double_hit_delay_s=2.0 * d["width"])
     peak = d["mass"] * d["vp"] * math.pi / (2.0 * d["width"])
     b1 = eom.damping["v"]
-    span = min(30.0, max(40.0 / d["f"], 7.0 * 2.0 * d["mass"] / b1), 300.0 / d["f"])
+    span = min(30.0, max(40.0 / d["f"], 7.0 * 2.0 * d["mass"] / b1), 300.0 / d["f"],
+               d.get("max_samples", math.inf) / d["rate"])
     sensors = (force_sensor(), accelerometer(snr_db=d["snr"]))
     return impact_test(eom, peak, rate_hz=d["rate"], pretrigger_s=max(0.1, 40.0 / d["rate"]), record_s=span,
                        sensors=sensors, hammer=hammer, seed=seed)
@@ -166,11 +199,32 @@ def record(d: dict, seed: int, kernel: str = "point"):
 
 @dataclass(frozen=True)
 class Free:
-    """A free decay from a displaced rest (no blow, no force, no rest before it), one channel."""
+    """A free decay from a displaced rest (no blow, no force, no rest before it), one channel; or
+    (``force`` given) the rig's blow measured by a velocity or displacement sensor."""
 
     t: np.ndarray
     channel: str
     values: np.ndarray
+    force: np.ndarray | None = None
+    truth_v: np.ndarray | None = None
+
+
+def sensor_record(d: dict, seed: int, channel: str) -> Free:
+    """The rig's impact record (force + ``channel``: ``vel`` or ``disp``): the true velocity or
+    displacement plus white noise at the draw's SNR over the active window (as the rig's sensors
+    define it), quantised at 24 bits over 1.5x its peak; the force channel as the rig's."""
+    from simulated_rig.sensors import active_rms
+
+    r = record(d, seed)
+    sig = {"vel": r.truth_v, "disp": r.truth_x}[channel]
+    if d.get("corner"):  # the sensor's first-order AC coupling (--sensor-corner)
+        from simulated_rig.sensors import ac_couple
+
+        sig = ac_couple(sig, d["corner"] * d["f"], d["rate"])
+    sigma = active_rms(sig[r.pretrigger_samples:]) * 10.0 ** (-d["snr"] / 20.0)
+    noisy = sig + sigma * np.random.default_rng(seed + 7919).standard_normal(sig.size)
+    q = 1.5 * float(np.max(np.abs(sig))) / 2.0**23
+    return Free(t=r.t, channel=channel, values=np.round(noisy / q) * q, force=r.force_n, truth_v=r.truth_v)
 
 
 def free_record(d: dict, seed: int, channel: str) -> Free:
@@ -181,7 +235,8 @@ def free_record(d: dict, seed: int, channel: str) -> Free:
 
     eom = true_model(d)
     w = 2.0 * math.pi * d["f"]
-    span = min(30.0, max(40.0 / d["f"], 7.0 * 2.0 * d["mass"] / eom.damping["v"]), 300.0 / d["f"])
+    span = min(30.0, max(40.0 / d["f"], 7.0 * 2.0 * d["mass"] / eom.damping["v"]), 300.0 / d["f"],
+               d.get("max_samples", math.inf) / d["rate"])
     n = int(round(span * d["rate"]))
     res = simulate(eom, rate_hz=d["rate"], n_samples=n, x0=d["vp"] / w, v0=0.0, substeps=None)
     sig = {"acc": res.a, "vel": res.v, "disp": res.x}[channel]
@@ -201,7 +256,8 @@ def identify(d: dict, r, via: str, tmp: Path, refine: bool, library: str = "true
 
         pipe = Pipeline(damping=tuple(eom.damping), stiffness=tuple(eom.stiffness), refine=refine)
         if isinstance(r, Free):
-            cond = pipe.condition(r.t, **{r.channel: r.values})
+            tau = 1.0 / (2.0 * math.pi * d["corner"] * d["f"]) if d.get("corner") and d.get("told", True) else None
+            cond = pipe.condition(r.t, **{r.channel: r.values}, force=r.force, ac_coupling_s=tau)
         else:
             cond = pipe.condition(r.t, acc=r.acc_m_s2, force=r.force_n)
         res = pipe.fit(cond, d["mass"])
@@ -212,8 +268,8 @@ def identify(d: dict, r, via: str, tmp: Path, refine: bool, library: str = "true
     from station.cli import main as station_main
 
     path = tmp / f"rec.{via}"
-    cols = {"t": r.t, r.channel: r.values} if isinstance(r, Free) else {"t": r.t, "force": r.force_n,
-                                                                         "acc": r.acc_m_s2}
+    cols = {"t": r.t, "force": r.force_n, "acc": r.acc_m_s2} if not isinstance(r, Free) else \
+        {"t": r.t, r.channel: r.values} if r.force is None else {"t": r.t, "force": r.force, r.channel: r.values}
     if via == "mat":
         import scipy.io
 
@@ -221,7 +277,9 @@ def identify(d: dict, r, via: str, tmp: Path, refine: bool, library: str = "true
     else:
         np.savetxt(path, np.column_stack(tuple(cols.values())), delimiter=",", header=",".join(cols),
                    comments="", fmt="%.10g")
-    argv = ["identify", str(path), "--mass", repr(d["mass"]), "--damping", ",".join(eom.damping),
+    corner = (("--sensor-highpass", repr(d["corner"] * d["f"])) if d.get("corner") and d.get("told", True)
+              else ())
+    argv = ["identify", str(path), "--mass", repr(d["mass"]), *corner, "--damping", ",".join(eom.damping),
             "--stiffness", ",".join(eom.stiffness), "--json", *(() if refine else ("--no-refine",))]
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
@@ -249,7 +307,9 @@ def one(args: tuple) -> dict:
     eom = true_model(d)
     row = dict(i=i, seed=seed, kind=kind, **d, terms={})
     try:
-        r = record(d, seed, kernel) if kind == "impact" else free_record(d, seed, kind.split("-")[1])
+        r = record(d, seed, kernel) if kind == "impact" else \
+            sensor_record(d, seed, kind.split("-")[1]) if kind in ("impact-vel", "impact-disp") else \
+            free_record(d, seed, kind.split("-")[1])
         row["stuck"] = stuck_fraction(r)
         with tempfile.TemporaryDirectory() as tmp:
             js = identify(d, r, via, Path(tmp), refine, library)
@@ -354,6 +414,27 @@ def compare(before: list[dict], after: list[dict]) -> None:
         med_changed = f"{np.median(changed):8.3g}" if changed.size else "       -"
         print(f"{g:<22} {cov[0]:>22} {cov[1]:>22}   {np.nanmedian(ratio):7.3g} {changed.size / zb.size:6.2f} {med_changed}"
               f"  n={zb.size}")
+    switched(key, after)
+
+
+def switched(key: dict, after: list[dict]) -> None:
+    """The records whose refinement went from rejected to kept (and back): on them the median of
+    ``|err| before / |err| after`` (how much closer the returned coefficients came), of the half
+    widths after / before, and the coverage after."""
+    on = [(key[(r["seed"], r["i"])], r) for r in after if "error" not in r and (r["seed"], r["i"]) in key
+          and key[(r["seed"], r["i"])].get("refinement") == "rejected" and r.get("refinement") == "kept"]
+    back = sum(1 for r in after if (r["seed"], r["i"]) in key and key[(r["seed"], r["i"])].get("refinement") == "kept"
+               and r.get("refinement") == "rejected")
+    pairs = [(b["terms"][t], a["terms"][t]) for b, a in on for t in a["terms"] if t in b["terms"]]
+    if not pairs:
+        print(f"refinement rejected -> kept: 0 records, kept -> rejected: {back}")
+        return
+    err = np.array([abs(tb["err"]) / max(abs(ta["err"]), 1e-300) for tb, ta in pairs])
+    half = np.array([ta["half"] / tb["half"] for tb, ta in pairs])
+    cov = float(np.mean([abs(ta["z"]) <= Z95 for _, ta in pairs]))
+    print(f"refinement rejected -> kept: {len(on)} records, kept -> rejected: {back}; on them |err| before/after "
+          f"median {np.nanmedian(err):.3g}, half after/before median {np.nanmedian(half):.3g}, coverage after "
+          f"{cov:.3f} (n={len(pairs)})")
 
 
 def _cpu() -> float:
@@ -370,9 +451,15 @@ def main() -> None:
     ap.add_argument("--snr", default="30:60", help="SNR range [dB], LO:HI (default 30:60)")
     ap.add_argument("--via", choices=("mat", "csv", "arrays"), default="mat",
                     help="station identify on a MATLAB file (default) or a CSV, or the pipeline on the arrays")
-    ap.add_argument("--record", choices=("impact", "free-acc", "free-vel", "free-disp"), default="impact",
-                    help="the rig's impact record (force + acc, default) or a free decay from a displaced rest "
+    ap.add_argument("--record", choices=("impact", "impact-vel", "impact-disp", "free-acc", "free-vel", "free-disp"),
+                    default="impact",
+                    help="the rig's impact record (force + acc, default), the blow measured by a velocity or "
+                         "displacement sensor (force + vel / disp), or a free decay from a displaced rest "
                          "measured as acc, vel or disp (no force, no rest)")
+    ap.add_argument("--sensor-corner", type=float, default=0.0, metavar="SHARE",
+                    help="impact-vel / impact-disp: the sensor's first-order AC coupling, its corner this share of "
+                         "the linear frequency (told to the station unless --untold-corner)")
+    ap.add_argument("--untold-corner", action="store_true", help="do not tell the station the sensor's corner")
     ap.add_argument("--kernel", choices=("point", "mean"), default="point",
                     help="impact records: point samples of the acceleration (the rig's, default) or both channels "
                          "as means over each sample interval (an integrating ADC; not told to the station)")
@@ -382,7 +469,8 @@ def main() -> None:
     ap.add_argument("--summary", nargs="+", metavar="JSONL", help="only print the summary of stored rows")
     ap.add_argument("--family", choices=("default", *FAMILIES), default="default",
                     help="default: the laws of --laws; stick: Coulomb sign(v) (most records stop in the friction "
-                         "band before they end; rows carry 'stuck'); mixed: x^2*v + v^3 together, the split drawn")
+                         "band before they end; rows carry 'stuck'); mixed: x^2*v + v^3 together, the split drawn; "
+                         "sensor: lab-rate records for --record impact-vel|impact-disp|free-vel|free-disp")
     ap.add_argument("--library", choices=("true", "wide"), default="true",
                     help="identify with the system's own terms (default) or damping v,x^2*v,v^3 (the station's)")
     ap.add_argument("--compare", nargs=2, metavar=("BEFORE", "AFTER"),
@@ -399,7 +487,10 @@ def main() -> None:
     lo, hi = (float(s) for s in args.spc.split(":"))
     laws = tuple(args.laws.split(","))
     snr = tuple(float(s) for s in args.snr.split(":"))
-    jobs = [(i, draw_family(rng, args.family, laws, (lo, hi), snr), args.draw_seed * 1000 + i, args.via,
+    draws = [draw_family(rng, args.family, laws, (lo, hi), snr) for _ in range(args.records)]
+    if args.sensor_corner:
+        draws = [dict(d, corner=args.sensor_corner, told=not args.untold_corner) for d in draws]
+    jobs = [(i, draws[i], args.draw_seed * 1000 + i, args.via,
              not args.no_refine, args.record, args.kernel, args.library)
             for i in range(args.records)]
     print(f"coarse ci95 coverage: {args.records} draws (seed {args.draw_seed}, family {args.family}, library "

@@ -24,14 +24,17 @@ from eddi.validate import Validation, validate
 
 
 def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal,
-                         fused: bool = True, *, drive_scale: float = 1.0) -> tuple[Validation, bool]:
+                         fused: bool = True, *, drive_scale: float = 1.0,
+                         fitted_free_state: bool = False) -> tuple[Validation, bool]:
     """Simulate ``eom`` for a conditioned record, compare over its free-response window.
 
     Driven from rest by the measured impact force when the record has a force and a rest
     before the impact (fused with ``m a + B + K`` when the acceleration was measured and
     ``fused``, see :func:`fused_impact_force`; times ``drive_scale``, which the refinement's
     judge varies within the impulse's uncertainty, :mod:`eddi.judge`); otherwise a free
-    response from the measured state at the start of the window.
+    response from the measured state at the start of the window, or (a blow with no rest
+    before it, or ``fitted_free_state`` on a record with no force) from the state fitted over
+    the window's first cycles (:func:`eddi.initial_state.fitted_state`).
 
     Returns
     -------
@@ -51,10 +54,12 @@ def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal,
         val = validate(eom, cond.t[s:e], cond.x[s:e], v=cond.v[s:e], force=drive[s:e],
                        window=(cond.free_start - s, cond.free_stop - s))
         return _shift(val, s), True
-    if force is not None:
+    if force is not None or fitted_free_state:
         # a blow with no rest before it: the free response starts right after the blow, where
         # one sample's state is least reliable; from the state fitted over its first cycles
-        # (eddi.initial_state) as the diagnosis simulates its free parts
+        # (eddi.initial_state) as the diagnosis simulates its free parts. A free decay (no
+        # force) when asked (the refinement's judge, eddi.judge): its first sample's state is an
+        # integration constant and one noisy sample
         w0, w1 = cond.window
         xs = float(np.max(np.abs(cond.x[w0:w1]))) or None
         vs = float(np.max(np.abs(cond.v[w0:w1]))) or None

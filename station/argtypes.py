@@ -168,9 +168,11 @@ def sensor_highpass(text: str) -> float:
 
 
 def add_sensor_highpass_option(p: argparse.ArgumentParser) -> None:
-    """``--sensor-highpass HZ``: the accelerometer's first-order AC coupling, inverted in conditioning."""
+    """``--sensor-highpass HZ``: the accelerometer's (a velocity-only record: the velocity sensor's)
+    first-order AC coupling, inverted in conditioning."""
     p.add_argument("--sensor-highpass", type=sensor_highpass, default=None, metavar="HZ|none",
                    help="the accelerometer's first-order AC coupling corner [Hz] (IEPE: typically 0.1-1 Hz; "
+                        "on a record with velocity and no acceleration: the velocity sensor's; "
                         "see its data sheet), inverted before identification; none: DC-coupled; default: what "
                         "the capture file records, else DC-coupled (identify warns when the record looks "
                         "AC-coupled)")
