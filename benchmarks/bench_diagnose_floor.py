@@ -121,7 +121,7 @@ def run_case(args: tuple) -> dict:
             "pred": list(fl.prediction_nrmse), "chain": list(fl.chain_nrmse), "partial": d.partial,
             "candidates": [[c.name, round(c.nrmse, 5), [round(v, 5) for v in c.fold_nrmse], round(c.gain, 4),
                             c.reference, c.wins_every_part, c.consistent, bool(c.contradicted)] for c in tried],
-            "symptoms": {s.kind: s.values for s in d.symptoms if s.kind in ("frequency_bias", "growth",
+            "symptoms": {s.kind: s.values for s in d.symptoms if s.kind in ("frequency_bias", "energy_mismatch", "growth",
                                                                                "low_frequency_drift")},
             "notes": list(d.notes), "verdict": d.verdict, "cpu_s": time.process_time() - t0}
 

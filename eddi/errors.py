@@ -25,3 +25,8 @@ class SignalError(EddiError, ValueError):
 
 class IdentificationError(EddiError, ValueError):
     """Identification failed (too few zero crossings, singular system...)."""
+
+
+class TooShortToRefine(IdentificationError):
+    """The window holds too few compared values for the output-error refinement (EDDI's
+    estimate stands: :meth:`eddi.fit_record.Pipeline.fit` keeps it with refinement ``"off"``)."""

@@ -49,7 +49,7 @@ from eddi.calculus import decimate_centred, decimation_factor, samples_per_cycle
 from eddi.conditioning import ConditionedSignal, condition
 from eddi.driven_validation import fused_impact_force, unsharpened, validate_conditioned
 from eddi.energy import noise_level
-from eddi.errors import IdentificationError, SignalError
+from eddi.errors import IdentificationError, SignalError, TooShortToRefine
 from eddi.identify import IdentifiedModel, identify
 from eddi.intervals import (loose_coefficient_warnings, sampling_kernel_margin, sampling_kernel_warning,
                             selection_warning)
@@ -179,20 +179,29 @@ class Pipeline:
         return replace(model, window=cond.window), q
 
     def _identify(self, cond: ConditionedSignal, mass: float, route: str,
-                  h_omega: float | None = None) -> tuple[IdentifiedModel, int]:
-        """:meth:`_eddi`, then the refinement it seeds (when asked for)."""
+                  h_omega: float | None = None) -> tuple[IdentifiedModel, int, str]:
+        """:meth:`_eddi`, then the refinement it seeds (when asked for).
+
+        Returns the model, the decimation factor and, when the record is too short to refine
+        (:class:`~eddi.errors.TooShortToRefine`), why: EDDI's estimate is then returned as it is
+        (a 28-sample, 256 Hz ring-down fitted 11 parameters by EDDI and was refused outright:
+        "refinement of 11 parameters needs >= 44 compared values"); else ''.
+        """
         model, q = self._eddi(cond, mass, route, h_omega)
         if self.refine:
             from eddi.refine import refine_output_error  # local: scipy.optimize
 
             w0, w1 = cond.window
-            eom, info = refine_output_error(model.eom, cond.t[w0:w1], cond.x[w0:w1], cond.v[w0:w1],
-                                            cond.a[w0:w1], channel=REFINE_CHANNEL[cond.response],
-                                            select=self.select, mapper=self.mapper,
-                                            kernel_var=cond.sample_kernel_var,
-                                            kernel_known=cond.sample_kernel_known)
+            try:
+                eom, info = refine_output_error(model.eom, cond.t[w0:w1], cond.x[w0:w1], cond.v[w0:w1],
+                                                cond.a[w0:w1], channel=REFINE_CHANNEL[cond.response],
+                                                select=self.select, mapper=self.mapper,
+                                                kernel_var=cond.sample_kernel_var,
+                                                kernel_known=cond.sample_kernel_known)
+            except TooShortToRefine as exc:
+                return model, q, f"{TOO_SHORT_TO_REFINE} ({exc}): EDDI's estimate, not refined"
             model = replace(model, eom=eom, unrefined=model.eom, refinement=info)
-        return model, q
+        return model, q, ""
 
     @staticmethod
     def _intervals(eom: EquationOfMotion, cond: ConditionedSignal, refinement: str,
@@ -272,7 +281,7 @@ class Pipeline:
     def _fit(self, cond: ConditionedSignal, mass: float, held_out: Sequence[ConditionedSignal],
              sensor_only: bool, route: str, h_omega: float | None = None) -> PipelineResult:
         """:meth:`fit` with EDDI's phase two on ``route``, on a grid of ``h_omega`` (None: the default)."""
-        model, q = self._identify(cond, mass, route, h_omega)
+        model, q, too_short = self._identify(cond, mass, route, h_omega)
         # the fit record and the held-out ones validated with the model and with EDDI's (the
         # refinement's judge): independent simulations, through the mapper (station diagnose:
         # forked processes; 0.7 s of the double beam's ~5 s that ran in turn)
@@ -286,7 +295,7 @@ class Pipeline:
         held = tuple(v for v, _ in pairs)
         held_force = tuple(f for _, f in pairs)
         judged_on = f"held-out records ({len(held)})" if held else "fit record"
-        judged = judge_refinement(model, cond, held_out, val, held, judged_on, eddi_vals)
+        judged = judge_refinement(model, cond, held_out, val, held, judged_on, eddi_vals, off_reason=too_short)
         model, val, held, eddi_held, refinement, reason, n_eddi, n_ref = judged
         nrmse_sensor = None
         if sensor_only and by_force and cond.acc_measured:
@@ -301,7 +310,7 @@ class Pipeline:
                    if t not in eom.damping and t not in eom.stiffness}
         if refinement == "kept" and ref is not None:
             dropped.update(ref.dropped)
-        warnings = list(cond_warnings(cond))
+        warnings = list(cond_warnings(cond)) + ([too_short] if too_short else [])
         f_hi = highest_frequency(cond)
         coarse = samples_per_cycle_note(cond.rate_hz, f_hi)
         ci95, margin_note = sampling_kernel_margin(eom, ci95, cond.rate_hz, f_hi, cond.sample_kernel_known,
@@ -327,6 +336,10 @@ class Pipeline:
             unstable=bool(unsound) or val.diverged or any(h.diverged for h in held))
         return PipelineResult(cond, model, val, by_force, nrmse_sensor, choices, held, eddi_held, held_force,
                               ci95, units_of(eom))
+
+
+#: How the refinement's reason and the warning begin when the fit record is too short to refine.
+TOO_SHORT_TO_REFINE = "the record is too short to refine"
 
 
 def _needs_scored_pipeline(res: PipelineResult) -> bool:

@@ -72,7 +72,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from eddi.errors import IdentificationError, SignalError
+from eddi.errors import SignalError, TooShortToRefine
 from eddi.intervals import integration_shift, measured_kernel_margin
 from eddi.model import EquationOfMotion
 from eddi.output_error import DIRECT_NRMSE, NUISANCE, STAGES, OutputErrorProblem
@@ -166,7 +166,7 @@ def _check(t: np.ndarray, x: np.ndarray, v: np.ndarray, a: np.ndarray | None,
     t = np.asarray(t, dtype=float)
     n = t.size
     if n < MIN_SAMPLES:
-        raise IdentificationError(f"output-error refinement needs >= {MIN_SAMPLES} samples, got {n}")
+        raise TooShortToRefine(f"output-error refinement needs >= {MIN_SAMPLES} samples, got {n}")
     x = np.asarray(x, dtype=float)
     v = np.asarray(v, dtype=float)
     if channel is None:
@@ -267,9 +267,10 @@ def refine_output_error(
 
     Raises
     ------
-    IdentificationError
-        If the window is too short (fewer than :data:`MIN_SAMPLES` samples, or than
-        :data:`VALUES_PER_PARAMETER` compared values per fitted parameter).
+    TooShortToRefine
+        (an :class:`~eddi.errors.IdentificationError`) If the window is too short (fewer than
+        :data:`MIN_SAMPLES` samples, or than :data:`VALUES_PER_PARAMETER` compared values per
+        fitted parameter).
     SignalError
         If ``channel`` is unknown, or ``"a"`` without ``a``.
     """
@@ -277,7 +278,7 @@ def refine_output_error(
     prob = OutputErrorProblem(eom, t, x, v, y, channel, kernel_var)
     n = prob.n
     if n < VALUES_PER_PARAMETER * prob.p0.size:
-        raise IdentificationError(f"output-error refinement of {prob.p0.size} parameters needs >= "
+        raise TooShortToRefine(f"output-error refinement of {prob.p0.size} parameters needs >= "
                                   f"{VALUES_PER_PARAMETER * prob.p0.size} compared values, got {n}")
     prob.min_gain = None if min_gain is None else float(min_gain)
     norm = float(np.linalg.norm(prob.y)) or 1.0

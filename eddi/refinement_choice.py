@@ -22,10 +22,12 @@ from eddi.validate import Validation
 
 def judge_refinement(model: IdentifiedModel, cond: ConditionedSignal, held_out: Sequence[ConditionedSignal],
                       val: Validation, held: tuple[Validation, ...], judged_on: str,
-                      eddi_vals: tuple[Validation, tuple[Validation, ...]] | None = None) -> tuple:
+                      eddi_vals: tuple[Validation, tuple[Validation, ...]] | None = None,
+                      off_reason: str = "") -> tuple:
     """Keep the refined model or EDDI's (see the module notes); returns what :meth:`Pipeline.fit` needs.
 
     ``eddi_vals``: EDDI's model validated on ``cond`` and on ``held_out`` (computed here when None).
+    ``off_reason``: why an unrefined model was not refined (default: not asked for).
 
     Returns
     -------
@@ -35,7 +37,7 @@ def judge_refinement(model: IdentifiedModel, cond: ConditionedSignal, held_out: 
     """
     eddi_held: tuple[Validation, ...] = ()
     if model.unrefined is None:
-        refinement, reason, n_eddi, n_ref = "off", "refinement not asked for (--no-refine)", None, None
+        refinement, reason, n_eddi, n_ref = "off", off_reason or "refinement not asked for (--no-refine)", None, None
     else:
         if eddi_vals is None:
             eddi_vals = (validate_conditioned(model.unrefined, cond)[0],

@@ -24,6 +24,7 @@ import numpy as np
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
 from eddi.diagnosis.align import NAME as LAG_NAME, correction_note, lag_candidate
 from eddi.diagnosis.chain import inspect, measured_frequency
+from eddi.diagnosis.conservative import stiffness_over_damping
 from eddi.diagnosis.highpass import recondition, sensor_highpass
 from eddi.diagnosis.earn import CHAIN_REASON, earn, reported_text
 from eddi.diagnosis.extend import Fit, Setup
@@ -332,6 +333,11 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor, strong_margin=strong_margin,
                  eddi_fold=res.ref_fold, departs=_pipeline_check(pipeline, sh, none_factor))
     dec = _lag_named(dec, candidates, res, floor, rules)
+    if dec.winner is not None and dec.winner.form != "observed" and dec.winner.name in res.cand_sims:
+        natives = {m.name: m.native for m in catalogue()}
+        dec = stiffness_over_damping(dec, symptoms, natives.get(dec.winner.name, ""), records, sh.parts,
+                                     res.base_sims, res.cand_sims[dec.winner.name], sh.setup.mass,
+                                     floor.part_conditioning_nrmse)
     symptoms = _impulse_through_coupling(dec, records, sh.setup.mass, f1, symptoms)
     # a chain that cannot be trusted earns neither silence nor a name (eddi.diagnosis.earn); the band
     # rule's "above the floor" is against the full floor, as calibrated: against the floor of the

@@ -275,6 +275,7 @@ def diagnosis_object(read: list[Any], args: argparse.Namespace) -> tuple[Diagnos
     flagged (:func:`model_flags`), then the undeclared AC-coupling warning of ``station identify``.
     """
     from eddi.diagnosis import diagnose
+    from eddi.fit_record import TOO_SHORT_TO_REFINE
     from eddi.model import EquationOfMotion
 
     base = None
@@ -321,6 +322,9 @@ def diagnosis_object(read: list[Any], args: argparse.Namespace) -> tuple[Diagnos
     warnings = model_flags(diag, pipe_obj)
     obj["unstable"] = bool(warnings)
     obj["warnings"] = list(warnings)
+    reason = str(baseline.choices.get("refinement_reason", "")) if baseline is not None else ""
+    if reason.startswith(TOO_SHORT_TO_REFINE):  # a warning, not a flag: EDDI's estimate stands
+        obj["warnings"].append(f"the pipeline's model: {reason}")
     if (session is not None and args.sensor_highpass is None and diag.cause in ("none", "unexplained", "sensor_highpass")
             and not any(m.metadata.get("ac_coupling_s") for m in measurements)):
         # after `unstable`: a warning, not a flag. Not when the held-out judgement named another

@@ -62,15 +62,21 @@ def test_cycles_at_the_noise_give_no_frequency() -> None:
     """A ring-down (10 Hz, zeta 2.5 %, 3 s) that ends in its noise (RMS 1 % of the peak; the last
     cycles are 2-3x the noise): read blind, the small-amplitude band gives a -11.5 % bias (the
     noise's own crossings: the kind of -52 % a blind 7.6 t set was called ``unexplained`` on);
-    with the coordinate's noise known, no cycle of that band is 5x above it and no bias is
-    claimed there, while the large-amplitude band is read as before."""
+    with the coordinate's noise known, the crossings need a passage through +-3 of it (session
+    14: one noise for the dead band and the guard), cycles under 5x it give no frequency, and the
+    small-amplitude band holds real cycles only: +0.94 % +- 0.98 %, no claim (session 13, with
+    the guard alone, the noise's cycles still set the thirds and that band was empty); the
+    large-amplitude band is read as before."""
+    from eddi.diagnosis.symptoms import bias_threshold_pct
+
     t, x, v, nx, fd = _ringdown(0.01, 0, zeta=0.025)
     sigma = float(np.std(nx))
     blind = _part_numbers(t, x + nx, v, x, v, 1.0, 500.0)
-    heard = _part_numbers(t, x + nx, v, x, v, 1.0, 500.0, coord_noise=sigma)
+    heard = _part_numbers(t, x + nx, v, x, v, 1.0, 500.0, noise=sigma)
     assert blind["frequency_bias_low_pct"] < -5.0
-    assert math.isnan(heard["frequency_bias_low_pct"]) and heard["frequency_bias_low_se_pct"] == math.inf
-    assert heard["frequency_bias_high_pct"] == pytest.approx(blind["frequency_bias_high_pct"])
+    assert abs(heard["frequency_bias_low_pct"]) < bias_threshold_pct(heard["frequency_bias_low_se_pct"])
+    assert abs(heard["frequency_bias_low_pct"]) < 1.5
+    assert heard["frequency_bias_high_pct"] == pytest.approx(blind["frequency_bias_high_pct"], abs=0.05)
     assert abs(heard["frequency_bias_high_pct"]) < 0.5
 
 
