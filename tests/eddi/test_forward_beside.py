@@ -126,3 +126,21 @@ def test_the_start_s_error_is_raised_only_where_the_forward_path_runs(monkeypatc
         Pipeline().fit(cond, m)
     with pytest.raises(ArithmeticError, match="core fit"):
         replace(Pipeline(), mapper=InTurn()).fit(cond, m)
+
+
+def test_a_start_from_other_inputs_is_not_used(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the start is used only when it was computed from the inputs the forward path has where it
+    # runs (selection._start_key); another key: the core is fitted again there, the same result
+    keys = iter(range(10**6))
+    monkeypatch.setattr(selection, "_start_key", lambda *args: str(next(keys)).encode())
+    fits = []
+    real = selection._core_fit
+    monkeypatch.setattr(selection, "_core_fit", lambda *a, **k: fits.append(1) or real(*a, **k))
+    cond, m = _forward_case()
+    serial = Pipeline().fit(cond, m)
+    in_turn = len(fits)  # one per refinement with a forward path (the pipeline may refine twice)
+    assert in_turn >= 1
+    fits.clear()
+    beside = replace(Pipeline(), mapper=InTurn()).fit(cond, m)
+    assert len(fits) == 2 * in_turn  # beside, then again where the forward path runs
+    _same(beside, serial)
