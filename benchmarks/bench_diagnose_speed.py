@@ -21,6 +21,7 @@ Targets (issue 13): ``three`` <= 3 s, ``beam`` <= 8 s on a quiet 2-core machine.
     python benchmarks/bench_diagnose_speed.py --case cli --runs 3 --before /tmp/before
 
     python benchmarks/bench_diagnose_speed.py --case estimate   # quiet 2-core wall, modelled
+    python benchmarks/bench_diagnose_speed.py --case estimate --runs 3 --before /tmp/before
 
 ``--case estimate``: each ``station diagnose`` runs once in one process with every item of every
 fork map timed (CPU); the wall time on ``--jobs`` idle cores is modelled as the CPU outside the
@@ -28,7 +29,11 @@ maps plus, per map, the time ``jobs`` processes take to share its items the way
 :class:`station.forkmap.ForkMap` hands them out (item ``k < jobs`` to process ``k``, then each
 item to the first process free). This is the quiet-machine figure the targets speak of, from
 CPU measured at whatever load (CPU rises with the load too: read it as an upper bound), and the
-same model with the items dealt round robin (how ForkMap shared them before session 8).
+same model with the items dealt round robin (how ForkMap shared them before session 8). The
+maps are made for ``--jobs`` processes (``STATION_JOBS``; their items still run in turn, timed):
+work a forking map computes beside the rest (the forward term selection's start) is counted
+as it runs. With ``--before TREE`` each of ``--runs`` rounds also runs from that checkout,
+interleaved (alternating which goes first), and the medians' ratio and the JSON's sameness are printed.
 
 ``--case cli``: whole ``station diagnose`` processes (imports, reading, conditioning, the
 pipeline baseline, the diagnosis). CPU is the process's and its forked workers'. Each case
@@ -265,13 +270,38 @@ finally:
 """
 
 
-def run_estimate(jobs: int, detail: bool = False) -> None:
-    """The quiet-machine wall time of ``station diagnose`` on ``jobs`` idle cores, modelled (see
-    the module notes) from one timed run per case in one process."""
+def _estimate_once(tree: Path, args: list[str], tmp: str, jobs: int) -> tuple[dict, bytes]:
+    """One timed ``station diagnose`` from ``tree`` (its fork maps made for ``jobs`` processes, each
+    item run here in turn and timed): the child's CPU figures and its JSON."""
     import json
     import subprocess
+
+    env = {**os.environ, "PYTHONPATH": str(tree) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+           "STATION_JOBS": str(jobs)}
+    env.pop("STATION_SERIAL", None)
+    out = Path(tmp) / "estimate.json"
+    got = subprocess.run([sys.executable, "-c", _ESTIMATE_CHILD, str(out), *args], env=env, cwd=tmp,
+                         stdout=subprocess.PIPE, check=False).stdout
+    return json.loads(out.read_text()), got
+
+
+def _modelled(got: dict, jobs: int) -> tuple[float, float, float, float]:
+    """(modelled wall, the same dealt round robin, CPU outside the maps, CPU inside)."""
+    maps = got["maps"]
+    inside = sum(sum(m) for m in maps)
+    outside = got["total"] - inside
+    return (outside + sum(_makespan(m, jobs) for m in maps),
+            outside + sum(_makespan(m, jobs, dealt=True) for m in maps), outside, inside)
+
+
+def run_estimate(jobs: int, detail: bool = False, runs: int = 1, before: str | None = None) -> None:
+    """The quiet-machine wall time of ``station diagnose`` on ``jobs`` idle cores, modelled (see
+    the module notes) from timed runs in one process; with ``before`` (another checkout), each
+    round runs that tree's too, interleaved, and prints the medians' ratio and whether the JSON
+    is the same."""
     import tempfile
 
+    trees = [("tree", ROOT)] + ([("before", Path(before).resolve())] if before else [])
     with tempfile.TemporaryDirectory() as tmp:
         files = []
         for i, r in enumerate(_three_raw()):
@@ -281,30 +311,33 @@ def run_estimate(jobs: int, detail: bool = False) -> None:
             files.append(str(path))
         cases = {"three": ["diagnose", *files, "--mass", "0.1", "--json"],
                  "beam": ["diagnose", *_beam_files(), "--mass", "1", "--json"]}
-        env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
-               "STATION_SERIAL": "1"}
-        env.pop("STATION_JOBS", None)
         for case, args in cases.items():
-            out = Path(tmp) / f"{case}.json"
+            walls: dict[str, list[float]] = {name: [] for name, _ in trees}
+            outs: dict[str, bytes] = {}
             load0 = os.getloadavg()[0]
-            subprocess.run([sys.executable, "-c", _ESTIMATE_CHILD, str(out), *args], env=env, cwd=tmp,
-                           stdout=subprocess.DEVNULL, check=False)
-            got = json.loads(out.read_text())
-            maps = got["maps"]
-            inside = sum(sum(m) for m in maps)
-            outside = got["total"] - inside
-            shared = sum(_makespan(m, jobs) for m in maps)
-            dealt = sum(_makespan(m, jobs, dealt=True) for m in maps)
-            target = {"three": 3.0, "beam": 8.0}[case]
-            print(f"estimate: {case}: CPU {got['total']:.2f} s in one process after Python's start-up (outside "
-                  f"the {len(maps)} fork maps {outside:.2f} s, inside {inside:.2f} s); on {jobs} idle "
-                  f"cores: {outside + shared:.2f} s wall ({outside + dealt:.2f} s with the items dealt round "
-                  f"robin); target {target:g} s: {'met' if outside + shared <= target else 'NOT met'}; "
-                  f"load {load0:.2f} -> {os.getloadavg()[0]:.2f} (CPU inflates with the load)")
-            if detail:
-                for k, m in enumerate(maps):
-                    print(f"estimate: {case}:   map {k + 1:2d}: {len(m):3d} items, CPU {sum(m):6.2f} s, "
-                          f"largest {max(m, default=0.0):5.2f} s, on {jobs} cores {_makespan(m, jobs):5.2f} s")
+            for rnd in range(runs):
+                for name, tree in (trees if rnd % 2 == 0 else trees[::-1]):
+                    got, outs[name] = _estimate_once(tree, args, tmp, jobs)
+                    wall, dealt, outside, inside = _modelled(got, jobs)
+                    walls[name].append(wall)
+                    maps = got["maps"]
+                    target = {"three": 3.0, "beam": 8.0}[case]
+                    label = f"{case}" + (f" ({name})" if before else "")
+                    print(f"estimate: {label}: CPU {got['total']:.2f} s in one process after Python's start-up "
+                          f"(outside the {len(maps)} fork maps {outside:.2f} s, inside {inside:.2f} s); on {jobs} "
+                          f"idle cores: {wall:.2f} s wall ({dealt:.2f} s with the items dealt round robin); "
+                          f"target {target:g} s: {'met' if wall <= target else 'NOT met'}; load "
+                          f"{os.getloadavg()[0]:.2f} (CPU inflates with the load)", flush=True)
+                    if detail:
+                        for k, m in enumerate(maps):
+                            print(f"estimate: {label}:   map {k + 1:2d}: {len(m):3d} items, CPU {sum(m):6.2f} s, "
+                                  f"largest {max(m, default=0.0):5.2f} s, on {jobs} cores "
+                                  f"{_makespan(m, jobs):5.2f} s")
+            if before:
+                a, b = statistics.median(walls["tree"]), statistics.median(walls["before"])
+                print(f"estimate: {case}: median modelled wall tree {a:.2f} s, before {b:.2f} s: ratio "
+                      f"{a / b:.3f} ({runs} interleaved rounds; load {load0:.2f} -> {os.getloadavg()[0]:.2f}); "
+                      f"JSON {'identical' if outs['tree'] == outs['before'] else 'DIFFERENT'}", flush=True)
 
 
 def main() -> None:
@@ -315,12 +348,13 @@ def main() -> None:
                     help="cli: whole station diagnose processes (the three captures as CSV and the "
                          "nine ring-downs; cli-three / cli-beam: one of them); estimate: their wall "
                          "time on --jobs (default 2) idle cores, modelled from timed fork-map items")
-    ap.add_argument("--runs", type=int, default=3, help="timed runs per case (default: %(default)s)")
+    ap.add_argument("--runs", type=int, default=None,
+                    help="timed runs per case (default: 3; --case estimate: 1, rounds interleaved with --before)")
     ap.add_argument("--jobs", type=int, default=None, metavar="N",
                     help="processes for the folds (station.forkmap): the library call's (default 1) and "
                          "the cli case's second row per case (default 2)")
     ap.add_argument("--before", default=None, metavar="TREE",
-                    help="cli cases: also run each one-process diagnosis from this checkout (e.g. a "
+                    help="cli and estimate cases: also run each one-process diagnosis from this checkout (e.g. a "
                          "`git worktree` of the previous commit), interleaved, and print after / before")
     ap.add_argument("--detail", action="store_true",
                     help="--case estimate: also each fork map's items (count, CPU, largest, makespan)")
@@ -329,14 +363,14 @@ def main() -> None:
     args = ap.parse_args()
     np.seterr(all="ignore")
     if args.case == "estimate":
-        run_estimate(args.jobs or 2, args.detail)
+        run_estimate(args.jobs or 2, args.detail, max(1, args.runs or 1), args.before)
         return
     if args.case.startswith("cli"):
-        run_cli(max(1, args.runs), ("three", "beam") if args.case == "cli" else (args.case[4:],),
+        run_cli(max(1, args.runs or 3), ("three", "beam") if args.case == "cli" else (args.case[4:],),
                 args.jobs or 2, args.before)
         return
     for case in (("three", "beam") if args.case == "both" else (args.case,)):
-        run_case(case, max(1, args.runs), args.profile, args.jobs or 1)
+        run_case(case, max(1, args.runs or 3), args.profile, args.jobs or 1)
 
 
 if __name__ == "__main__":

@@ -244,7 +244,9 @@ def refine_output_error(
     mapper : callable, optional
         ``mapper(fn, items) -> [fn(item) for item in items]`` for the independent trials of
         the forward term selection (:func:`eddi.selection._forward`), possibly in forked
-        processes (:mod:`eddi.diagnosis.mapping`); default: in turn, here. Same result.
+        processes (:mod:`eddi.diagnosis.mapping`); default: in turn, here. Same result. A
+        mapper that forks (``jobs`` > 1) also fits the forward path's start beside the fit of
+        every term (:func:`eddi.selection.fit_beside_forward_start`).
     min_gain : float, optional
         End a stage when a Levenberg-Marquardt step lowers the sum of squares by less than
         ``min_gain`` times its mean square per compared value (``RSS / n``: about the noise
@@ -282,7 +284,14 @@ def refine_output_error(
                                   f"{VALUES_PER_PARAMETER * prob.p0.size} compared values, got {n}")
     prob.min_gain = None if min_gain is None else float(min_gain)
     norm = float(np.linalg.norm(prob.y)) or 1.0
-    p, before, after, jac = _fit_in_stages(prob, max_nfev, norm)
+    if select:
+        from eddi.selection import core_start, fit_beside_forward_start, select_terms  # local: it builds on this module
+        core_coef = core_start(prob, t, x, v, y)
+        # when the mapper forks, the forward selection's start is fitted beside (eddi.selection)
+        (p, before, after, jac), start = fit_beside_forward_start(
+            prob, lambda: _fit_in_stages(prob, max_nfev, norm), core_coef, max_nfev, mapper)
+    else:
+        p, before, after, jac = _fit_in_stages(prob, max_nfev, norm)
     half, rss = prob.ci95(p, jac)
     # the fit's own RK4 error, corrected (eddi.intervals.integration_shift)
     shift, spread = integration_shift(prob, p, jac)
@@ -292,9 +301,7 @@ def refine_output_error(
     unselected_margin = {} if measured is None else prob.ci_dict(measured[0] * prob.scale[prob.active])
     dropped: dict[str, str] = {}
     if select:
-        from eddi.selection import core_start, select_terms  # local: it builds on this module
-        p, half, dropped = select_terms(prob, p, half, rss, max_nfev, core_start(prob, t, x, v, y),
-                                        mapper)
+        p, half, dropped = select_terms(prob, p, half, rss, max_nfev, core_coef, mapper, start)
         after = min(after, float(np.linalg.norm(prob.residual(p, n))) / norm)
         if dropped:
             shift, spread = integration_shift(prob, p)

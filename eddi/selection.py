@@ -24,6 +24,7 @@ rule on the backward path and the two further triggers (session 6): 0 and 1 on s
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -79,7 +80,8 @@ def core_start(prob: OutputErrorProblem, t: np.ndarray, x: np.ndarray, v: np.nda
 
 
 def select_terms(prob: OutputErrorProblem, p: np.ndarray, half: np.ndarray, rss: float, max_nfev: int,
-                 core_coef: np.ndarray, mapper: Mapper | None = None) -> tuple[np.ndarray, np.ndarray, dict[str, str]]:
+                 core_coef: np.ndarray, mapper: Mapper | None = None,
+                 start: "ForwardStart | None" = None) -> tuple[np.ndarray, np.ndarray, dict[str, str]]:
     """Backward elimination from the full fit, and forward selection from the core when needed.
 
     The backward path (:func:`_select`) can stall on an ill-conditioned library (a short or
@@ -96,6 +98,10 @@ def select_terms(prob: OutputErrorProblem, p: np.ndarray, half: np.ndarray, rss:
     it)) a forward path starts from the core (:func:`core_terms`, coefficients from
     :func:`core_start`) and adds, one at a time, the term that lowers the BIC most; the
     path with the lower BIC wins (within :data:`BIC_TIE`: the one with fewer terms).
+
+    ``start``: the forward path's start computed beside the fit of every term
+    (:func:`fit_beside_forward_start`); used when the forward path runs and it was computed
+    from the inputs that path has here, else the start is computed here.
     """
     prob.residual(p, prob.n)
     if prob.diverged:  # nothing to judge the terms by: the forward path alone
@@ -121,7 +127,10 @@ def select_terms(prob: OutputErrorProblem, p: np.ndarray, half: np.ndarray, rss:
     if not (div_b or weak or negative or misfit or marginal or off_record or not np.all(np.isfinite(hb))):
         return pb, hb, dropped
     saved = (list(prob.active), prob.scale.copy())
-    fwd = _forward(prob, prob.p0[-NUISANCE:] * saved[1][-NUISANCE:], core, core_coef, max_nfev, mapper)
+    nuisance = prob.p0[-NUISANCE:] * saved[1][-NUISANCE:]
+    fwd = _forward(prob, nuisance, core, core_coef, max_nfev, mapper,
+                   start if start is not None and start.key == _start_key(prob, nuisance, core, core_coef, max_nfev)
+                   else None)
     if fwd is None:
         prob.active, prob.scale = saved
         return pb, hb, dropped
@@ -135,27 +144,28 @@ def select_terms(prob: OutputErrorProblem, p: np.ndarray, half: np.ndarray, rss:
 
 
 def _forward(prob: OutputErrorProblem, nuisance: np.ndarray, core: list[int], core_coef: np.ndarray,
-             max_nfev: int, mapper: Mapper | None = None) -> tuple[np.ndarray, np.ndarray, float, dict[str, str]] | None:
+             max_nfev: int, mapper: Mapper | None = None,
+             start: "ForwardStart | None" = None) -> tuple[np.ndarray, np.ndarray, float, dict[str, str]] | None:
     """Forward selection by BIC from the core terms (see :func:`select_terms`); each round's
     trials (one per term not yet in) through ``mapper`` (:mod:`eddi.diagnosis.mapping`).
+    ``start``: the core's fit (:func:`_core_fit`) already computed from these inputs.
 
     Returns the parameters, their half widths, the RSS and, per term left out, why; None
     when the core itself does not fit (its simulation blows up).
     """
     n = prob.n
-    prob.scale[core] = np.maximum(np.abs(core_coef), prob.floor[core])
-    others = [i for i in range(len(prob.names)) if i not in core]
-    prob.scale[others] = prob.floor[others]
-    prob.active = list(core)
-    p = np.concatenate((core_coef / prob.scale[core], nuisance / prob.scale[-NUISANCE:]))
-    norm = float(np.linalg.norm(prob.y)) or 1.0
-    direct = float(np.linalg.norm(prob.residual(p, n))) / norm <= DIRECT_NRMSE
-    for frac in (STAGES[-1:] if direct else STAGES):
-        p = prob.fit(p, max(64, int(round(frac * n))), max_nfev).x
-    r = prob.residual(p, n)
-    if prob.diverged:
+    others = _enter_forward(prob, core, core_coef)
+    if start is None:
+        p, rss, diverged = _core_fit(prob, nuisance, core, core_coef, max_nfev)
+    else:  # computed beside the fit of every term: its simulations counted here
+        if start.error is not None:
+            raise start.error
+        p, rss, diverged = start.p.copy(), start.rss, start.diverged
+        prob.count += start.count
+        prob.diverged = diverged
+    if diverged:
         return None
-    bic = prob.bic(float(r @ r), p.size)
+    bic = prob.bic(rss, p.size)
     best_of: dict[int, float] = {}
     while others:
         base_active = list(prob.active)
@@ -193,6 +203,103 @@ def _forward(prob: OutputErrorProblem, nuisance: np.ndarray, core: list[int], co
                               f"(forward selection from x and v: not supported by the data)")
            for j in others}
     return p, half, rss, why
+
+
+def _enter_forward(prob: OutputErrorProblem, core: list[int], core_coef: np.ndarray) -> list[int]:
+    """Set ``prob`` to the forward path's start (the core terms active, every scale from the
+    core's coefficients or the floor); returns the terms not in the core."""
+    prob.scale[core] = np.maximum(np.abs(core_coef), prob.floor[core])
+    others = [i for i in range(len(prob.names)) if i not in core]
+    prob.scale[others] = prob.floor[others]
+    prob.active = list(core)
+    return others
+
+
+def _core_fit(prob: OutputErrorProblem, nuisance: np.ndarray, core: list[int], core_coef: np.ndarray,
+              max_nfev: int) -> tuple[np.ndarray, float, bool]:
+    """The core terms fitted in stages from their equation-error coefficients (``prob`` set by
+    :func:`_enter_forward`): the parameters, the RSS over the whole window, whether it diverged."""
+    n = prob.n
+    p = np.concatenate((core_coef / prob.scale[core], nuisance / prob.scale[-NUISANCE:]))
+    norm = float(np.linalg.norm(prob.y)) or 1.0
+    direct = float(np.linalg.norm(prob.residual(p, n))) / norm <= DIRECT_NRMSE
+    for frac in (STAGES[-1:] if direct else STAGES):
+        p = prob.fit(p, max(64, int(round(frac * n))), max_nfev).x
+    r = prob.residual(p, n)
+    return p, float(r @ r), prob.diverged
+
+
+@dataclass(frozen=True)
+class ForwardStart:
+    """The forward path's start (:func:`_core_fit`) computed apart: its result, the simulations it
+    asked for, and the inputs it was computed from (``key``, :func:`_start_key`)."""
+
+    key: bytes
+    p: np.ndarray
+    rss: float
+    diverged: bool
+    count: int
+    error: Exception | None = None  #: what the fit raised (raised where the forward path runs)
+
+
+def _start_key(prob: OutputErrorProblem, nuisance: np.ndarray, core: list[int], core_coef: np.ndarray,
+               max_nfev: int) -> bytes:
+    """What the core's fit depends on beyond the record: the start, the scales, the fit's settings."""
+    return b"|".join((np.asarray(core, dtype=np.int64).tobytes(), np.asarray(core_coef, dtype=float).tobytes(),
+                      np.asarray(nuisance, dtype=float).tobytes(), prob.scale.tobytes(),
+                      repr((max_nfev, prob.min_gain, prob.x_scale)).encode()))
+
+
+def _core_fit_apart(prob: OutputErrorProblem, core_coef: np.ndarray, max_nfev: int) -> ForwardStart:
+    """:func:`_core_fit` on the problem as it stands, ``prob`` left as it was (it may run in this
+    process); an error is kept, to be raised only where the forward path runs."""
+    core = core_terms(prob)
+    nuisance = prob.p0[-NUISANCE:] * prob.scale[-NUISANCE:]
+    key = _start_key(prob, nuisance, core, core_coef, max_nfev)
+    saved = (prob.active, prob.scale, prob.count, prob.diverged)
+    count = prob.count
+    try:
+        prob.scale = prob.scale.copy()
+        _enter_forward(prob, core, core_coef)
+        p, rss, diverged = _core_fit(prob, nuisance, core, core_coef, max_nfev)
+        return ForwardStart(key=key, p=p, rss=rss, diverged=diverged, count=prob.count - count)
+    except Exception as exc:  # noqa: BLE001 - raised by _forward if the forward path runs
+        return ForwardStart(key=key, p=np.zeros(0), rss=math.nan, diverged=True, count=prob.count - count,
+                            error=exc)
+    finally:
+        prob.active, prob.scale, prob.count, prob.diverged = saved
+
+
+def forks(mapper: Mapper | None) -> bool:
+    """Whether ``mapper`` runs items in more than one process (it says so: ``jobs`` > 1, as
+    :class:`station.forkmap.ForkMap`)."""
+    return mapper is not None and int(getattr(mapper, "jobs", 1)) > 1
+
+
+def fit_beside_forward_start(prob: OutputErrorProblem, fit_all: Callable[[], Any], core_coef: np.ndarray,
+                             max_nfev: int, mapper: Mapper | None) -> tuple[Any, ForwardStart | None]:
+    """``fit_all()`` (the fit of every term, where the backward path starts) and, when ``mapper``
+    forks (:func:`forks`), the forward path's start beside it in another process.
+
+    The two are independent: the forward path starts from the core's equation-error
+    coefficients and the record's initial state, not from the fit of every term. Which path
+    runs is known only after that fit (:func:`select_terms`); with a second core the start is
+    ready by then (on the double beam the forward path runs: 0.67 s of CPU off the serial
+    part), without one it would only cost CPU, and is computed where it is needed. Returns
+    ``fit_all()``'s result and the start (None: not computed here). ``prob`` continues from
+    the state ``fit_all`` left it in, whichever process ran it; the results are the same as in turn.
+    """
+    if not forks(mapper):
+        return fit_all(), None
+
+    def item(k: int) -> Any:
+        if k == 0:
+            return fit_all(), dict(vars(prob))
+        return _core_fit_apart(prob, core_coef, max_nfev)
+
+    (out, state), start = mapper(item, [0, 1])  # type: ignore[misc]
+    vars(prob).update(state)
+    return out, start
 
 
 def _select(prob: OutputErrorProblem, p: np.ndarray, half: np.ndarray, rss: float,

@@ -187,3 +187,35 @@ def test_forward_term_selection_forked_equals_in_turn() -> None:
     assert forked.choices.dropped == serial.choices.dropped
     assert forked.model.refinement.evaluations == serial.model.refinement.evaluations
     assert forked.ci95 == serial.ci95
+
+
+def test_forward_selection_start_fitted_in_a_worker(monkeypatch: pytest.MonkeyPatch) -> None:
+    # with a second process the forward path's start (the core x, v fitted alone) runs beside
+    # the fit of every term, in the worker: this process never fits the core alone, the result
+    # is the same bit for bit (eddi.selection.fit_beside_forward_start)
+    from dataclasses import replace
+
+    from eddi.fit_record import Pipeline
+    from eddi.output_error import OutputErrorProblem
+
+    from tests.eddi.test_forward_beside import _forward_case
+
+    cond, m = _forward_case()
+    fitted: list[list[str]] = []
+    real = OutputErrorProblem.fit
+
+    def recording(self, p, stop, max_nfev, free=None):  # type: ignore[no-untyped-def]
+        fitted.append([self.names[i][1] for i in self.active])
+        return real(self, p, stop, max_nfev, free)
+
+    monkeypatch.setattr(OutputErrorProblem, "fit", recording)
+    serial = Pipeline().fit(cond, m)
+    core = ["v", "x"]  # the damping terms come first
+    assert core in fitted  # in turn: the core fitted here
+    fitted.clear()
+    fm = ForkMap(2)
+    forked = replace(Pipeline(), mapper=fm).fit(cond, m)
+    assert fm.forked > 0 and fitted and core not in fitted
+    assert forked.model.eom == serial.model.eom
+    assert forked.model.refinement == serial.model.refinement
+    assert forked.ci95 == serial.ci95
