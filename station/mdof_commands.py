@@ -121,6 +121,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     cpl = float(np.mean(folds["coupled"]))
     raw_gain = held_out_gain(folds["baseline"], folds["coupled"])  # per fold (eddi.mdof.verdict)
     wins, gain, allowance = _coupling_earned(folds, per_channel, records, names, margin)
+    stalled = _baseline_stalled(folds["baseline"], records)
     if wins:
         final, model = computed if computed is not None else _final_coupled(records, names, dp, refine)
     else:  # no coupling earns its place: the baseline
@@ -131,7 +132,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
 
             model, _b, _a = refine_identified(final, records)
     # (with ``refine`` the model is polished: the verdict judges the model delivered)
-    notes = list(final.notes) + ([rate_note] if rate_note else [])
+    notes = list(final.notes) + ([rate_note] if rate_note else []) + ([stalled] if stalled else [])
     if allowance is not None and allowance.earned:
         notes.append(allowance.note(raw_gain, margin))
     elif wins and raw_gain <= margin:
@@ -191,20 +192,43 @@ def _coupling_earned(folds: dict[str, list], per_channel: dict[str, dict[str, li
                      names: tuple[str, ...], margin: float) -> tuple[bool, float, Any]:
     """:func:`eddi.mdof.verdict.coupling_earned` on the folds (each fold's floor: the mean over the
     channels of its held-out capture's, at least the least floor), else the within-allowance rule
-    (:func:`eddi.mdof.allowance.within_allowance`; its evidence, None when the first rule won)."""
+    (:func:`eddi.mdof.allowance.within_allowance`; its evidence, None when the first rule won).
+    Only the folds on which the baseline ran count (:func:`eddi.mdof.verdict.baseline_ran`);
+    none: not earned, gain 0."""
     from eddi.mdof.allowance import within_allowance
     from eddi.mdof.validate import noise_floor
-    from eddi.mdof.verdict import MDOF_MIN_FLOOR, channel_floor, coupling_earned
+    from eddi.mdof.verdict import MDOF_MIN_FLOOR, baseline_ran, channel_floor, coupling_earned
 
-    fold_floors = [float(np.mean(np.maximum(np.nan_to_num(noise_floor(r), nan=MDOF_MIN_FLOOR), MDOF_MIN_FLOOR)))
-                   for r in records]
-    base_ch, cpl_ch = ({c: float(np.mean(v)) for c, v in per_channel[k].items()} for k in ("baseline", "coupled"))
+    # judged on the folds where the baseline ran (a diverged baseline is no measured error)
+    ran = [k for k, ok in enumerate(baseline_ran(folds["baseline"])) if ok]
+    if not ran:
+        return False, 0.0, None
+    fb, fc = ([folds[kind][k] for k in ran] for kind in ("baseline", "coupled"))
+    fold_floors = [float(np.mean(np.maximum(np.nan_to_num(noise_floor(records[k]), nan=MDOF_MIN_FLOOR),
+                                            MDOF_MIN_FLOOR))) for k in ran]
+    base_ch, cpl_ch = ({c: float(np.mean([v[k] for k in ran])) for c, v in per_channel[kind].items()}
+                       for kind in ("baseline", "coupled"))
     floors = channel_floor(records, names)
-    wins, gain = coupling_earned(folds["baseline"], folds["coupled"], fold_floors, base_ch, floors, margin)
+    wins, gain = coupling_earned(fb, fc, fold_floors, base_ch, floors, margin)
     if wins:
         return wins, gain, None
-    ev = within_allowance(folds["baseline"], folds["coupled"], fold_floors, base_ch, cpl_ch, floors, margin)
+    ev = within_allowance(fb, fc, fold_floors, base_ch, cpl_ch, floors, margin)
     return ev.earned, (ev.excess_gain if ev.earned else gain), ev
+
+
+def _baseline_stalled(baseline: Sequence[float], records: Sequence[Any]) -> str | None:
+    """The note when the baseline did not run on a held-out capture (diverged, or grew past
+    :data:`eddi.mdof.verdict.BASELINE_RAN_NRMSE`): those folds are no evidence for a coupling."""
+    from eddi.mdof.verdict import BASELINE_RAN_NRMSE, baseline_ran
+
+    ran = baseline_ran(baseline)
+    if np.all(ran):
+        return None
+    bad = [f"{records[k].label} ({baseline[k]:.3g})" for k in range(len(ran)) if not ran[k]]
+    head = (f"baseline diverged: the model without nonlinear coupling did not run on {len(bad)} of {len(ran)} "
+            f"held-out captures (held-out nrmse not finite or above {BASELINE_RAN_NRMSE:g}: {', '.join(bad)})")
+    return head + ("; no gain is measured and no coupling is named on it" if not np.any(ran) else
+                   "; those folds are not counted as evidence for a coupling (the gain is judged on the others)")
 
 
 def fold_mean_per_mode(rows: Sequence[Sequence[float]]) -> list[float]:
@@ -403,12 +427,13 @@ def _fold_fits(records: Sequence[Any], names: tuple[str, ...], dp: str, k: int
     span = 0.0
     for kind in ("coupled", "baseline"):
         variants: tuple[tuple[str, bool | str], ...] = (("auto", True),) if kind == "coupled" else (
-            (("auto", False),) + ((("physical", "linear"),) if chosen == "physical" else ()))
+            (("auto", False),) + ((("physical", "linear"),) if chosen == "physical" else ())
+            + _lumped_baseline(train))
         best = None
         for coords, coupling in variants:
             try:
                 ident = identify_mdof(train, names, dp, coordinates=coords, coupling=coupling)
-            except IdentificationError as exc:
+            except (IdentificationError, np.linalg.LinAlgError, ValueError) as exc:
                 if best is not None or (coords, coupling) != variants[-1]:
                     continue
                 raise InputFileError(f"identification failed with {records[k].label} held out: {exc}") from None
@@ -423,6 +448,21 @@ def _fold_fits(records: Sequence[Any], names: tuple[str, ...], dp: str, k: int
     return out, span
 
 
+def _lumped_baseline(records: Sequence[Any]) -> tuple[tuple[str, str], ...]:
+    """The baseline variant in lumped elements with no nonlinear element between masses (linear
+    springs and dashpots, cubic springs to the ground), with a force on every record (the lumped
+    fit takes its scale from the blow).
+
+    Why (session 14): the uncoupled modes cannot describe a chain whose tail resolves fewer modes
+    than channels, and the per-coordinate fit in physical coordinates with linear coupling is far
+    off on three masses; on linear chains the baseline was 13-360x its floor (``unexplained``) or
+    grew (a three-mass chain at 28x the signal, reported at gain 100 %). And a cubic spring to the
+    ground is no coupling: a baseline that lacks it lets the coupled model, which has it, win for
+    it (held-out h7-ground of ``bench_mdof_nulls.py``: gain 68 %, named ``modal_coupling`` on a
+    spurious cubic between the masses)."""
+    return (("lumped", "linear"),) if records and all(r.force is not None for r in records) else ()
+
+
 def _final_baseline(records: Sequence[Any], names: tuple[str, ...], dp: str) -> Any:
     """The baseline on every capture, from the variants the folds choose among (uncoupled modes;
     physical coordinates joined by linear springs only), the one that reproduces the records best.
@@ -433,17 +473,24 @@ def _final_baseline(records: Sequence[Any], names: tuple[str, ...], dp: str) -> 
     from dataclasses import replace
 
     auto = identify_mdof(records, names, dp, coupling=False)
-    try:
-        linear = identify_mdof(records, names, dp, coordinates="physical", coupling="linear")
-    except IdentificationError:
+    others = []
+    for coords in ("physical",) + tuple(c for c, _k in _lumped_baseline(records)):
+        try:
+            others.append(identify_mdof(records, names, dp, coordinates=coords, coupling="linear"))
+        except (IdentificationError, np.linalg.LinAlgError, ValueError):
+            pass
+    if not others:
         return auto
-    err = [float(np.mean([validate_mdof(i.model, r).nrmse for r in records])) for i in (auto, linear)]
-    if not err[1] < err[0]:
+    err = [float(np.mean([validate_mdof(i.model, r).nrmse for r in records])) for i in [auto] + others]
+    k = int(np.nanargmin(np.where(np.isfinite(err), err, np.nan))) if np.any(np.isfinite(err)) else 0
+    if k == 0:
         return auto
+    kind = "lumped elements without a nonlinear element between masses" if others[k - 1].lumped is not None \
+        else "physical coordinates joined by linear springs"
     # the modal evidence (basis, unresolved modes) is the tail's, as for the uncoupled fit
-    return replace(linear, modal_basis=auto.modal_basis, unresolved=auto.unresolved,
-                   notes=linear.notes + (f"baseline in physical coordinates joined by linear springs kept: training "
-                                         f"nrmse {err[1]:.3g}; uncoupled modes {err[0]:.3g}",))
+    return replace(others[k - 1], modal_basis=auto.modal_basis, unresolved=auto.unresolved,
+                   notes=others[k - 1].notes + (f"baseline in {kind} kept: training nrmse {err[k]:.3g}; uncoupled "
+                                                f"modes {err[0]:.3g}",))
 
 
 def _earned(cause: str, per_channel: dict[str, list], records: Sequence[Any], names: tuple[str, ...],

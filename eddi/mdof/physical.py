@@ -20,7 +20,8 @@ from eddi.threads import one_blas_thread
 from eddi.mdof.identify import (ChannelRecord, EquationFit, MdofIdentification, linear_modes,
                                 restore_quasi_static)
 from eddi.mdof.candidates import records_floor, training_error
-from eddi.mdof.lumped import NONLINEAR_KINDS, PREFILTER_RATIO, Element, LumpedFit, driven_mass, element_terms, fit_lumped
+from eddi.mdof.lumped import (NONLINEAR_KINDS, PREFILTER_RATIO, Element, LumpedFit, candidate_elements, driven_mass,
+                              element_terms, fit_lumped)
 from eddi.mdof.mechanisms import mechanism_note
 from eddi.mdof.model import MdofModel
 from eddi.mdof.slowband import KNOTS_PER_CUTOFF, restore_slow_band
@@ -56,7 +57,7 @@ IV_ROUNDS = 2
 @one_blas_thread()
 def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], driving_point: str, *,
                     prune: float = 3e-3, tail_fraction: float = 0.2, slow_band: bool = True,
-                    instruments: bool = True) -> MdofIdentification:
+                    instruments: bool = True, couplings: bool = True) -> MdofIdentification:
     """Masses, springs and dashpots between the measured masses and the ground (no mass given).
 
     Parameters
@@ -75,14 +76,19 @@ def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], d
         Also refit the kept elements with instrumental variables from the kept model's simulation
         (:func:`_iv_fit`) where the kept fit is above twice the records' noise floor; kept when it
         reproduces the training records better by more than the floor.
+    couplings : bool
+        False: no nonlinear element between two masses is a candidate (dashpots and linear springs
+        everywhere, cubic springs to the ground): the baseline of diagnosis in lumped elements,
+        everything but a nonlinear coupling (:func:`station.mdof_commands._fold_fits`).
     """
     channels = tuple(channels)
+    candidates = [e for e in candidate_elements(len(channels)) if couplings or not e.coupling]
     d = channels.index(driving_point)
     n = len(channels)
     floor = records_floor(records)
     tried, settles = [], {}
     for settle in SETTLE_CHOICES:
-        got = _scored(lambda: _fit(records, n, d, prune, settle), records, channels, driving_point, d)
+        got = _scored(lambda: _fit(records, n, d, prune, settle, candidates), records, channels, driving_point, d)
         if got is not None:
             tried.append(got + (f"rows from {settle:g} periods of the column filter after the blow",))
             settles[id(got[1])] = settle
@@ -90,7 +96,8 @@ def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], d
         raise IdentificationError("lumped elements: no rows' start gives positive masses")
     err, fit, rows_note = _pick(tried, floor)
     settle = settles[id(fit)]
-    err, fit, keep, weak_note = _weak_cubics(records, err, fit, n, d, prune, settle, floor, channels, driving_point)
+    err, fit, keep, weak_note = _weak_cubics(records, err, fit, n, d, prune, settle, floor, channels, driving_point,
+                                             couplings)
     form_error = min([t[0] for t in tried] + [err])
     slow_note = weak_note
     if slow_band:
@@ -132,8 +139,8 @@ def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], d
 
 
 def _weak_cubics(records: Sequence[ChannelRecord], err: float, fit: LumpedFit, n: int, d: int, prune: float,
-                 settle: float, floor: float, channels: tuple[str, ...], driving_point: str
-                 ) -> tuple[float, LumpedFit, frozenset, str]:
+                 settle: float, floor: float, channels: tuple[str, ...], driving_point: str,
+                 couplings: bool = True) -> tuple[float, LumpedFit, frozenset, str]:
     """Cubic springs the force rule pruned, put back where the simulated training records show them.
 
     Why: :func:`fit_lumped` drops an element whose force is under ``prune`` of the inertia force;
@@ -154,7 +161,7 @@ def _weak_cubics(records: Sequence[ChannelRecord], err: float, fit: LumpedFit, n
         tries = []
         for e in list(fit.constants):
             cubic = Element("k3", e.a, e.b)
-            if e.kind != "k" or cubic in fit.constants:
+            if e.kind != "k" or cubic in fit.constants or (cubic.coupling and not couplings):
                 continue
             elements, held = list(fit.constants) + [cubic], frozenset(keep | {cubic})
             got = _scored(lambda: _rescaled(fit_lumped(_rows(records, settle), _pulses(records), n, d,
@@ -220,11 +227,13 @@ def _rows(records: Sequence[ChannelRecord], settle_periods: float) -> list[tuple
     return full
 
 
-def _fit(records: Sequence[ChannelRecord], n: int, d: int, prune: float, settle_periods: float) -> LumpedFit:
-    """:func:`fit_lumped` on the records' free windows after the filter settles, scaled by the
-    pulse of the records restored from its own receptance (module docstring of
-    :mod:`eddi.mdof.lumped`)."""
-    return _rescaled(fit_lumped(_rows(records, settle_periods), _pulses(records), n, d, prune=prune), records, n, d)
+def _fit(records: Sequence[ChannelRecord], n: int, d: int, prune: float, settle_periods: float,
+         elements: list[Element] | None = None) -> LumpedFit:
+    """:func:`fit_lumped` on the records' free windows after the filter settles (``elements``: its
+    candidates, default every one), scaled by the pulse of the records restored from its own
+    receptance (module docstring of :mod:`eddi.mdof.lumped`)."""
+    return _rescaled(fit_lumped(_rows(records, settle_periods), _pulses(records), n, d, prune=prune,
+                                elements=None if elements is None else list(elements)), records, n, d)
 
 
 def _scored(fit_fn, records: Sequence[ChannelRecord], channels: tuple[str, ...], driving_point: str, d: int):
