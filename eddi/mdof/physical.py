@@ -77,12 +77,11 @@ def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], d
         (:func:`_iv_fit`) where the kept fit is above twice the records' noise floor; kept when it
         reproduces the training records better by more than the floor.
     couplings : bool
-        False: no nonlinear element between two masses is a candidate (dashpots and linear springs
-        everywhere, cubic springs to the ground): the baseline of diagnosis in lumped elements,
-        everything but a nonlinear coupling (:func:`station.mdof_commands._fold_fits`).
+        False: dashpots and linear springs only (no cubic spring is a candidate, none is put back):
+        the linear lumped baseline of diagnosis (:func:`station.mdof_commands._lumped_baseline`).
     """
     channels = tuple(channels)
-    candidates = [e for e in candidate_elements(len(channels)) if couplings or not e.coupling]
+    candidates = [e for e in candidate_elements(len(channels)) if couplings or e.kind in LINEAR_KINDS]
     d = channels.index(driving_point)
     n = len(channels)
     floor = records_floor(records)
@@ -194,7 +193,7 @@ def _weak_cubics(records: Sequence[ChannelRecord], err: float, fit: LumpedFit, n
         tries = []
         for e in list(fit.constants):
             cubic = Element("k3", e.a, e.b)
-            if e.kind != "k" or cubic in fit.constants or (cubic.coupling and not couplings):
+            if e.kind != "k" or cubic in fit.constants or not couplings:
                 continue
             elements, held = list(fit.constants) + [cubic], frozenset(keep | {cubic})
             got = _scored(lambda: _rescaled(fit_lumped(_rows(records, settle), _pulses(records), n, d,
@@ -212,6 +211,10 @@ def _weak_cubics(records: Sequence[ChannelRecord], err: float, fit: LumpedFit, n
         err, fit = err_c, fit_c
         keep.add(cubic)
     return err, fit, frozenset(keep), note
+
+
+#: Element kinds of the linear lumped baseline (``couplings=False``).
+LINEAR_KINDS = ("c", "k")
 
 
 def _undetermined_back(records: Sequence[ChannelRecord], err: float, fit: LumpedFit, n: int, d: int, prune: float,

@@ -4,12 +4,13 @@ Session 14 (issue 14). Held-out case h7-ground of ``benchmarks/bench_mdof_nulls.
 s13mnull): a 7.30 + 3.75 kg chain (modes 7.07 and 17.0 Hz, 0.8 % damped) whose grounded spring on
 mass 1 has a cubic term (2.2 % of its linear force at the largest blow), 41 dB, acc only, no mass
 given. Before: ``modal_coupling`` at a held-out gain of 68 %. The baseline (no nonlinear coupling)
-had no cubic spring to the ground (uncoupled modes; physical coordinates joined by linear springs
-fitted per coordinate), so it left 0.028 on both channels while the coupled model, a lumped fit
-with the ground cubic, left 0.0045; the final fit on every capture then held a spurious cubic
-between the masses (-1.2e11 +- 0.55e11 N/m^3) and the verdict named it. Now the baseline includes
-lumped elements with no nonlinear element between masses (cubic springs to the ground allowed):
-the coupling is judged against everything but the coupling.
+has no cubic spring to the ground that fits (uncoupled modes; physical coordinates joined by linear
+springs), so it leaves 0.028 on both channels while the coupled model, a lumped fit with the
+ground cubic, leaves 0.0045; but the coupled models of the folds hold no nonlinear term between the
+masses: only the final fit on every capture held one (a spurious -1.2e11 +- 0.55e11 N/m^3 cubic
+between the masses), and the verdict named it. Now the gain must be earned by fold models that
+hold a nonlinear coupling (on more than half of the folds): the gain is real, it is not evidence of
+a coupling.
 """
 
 from __future__ import annotations
@@ -31,11 +32,9 @@ def test_a_cubic_spring_to_the_ground_is_not_named_a_coupling(tmp_path, capsys):
     assert main(["diagnose", *files, "--json", "--no-refine", "--driving-point", "acc1", "--margin", "0.5"]) == 0
     obj = json.loads(capsys.readouterr().out)
     assert obj["cause"] == "none"  # was modal_coupling (gain 68 %)
-    assert obj["raw_gain"] < 0.5
-    # the baseline now holds the ground cubic: both channels within the noise floor held out
-    assert all(v < obj["noise_floor"][c] for c, v in obj["baseline"]["channel_nrmse"].items())
-    # the delivered model: the cubic spring to the ground (truth 3.014e11 N/m^3), no coupling term
-    assert [[t for t in eq if "^" in t or "*" in t] for eq in obj["coupling_terms"]] == [[], []]
+    assert obj["raw_gain"] > 0.5  # the gain is real: the ground cubic
+    assert any("on 0 of 4 folds only" in n for n in obj["notes"])
+    # the cubic spring to the ground (truth 3.014e11 N/m^3) is in the delivered model
     ground = [m for m in obj["mechanisms"] if m["element"] == "k3(0-1)"]
     assert len(ground) == 1 and abs(ground[0]["value"] / 3.014e11 - 1) < 0.1
-    assert not any(m["coupling"] for m in obj["mechanisms"])
+    assert "mechanism" not in obj or not obj["mechanism"]
