@@ -140,7 +140,8 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         notes.append(f"the coupled model removes {100 * gain:.0f} % of the baseline's error above the noise floor "
                      f"held out (better on every fold; raw gain {100 * raw_gain:.0f} %, margin {100 * margin:.0f} %), "
                      "and the baseline is not within its allowance")
-    cause = _first_cause(final, gain, margin, len(names), notes, fold_terms)
+    cause = _first_cause(final, gain, margin, len(names), notes, fold_terms,
+                         _baseline_complete(per_channel["baseline"], records, names))
     verdict, amp, modes, amp_span = _earned(cause, per_channel["coupled" if wins else "baseline"], records,
                                         names, model, dp)
     # the measurement chain (clipping, double hit, base motion) is heard on the captures as recorded
@@ -290,11 +291,25 @@ def _model_flags(model: Any, folds: Sequence[float]) -> list[str]:
     return out
 
 
+def _baseline_complete(per_channel: dict[str, list], records: Sequence[Any], names: tuple[str, ...]) -> bool:
+    """Whether the baseline's held-out error is within ``NONE_FACTOR`` x the floor on every channel
+    (the allowance a ``none`` needs, :mod:`eddi.mdof.verdict`)."""
+    from eddi.diagnosis.settings import NONE_FACTOR
+    from eddi.mdof.verdict import channel_floor
+
+    floors = channel_floor(records, names)
+    held = {c: float(np.mean(v)) for c, v in per_channel.items()}
+    return all(math.isfinite(held[c]) and held[c] <= NONE_FACTOR * floors[c] for c in names)
+
+
 def _first_cause(final: Any, gain: float, margin: float, n_channels: int, notes: list[str],
-                 fold_terms: Sequence[bool] = ()) -> str:
+                 fold_terms: Sequence[bool] = (), complete: bool = False) -> str:
     """The cause from the held-out gain and the tail's modal evidence (module docstring); the
     reason appended to ``notes``. ``fold_terms``: per held-out fold, whether its coupled model
-    holds a nonlinear term between coordinates (the evidence must be of what is named)."""
+    holds a nonlinear term between coordinates (the evidence must be of what is named).
+    ``complete``: the baseline is within its allowance on every channel held out; a mode the tail
+    does not resolve is then no reason for ``unexplained`` (session 14: a linear three-mass chain
+    whose linear lumped baseline predicts every channel within its floor, tail resolving two modes)."""
     if not final.modal_basis and gain <= margin:
         cause = "missing_mode"
         notes.append("missing mode: the linear modes of the low-amplitude tail do not describe the motion - "
@@ -304,7 +319,7 @@ def _first_cause(final: Any, gain: float, margin: float, n_channels: int, notes:
         notes.append("the linear modes of the low-amplitude tail do not describe the motion (a coordinate with "
                      "no linear mode of its own, e.g. an essentially nonlinear attachment): physical "
                      "coordinates, and the nonlinear coupling between them earns its place held out")
-    elif final.unresolved and gain <= margin:
+    elif final.unresolved and gain <= margin and not complete:
         cause = "unexplained"
         notes.append(f"unexplained: the tail resolves {final.modes.frequencies_hz.size} linear mode(s) for "
                      f"{n_channels} channels and no coupling earns its place held out; a mode these records "
