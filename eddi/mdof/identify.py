@@ -137,7 +137,8 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
     driving_point : str
         The channel at the hammer.
     coordinates : {"auto", "modal", "physical", "lumped"}
-        ``"lumped"``: masses joined by springs and dashpots (:mod:`eddi.mdof.lumped`); ``"auto"``
+        ``"lumped"``: masses joined by springs and dashpots (:mod:`eddi.mdof.lumped`; with
+        ``coupling`` not True, no nonlinear element between two masses); ``"auto"``
         (with coupling and a force) also fits that and keeps the candidate whose model
         reproduces the training records best.
     coupling : bool or "linear"
@@ -171,7 +172,8 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
     if coordinates == "lumped":
         from eddi.mdof.physical import identify_lumped  # it builds on this module
 
-        return identify_lumped(records, channels, driving_point, prune=prune, tail_fraction=tail_fraction)
+        return identify_lumped(records, channels, driving_point, prune=prune, tail_fraction=tail_fraction,
+                               couplings=coupling is True)
     chosen = _identify_twice(records, *args, coordinates, *opts)
     if coordinates != "auto" or coupling is not True or len(channels) < 2:
         ladder = _prune_ladder(records, args, chosen, coordinates, opts) if coupling is True else [chosen]

@@ -159,12 +159,16 @@ class LumpedFit:
         95 % half-widths, same units.
     residual : ndarray, shape (n,)
         RMS force-balance residual of each equation relative to its inertia force.
+    undetermined : tuple of Element
+        Couplings dropped because their interval held zero (:func:`undetermined_couplings`), in
+        the order dropped (for :func:`eddi.mdof.physical.identify_lumped`'s training-error check).
     """
 
     masses: np.ndarray
     constants: dict[Element, float]
     ci95: dict[Element, float]
     residual: np.ndarray
+    undetermined: tuple = ()
 
 
 def _columns(x, v, a, force, elements, n, d):
@@ -292,6 +296,7 @@ def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: in
     where = {e: n - 1 + k for k, e in enumerate(elements)}
     rest = list(range(n - 1 + len(elements), full.shape[1]))
     blocks = np.tile(_jackknife_blocks(lengths), n)  # the same blocks in every equation
+    dropped: list[Element] = []
     for _round in range(len(elements) + 1):  # one element dropped per round; the last round drops none
         cols = list(range(n - 1)) + [where[e] for e in elements] + rest
         a_mat = full[:, cols]
@@ -312,6 +317,7 @@ def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: in
         if not loose:
             break
         elements.remove(loose[0])
+        dropped.append(loose[0])
     masses = np.ones(n)
     masses[[i for i in range(n) if i != d]] = p[: n - 1]
     consts = dict(zip(elements, ecoef))
@@ -319,7 +325,7 @@ def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: in
     residual = np.array([float(np.sqrt(np.mean(resid[eq_of == i] ** 2))) for i in range(n)])
     scale = driven_mass(impacts, masses, consts, d)
     return LumpedFit(masses * scale, {e: c * scale for e, c in consts.items()},
-                     {e: float(h) * scale for e, h in zip(elements, ci)}, residual)
+                     {e: float(h) * scale for e, h in zip(elements, ci)}, residual, tuple(dropped))
 
 
 def undetermined_couplings(elements: Sequence[Element], values: Sequence[float], ci95: Sequence[float],

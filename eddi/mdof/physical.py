@@ -11,7 +11,7 @@ No I/O.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -20,7 +20,8 @@ from eddi.threads import one_blas_thread
 from eddi.mdof.identify import (ChannelRecord, EquationFit, MdofIdentification, linear_modes,
                                 restore_quasi_static)
 from eddi.mdof.candidates import records_floor, training_error
-from eddi.mdof.lumped import NONLINEAR_KINDS, PREFILTER_RATIO, Element, LumpedFit, driven_mass, element_terms, fit_lumped
+from eddi.mdof.lumped import (NONLINEAR_KINDS, PREFILTER_RATIO, Element, LumpedFit, candidate_elements, driven_mass,
+                              element_terms, fit_lumped)
 from eddi.mdof.mechanisms import mechanism_note
 from eddi.mdof.model import MdofModel
 from eddi.mdof.slowband import KNOTS_PER_CUTOFF, restore_slow_band
@@ -56,7 +57,7 @@ IV_ROUNDS = 2
 @one_blas_thread()
 def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], driving_point: str, *,
                     prune: float = 3e-3, tail_fraction: float = 0.2, slow_band: bool = True,
-                    instruments: bool = True) -> MdofIdentification:
+                    instruments: bool = True, couplings: bool = True) -> MdofIdentification:
     """Masses, springs and dashpots between the measured masses and the ground (no mass given).
 
     Parameters
@@ -75,25 +76,70 @@ def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], d
         Also refit the kept elements with instrumental variables from the kept model's simulation
         (:func:`_iv_fit`) where the kept fit is above twice the records' noise floor; kept when it
         reproduces the training records better by more than the floor.
+    couplings : bool
+        False: dashpots and linear springs only (no cubic spring is a candidate, none is put back):
+        the linear lumped baseline of diagnosis (:func:`station.mdof_commands._lumped_baseline`).
     """
     channels = tuple(channels)
+    candidates = [e for e in candidate_elements(len(channels)) if couplings or e.kind in LINEAR_KINDS]
     d = channels.index(driving_point)
     n = len(channels)
     floor = records_floor(records)
-    tried, settles = [], {}
+    tried, settles, helds = [], {}, {}
     for settle in SETTLE_CHOICES:
-        got = _scored(lambda: _fit(records, n, d, prune, settle), records, channels, driving_point, d)
+        got = _scored(lambda: _fit(records, n, d, prune, settle, candidates), records, channels, driving_point, d)
         if got is not None:
-            tried.append(got + (f"rows from {settle:g} periods of the column filter after the blow",))
-            settles[id(got[1])] = settle
+            err, fit, held, back = _undetermined_back(records, got[0], got[1], n, d, prune, settle, floor, channels,
+                                                      driving_point)
+            tried.append((err, fit, f"rows from {settle:g} periods of the column filter after the blow{back}"))
+            settles[id(fit)], helds[id(fit)] = settle, held
     if not tried:
         raise IdentificationError("lumped elements: no rows' start gives positive masses")
     err, fit, rows_note = _pick(tried, floor)
     settle = settles[id(fit)]
-    err, fit, keep, weak_note = _weak_cubics(records, err, fit, n, d, prune, settle, floor, channels, driving_point)
-    form_error = min([t[0] for t in tried] + [err])
-    slow_note = weak_note
-    if slow_band:
+    ctx = _Context(records, n, d, prune, settle, floor, channels, driving_point, couplings, slow_band, instruments)
+    err, fit, rows_note, slow_note, form_error = _stages(ctx, err, fit, rows_note, helds[id(fit)])
+    form_error = min([t[0] for t in tried] + [form_error])
+    modes = linear_modes(records, tail_fraction=tail_fraction, driving_point=d)
+    model = lumped_model(fit, channels, driving_point, d, len(records))
+    notes = [f"lumped elements: {', '.join(f'{e.label} {c:.4g}' for e, c in fit.constants.items())} "
+             f"({rows_note}{slow_note})"]
+    if all(r.force is None for r in records):
+        notes.append("no force: every mass per unit driven mass")
+    eqs = tuple(_equation(model, fit, i) for i in range(n))
+    return MdofIdentification(model, modes, "physical", eqs, 0.0, tuple(notes), True, lumped=fit,
+                              form_error=float(form_error))
+
+
+@dataclass(frozen=True)
+class _Context:
+    """What the stages of :func:`identify_lumped` after the rows' fit share."""
+
+    records: Sequence[ChannelRecord]
+    n: int
+    d: int
+    prune: float
+    settle: float
+    floor: float
+    channels: tuple[str, ...]
+    driving_point: str
+    couplings: bool
+    slow_band: bool
+    instruments: bool
+
+
+def _stages(ctx: _Context, err: float, fit: LumpedFit, rows_note: str, held: frozenset = frozenset()
+            ) -> tuple[float, LumpedFit, str, str, float]:
+    """Weak cubics put back, the slow band restored, instrumental variables (:func:`identify_lumped`'s
+    notes), from the rows' fit ``fit`` (training nrmse ``err``); ``held``: elements never dropped.
+    Returns the training nrmse, the fit, the rows' note, the stages' note and the least training
+    nrmse any stage reached."""
+    records, n, d, prune, settle, floor = ctx.records, ctx.n, ctx.d, ctx.prune, ctx.settle, ctx.floor
+    channels, driving_point = ctx.channels, ctx.driving_point
+    err, fit, keep, slow_note = _weak_cubics(records, err, fit, n, d, prune, settle, floor, channels, driving_point,
+                                             ctx.couplings, held)
+    form_error = err
+    if ctx.slow_band:
         slows = []
         for knots in SLOW_KNOTS:
             got = _scored(lambda: _slow_fit(records, fit, n, d, prune, knots, keep), records, channels, driving_point,
@@ -112,7 +158,7 @@ def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], d
     # fit is kept only where the bias it removes shows in the training records beyond the noise
     # floor, so it is not tried where the kept fit is within twice the floor (no model reproduces
     # the records much better than the floor: the true one leaves about the floor)
-    if instruments and any(r.force is not None for r in records) and err > 2.0 * floor:
+    if ctx.instruments and any(r.force is not None for r in records) and err > 2.0 * floor:
         got = _scored(lambda: _iv_fit(records, fit, n, d, prune, settle, keep), records, channels, driving_point, d)
         if got is not None:
             form_error = min(form_error, got[0])
@@ -120,20 +166,12 @@ def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], d
             if got[0] + floor < err:
                 err, fit = got[0], got[1]
                 rows_note = f"rows from {settle:g} periods, instrumental variables from the simulated model"
-    modes = linear_modes(records, tail_fraction=tail_fraction, driving_point=d)
-    model = lumped_model(fit, channels, driving_point, d, len(records))
-    notes = [f"lumped elements: {', '.join(f'{e.label} {c:.4g}' for e, c in fit.constants.items())} "
-             f"({rows_note}{slow_note})"]
-    if all(r.force is None for r in records):
-        notes.append("no force: every mass per unit driven mass")
-    eqs = tuple(_equation(model, fit, i) for i in range(n))
-    return MdofIdentification(model, modes, "physical", eqs, 0.0, tuple(notes), True, lumped=fit,
-                              form_error=float(form_error))
+    return err, fit, rows_note, slow_note, form_error
 
 
 def _weak_cubics(records: Sequence[ChannelRecord], err: float, fit: LumpedFit, n: int, d: int, prune: float,
-                 settle: float, floor: float, channels: tuple[str, ...], driving_point: str
-                 ) -> tuple[float, LumpedFit, frozenset, str]:
+                 settle: float, floor: float, channels: tuple[str, ...], driving_point: str,
+                 couplings: bool = True, held: frozenset = frozenset()) -> tuple[float, LumpedFit, frozenset, str]:
     """Cubic springs the force rule pruned, put back where the simulated training records show them.
 
     Why: :func:`fit_lumped` drops an element whose force is under ``prune`` of the inertia force;
@@ -146,15 +184,16 @@ def _weak_cubics(records: Sequence[ChannelRecord], err: float, fit: LumpedFit, n
     in quadrature (``sqrt(e_without^2 - e_with^2)``), exceeds the records' noise floor (what noise
     alone leaves; a cubic fitted to the noise of a linear chain removes far less) and, between two
     masses, its 95 % interval excludes zero (:func:`_determined`). One at a time, the largest
-    first, until none passes. Returns the error, the fit, the cubics kept and a note.
+    first, until none passes. ``held``: elements already kept (:func:`_undetermined_back`). Returns
+    the error, the fit, the elements kept (``held`` and the cubics) and a note.
     """
-    keep: set[Element] = set()
+    keep: set[Element] = set(held)
     note = ""
     while err > floor:  # else no cubic can pass: the error it removes is at most ``err``
         tries = []
         for e in list(fit.constants):
             cubic = Element("k3", e.a, e.b)
-            if e.kind != "k" or cubic in fit.constants:
+            if e.kind != "k" or cubic in fit.constants or not couplings:
                 continue
             elements, held = list(fit.constants) + [cubic], frozenset(keep | {cubic})
             got = _scored(lambda: _rescaled(fit_lumped(_rows(records, settle), _pulses(records), n, d,
@@ -172,6 +211,43 @@ def _weak_cubics(records: Sequence[ChannelRecord], err: float, fit: LumpedFit, n
         err, fit = err_c, fit_c
         keep.add(cubic)
     return err, fit, frozenset(keep), note
+
+
+#: Element kinds of the linear lumped baseline (``couplings=False``).
+LINEAR_KINDS = ("c", "k")
+
+
+def _undetermined_back(records: Sequence[ChannelRecord], err: float, fit: LumpedFit, n: int, d: int, prune: float,
+                       settle: float, floor: float, channels: tuple[str, ...], driving_point: str
+                       ) -> tuple[float, LumpedFit, frozenset, str]:
+    """The couplings :func:`fit_lumped` dropped as undetermined (interval holding zero), put back
+    when the refit without them loses training error beyond the floor: the refit that keeps them
+    (never dropped) reproduces the training records better by more than the records' floor, in
+    quadrature (``sqrt(e_without^2 - e_with^2) > floor``, as :func:`_weak_cubics`). Kept, such a
+    coupling stays undetermined: the model predicts with it and nothing names it
+    (:func:`eddi.mdof.verdict.undetermined_coupling`, the ``determined`` flag of
+    :mod:`eddi.mdof.mechanisms`).
+
+    Why (session 13, l1-14 of ``bench_mdof_lumped.py --seed 1``: 31.4 + 6.1 kg, a true cubic spring
+    between the masses at 17 % of the link's force, 35 dB): the drop rule took out the true k3(1-2)
+    (+2.2e15 +- 5e15 N/m^3 on main before it), a quadratic spring stood in for it, and the training
+    error rose 0.038 -> 0.051; on its rows from the blow the refit without k3(1-2) and k2(1-2) left
+    0.106, with them 0.046 (floor 0.017). Returns the error, the fit, the couplings kept and a note."""
+    back = tuple(e for e in fit.undetermined if e not in fit.constants)
+    if not back or not err > floor:
+        return err, fit, frozenset(), ""
+    held = frozenset(back)
+    got = _scored(lambda: _rescaled(fit_lumped(_rows(records, settle), _pulses(records), n, d, prune=prune,
+                                               elements=list(fit.constants) + list(back), keep=held), records, n, d),
+                  records, channels, driving_point, d)
+    if got is None or not np.isfinite(got[0]):
+        return err, fit, frozenset(), ""
+    removed = float(np.sqrt(max(err**2 - got[0] ** 2, 0.0)))
+    if not removed > floor:
+        return err, fit, frozenset(), ""
+    return got[0], got[1], held, (f"; {', '.join(e.label for e in back)} kept though undetermined: the training "
+                                  f"records need it (training nrmse {err:.3g} -> {got[0]:.3g}, {removed:.3g} in "
+                                  f"quadrature, floor {floor:.3g})")
 
 
 def _determined(fit: LumpedFit, e: Element) -> bool:
@@ -220,11 +296,13 @@ def _rows(records: Sequence[ChannelRecord], settle_periods: float) -> list[tuple
     return full
 
 
-def _fit(records: Sequence[ChannelRecord], n: int, d: int, prune: float, settle_periods: float) -> LumpedFit:
-    """:func:`fit_lumped` on the records' free windows after the filter settles, scaled by the
-    pulse of the records restored from its own receptance (module docstring of
-    :mod:`eddi.mdof.lumped`)."""
-    return _rescaled(fit_lumped(_rows(records, settle_periods), _pulses(records), n, d, prune=prune), records, n, d)
+def _fit(records: Sequence[ChannelRecord], n: int, d: int, prune: float, settle_periods: float,
+         elements: list[Element] | None = None) -> LumpedFit:
+    """:func:`fit_lumped` on the records' free windows after the filter settles (``elements``: its
+    candidates, default every one), scaled by the pulse of the records restored from its own
+    receptance (module docstring of :mod:`eddi.mdof.lumped`)."""
+    return _rescaled(fit_lumped(_rows(records, settle_periods), _pulses(records), n, d, prune=prune,
+                                elements=None if elements is None else list(elements)), records, n, d)
 
 
 def _scored(fit_fn, records: Sequence[ChannelRecord], channels: tuple[str, ...], driving_point: str, d: int):
@@ -291,7 +369,7 @@ def _scaled_like(fit: LumpedFit, ref: LumpedFit, d: int) -> LumpedFit:
     """``fit`` scaled to ``ref``'s driven mass (masses, constants and intervals alike)."""
     scale = float(ref.masses[d] / fit.masses[d]) if fit.masses[d] != 0 else 1.0
     return LumpedFit(fit.masses * scale, {e: c * scale for e, c in fit.constants.items()},
-                     {e: h * scale for e, h in fit.ci95.items()}, fit.residual)
+                     {e: h * scale for e, h in fit.ci95.items()}, fit.residual, fit.undetermined)
 
 
 def _instrument_rows(records: Sequence[ChannelRecord], fit: LumpedFit, n: int, d: int, rows: Sequence[tuple]
@@ -330,7 +408,7 @@ def _rescaled(fit: LumpedFit, records: Sequence[ChannelRecord], n: int, d: int) 
         scale = driven_mass(_pulses([restore_quasi_static(r, model) for r in records]), fit.masses * unit,
                             {e: c * unit for e, c in fit.constants.items()}, d) * unit
         fit = LumpedFit(fit.masses * scale, {e: c * scale for e, c in fit.constants.items()},
-                        {e: h * scale for e, h in fit.ci95.items()}, fit.residual)
+                        {e: h * scale for e, h in fit.ci95.items()}, fit.residual, fit.undetermined)
     return fit
 
 

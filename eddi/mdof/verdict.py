@@ -98,20 +98,38 @@ def held_out_gain(baseline: Sequence[float], coupled: Sequence[float]) -> float:
     the largest blow is an extrapolation in amplitude, where both models' errors are largest; on
     a 16 + 5 kg chain with a cubic coupling spring (blows 9.6-12 N and one of 28 N) the coupled
     model was 9x better on three folds and 1.8x worse on that one, a mean gain of 47 % (under
-    the 50 % margin: ``none``), a typical gain of 78 %. A fold that diverges (inf) makes the
-    coupled model lose (or the baseline, when it is the baseline's); 1.0 when the baseline is
-    exact and the coupled model not worse, 0.0 when neither model has a finite fold.
+    the 50 % margin: ``none``), a typical gain of 78 %. A fold that the coupled model diverges on
+    (inf) makes it lose. A fold on which the baseline did not run (:func:`baseline_ran`: it
+    diverged, or grew past any bounded prediction) is not counted: beating a model that predicts
+    nothing measures no coupling (session 13: a linear three-mass chain whose uncoupled baseline
+    grew to 28x the signal was reported at a gain of 100 %, and with a spurious term named
+    ``modal_coupling``). 0.0 when no fold is left to judge on.
     """
     b, c = np.asarray(baseline, float), np.asarray(coupled, float)
     if not (b.size and b.size == c.size):
         return 0.0
+    ran = baseline_ran(b)
     if not np.all(np.isfinite(c)):
-        return -np.inf if np.all(np.isfinite(b)) else 0.0
-    if not np.all(np.isfinite(b)):
-        return 1.0
+        return -np.inf if np.all(ran) else 0.0
+    if not np.any(ran):
+        return 0.0
+    b, c = b[ran], c[ran]
     tiny = np.finfo(float).tiny
     ratio = float(np.exp(np.mean(np.log(np.maximum(c, tiny) / np.maximum(b, tiny)))))
     return 1.0 - ratio
+
+
+#: Held-out nrmse above which a fold's baseline did not run: a prediction of the right size can err by
+#: at most twice the signal (the same motion in antiphase, nrmse 2); above that its amplitude grew
+#: (an unstable linear part, a simulation running away), it is no prediction to compare against.
+BASELINE_RAN_NRMSE = 2.0
+
+
+def baseline_ran(baseline: Sequence[float]) -> np.ndarray:
+    """Per held-out fold, whether the baseline's prediction ran: finite and at most
+    :data:`BASELINE_RAN_NRMSE` (a diverged or grown baseline is no measured error)."""
+    b = np.asarray(baseline, float)
+    return np.isfinite(b) & (b <= BASELINE_RAN_NRMSE)
 
 
 def excess_gain(baseline: Sequence[float], coupled: Sequence[float], floors: Sequence[float]) -> float:

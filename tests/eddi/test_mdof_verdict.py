@@ -118,10 +118,23 @@ def test_held_out_gain_is_the_typical_ratio_per_fold():
     # a null: the coupled model as good as the baseline fold by fold -> no gain; worse -> negative
     assert held_out_gain(base, base) == pytest.approx(0.0, abs=1e-12)
     assert held_out_gain([0.01, 0.02], [0.02, 0.04]) == pytest.approx(-1.0)
-    # a coupled fold that diverges loses; a baseline fold that diverges while the coupled holds wins
+    # a coupled fold that diverges loses; a baseline fold that diverges is not counted (session 14)
     assert held_out_gain([0.01, 0.02], [0.001, np.inf]) == -np.inf
-    assert held_out_gain([0.01, np.inf], [0.01, 0.02]) == 1.0
     assert held_out_gain([np.inf], [np.inf]) == 0.0 and held_out_gain([], []) == 0.0
+
+
+def test_a_baseline_that_did_not_run_is_no_measured_gain():
+    # session 13, t7-lin3 of bench_mdof_nulls.py: a linear three-mass chain whose baseline grew to
+    # 9-17x the signal on every fold, the coupled (linear lumped) model at 0.03: "gain 100 %"
+    from eddi.mdof.verdict import BASELINE_RAN_NRMSE, baseline_ran
+
+    grown, cpl = [11.35, 16.96, 8.90, 10.62], [0.031, 0.027, 0.026, 0.080]
+    assert held_out_gain(grown, cpl) == 0.0  # was 0.997: no fold to judge on
+    # a diverged (inf) or grown fold is left out; the others are judged as before
+    assert held_out_gain([0.01, np.inf], [0.01, 0.02]) == pytest.approx(0.0, abs=1e-12)  # was 1.0
+    assert held_out_gain([28.0, 0.02, 0.04], [0.03, 0.01, 0.01]) == pytest.approx(1 - np.sqrt(0.5 * 0.25))
+    assert baseline_ran([0.5, 1.9, 2.0, 2.01, np.inf, np.nan]).tolist() == [True, True, True, False, False, False]
+    assert BASELINE_RAN_NRMSE == 2.0  # a prediction of the right size in antiphase
 
 
 def test_coupling_is_earned_on_the_error_above_the_floor_only_where_the_baseline_cannot_be_complete():

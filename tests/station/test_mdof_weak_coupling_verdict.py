@@ -50,11 +50,14 @@ def test_weak_cubic_coupling_is_named_and_its_spring_found(tmp_path, capsys):
     assert obj["cause"] == "modal_coupling"
     assert obj["coordinates"] == "physical"
     base, cpl = obj["baseline"]["folds"], obj["coupled"]["folds"]
-    assert sum(c < 0.2 * b for b, c in zip(base, cpl[:2] + cpl[3:])) == 3  # the small blows 5x better or more
+    # session 14: the baseline includes the linear lumped model (linear springs and dashpots), which
+    # predicts the small blows (the cubic under 1 % of the spring's force there) within the floor,
+    # 0.0053-0.0064; the old baseline's 0.028 there was a poor linear model, not the coupling
+    assert all(b < 0.01 and c < 0.01 for k, (b, c) in enumerate(zip(base, cpl)) if k != 2)
     # the 28 N blow held out: the folds trained on the small blows keep the weak cubic since session
     # 12 (eddi.mdof.physical._weak_cubics); before, they pruned it and that fold was 1.8x worse
-    assert cpl[2] < 0.5 * base[2]
-    assert obj["gain"] > 0.7
+    assert cpl[2] < 0.25 * base[2]  # 0.0054 against 0.0274
+    assert obj["gain"] > 0.5  # 0.56 (0.7+ against the old baseline)
     assert obj["noise_floor"] == {"acc1": 0.01, "acc2": 0.01}
     # the cubic spring between the masses: x1^3 enters the second mass's equation as -k3
     found = -obj["coupling_coefficients"][1]["x1^3"][0]
