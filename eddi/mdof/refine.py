@@ -230,8 +230,9 @@ def refine_mdof(model: MdofModel, records: Sequence[ChannelRecord], *, max_nfev:
     """Polish the coefficients on the records' simulated displacements.
 
     ``free``: ``"frequency"`` polishes :func:`frequency_terms` only (the rest kept at EDDI's values);
-    ``"all"`` every coefficient (the former polish); None: :data:`POLISH_FREE`. The intervals (``stiffness_ci95``) are the
-    Gauss-Newton ones of every coefficient at the result either way (one Jacobian in all of them).
+    ``"all"`` every coefficient (the former polish); None: :data:`POLISH_FREE`. The intervals
+    (``stiffness_ci95``) are the Gauss-Newton ones of every coefficient at the result either way
+    (one Jacobian in all of them).
 
     Returns
     -------
