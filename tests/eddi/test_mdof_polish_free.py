@@ -37,7 +37,7 @@ def test_polish_recovers_a_frequency_error_in_the_free_terms_only(monkeypatch):
         return plain(model, record, dirs)
 
     monkeypatch.setattr(sensitivity, "predict_sensitivities", counted)
-    out, before, after = refine_mdof(start, records, max_nfev=12)
+    out, before, after = refine_mdof(start, records, max_nfev=40)
     assert after < 0.2 * before
     assert out.stiffness[0]["x1^2*x2"] == stiffness[0]["x1^2*x2"]  # kept, bit for bit
     assert out.damping == start.damping
@@ -46,5 +46,8 @@ def test_polish_recovers_a_frequency_error_in_the_free_terms_only(monkeypatch):
     n_all = sum(len(d) + len(s) for d, s in zip(start.damping, start.stiffness))
     per_record = len(records)
     assert set(directions) == {6, n_all} and directions.count(n_all) == per_record
+    # it stops once a step gains < 0.1 % of the cost (POLISH_FTOL): 5 Jacobians, where scipy's default
+    # tolerance went on to 6 for the same result (and on the three-mass chain to its 60-evaluation cap)
+    assert directions.count(6) == 5 * per_record
     assert all(np.isfinite(list(ci.values())).all() and set(ci) == set(s)
                for ci, s in zip(out.stiffness_ci95, out.stiffness))
