@@ -11,9 +11,9 @@ and the polish frees the frequency terms only (:func:`eddi.mdof.refine.frequency
 This bench draws that chain (``--write DIR`` also saves the captures for ``station diagnose``),
 identifies each leave-one-out fold's coupled model, and polishes it in the same process both ways:
 ``before`` (every coefficient free, sub-steps from every coordinate's peak at once: the former
-``auto_substeps``) and ``now`` (the defaults). Per fold: coefficients freed, sub-steps per
-training record, Jacobian runs, CPU seconds, held-out nrmse (unpolished / before / now); then the
-CPU ratio before / now.
+``auto_substeps``, scipy's default ``ftol``) and ``now`` (the defaults). Per fold: coefficients
+freed, sub-steps per training record, Jacobian runs, CPU seconds, held-out nrmse (unpolished /
+before / now); then the CPU ratio before / now.
 
     PYTHONPATH=. nice -n 5 python benchmarks/bench_mdof_polish_cost.py [--folds 0,1,2] [--write DIR]
 """
@@ -71,9 +71,10 @@ def _polish(model, train, held, mode: str) -> dict:
         runs.append(1)
         return plain(*a, **kw)
 
-    now = simulate.step_count
+    now, ftol = simulate.step_count, refine.POLISH_FTOL
     if mode == "before":
         simulate.step_count = sensitivity.step_count = _old_count
+        refine.POLISH_FTOL = 1e-8  # scipy's default, which the former polish used
     sensitivity.predict_sensitivities = counted
     try:
         steps = [simulate.step_count(model, float(r.t[1] - r.t[0]), states=simulation_start(model, r).states)
@@ -83,6 +84,7 @@ def _polish(model, train, held, mode: str) -> dict:
         cpu = time.process_time() - start
     finally:
         simulate.step_count = sensitivity.step_count = now
+        refine.POLISH_FTOL = ftol
         sensitivity.predict_sensitivities = plain
     return {"cpu_s": round(cpu, 1), "substeps": steps, "jacobian_runs": len(runs),
             "held_nrmse": round(validate_mdof(out, held).nrmse, 4)}
