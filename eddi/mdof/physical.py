@@ -385,7 +385,7 @@ def _instrument_rows(records: Sequence[ChannelRecord], fit: LumpedFit, n: int, d
     out = []
     for r, row in zip(records, rows):
         st = simulation_start(model, r)
-        sim = simulate_mdof(model, r.t[st.sample:], st.force, x0=st.x0, v0=st.v0, x_scale=st.x_scale)
+        sim = simulate_mdof(model, r.t[st.sample:], st.force, x0=st.x0, v0=st.v0, states=st.states)
         if sim.diverged or not np.all(np.isfinite(sim.x)):
             return None
         x, v, a = (np.zeros((n, r.t.size)) for _ in range(3))

@@ -27,7 +27,7 @@ import numba
 import numpy as np
 
 from eddi.mdof.model import MdofModel
-from eddi.mdof.simulate import auto_substeps, term_table
+from eddi.mdof.simulate import step_count, term_table
 
 
 @numba.njit(cache=True)
@@ -183,12 +183,12 @@ def _rk4_sens(force, dt, substeps, x0, v0, eq, coef, fvar, fpow, fabs, inv_m, u,
 
 def simulate_sensitivities(model: MdofModel, t: np.ndarray, force: np.ndarray | None, *,
                            x0: np.ndarray | None = None, v0: np.ndarray | None = None,
-                           x_scale: float | np.ndarray | None = None, directions: np.ndarray | None = None
-                           ) -> tuple[np.ndarray, np.ndarray, bool]:
+                           x_scale: float | np.ndarray | None = None, directions: np.ndarray | None = None,
+                           states: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, bool]:
     """Coordinates and their derivatives in ``theta`` (module docstring) on the uniform grid ``t``.
 
-    Same sub-steps (:func:`~eddi.mdof.simulate.auto_substeps`), force interpolation and initial
-    state as :func:`~eddi.mdof.simulate.simulate_mdof` (whose ``x`` the first output equals).
+    Same sub-steps (:func:`~eddi.mdof.simulate.step_count` of ``x_scale`` or ``states``), force
+    interpolation and initial state as :func:`~eddi.mdof.simulate.simulate_mdof` (whose ``x`` the first output equals).
 
     Returns
     -------
@@ -204,7 +204,7 @@ def simulate_sensitivities(model: MdofModel, t: np.ndarray, force: np.ndarray | 
     f = np.zeros(t.size) if force is None else np.ascontiguousarray(force, dtype=float)
     x0a = np.zeros(n) if x0 is None else np.asarray(x0, float).reshape(n).copy()
     v0a = np.zeros(n) if v0 is None else np.asarray(v0, float).reshape(n).copy()
-    substeps = auto_substeps(model, dt, x_scale)
+    substeps = step_count(model, dt, x_scale, states)
     eq, coef, exps = term_table(model)
     xs = np.full((n, t.size), np.nan)
     dirs = np.eye(eq.size + n) if directions is None else np.ascontiguousarray(directions, dtype=float)
@@ -266,7 +266,7 @@ def predict_sensitivities(model: MdofModel, record, directions: np.ndarray | Non
     rate = 1.0 / float(record.t[1] - record.t[0])
     st = simulation_start(model, record)
     s = st.sample
-    xs, dx, div = simulate_sensitivities(model, record.t[s:], st.force, x0=st.x0, v0=st.v0, x_scale=st.x_scale,
+    xs, dx, div = simulate_sensitivities(model, record.t[s:], st.force, x0=st.x0, v0=st.v0, states=st.states,
                                          directions=directions)
     n_theta = dx.shape[0]
     if div or not (np.all(np.isfinite(xs)) and np.all(np.isfinite(dx))):

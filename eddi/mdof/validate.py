@@ -68,6 +68,10 @@ class SimulationStart:
         Largest modal displacement over the simulated part (the divergence scale).
     driven_by : str
         ``"force"`` or ``"initial state"``.
+    states : ndarray, shape (n_coords, k)
+        The record's coordinates over the simulated part (up to the free window's end): the
+        states the simulation meets, which set its sub-steps
+        (:func:`eddi.mdof.simulate.trajectory_substeps`).
     """
 
     sample: int
@@ -76,6 +80,7 @@ class SimulationStart:
     v0: np.ndarray | None
     x_scale: np.ndarray
     driven_by: str
+    states: np.ndarray
 
 
 def simulation_start(model: MdofModel, record: ChannelRecord) -> SimulationStart:
@@ -86,10 +91,10 @@ def simulation_start(model: MdofModel, record: ChannelRecord) -> SimulationStart
     w0, w1 = record.window
     if record.force is not None and record.impact[1] > record.impact[0]:
         s = record.impact[0]
-        scale = np.max(np.abs(proj @ record.x[:, s:w1]), axis=1)
-        return SimulationStart(s, record.force[s:], None, None, scale, "force")
-    scale = np.max(np.abs(proj @ record.x[:, w0:w1]), axis=1)
-    return SimulationStart(w0, None, proj @ record.x[:, w0], proj @ record.v[:, w0], scale, "initial state")
+        q = proj @ record.x[:, s:w1]
+        return SimulationStart(s, record.force[s:], None, None, np.max(np.abs(q), axis=1), "force", q)
+    q = proj @ record.x[:, w0:w1]
+    return SimulationStart(w0, None, q[:, 0], proj @ record.v[:, w0], np.max(np.abs(q), axis=1), "initial state", q)
 
 
 def predict_channels(model: MdofModel, record: ChannelRecord
@@ -113,7 +118,7 @@ def predict_channels(model: MdofModel, record: ChannelRecord
     rate = 1.0 / float(record.t[1] - record.t[0])
     st = simulation_start(model, record)
     s, how = st.sample, st.driven_by
-    sim = simulate_mdof(model, record.t[s:], st.force, x0=st.x0, v0=st.v0, x_scale=st.x_scale)
+    sim = simulate_mdof(model, record.t[s:], st.force, x0=st.x0, v0=st.v0, states=st.states)
     if sim.diverged or not np.all(np.isfinite(sim.x)):
         return np.full((phi.shape[0], w1 - w0), np.nan), np.full((model.n_coords, w1 - w0), np.nan), how, True
     q = np.zeros((model.n_coords, n))
