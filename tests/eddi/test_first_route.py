@@ -50,8 +50,8 @@ def test_one_route_seeds_the_refinement_and_reaches_the_scored_pipelines_optimum
 def _rejecting(real):
     """judge_refinement that rejects every refinement (EDDI's estimate delivered)."""
 
-    def judge(model, cond, held_out, val, held, judged_on, eddi_vals=None):
-        got = real(model, cond, held_out, val, held, judged_on, eddi_vals)
+    def judge(model, cond, held_out, val, held, judged_on, eddi_vals=None, off_reason=""):
+        got = real(model, cond, held_out, val, held, judged_on, eddi_vals, off_reason)
         eddi_val, eddi_held = eddi_vals
         return (replace(got[0], eom=got[0].unrefined), eddi_val, eddi_held, eddi_held, "rejected", "test",
                 got[6], got[7])
