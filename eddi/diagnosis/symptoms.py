@@ -297,9 +297,7 @@ def energy_threshold_pct(se_pct: float) -> float:
     """The energy mismatch [%] beyond which it is notable: the larger of
     ``THRESHOLDS["energy_mismatch_pct"]`` (15 %) and ``BIAS_SE_FACTOR`` standard errors (as
     :func:`bias_threshold_pct`); an unknown standard error leaves the constant."""
-    if np.isnan(se_pct):
-        return THRESHOLDS["energy_mismatch_pct"]
-    return max(THRESHOLDS["energy_mismatch_pct"], BIAS_SE_FACTOR * se_pct)
+    return _se_threshold("energy_mismatch_pct", se_pct)
 
 
 def _energy_beyond(pct: float, se_pct: float) -> bool:
@@ -321,9 +319,15 @@ def bias_threshold_pct(se_pct: float) -> float:
     moves the median cycle frequency by hundredths of a percent) and ``BIAS_SE_FACTOR`` standard
     errors (noisy records, and the cycles at small amplitude where the signal nears the noise).
     An unknown standard error (a symptom built elsewhere) leaves the constant."""
+    return _se_threshold("frequency_bias_pct", se_pct)
+
+
+def _se_threshold(key: str, se_pct: float) -> float:
+    """The larger of ``THRESHOLDS[key]`` and ``BIAS_SE_FACTOR`` standard errors (the constant
+    alone when the standard error is unknown)."""
     if np.isnan(se_pct):
-        return THRESHOLDS["frequency_bias_pct"]
-    return max(THRESHOLDS["frequency_bias_pct"], BIAS_SE_FACTOR * se_pct)
+        return THRESHOLDS[key]
+    return max(THRESHOLDS[key], BIAS_SE_FACTOR * se_pct)
 
 
 def _bias_beyond(bias_pct: float, se_pct: float) -> bool:
