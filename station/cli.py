@@ -23,11 +23,12 @@ from typing import Any, Sequence
 # are small and tall, and a second OpenBLAS thread burnt ~43 % more CPU for the same wall time
 # (issue 13's profile), which on a busy two-core laptop slows every other process. Set before
 # numpy is imported by any command module.
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+_threads = importlib.import_module("eddi.threads")  # imports no numpy
+for _var in _threads.THREAD_VARIABLES:
     os.environ.setdefault(_var, "1")
 # ... and when all three are 1 before numpy is imported, the engine need not limit the pools again
 # per call (eddi.threads: threadpoolctl's look-up, ~7 ms of CPU a `station identify`)
-importlib.import_module("eddi.threads").declare_one_thread_environment()
+_threads.declare_one_thread_environment()
 
 
 #: Sub-command name -> (module that provides it with ``register(subparsers)``, one-line help).
