@@ -230,8 +230,8 @@ IDENT = {
                  "validate",
     "massload": "a sensor of 6-15 % of the mass on the structure, the lab giving the structure's mass",
     "ldvdrop": "a laser vibrometer (mm/s) with 4-8 dropouts to zero of 1-3 samples in the ring-down",
-    "jitter": "the lab's software export (quoted metadata, semicolons, decimal commas, g) with jittered time "
-              "stamps printed to 7 digits",
+    "jitter": "a logger's export (`#` notes, ms, decimal commas, units in brackets) whose time column is the "
+              "logger's own jittered stamps (1-4 % of a period) printed to 7 digits",
     "heavy": "60-200 kg at 2-12 Hz, 4-8 % damping, 500-2000 Hz, the lab's software export in g",
     "grams": "3-12 g at 300-1500 Hz, 0.05-0.3 % damping, 25.6-51.2 kHz",
     "clipfew": "an accelerometer channel whose range was set on a smaller blow: the first ring-down peaks clip "
@@ -275,8 +275,8 @@ def ident_case(defect):
             chain["dropouts"] = int(rng.integers(4, 9))
             words = refusal = [r"dropout", r"spike", r"outlier", r"glitch", r"\bzero", r"jump", r"\bgap", r"sample"]
         elif defect == "jitter":
-            fmt = "csv-real-jitter"
-            words, refusal = TIME_WORDS, TIME_WORDS + LAYOUT_WORDS
+            fmt = "csv-export-jitter"
+            words = refusal = TIME_WORDS
         elif defect == "clipfew":  # the range set on a smaller blow: the first 1-3 peaks clip for a few samples
             chain.update(clip_frac=float(rng.uniform(0.85, 0.95)), bits=16, range_x=(1.0, 1.0))
             words = refusal = [r"clip", r"saturat", r"overload", r"\brange", r"flat"]

@@ -119,6 +119,8 @@ def write(path_base, fmt, t, channels, rng):
         return path
     if fmt == "csv-export":
         return _export(path_base, t, channels, rng)
+    if fmt == "csv-export-jitter":
+        return _export(path_base, t, channels, rng, jitter=True)
     if fmt == "uff58":
         return _uff(path_base, t, channels, rng)
     if fmt == "mat":
@@ -253,11 +255,17 @@ def _quantity(name):
     return "force" if name == "force" else name.split("_")[0].rstrip("0123456789")
 
 
-def _export(path_base, t, channels, rng):
+def _export(path_base, t, channels, rng, jitter=False):
+    """A logger's export (``#`` notes, ``Time [ms]``, tab or semicolon, decimal commas, units in brackets).
+    ``jitter`` (eleventh set): the time column is the logger's own stamp of each sample, read from a clock with
+    1-4 % of a sample period of jitter and printed with 7 significant digits (not a uniform grid)."""
     delim = ["\t", ";"][rng.integers(2)]
     comma = True
     path = path_base + (".tsv" if delim == "\t" else ".txt" if rng.random() < 0.5 else ".csv")
-    heads, cols = ["Time [ms]"], [np.asarray(t) * 1e3]
+    tt = np.asarray(t, float)
+    if jitter:
+        tt = tt + rng.normal(0.0, rng.uniform(0.01, 0.04) * float(tt[1] - tt[0]), len(tt))
+    heads, cols = ["Time [ms]"], [tt * 1e3]
     for name, y in channels.items():
         q = _quantity(name)
         unit, fac = UNIT_CHOICES[q][rng.integers(len(UNIT_CHOICES[q]))]
@@ -269,7 +277,10 @@ def _export(path_base, t, channels, rng):
     lines = [f"# exported by logger unit {rng.integers(1, 99)}", f"# sample rate {1 / (t[1] - t[0]):.6g} Hz",
              delim.join(heads)]
     data = np.column_stack(cols)
-    lines += [delim.join(_fmt(row, comma)) for row in data]
+    if jitter:
+        lines += [delim.join([f"{row[0]:.7g}".replace(".", ",")] + _fmt(row[1:], comma)) for row in data]
+    else:
+        lines += [delim.join(_fmt(row, comma)) for row in data]
     with open(path, "w") as fh:
         fh.write("\n".join(lines) + "\n")
     return path

@@ -726,6 +726,9 @@ def score_consistency(case, run):
                 if h5n is None or abs(float(h5n) - held) > REL_NRMSE * held:
                     diffs["HDF5 held-out nrmse"] = [f"{h5n} vs CSV {held:.6g}"]
             outdir = f"score-{lab}-report"
+            ry = step(["replay", h5, *terms, "--json"], "REPLAY")
+            if ry is not None:
+                diffs["replay on HDF5"] = _same(a, _coefs(ry))
             rp = step(["report", h5, "--out", outdir, *terms, "--json"], "REPORT")
             if rp is not None:
                 diffs["report on HDF5"] = _same(a, _coefs(rp))
