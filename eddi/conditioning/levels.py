@@ -65,7 +65,10 @@ def crossings(y: np.ndarray, hysteresis: float, start: int = 0, stop: int | None
     ok = pos >= 0
     i = sign_change[pos[ok]]
     y0, y1 = seg[i], seg[i + 1]
-    frac = np.where(y1 != y0, y0 / (y0 - y1), 0.5)
+    # where y0 == y1 (two equal samples either side of a sign-bit change: +0.0 and -0.0, or a
+    # flat run), the crossing is taken halfway; no 0/0 is formed (its RuntimeWarning reached the
+    # user's stderr on clean records)
+    frac = np.divide(y0, y0 - y1, out=np.full(y0.shape, 0.5), where=y1 != y0)
     return start + i + np.clip(frac, 0.0, 1.0)
 
 

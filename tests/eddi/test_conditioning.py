@@ -322,3 +322,17 @@ def test_crossings_are_the_index_lists_without_listing_every_sample(block, monke
     monkeypatch.setattr(np, "flatnonzero", real)
     assert np.array_equal(got, _crossings_by_index_list(ring, 3e-3)) and got.size > 600
     assert max(sizes) <= max(block, 0.1 * t.size)
+
+
+def test_crossing_between_plus_and_minus_zero_is_halfway_without_a_warning():
+    """+0.0 then -0.0 differ in sign bit, not in value: the crossing is halfway and no 0/0 is
+    formed (its RuntimeWarning reached a user's stderr on clean CSV records, blind unseen11 X2)."""
+    import warnings
+
+    from eddi.conditioning.levels import crossings
+
+    y = np.array([1.0, 2.0, 0.0, -0.0, -1.0, -2.0, -1.0, 0.0, 1.0, 2.0, 1.0, 0.0, -1.0, -2.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        c = crossings(y, 0.5)
+    np.testing.assert_array_equal(c, [2.5, 7.0, 11.0])
