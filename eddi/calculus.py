@@ -24,6 +24,8 @@ One module owns these so that conditioning (:mod:`eddi.conditioning`), the modal
   differ slightly onto one grid (:func:`common_rate`);
 * :func:`delay`: a signal moved later by a fraction of a sample through the same spline (the
   hammer force aligned with a response that lags it: :mod:`eddi.diagnosis.align`);
+* :func:`fill_gaps`: a few missing samples (a laser vibrometer's dropouts) from a cubic fitted
+  to the good samples either side;
 * :func:`samples_per_cycle_note`: what accuracy to expect from a given sampling;
 * :func:`decimation_factor`, :func:`decimate_centred`: a record sampled far faster than it
   moves (19.2 kHz for a 4 Hz oscillator) onto a coarser grid for the regression;
@@ -284,6 +286,33 @@ def delay(y: np.ndarray, samples: float) -> np.ndarray:
 
     out[inside] = make_interp_spline(np.arange(n, dtype=float), y, k=5)(idx[inside])
     return out
+
+
+def fill_gaps(y: np.ndarray, bad: np.ndarray, side: int = 2) -> np.ndarray:
+    """``y`` with the samples where ``bad`` is True replaced by the cubic through ``side`` good
+    samples on each side of each run of bad samples (least squares when ``side > 2``; a copy).
+
+    For short gaps in an oversampled signal: at 28 samples a cycle a 3-sample gap is filled
+    within 0.3 % of the amplitude (1-2 samples: 0.03 %; ``side=4`` gives 1.5 %: the wider cubic
+    spans 0.4 cycle). A run with fewer good samples on a side is filled from what it has (a
+    line or a constant when only 1-3 samples are there).
+    """
+    y = np.array(y, dtype=float)
+    bad = np.asarray(bad, dtype=bool)
+    edges = np.diff(np.concatenate(([0], bad.astype(np.int8), [0])))
+    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+        left = np.arange(a - 1, -1, -1)
+        left = left[~bad[left]][:side]
+        right = np.arange(b, y.size)
+        right = right[~bad[right]][:side]
+        idx = np.concatenate((left, right))
+        if idx.size == 0:
+            continue
+        deg = min(3, idx.size - 1)
+        centre = 0.5 * (a + b - 1)
+        c = np.polynomial.polynomial.polyfit(idx - centre, y[idx], deg)
+        y[a:b] = np.polynomial.polynomial.polyval(np.arange(a, b) - centre, c)
+    return y
 
 
 def samples_per_cycle_note(rate_hz: float, freq_hz: float) -> str | None:

@@ -28,7 +28,7 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -297,8 +297,42 @@ def checked_measurement(cols: dict[str, np.ndarray], where: str, at: Any, since:
                 f"{where}: column {name!r} looks clipped: flat at its extreme value {col[c]:g} "
                 f"{since(c)}; expected a signal within the sensor's range"
             )
+    for name in response_channels(cols):
+        cols[name] = _filled_dropouts(cols[name], f"{where}: column {name!r}", since)
     return Measurement(t=t, channels=MappingProxyType(cols), rate_hz=rate, pretrigger_samples=None, mass=None,
                        source=where, metadata=metadata)
+
+
+#: Longest run of dropped samples filled, and the largest share of a channel's samples.
+MAX_DROPOUT_RUN = 8
+MAX_DROPOUT_SHARE = 0.05
+
+
+def _filled_dropouts(col: np.ndarray, what: str, since: Callable[[int], str]) -> np.ndarray:
+    """A response channel with its dropouts (:func:`eddi.conditioning.dropout_runs`: exact zeros
+    amid the motion) filled from a cubic through the samples either side, with a note; refused
+    when a run is longer than :data:`MAX_DROPOUT_RUN` samples or the runs hold more than
+    :data:`MAX_DROPOUT_SHARE` of the samples. Left in, 12 zeros in a 709-sample velocity record
+    read as a poor fit with an x^3 59 % off and nothing naming them (blind unseen11 I3)."""
+    from eddi.calculus import fill_gaps
+    from eddi.conditioning import dropout_runs
+
+    runs = dropout_runs(col)
+    if not runs:
+        return col
+    lengths = [b - a for a, b in runs]
+    total = sum(lengths)
+    said = (f"{what} reads exactly 0 for {total} sample{'s' if total > 1 else ''} in {len(runs)} "
+            f"run{'s' if len(runs) > 1 else ''} amid the motion (the first {since(runs[0][0])}, the longest "
+            f"{max(lengths)} samples): the sensor lost its signal (a laser vibrometer's dropouts)")
+    if max(lengths) > MAX_DROPOUT_RUN or total > MAX_DROPOUT_SHARE * col.size:
+        raise InputFileError(f"{said}; too many to fill (at most {MAX_DROPOUT_RUN} samples a run and "
+                             f"{100 * MAX_DROPOUT_SHARE:g} % of the record): re-measure or cut the record")
+    bad = np.zeros(col.size, dtype=bool)
+    for a, b in runs:
+        bad[a:b] = True
+    note(f"{said}; filled from a cubic through the samples either side")
+    return fill_gaps(col, bad)
 
 
 def _one_sensor(cols: dict[str, np.ndarray], metadata: dict[str, Any]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:

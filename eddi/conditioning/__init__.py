@@ -37,7 +37,7 @@ third-order Butterworth high-pass at 2-3 Hz; paper Sec. 4.1 and 4.2), kept for c
 """
 
 from eddi.calculus import spline_cumulative_integral
-from eddi.conditioning.checks import check_channel, check_time, clip_on_blow, clipped_run
+from eddi.conditioning.checks import check_channel, check_time, clip_on_blow, clipped_run, dropout_runs
 from eddi.conditioning.conditioned import ConditionedSignal
 from eddi.conditioning.conditioner import (
     ANCHOR_HALF_WIDTH, KNOT_PERIODS, MIN_CROSSINGS, ONE_FORCE_RESIDUAL, condition,
@@ -49,6 +49,6 @@ from eddi.conditioning.levels import crossings, noise_rms
 __all__ = [
     "ANCHOR_HALF_WIDTH", "KNOT_PERIODS", "MIN_CROSSINGS", "ONE_FORCE_RESIDUAL",
     "ConditionedSignal", "EquilibriumIntegral", "anchor_residual", "check_channel", "check_time",
-    "clip_on_blow", "clipped_run", "condition", "crossings", "integrate_about_equilibrium", "integrate_highpass",
+    "clip_on_blow", "clipped_run", "dropout_runs", "condition", "crossings", "integrate_about_equilibrium", "integrate_highpass",
     "noise_rms", "spline_cumulative_integral",
 ]

@@ -1,6 +1,8 @@
-"""Input checks: a uniform time base, finite channels, clipped (flat-topped) runs."""
+"""Input checks: a uniform time base, finite channels, clipped (flat-topped) runs, dropouts."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -149,3 +151,34 @@ def _quantised_peak(y: np.ndarray, start: int, stop: int) -> bool:
     vertex = c[2] - c[1] ** 2 / (4 * c[0])
     return bool(abs(vertex - y[start]) <= 2 * q)
 
+
+
+def dropout_runs(y: np.ndarray, max_run: int = 8) -> list[tuple[int, int]]:
+    """Runs ``[a, b)`` of exact zeros amid the motion: a sensor's signal lost for a few samples
+    (a laser vibrometer's dropouts read 0 while the surface moves).
+
+    A measured signal reads exactly 0 only where it is within half a converter count of zero:
+    at rest or at a zero crossing. A run of zeros is a dropout when the cubic through the
+    samples either side (:func:`eddi.calculus.fill_gaps`) puts the signal there beyond 10 noise
+    RMS (noise from the median third difference, which a signal sampled 10+ times a cycle
+    barely feeds) and 2 counts (the smallest step between the channel's values). Runs at the
+    record's ends are left alone; runs longer than ``max_run`` are returned too (the caller
+    decides whether they can be filled).
+    """
+    from eddi.calculus import fill_gaps
+
+    y = np.asarray(y, dtype=float)
+    zero = y == 0.0
+    if y.size < 16 or not zero.any():
+        return []
+    noise = float(np.median(np.abs(np.diff(y, 3)))) / 0.6745 / math.sqrt(20.0)
+    levels = np.unique(y)
+    count = float(np.min(np.diff(levels))) if levels.size > 1 else 0.0
+    level = max(10.0 * noise, 2.0 * count, 1e-12 * float(np.max(np.abs(y))))
+    guess = fill_gaps(y, zero)
+    edges = np.diff(np.concatenate(([0], zero.astype(np.int8), [0])))
+    out = []
+    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+        if a > 0 and b < y.size and float(np.max(np.abs(guess[a:b]))) > level:
+            out.append((int(a), int(b)))
+    return out
