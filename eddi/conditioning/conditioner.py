@@ -32,6 +32,12 @@ ANCHOR_HALF_WIDTH = 0.02
 #: a line in time); otherwise (several modes) it is integrated about the equilibrium only.
 #: Measured: one mode 0.0004-0.05, two modes 0.5-0.9 (docs/conditioning.md).
 ONE_FORCE_RESIDUAL = 0.3
+#: Anchors per group (and per tail stretch) of the drift fit: on a record sampled far faster
+#: than its period, each group of ``2 half_w + 1`` samples around a crossing is fitted as this
+#: many block means of ``run`` samples (odd), the tail as means of ``run`` samples around every
+#: ``run``-th of its points (session 15: the 45 s, 19.2 kHz record's 77k anchor samples -> 6k
+#: rows; see :func:`_anchor_means`).
+ANCHOR_BLOCKS = 17
 
 
 
@@ -337,20 +343,58 @@ def _anchored_drift(w: _Work, x_int: np.ndarray, v_int: np.ndarray, a_for_anchor
         )
     # samples within +-2 % of a period of each crossing (|x| below ~12 % of its amplitude)
     half_w = max(1, int(round(ANCHOR_HALF_WIDTH * w.period_s * w.rate)))
-    centre = np.rint(anc).astype(int)
-    near = (centre[:, None] + np.arange(-half_w, half_w + 1)[None, :]).ravel()
-    near = near[(near > max(first, w.start)) & (near < stop)]
     step = max(1, int(round(w.period_s * w.rate / (2 * half_w + 1) / 2.0)))
-    tail = np.arange(stop, w.n, step)
-    mark = np.zeros(w.n, dtype=bool)  # sorted and unique, as np.unique gives, in one O(n) pass
-    mark[near] = True
-    mark[tail] = True
-    pts = np.flatnonzero(mark)
-    local = -np.column_stack((a_for_anchor[pts], v_int[pts]))
-    spl = _drift_spline(w.t, x_int, pts, KNOT_PERIODS * w.period_s, w.start, clamped=w.rest, local=local,
+    run = _anchor_run(half_w)
+    if run > 1:
+        ta, xa, local = _anchor_means(w, x_int, v_int, a_for_anchor, anc, half_w, step, run, first, stop)
+    else:
+        centre = np.rint(anc).astype(int)
+        near = (centre[:, None] + np.arange(-half_w, half_w + 1)[None, :]).ravel()
+        near = near[(near > max(first, w.start)) & (near < stop)]
+        tail = np.arange(stop, w.n, step)
+        mark = np.zeros(w.n, dtype=bool)  # sorted and unique, as np.unique gives, in one O(n) pass
+        mark[near] = True
+        mark[tail] = True
+        pts = np.flatnonzero(mark)
+        ta, xa, local = w.t[pts], x_int[pts], -np.column_stack((a_for_anchor[pts], v_int[pts]))
+    spl = _drift_spline(w.t, xa, ta, KNOT_PERIODS * w.period_s, w.start, clamped=w.rest, local=local,
                         free_slope=w.free_slope)
     return _drift_spline_eval(spl, w.t, w.start)
 
+
+
+def _anchor_run(half_w: int) -> int:
+    """Samples per anchor block mean (odd; 1: every sample is its own anchor, as before session 15)."""
+    run = (2 * half_w + 1) // ANCHOR_BLOCKS
+    return max(1, run if run % 2 else run - 1)
+
+
+def _anchor_means(w: _Work, x_int: np.ndarray, v_int: np.ndarray, acc: np.ndarray, anc: np.ndarray,
+                  half_w: int, step: int, run: int, first: int, stop: int,
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The drift fit's anchors as block means of ``run`` samples: times, ``x_int``, ``-(a, v)``.
+
+    The samples of the per-sample fit (``+-half_w`` around each crossing, every ``step``-th of
+    the tail), in runs of ``run`` consecutive samples, each run replaced by its mean (time: its
+    centre sample's). Every row of the fit is linear in the samples (a cubic spline of knots two
+    periods apart and ``x ~ -c_a a - c_v v``), and a run spans ``run / rate`` s (0.7 ms on the
+    45 s record: 4 % of ``half_w``, ~0.015 rad of its cycle), so a run's mean stands for its
+    samples to second order in that span (the curvature of ``x_int`` within it, ~1e-5 of the
+    anchors' spread) and carries the same white-noise average (the fit sees as many samples, in
+    ``1 / run`` of the rows). The tail (``x ~ 0``): runs centred every ``run step`` samples, as
+    many samples as the per-sample fit's every ``step``-th.
+    """
+    g = half_w // run  # blocks each side of a crossing
+    hr = (run - 1) // 2
+    centres = np.rint(anc).astype(int)[:, None] + (run * np.arange(-g, g + 1))[None, :]
+    centres = centres.ravel()
+    centres = centres[(centres - hr > max(first, w.start)) & (centres + hr < stop)]
+    tail = np.arange(stop + hr, w.n - hr, run * step)
+    centres = np.unique(np.concatenate((centres, tail)))  # sorted; a shared centre once
+    idx = centres[:, None] + np.arange(-hr, hr + 1)[None, :]
+    xa = x_int[idx].mean(axis=1)
+    local = -np.column_stack((acc[idx].mean(axis=1), v_int[idx].mean(axis=1)))
+    return w.t[centres], xa, local
 
 
 def _kinematics_by_integration(w: _Work, noise_factor: float) -> None:

@@ -90,10 +90,13 @@ def _sg_derivative_modes(y: np.ndarray, rate_hz: float, period_s: float) -> np.n
 
 
 def _drift_spline(
-    t: np.ndarray, x_int: np.ndarray, pts: np.ndarray, knot_s: float, start: int, clamped: bool,
+    t: np.ndarray, y: np.ndarray, t_pts: np.ndarray, knot_s: float, start: int, clamped: bool,
     local: np.ndarray, free_slope: bool = False,
 ) -> BSpline:
-    """Least-squares cubic spline ``d`` with ``x_int = d(t) + local @ c`` at samples ``pts``.
+    """Least-squares cubic spline ``d`` with ``y = d(t_pts) + local @ c`` (``y``: the integrated ``x`` at the anchors).
+
+    ``t`` is the record's time (the spline spans ``t[start:]``); ``t_pts, y, local`` are the
+    anchors (samples, or block means of samples: :func:`eddi.conditioning.conditioner._anchor_means`).
 
     ``local`` holds, per sample, signals to which the true ``x`` is locally proportional
     near its zeros (``-a`` and ``-v``: near ``x = 0``, ``k1 x = -m a - b1 v``); their
@@ -104,7 +107,7 @@ def _drift_spline(
     n_int = max(1, int(math.ceil((t1 - t0) / knot_s)))
     inner = np.linspace(t0, t1, n_int + 1)
     knots = np.concatenate(([t0] * 3, inner, [t1] * 3))
-    basis = bspline_design_matrix(t[pts], knots, 3)
+    basis = bspline_design_matrix(t_pts, knots, 3)
     first = (1 if free_slope else 2) if clamped else 0
     # the B-spline block stays sparse (4 non-zeros a row): the normal equations are built
     # block by block, never as a dense (rows x knots) product (a dense one took 2 s of
@@ -118,7 +121,6 @@ def _drift_spline(
     scale = np.max(np.abs(local), axis=0)
     scale[scale == 0] = 1.0
     loc = local / scale
-    y = x_int[pts]
     k = m + loc.shape[1]
     normal = np.empty((k, k))
     normal[:m, :m] = btb + lam * d2.T @ d2
