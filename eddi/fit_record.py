@@ -80,13 +80,13 @@ SEED_H_OMEGA = 0.3
 #: ... and that refinement ends a stage when a step lowers the sum of squares by less than this
 #: many times its mean square per compared value (``refine_output_error(min_gain=)``: one unit of
 #: chi-square once the model fits; the Gauss-Newton step then left moves the coefficients by well
-#: under a standard error: <= 5e-5 of their ci95 on 20 rig and test-system records, one RK4
-#: sensitivity pass less of ~5 on the 45 s record). A fit that is not kept, diverges or fits
-#: poorly (where the premise "the model fits" fails: a record outside the library stopped early
-#: in a worse place, nrmse 0.53 -> 1.19) goes on to the scored pipeline, which runs every stage to
-#: rounding (:func:`_needs_scored_pipeline`). Not for a model with a ``sign`` term or an effect
-#: (:func:`eddi.refine_grid.smooth_model`: no smooth sum of squares). None: to rounding here too
-#: (before session 15).
+#: under a standard error: <= 5.1e-5 of their ci95 on 57 records, 0.05-500 kg, 256 Hz-50 kHz,
+#: 20-60 dB, docs/performance.md; one RK4 sensitivity pass less of 5 on the 45 s record). A fit
+#: that is not kept, diverges or fits poorly (where the premise "the model fits" fails: a record
+#: outside the library stopped early in a worse place, nrmse 0.53 -> 1.19) goes on to the scored
+#: pipeline, which runs every stage to rounding (:func:`_needs_scored_pipeline`). Not for a model
+#: with a ``sign`` term or an effect (:func:`eddi.refine_grid.smooth_model`: no smooth sum of
+#: squares). None: to rounding here too (before session 15).
 SEED_MIN_GAIN: float | None = 1.0
 
 
