@@ -327,8 +327,9 @@ def _kinematics_from_disp(w: _Work) -> None:
 
 
 def _anchored_drift(w: _Work, x_int: np.ndarray, v_int: np.ndarray, a_for_anchor: np.ndarray,
-                    noise_factor: float) -> tuple[np.ndarray, np.ndarray]:
-    """The drift ``d, d'`` of an integrated ``x``, anchored where ``a = 0`` and in the noise tail."""
+                    noise_factor: float, subtract: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """The drift ``d, d'`` of an integrated ``x``, anchored where ``a = 0`` and in the noise tail
+    (``subtract``: ``x_int - d, v_int - d'``, in place)."""
     first = max(w.start, w.impact_end)
     a_sigma = noise_rms(a_for_anchor, w.noise_stop)
     h = max(3.0 * a_sigma, 1e-9 * float(np.max(np.abs(a_for_anchor))))
@@ -359,7 +360,7 @@ def _anchored_drift(w: _Work, x_int: np.ndarray, v_int: np.ndarray, a_for_anchor
         ta, xa, local = w.t[pts], x_int[pts], -np.column_stack((a_for_anchor[pts], v_int[pts]))
     spl = _drift_spline(w.t, xa, ta, KNOT_PERIODS * w.period_s, w.start, clamped=w.rest, local=local,
                         free_slope=w.free_slope)
-    return _drift_spline_eval(spl, w.t, w.start)
+    return _drift_spline_eval(spl, w.t, w.start, minus=(x_int, v_int) if subtract else None)
 
 
 
@@ -466,8 +467,7 @@ def _integrate_acceleration(w: _Work, eq: EquilibriumIntegral | None, noise_fact
         line = np.polynomial.polynomial.polyfit(t - t[0], x_int, 1)
         x_int = x_int - line[0] - line[1] * (t - t[0])
         v_int = v_int - line[1]
-    d, dd = _anchored_drift(w, x_int, v_int, a, noise_factor)
-    w.x, w.v = np.subtract(x_int, d, out=x_int), np.subtract(v_int, dd, out=v_int)  # no longer needed as integrated
+    w.x, w.v = _anchored_drift(w, x_int, v_int, a, noise_factor, subtract=True)  # in place: x_int, v_int no longer needed
     w.method = ("acc integrated from rest" if w.rest else "acc integrated about the equilibrium") + \
         "; drift anchored at acc zero crossings (x = 0) and the noise tail"
 

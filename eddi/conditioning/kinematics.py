@@ -135,8 +135,13 @@ def _drift_spline(
 
 
 
-def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int) -> tuple[np.ndarray, np.ndarray]:
+def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int,
+                       minus: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``d`` and ``d'`` of the drift spline on ``t[start:]`` (0 before ``start``).
+
+    ``minus = (x, v)``: ``x - d`` and ``v - d'`` instead, in place in ``x, v`` (returned; the
+    same values bit for bit as subtracting the returned ``d, d'``, without two arrays of the
+    record's length and two passes over it).
 
     Evaluated as its piecewise polynomial (:meth:`scipy.interpolate.PPoly.from_spline`: the
     cubic of each knot interval, by Horner on the interval's samples): equal to the B-spline's
@@ -145,8 +150,8 @@ def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int) -> tuple[np.ndar
     """
     from scipy.interpolate import PPoly
 
-    d = np.zeros(t.size)
-    dd = np.zeros(t.size)
+    d, dd = (np.zeros(t.size), np.zeros(t.size)) if minus is None else minus
+    sub = minus is not None
     ts = t[start:]
     pp = PPoly.from_spline(spl, extrapolate=False)
     brk, c = pp.x, pp.c
@@ -167,12 +172,18 @@ def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int) -> tuple[np.ndar
         y += c1
         y *= u
         y += c0
-        dv[i0:i1] = y
+        if sub:
+            dv[i0:i1] -= y
+        else:
+            dv[i0:i1] = y
         y = (3.0 * c3) * u
         y += 2.0 * c2
         y *= u
         y += c1
-        ddv[i0:i1] = y
+        if sub:
+            ddv[i0:i1] -= y
+        else:
+            ddv[i0:i1] = y
     return d, dd
 
 

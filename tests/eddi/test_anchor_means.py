@@ -70,3 +70,22 @@ def test_block_means_of_a_linear_signal_are_its_values_at_the_centres() -> None:
     near = ta < 30000 / rate
     assert near.sum() == 3 * (2 * (40 // 9) + 1)  # 9 runs a crossing
     assert (~near).sum() == len(range(30000 + 4, n - 4, 9 * 7))  # the tail: a run every run * step samples
+
+
+def test_drift_subtracted_in_place_equals_the_subtraction_bit_for_bit() -> None:
+    """``_drift_spline_eval(..., minus=(x, v))``: ``x - d``, ``v - d'`` in the given arrays, the
+    same bits as subtracting the evaluated drift (no two record-length arrays; session 15)."""
+    from scipy.interpolate import BSpline
+
+    t = np.arange(200_003) / 19200.0
+    start = 1234
+    inner = np.linspace(t[start], t[-1], 38)
+    knots = np.concatenate(([t[start]] * 3, inner, [t[-1]] * 3))
+    spl = BSpline(knots, np.random.default_rng(3).normal(size=knots.size - 4), 3, extrapolate=False)
+    rng = np.random.default_rng(4)
+    x, v = rng.normal(size=t.size), rng.normal(size=t.size)
+    d, dd = K._drift_spline_eval(spl, t, start)
+    want_x, want_v = x - d, v - dd
+    got_x, got_v = K._drift_spline_eval(spl, t, start, minus=(x, v))
+    assert got_x is x and got_v is v
+    assert np.array_equal(got_x, want_x) and np.array_equal(got_v, want_v)
