@@ -201,7 +201,6 @@ class Pipeline:
         model, q = self._eddi(cond, mass, route, h_omega)
         if self.refine:
             from eddi.refine import refine_output_error  # local: scipy.optimize
-
             from eddi.refine_grid import smooth_model
 
             w0, w1 = cond.window
