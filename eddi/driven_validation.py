@@ -25,7 +25,7 @@ from eddi.validate import Validation, validate
 
 def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal,
                          fused: bool = True, *, drive_scale: float = 1.0,
-                         fitted_free_state: bool = False) -> tuple[Validation, bool]:
+                         fitted_free_state: bool = False, every: int = 1) -> tuple[Validation, bool]:
     """Simulate ``eom`` for a conditioned record, compare over its free-response window.
 
     Driven from rest by the measured impact force when the record has a force and a rest
@@ -34,7 +34,9 @@ def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal,
     judge varies within the impulse's uncertainty, :mod:`eddi.judge`); otherwise a free
     response from the measured state at the start of the window, or (a blow with no rest
     before it, or ``fitted_free_state`` on a record with no force) from the state fitted over
-    the window's first cycles (:func:`eddi.initial_state.fitted_state`).
+    the window's first cycles (:func:`eddi.initial_state.fitted_state`). ``every``: a driven
+    validation compares every ``every``-th sample of the window only (:func:`eddi.validate.validate`;
+    a free response compares every sample).
 
     Returns
     -------
@@ -52,7 +54,7 @@ def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal,
         if drive_scale != 1.0:
             drive = drive * drive_scale
         val = validate(eom, cond.t[s:e], cond.x[s:e], v=cond.v[s:e], force=drive[s:e],
-                       window=(cond.free_start - s, cond.free_stop - s))
+                       window=(cond.free_start - s, cond.free_stop - s), every=every)
         return _shift(val, s), True
     if force is not None or fitted_free_state:
         # a blow with no rest before it: the free response starts right after the blow, where

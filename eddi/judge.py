@@ -95,6 +95,12 @@ class Judgement:
     refined_worse: bool
 
 
+def judge_stride(cond: "ConditionedSignal") -> int:
+    """The judge compares every ``judge_stride``-th sample of the window (at most :data:`JUDGE_SAMPLES`)."""
+    w0, w1 = cond.window
+    return max(1, (w1 - w0) // JUDGE_SAMPLES)
+
+
 def impulse_uncertainty(cond: "ConditionedSignal", eom: EquationOfMotion) -> float:
     """Relative standard uncertainty of the impulse the validation drives ``eom`` with.
 
@@ -119,15 +125,17 @@ def _simulated(eom: EquationOfMotion, cond: "ConditionedSignal", scale: float, k
     """The measured channel as ``eom`` simulates it for ``cond`` (drive times ``scale``), every ``k``-th sample.
 
     ``val``: ``validate_conditioned(eom, cond)`` when the caller has it (``scale`` 1), so it
-    is not simulated again.
+    is not simulated again; it may hold every ``k``-th sample only (``val.every``, see
+    :meth:`eddi.fit_record.Pipeline.fit`), not with a sampling kernel.
     """
-    if val is None or scale != 1.0:
-        val, _ = validate_conditioned(eom, cond, drive_scale=scale, fitted_free_state=cond.impact_force is None)
-    if not math.isfinite(val.nrmse) or not np.all(np.isfinite(val.x_simulated)):
-        return np.full(val.x_simulated[::k].size, np.inf)
-    channel = CHANNEL[cond.response]
     kv = cond.sample_kernel_var
-    step = 1 if kv else k  # the DAQ's kernel needs neighbouring samples
+    if val is None or scale != 1.0 or (val.every > 1 and (k % val.every or kv)):
+        val, _ = validate_conditioned(eom, cond, drive_scale=scale, fitted_free_state=cond.impact_force is None)
+    sub = k // val.every  # every k-th sample of the window in val's arrays
+    if not math.isfinite(val.nrmse) or not np.all(np.isfinite(val.x_simulated)):
+        return np.full(val.x_simulated[::sub].size, np.inf)
+    channel = CHANNEL[cond.response]
+    step = 1 if kv else sub  # the DAQ's kernel needs neighbouring samples
     if channel == "x":
         out = val.x_simulated[::step]
     elif channel == "v":
@@ -182,7 +190,7 @@ def judge_fit_record(refined: EquationOfMotion, eddi: EquationOfMotion, cond: "C
     Judgement
     """
     w0, w1 = cond.window
-    k = max(1, (w1 - w0) // JUDGE_SAMPLES)
+    k = judge_stride(cond)
     meas_all = {"a": cond.a, "v": cond.v, "x": cond.x}[CHANNEL[cond.response]][w0:w1]
     y = meas_all[::k]
     norm2 = float(np.sum(y**2)) or 1.0

@@ -74,6 +74,8 @@ def judge_refinement(model: IdentifiedModel, cond: ConditionedSignal, held_out: 
                 reason = (f"refinement raised the {what} nrmse on the {judged_on}: {n_eddi:.4g} (EDDI) -> "
                           f"{n_ref:.4g}{margin}; EDDI estimate kept")
             model = replace(model, eom=model.unrefined)
+            if eddi_val.every > 1:  # the judge's samples alone (Pipeline.fit): the delivered one compares all
+                eddi_val = validate_conditioned(model.eom, cond)[0]
             val, held = eddi_val, eddi_held
     return model, val, held, eddi_held, refinement, reason, n_eddi, n_ref
 

@@ -499,7 +499,7 @@ def _hermite_fill(xc, vc, ac, q, h, x, v, a):  # pragma: no cover - compiled
 
 
 def simulate_dense(eom: EquationOfMotion, t: np.ndarray, *, force: np.ndarray | None = None, x0: float = 0.0,
-                   v0: float = 0.0, x_scale: float, v_scale: float) -> SimulationResult:
+                   v0: float = 0.0, x_scale: float, v_scale: float, at: np.ndarray | None = None) -> SimulationResult:
     """:func:`simulate` for a record sampled far faster than the model moves.
 
     Up to the last non-zero force sample the simulation runs on every sample (as
@@ -521,11 +521,15 @@ def simulate_dense(eom: EquationOfMotion, t: np.ndarray, *, force: np.ndarray | 
     x0, v0 : float
     x_scale, v_scale : float
         Amplitudes the response reaches (sub-steps and ``q``).
+    at : ndarray of int, optional
+        Increasing sample indices: the result holds only these samples (the same values as
+        at those samples of the whole result, up to rounding; the interpolation runs at
+        these alone: the refinement's judge reads EDDI's simulation at 1 in 23 samples).
 
     Returns
     -------
     SimulationResult
-        On every sample of ``t`` (``substeps`` is that of the fine part).
+        On every sample of ``t`` (``at``: on ``t[at]``; ``substeps`` is that of the fine part).
     """
     t = np.asarray(t, dtype=float)
     n = t.size
@@ -538,26 +542,61 @@ def simulate_dense(eom: EquationOfMotion, t: np.ndarray, *, force: np.ndarray | 
     sharp = bool(eom.effects) or any(tm.exponents[4] % 2 or tm.exponents[5] % 2
                                      for tm in eom.damping_terms() + eom.stiffness_terms())
     if sharp or q < 4 or n - last < 4 * q:
-        return simulate(eom, t, force=force, x0=x0, v0=v0, x_scale=x_scale, v_scale=v_scale)
+        return _at(simulate(eom, t, force=force, x0=x0, v0=v0, x_scale=x_scale, v_scale=v_scale), at)
     if last > 0:
         head = simulate(eom, t[: last + 1], force=f[: last + 1], x0=x0, v0=v0, x_scale=x_scale, v_scale=v_scale)
         xs0, vs0, sub = float(head.x[-1]), float(head.v[-1]), head.substeps
         if head.diverged:
-            return simulate(eom, t, force=force, x0=x0, v0=v0, x_scale=x_scale, v_scale=v_scale)
+            return _at(simulate(eom, t, force=force, x0=x0, v0=v0, x_scale=x_scale, v_scale=v_scale), at)
     else:
         head, xs0, vs0, sub = None, float(x0), float(v0), 0
-    x = np.empty(n)
-    v = np.empty(n)
-    a = np.empty(n)
-    if head is not None:
-        x[:last], v[:last], a[:last] = head.x[:last], head.v[:last], head.a[:last]
-    diverged, steps0 = _dense_tail(eom, dt, last, q, omega, xs0, vs0, x, v, a)
+    m = n if at is None else at.size
+    x = np.empty(m)
+    v = np.empty(m)
+    a = np.empty(m)
+    if at is None:
+        if head is not None:
+            x[:last], v[:last], a[:last] = head.x[:last], head.v[:last], head.a[:last]
+    elif head is not None:
+        h = int(np.searchsorted(at, last))
+        x[:h], v[:h], a[:h] = head.x[at[:h]], head.v[at[:h]], head.a[at[:h]]
+    diverged, steps0 = _dense_tail(eom, dt, last, q, omega, xs0, vs0, x, v, a, n, at)
     diverged = bool(diverged or not np.all(np.isfinite(x)))
-    return SimulationResult(t=t, x=x, v=v, a=a, y=None, diverged=diverged, substeps=sub or steps0)
+    return SimulationResult(t=t if at is None else t[at], x=x, v=v, a=a, y=None, diverged=diverged,
+                            substeps=sub or steps0)
+
+
+def _at(sim: SimulationResult, at: np.ndarray | None) -> SimulationResult:
+    """``sim`` at the samples ``at`` (all of it when None)."""
+    if at is None:
+        return sim
+    return SimulationResult(t=sim.t[at], x=sim.x[at], v=sim.v[at], a=sim.a[at],
+                            y=None if sim.y is None else sim.y[at], diverged=sim.diverged, substeps=sim.substeps)
+
+
+def _hermite_at(seg: SimulationResult, q: int, h: float, j: np.ndarray, x: np.ndarray, v: np.ndarray,
+                a: np.ndarray) -> None:
+    """``_hermite_fill`` at the segment's samples ``j`` alone (numpy: the same formulas)."""
+    k = j // q
+    s = (j - k * q) / q
+    on = s == 0.0
+    k1 = np.where(on, k, k + 1)  # a sample on the grid reads no point after it
+    s2 = s * s
+    s3 = s2 * s
+    h00 = 2.0 * s3 - 3.0 * s2 + 1.0
+    h10 = s3 - 2.0 * s2 + s
+    h01 = -2.0 * s3 + 3.0 * s2
+    h11 = s3 - s2
+    xc, vc, ac = seg.x, seg.v, seg.a
+    x[:] = h00 * xc[k] + h10 * h * vc[k] + h01 * xc[k1] + h11 * h * vc[k1]
+    v[:] = h00 * vc[k] + h10 * h * ac[k] + h01 * vc[k1] + h11 * h * ac[k1]
+    a[:] = (1.0 - s) * ac[k] + s * ac[k1]
+    x[on], v[on], a[on] = xc[k[on]], vc[k[on]], ac[k[on]]
 
 
 def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: float, x0: float, v0: float,
-                x: np.ndarray, v: np.ndarray, a: np.ndarray) -> tuple[bool, int]:
+                x: np.ndarray, v: np.ndarray, a: np.ndarray, n: int,
+                at: np.ndarray | None = None) -> tuple[bool, int]:
     """The force-free part of :func:`simulate_dense`: ``x, v, a[start:]`` filled from ``(x0, v0)``.
 
     In up to :data:`DENSE_SEGMENTS` segments: the first with the grid (``q``) and RK4 steps of
@@ -568,9 +607,9 @@ def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: flo
     bounds with fewer of them (the 45 s, 19.2 kHz ring-down: ~0.4 of the steps of one grid; a
     softening or linear model keeps its steps). A model whose response grows is stepped at the
     frequency of the amplitude before the growth, as the single grid was at the caller's scales.
+    ``n``: the record's samples; ``at`` (increasing indices): ``x, v, a`` hold those samples alone.
     Returns (diverged, RK4 steps per grid interval of the first segment).
     """
-    n = x.size
     length = max(4 * q, -(-(n - start) // DENSE_SEGMENTS))
     s, xs, vs, first = start, x0, v0, 0
     while s < n:
@@ -581,9 +620,14 @@ def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: flo
         steps = max(1, math.ceil(q * dt * omega / DENSE_STEP_H_OMEGA))
         first = first or steps
         seg = simulate(eom, (idx - idx[0]) * dt, x0=xs, v0=vs, substeps=steps)
-        _KERNELS._hermite_fill(seg.x, seg.v, seg.a, q, q * dt, x[s:stop], v[s:stop], a[s:stop])
+        if at is None:
+            hi = stop
+            _KERNELS._hermite_fill(seg.x, seg.v, seg.a, q, q * dt, x[s:stop], v[s:stop], a[s:stop])
+        else:
+            lo, hi = np.searchsorted(at, (s, stop))
+            _hermite_at(seg, q, q * dt, at[lo:hi] - s, x[lo:hi], v[lo:hi], a[lo:hi])
         if seg.diverged or not (np.isfinite(seg.x[-1]) and np.isfinite(seg.v[-1])):
-            x[stop:], v[stop:], a[stop:] = np.nan, np.nan, np.nan
+            x[hi:], v[hi:], a[hi:] = np.nan, np.nan, np.nan
             return True, first
         if stop < n:  # the next segment: from the exact RK4 state at its first sample
             xs, vs = float(seg.x[-1]), float(seg.v[-1])

@@ -50,6 +50,9 @@ class Validation:
         does (:func:`eddi.stability.response_warnings`).
     warnings : tuple of str
         Why it diverged, in plain sentences (empty otherwise).
+    every : int
+        The arrays hold every ``every``-th sample of the window from its first (1: all), and
+        ``nrmse``, ``nmte``, ``diverged`` were computed on those (:func:`validate`'s ``every``).
     """
 
     nrmse: float
@@ -62,6 +65,7 @@ class Validation:
     window: tuple[int, int]
     diverged: bool
     warnings: tuple[str, ...] = ()
+    every: int = 1
 
 
 def validate(
@@ -74,6 +78,7 @@ def validate(
     window: tuple[int, int] | None = None,
     x0: float | None = None,
     v0: float | None = None,
+    every: int = 1,
 ) -> Validation:
     """Simulate ``eom`` and compare it with a measured response.
 
@@ -94,6 +99,10 @@ def validate(
         ``[start, stop)`` sample indices to compare (default: all).
     x0, v0 : float, optional
         Initial state, overriding the defaults above.
+    every : int
+        Compare every ``every``-th sample of the window only (from its first): a driven
+        simulation is then interpolated at those samples alone (:func:`simulate_dense`'s
+        ``at``); the refinement's judge reads no more of EDDI's validation (session 15).
 
     Returns
     -------
@@ -114,13 +123,17 @@ def validate(
         x_amp = float(np.max(np.abs(x)))
         v_amp = float(np.max(np.abs(v))) if v is not None else 0.0
         x0f, v0f = 0.0 if x0 is None else float(x0), 0.0 if v0 is None else float(v0)
+        every = max(1, int(every))
         if x_amp > 0 and v_amp > 0:
-            sim = simulate_dense(eom, t, force=f, x0=x0f, v0=v0f, x_scale=x_amp, v_scale=v_amp)
+            at = None if every == 1 else np.arange(w0, w1, every)
+            sim = simulate_dense(eom, t, force=f, x0=x0f, v0=v0f, x_scale=x_amp, v_scale=v_amp, at=at)
+            xs, vs, div = (sim.x[w0:w1], sim.v[w0:w1], sim.diverged) if at is None else (sim.x, sim.v, sim.diverged)
         else:
             sim = simulate(eom, t, force=f, x0=x0f, v0=v0f, x_scale=x_amp or None,
                            v_scale=v_amp if v is not None else None)
-        xs, vs, div = sim.x[w0:w1], sim.v[w0:w1], sim.diverged
+            xs, vs, div = sim.x[w0:w1:every], sim.v[w0:w1:every], sim.diverged
     else:
+        every = 1  # a free response: every sample
         if v0 is None:
             v_est = v if v is not None else np.gradient(x, t)
             v0 = float(v_est[w0])
@@ -134,8 +147,8 @@ def validate(
         else:
             sim = simulate(eom, tw - tw[0], x0=x0, v0=float(v0), x_scale=x_amp, v_scale=None)
         xs, vs, div = sim.x, sim.v, sim.diverged
-    xm = x[w0:w1]
-    vm = v[w0:w1] if v is not None else None
+    xm = x[w0:w1:every]
+    vm = v[w0:w1:every] if v is not None else None
     warnings = response_warnings(xm, xs, blew_up=bool(div))
     denom = float(np.linalg.norm(xm)) or 1.0
     if div or not np.all(np.isfinite(xs)):
@@ -148,9 +161,9 @@ def validate(
             vmax = float(np.max(np.abs(vm))) or 1.0
             nmte = float(np.mean(np.abs(vs - vm)) / vmax)
     return Validation(
-        nrmse=nrmse, nmte=nmte, t=t[w0:w1], x_measured=xm, x_simulated=xs,
+        nrmse=nrmse, nmte=nmte, t=t[w0:w1:every], x_measured=xm, x_simulated=xs,
         v_measured=vm, v_simulated=vs, window=(w0, w1), diverged=bool(div) or bool(warnings),
-        warnings=warnings,
+        warnings=warnings, every=every,
     )
 
 

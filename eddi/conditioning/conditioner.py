@@ -32,6 +32,12 @@ ANCHOR_HALF_WIDTH = 0.02
 #: a line in time); otherwise (several modes) it is integrated about the equilibrium only.
 #: Measured: one mode 0.0004-0.05, two modes 0.5-0.9 (docs/conditioning.md).
 ONE_FORCE_RESIDUAL = 0.3
+#: Anchors per group (and per tail stretch) of the drift fit: on a record sampled far faster
+#: than its period, each group of ``2 half_w + 1`` samples around a crossing is fitted as this
+#: many block means of ``run`` samples (odd), the tail as means of ``run`` samples around every
+#: ``run``-th of its points (session 15: the 45 s, 19.2 kHz record's 77k anchor samples -> 6k
+#: rows; see :func:`_anchor_means`).
+ANCHOR_BLOCKS = 17
 
 
 
@@ -321,8 +327,9 @@ def _kinematics_from_disp(w: _Work) -> None:
 
 
 def _anchored_drift(w: _Work, x_int: np.ndarray, v_int: np.ndarray, a_for_anchor: np.ndarray,
-                    noise_factor: float) -> tuple[np.ndarray, np.ndarray]:
-    """The drift ``d, d'`` of an integrated ``x``, anchored where ``a = 0`` and in the noise tail."""
+                    noise_factor: float, subtract: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """The drift ``d, d'`` of an integrated ``x``, anchored where ``a = 0`` and in the noise tail
+    (``subtract``: ``x_int - d, v_int - d'``, in place)."""
     first = max(w.start, w.impact_end)
     a_sigma = noise_rms(a_for_anchor, w.noise_stop)
     h = max(3.0 * a_sigma, 1e-9 * float(np.max(np.abs(a_for_anchor))))
@@ -337,20 +344,58 @@ def _anchored_drift(w: _Work, x_int: np.ndarray, v_int: np.ndarray, a_for_anchor
         )
     # samples within +-2 % of a period of each crossing (|x| below ~12 % of its amplitude)
     half_w = max(1, int(round(ANCHOR_HALF_WIDTH * w.period_s * w.rate)))
-    centre = np.rint(anc).astype(int)
-    near = (centre[:, None] + np.arange(-half_w, half_w + 1)[None, :]).ravel()
-    near = near[(near > max(first, w.start)) & (near < stop)]
     step = max(1, int(round(w.period_s * w.rate / (2 * half_w + 1) / 2.0)))
-    tail = np.arange(stop, w.n, step)
-    mark = np.zeros(w.n, dtype=bool)  # sorted and unique, as np.unique gives, in one O(n) pass
-    mark[near] = True
-    mark[tail] = True
-    pts = np.flatnonzero(mark)
-    local = -np.column_stack((a_for_anchor[pts], v_int[pts]))
-    spl = _drift_spline(w.t, x_int, pts, KNOT_PERIODS * w.period_s, w.start, clamped=w.rest, local=local,
+    run = _anchor_run(half_w)
+    if run > 1:
+        ta, xa, local = _anchor_means(w, x_int, v_int, a_for_anchor, anc, half_w, step, run, first, stop)
+    else:
+        centre = np.rint(anc).astype(int)
+        near = (centre[:, None] + np.arange(-half_w, half_w + 1)[None, :]).ravel()
+        near = near[(near > max(first, w.start)) & (near < stop)]
+        tail = np.arange(stop, w.n, step)
+        mark = np.zeros(w.n, dtype=bool)  # sorted and unique, as np.unique gives, in one O(n) pass
+        mark[near] = True
+        mark[tail] = True
+        pts = np.flatnonzero(mark)
+        ta, xa, local = w.t[pts], x_int[pts], -np.column_stack((a_for_anchor[pts], v_int[pts]))
+    spl = _drift_spline(w.t, xa, ta, KNOT_PERIODS * w.period_s, w.start, clamped=w.rest, local=local,
                         free_slope=w.free_slope)
-    return _drift_spline_eval(spl, w.t, w.start)
+    return _drift_spline_eval(spl, w.t, w.start, minus=(x_int, v_int) if subtract else None)
 
+
+
+def _anchor_run(half_w: int) -> int:
+    """Samples per anchor block mean (odd; 1: every sample is its own anchor, as before session 15)."""
+    run = (2 * half_w + 1) // ANCHOR_BLOCKS
+    return max(1, run if run % 2 else run - 1)
+
+
+def _anchor_means(w: _Work, x_int: np.ndarray, v_int: np.ndarray, acc: np.ndarray, anc: np.ndarray,
+                  half_w: int, step: int, run: int, first: int, stop: int,
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The drift fit's anchors as block means of ``run`` samples: times, ``x_int``, ``-(a, v)``.
+
+    The samples of the per-sample fit (``+-half_w`` around each crossing, every ``step``-th of
+    the tail), in runs of ``run`` consecutive samples, each run replaced by its mean (time: its
+    centre sample's). Every row of the fit is linear in the samples (a cubic spline of knots two
+    periods apart and ``x ~ -c_a a - c_v v``), and a run spans ``run / rate`` s (0.7 ms on the
+    45 s record: 4 % of ``half_w``, ~0.015 rad of its cycle), so a run's mean stands for its
+    samples to second order in that span (the curvature of ``x_int`` within it, ~1e-5 of the
+    anchors' spread) and carries the same white-noise average (the fit sees as many samples, in
+    ``1 / run`` of the rows). The tail (``x ~ 0``): runs centred every ``run step`` samples, as
+    many samples as the per-sample fit's every ``step``-th.
+    """
+    g = half_w // run  # blocks each side of a crossing
+    hr = (run - 1) // 2
+    centres = np.rint(anc).astype(int)[:, None] + (run * np.arange(-g, g + 1))[None, :]
+    centres = centres.ravel()
+    centres = centres[(centres - hr > max(first, w.start)) & (centres + hr < stop)]
+    tail = np.arange(stop + hr, w.n - hr, run * step)
+    centres = np.unique(np.concatenate((centres, tail)))  # sorted; a shared centre once
+    idx = centres[:, None] + np.arange(-hr, hr + 1)[None, :]
+    xa = x_int[idx].mean(axis=1)
+    local = -np.column_stack((acc[idx].mean(axis=1), v_int[idx].mean(axis=1)))
+    return w.t[centres], xa, local
 
 
 def _kinematics_by_integration(w: _Work, noise_factor: float) -> None:
@@ -422,8 +467,7 @@ def _integrate_acceleration(w: _Work, eq: EquilibriumIntegral | None, noise_fact
         line = np.polynomial.polynomial.polyfit(t - t[0], x_int, 1)
         x_int = x_int - line[0] - line[1] * (t - t[0])
         v_int = v_int - line[1]
-    d, dd = _anchored_drift(w, x_int, v_int, a, noise_factor)
-    w.x, w.v = np.subtract(x_int, d, out=x_int), np.subtract(v_int, dd, out=v_int)  # no longer needed as integrated
+    w.x, w.v = _anchored_drift(w, x_int, v_int, a, noise_factor, subtract=True)  # in place: x_int, v_int no longer needed
     w.method = ("acc integrated from rest" if w.rest else "acc integrated about the equilibrium") + \
         "; drift anchored at acc zero crossings (x = 0) and the noise tail"
 

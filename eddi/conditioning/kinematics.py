@@ -90,10 +90,13 @@ def _sg_derivative_modes(y: np.ndarray, rate_hz: float, period_s: float) -> np.n
 
 
 def _drift_spline(
-    t: np.ndarray, x_int: np.ndarray, pts: np.ndarray, knot_s: float, start: int, clamped: bool,
+    t: np.ndarray, y: np.ndarray, t_pts: np.ndarray, knot_s: float, start: int, clamped: bool,
     local: np.ndarray, free_slope: bool = False,
 ) -> BSpline:
-    """Least-squares cubic spline ``d`` with ``x_int = d(t) + local @ c`` at samples ``pts``.
+    """Least-squares cubic spline ``d`` with ``y = d(t_pts) + local @ c`` (``y``: the integrated ``x`` at the anchors).
+
+    ``t`` is the record's time (the spline spans ``t[start:]``); ``t_pts, y, local`` are the
+    anchors (samples, or block means of samples: :func:`eddi.conditioning.conditioner._anchor_means`).
 
     ``local`` holds, per sample, signals to which the true ``x`` is locally proportional
     near its zeros (``-a`` and ``-v``: near ``x = 0``, ``k1 x = -m a - b1 v``); their
@@ -104,7 +107,7 @@ def _drift_spline(
     n_int = max(1, int(math.ceil((t1 - t0) / knot_s)))
     inner = np.linspace(t0, t1, n_int + 1)
     knots = np.concatenate(([t0] * 3, inner, [t1] * 3))
-    basis = bspline_design_matrix(t[pts], knots, 3)
+    basis = bspline_design_matrix(t_pts, knots, 3)
     first = (1 if free_slope else 2) if clamped else 0
     # the B-spline block stays sparse (4 non-zeros a row): the normal equations are built
     # block by block, never as a dense (rows x knots) product (a dense one took 2 s of
@@ -118,7 +121,6 @@ def _drift_spline(
     scale = np.max(np.abs(local), axis=0)
     scale[scale == 0] = 1.0
     loc = local / scale
-    y = x_int[pts]
     k = m + loc.shape[1]
     normal = np.empty((k, k))
     normal[:m, :m] = btb + lam * d2.T @ d2
@@ -133,8 +135,13 @@ def _drift_spline(
 
 
 
-def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int) -> tuple[np.ndarray, np.ndarray]:
+def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int,
+                       minus: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``d`` and ``d'`` of the drift spline on ``t[start:]`` (0 before ``start``).
+
+    ``minus = (x, v)``: ``x - d`` and ``v - d'`` instead, in place in ``x, v`` (returned; the
+    same values bit for bit as subtracting the returned ``d, d'``, without two arrays of the
+    record's length and two passes over it).
 
     Evaluated as its piecewise polynomial (:meth:`scipy.interpolate.PPoly.from_spline`: the
     cubic of each knot interval, by Horner on the interval's samples): equal to the B-spline's
@@ -143,8 +150,8 @@ def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int) -> tuple[np.ndar
     """
     from scipy.interpolate import PPoly
 
-    d = np.zeros(t.size)
-    dd = np.zeros(t.size)
+    d, dd = (np.zeros(t.size), np.zeros(t.size)) if minus is None else minus
+    sub = minus is not None
     ts = t[start:]
     pp = PPoly.from_spline(spl, extrapolate=False)
     brk, c = pp.x, pp.c
@@ -165,12 +172,18 @@ def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int) -> tuple[np.ndar
         y += c1
         y *= u
         y += c0
-        dv[i0:i1] = y
+        if sub:
+            dv[i0:i1] -= y
+        else:
+            dv[i0:i1] = y
         y = (3.0 * c3) * u
         y += 2.0 * c2
         y *= u
         y += c1
-        ddv[i0:i1] = y
+        if sub:
+            ddv[i0:i1] -= y
+        else:
+            ddv[i0:i1] = y
     return d, dd
 
 
