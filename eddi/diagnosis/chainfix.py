@@ -132,12 +132,12 @@ def impulse_through_lowpass(dec: Decision, records, mass: float | None, f1: floa
     group delay on a 3.3-sample blow: a mass 9 % light with the window widened by the lag), so
     the finding as measured would forbid the very correction that explains it."""
     from eddi.diagnosis.chain import inspect
-    from eddi.diagnosis.lowpass import _settle, butter_ba, filtered
+    from eddi.diagnosis.lowpass import _settle, ba_of, filtered
 
     if mass is None or dec.winner is None or dec.winner.name != LOWPASS_NAME:
         return symptoms
     p = dec.winner.params
-    b, a = butter_ba(int(p["order"]), p["corner_hz"], records[0].rate_hz)
+    b, a = ba_of(p, records[0].rate_hz)
     late = _settle(b, a)
     fixed = [filtered(r, b, a, late) for r in records]
     again = [s for s in inspect(fixed, mass, f1) if s.kind == "impulse_mass"]

@@ -31,7 +31,7 @@ def test_a_low_pass_that_rounds_the_blow_is_fitted_and_named_with_its_held_out_g
     # `unexplained`); the force through the fitted low-pass reaches the floor
     recs = _set(0.042, 26.3, 5000.0, chain=_butter(4, 643.0, 5000.0), pulse_s=0.00066, zeta=0.025)
     fit = fit_lowpass(recs, measured_frequency(recs))
-    assert fit.order == 4 and fit.corner_hz == pytest.approx(643.0, rel=0.02)
+    assert (fit.kind, fit.order) == ("butterworth", 4) and fit.corner_hz == pytest.approx(643.0, rel=0.02)
     assert fit.corner_lo_hz <= 643.0 * 1.02 and fit.corner_hi_hz >= 643.0 * 0.98
     assert fit.shape_share < 0.1  # a delay leaves 10x the residual over the blow
     d = diagnose(recs, 0.042, damping="v", stiffness="x")
@@ -85,3 +85,15 @@ def test_a_lag_that_changes_nothing_is_reported_and_none_stands():
     assert d.cause == "none"
     assert "does not bear on the model" in d.verdict
     assert math.isfinite(lag.nrmse)
+
+
+def test_a_bessel_channel_is_fitted_as_a_bessel_with_its_corner():
+    # 0.39 kg, 17.7 Hz at 5 kHz, a 1.4 ms blow behind a 4th-order Bessel of 9 samples' delay (corner
+    # 88 Hz): a Butterworth-only fit took it for a 3rd-order Butterworth of 7.9 samples' delay
+    from scipy.signal import bessel
+
+    chain = lambda a: lfilter(*bessel(4, 88.3 / 2500.0, norm="delay"), a)  # noqa: E731
+    recs = _set(0.39, 17.7, 5000.0, chain=chain, pulse_s=1.4e-3, zeta=0.02)
+    fit = fit_lowpass(recs, measured_frequency(recs))
+    assert (fit.kind, fit.order) == ("bessel", 4)
+    assert fit.corner_hz == pytest.approx(88.3, rel=0.02) and fit.group_delay_samples == pytest.approx(9.0, abs=0.3)
