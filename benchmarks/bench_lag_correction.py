@@ -128,8 +128,9 @@ def main(argv: list[str] | None = None) -> int:
             low = next((c for c in dg.candidates if c.name == "sensor_lowpass"), None)
             if low is not None and not low.skipped:
                 p = low.params
-                counts[fam]["low-pass fitted, order %d" % p["order"]] += 1
-                line += (f"; low-pass order {p['order']:.0f} {p['corner_hz']:.4g} Hz ({p['corner_lo_hz']:.4g}-"
+                kind = "bessel" if p.get("bessel") else "butter"
+                counts[fam][f"low-pass fitted, {kind} {p['order']:.0f}"] += 1
+                line += (f"; low-pass {kind} {p['order']:.0f} {p['corner_hz']:.4g} Hz ({p['corner_lo_hz']:.4g}-"
                          f"{p['corner_hi_hz']:.4g}), shape {p['shape_share']:.2f}, held-out {low.nrmse:.3g}"
                          + (" (contradicted)" if low.contradicted else ""))
             if d["family"] in ("butter", "bessel"):
