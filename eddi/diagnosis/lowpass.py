@@ -259,10 +259,11 @@ def over_delay(low: Candidate, lag: Candidate | None, floor_nrmse: float) -> Can
         return low
     if lag.nrmse - low.nrmse > floor_nrmse:
         return low
+    how = "as well or better" if lag.nrmse <= low.nrmse else "within the floor of the data of it"
     return replace(low, contradicted=(
-        f"the force aligned by the lag alone reproduces the held-out parts within the floor of it "
-        f"({lag.nrmse:.3g} against {low.nrmse:.3g}, floor {floor_nrmse:.3g}): the filter's shape is not "
-        "resolved beyond its delay"))
+        f"the force aligned by the lag alone reproduces the held-out parts {how} ({lag.nrmse:.3g} against "
+        f"{low.nrmse:.3g}, floor {floor_nrmse:.3g}): the filter's shape is not resolved beyond its delay"
+        + (" (a delay commutes with a nonlinear structure, a low-pass does not)" if lag.nrmse < low.nrmse else "")))
 
 
 def kind_of(params: dict[str, float]) -> str:
