@@ -107,9 +107,17 @@ def immaterial_text(lag: Candidate, symptoms: Sequence[Symptom], floor_nrmse: fl
             "for it before comparing forced responses or phases).")
 
 
-def text(dec: Decision, cands: Sequence[Candidate]) -> str:
-    """A sentence for the verdict on each correction measured (the named one's fit too), else ''."""
+def text(dec: Decision, cands: Sequence[Candidate], symptoms: Sequence[Symptom] = ()) -> str:
+    """A sentence for the verdict on each correction measured (the named one's fit too), and what a
+    one-sample blow cannot tell (:data:`eddi.diagnosis.lag.ONE_SAMPLE_MIN_LAG`), else ''."""
+    short = [s.text.split(":", 1)[0] for s in symptoms
+             if s.kind == "response_lag" and s.values.get("one_sample", 0.0)]
     out = ""
+    if short and any(c.name in NAMES for c in cands):
+        out += (f" The blow lasts one sample on {', '.join(short)}: the lag is measured there to about a "
+                "sample, and whether the channel delays the response or low-passes it cannot be told from "
+                "such a blow (no low-pass is fitted on it); what the alignment leaves may be the filter's "
+                "shape. A softer tip or a higher rate tells them apart.")
     for c in cands:
         if c.name in NAMES:
             head = ("Fitted" if dec.winner is c else

@@ -349,7 +349,7 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     if lag_ok is not None and dec.cause == "none":
         verdict += chainfix.immaterial_text(lag_ok, symptoms, floor.data_nrmse)
     else:
-        verdict += chainfix.text(dec, candidates)
+        verdict += chainfix.text(dec, candidates, symptoms)
     notes = notes + _floor_note(dec, candidates, floor, baseline.nrmse, margin)
     if floor.chain_nrmse and max(floor.chain_nrmse) > 0.5 * MIN_FLOOR:
         # the floor says what the chain's calibration allows, in the verdict too (session 9)

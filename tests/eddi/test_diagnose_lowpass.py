@@ -63,6 +63,7 @@ def test_a_lag_on_a_one_sample_blow_is_measured_and_no_cause_is_claimed_from_it(
     assert d.cause in ("unexplained", "response_lag")
     assert any(s.kind == "response_lag" and "one sample" in s.text for s in d.symptoms)
     assert _cand(d, "sensor_lowpass") is None  # no shape to fit a corner on
+    assert "cannot be told from such a blow" in d.verdict
 
 
 def test_a_clean_one_sample_blow_claims_no_lag():
