@@ -98,3 +98,20 @@ def test_a_bessel_channel_is_fitted_as_a_bessel_with_its_corner():
     fit = fit_lowpass(recs, measured_frequency(recs))
     assert (fit.kind, fit.order) == ("bessel", 4)
     assert fit.corner_hz == pytest.approx(88.3, rel=0.02) and fit.group_delay_samples == pytest.approx(9.0, abs=0.3)
+
+
+def test_a_low_pass_no_better_than_the_alignment_beyond_the_floor_is_not_named():
+    from eddi.diagnosis.lowpass import over_delay
+    from eddi.diagnosis.results import Candidate
+
+    def cand(name, nrmse):
+        return Candidate(name, nrmse, (nrmse,), 0.5, True, True, {}, {}, None)
+
+    low = cand("sensor_lowpass", 0.0025)
+    # the alignment 0.013 against 0.0025: within the floor 0.02 of it -> the lag is the cause
+    assert "within the floor" in over_delay(low, cand("response_lag", 0.013), 0.02).contradicted
+    # the alignment better (a delay commutes with a nonlinear structure, a low-pass does not)
+    assert "as well or better" in over_delay(low, cand("response_lag", 0.002), 0.02).contradicted
+    # beyond the floor: the low-pass stands
+    assert over_delay(low, cand("response_lag", 0.076), 0.02).contradicted == ""
+    assert over_delay(low, None, 0.02) is low
