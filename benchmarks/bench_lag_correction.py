@@ -31,7 +31,8 @@ from eddi.conditioning import condition  # noqa: E402
 from eddi.diagnosis import Record, diagnose  # noqa: E402
 from tests.eddi.impact_cases import impact_record  # noqa: E402
 
-SEEDS = {"tuning": 1, "held-out": 2}
+#: session 14's sets, and session 15's (s15chain: the low-pass fit; tuned on 3, 4 run once at the end)
+SEEDS = {"tuning": 1, "held-out": 2, "tuning15": 3, "held-out15": 4}
 FAMILIES = ("butter", "bessel", "delay", "null")
 
 
@@ -53,14 +54,20 @@ def chain(acc: np.ndarray, family: str, lag: float, rate: float) -> np.ndarray:
     from scipy.signal import bessel, butter, lfilter
 
     if family == "butter":  # 4th order: group delay at DC 2.613 / w_c
-        fc = min(2.613 * rate / (2 * math.pi * lag), 0.45 * rate)
+        fc = true_corner({"family": family, "rate": rate, "lag": lag})
         return lfilter(*butter(4, fc / (rate / 2)), acc)
     if family == "bessel":  # norm="delay": group delay at DC 1 / w_c
-        fc = min(rate / (2 * math.pi * lag), 0.45 * rate)
+        fc = true_corner({"family": family, "rate": rate, "lag": lag})
         return lfilter(*bessel(4, fc / (rate / 2), norm="delay"), acc)
     if family == "delay":
         return delay(acc, lag)
     return acc
+
+
+def true_corner(d: dict) -> float:
+    """The corner [Hz] :func:`chain` gives the family's low-pass (the Bessel's as scipy defines it)."""
+    k = 2.613 if d["family"] == "butter" else 1.0
+    return min(k * d["rate"] / (2 * math.pi * d["lag"]), 0.45 * d["rate"])
 
 
 def records(d: dict, seed: int) -> list[Record]:
@@ -118,6 +125,16 @@ def main(argv: list[str] | None = None) -> int:
                     line += f", J/p {p['impulse_ratio_before']:.3f} -> {p['impulse_ratio_after']:.3f}"
             else:
                 line += f"; held-out {dg.judging.nrmse:.3g}, floor {dg.noise_floor.data_nrmse:.3g}"
+            low = next((c for c in dg.candidates if c.name == "sensor_lowpass"), None)
+            if low is not None and not low.skipped:
+                p = low.params
+                kind = "bessel" if p.get("bessel") else "butter"
+                counts[fam][f"low-pass fitted, {kind} {p['order']:.0f}"] += 1
+                line += (f"; low-pass {kind} {p['order']:.0f} {p['corner_hz']:.4g} Hz ({p['corner_lo_hz']:.4g}-"
+                         f"{p['corner_hi_hz']:.4g}), shape {p['shape_share']:.2f}, held-out {low.nrmse:.3g}"
+                         + (" (contradicted)" if low.contradicted else ""))
+            if d["family"] in ("butter", "bessel"):
+                line += f" [true corner {true_corner(d):.4g} Hz]"
             print(line)
     print("counts:")
     for fam in FAMILIES:

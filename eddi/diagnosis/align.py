@@ -86,9 +86,6 @@ def lag_candidate(records: Sequence[Record], setup: Setup, parts: Sequence[Part]
     """The ``response_lag`` candidate (module notes) and its held-out simulations; None when no
     record's lag is claimed. ``base_fold``: the baseline's held-out nrmse per part as judged
     (refined when ``refine``, as the pipeline refines); ``f1`` [Hz] the measured resonance."""
-    from eddi.diagnosis.fitter import Fitter, all_masks
-    from eddi.diagnosis.folds import judge_baseline
-
     lags = record_lags(records, f1)
     if lags is None:
         return None
@@ -107,9 +104,7 @@ def lag_candidate(records: Sequence[Record], setup: Setup, parts: Sequence[Part]
     spread = {"lag_samples": float(np.std(lags, ddof=1)) if len(lags) > 1 else 0.0}
     consistent = bool(spread["lag_samples"] < consistency * abs(params["lag_samples"]))
     try:
-        fitter = Fitter([r.signal() for r in al], setup, al, refine, mapper)
-        res, _fits = judge_baseline(al, setup, parts, [_trimmed(m, records, al) for m in fold_masks], fitter)
-        fit_all = fitter(all_masks(al))(None, None)
+        res, fit_all = refit(records, al, setup, parts, fold_masks, refine, mapper)
     except EddiError as exc:
         return (Candidate(NAME, float("nan"), (), float("nan"), False, False, params, spread, None, "",
                           f"the baseline could not be refitted on the aligned records ({exc})"), [])
@@ -123,6 +118,20 @@ def lag_candidate(records: Sequence[Record], setup: Setup, parts: Sequence[Part]
                       _wins(folds, base_fold, parts), consistent, params, spread,
                       fit_all.eom if fit_all is not None else None, symptom, "", ref, "baseline"),
             list(res.base_sims))
+
+
+def refit(records: Sequence[Record], al: Sequence[Record], setup: Setup, parts: Sequence[Part],
+          fold_masks: Sequence[Sequence[np.ndarray]], refine: bool = False, mapper=None):
+    """(fold results, all-data fit) of the baseline refitted per fold on ``al`` (``records`` with
+    the force moved or filtered, the free response starting after the response's blow) exactly as
+    it was on ``records`` (:func:`judge_baseline`), judged on the held-out parts; raises
+    :class:`EddiError` when a fit fails."""
+    from eddi.diagnosis.fitter import Fitter, all_masks
+    from eddi.diagnosis.folds import judge_baseline
+
+    fitter = Fitter([r.signal() for r in al], setup, al, refine, mapper)
+    res, _fits = judge_baseline(al, setup, parts, [_trimmed(m, records, al) for m in fold_masks], fitter)
+    return res, fitter(all_masks(al))(None, None)
 
 
 #: On a held-out part the force does not drive (judged from its measured state) the aligned fit

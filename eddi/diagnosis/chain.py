@@ -295,7 +295,8 @@ def _lag_symptom(r: Record, f1: float) -> Symptom | None:
     if lag is None or not lag.claimed:
         return None
     return Symptom("response_lag", f"{r.label}: {lag.text()}", {"lag_s": lag.lag_s, "sd_s": lag.sd_s,
-                                                                 "blow_s": lag.blow_s})
+                                                                 "blow_s": lag.blow_s,
+                                                                 "one_sample": float(lag.one_sample)})
 
 
 def first_blow(r: Record, f1: float) -> tuple[float, float, float, int] | None:

@@ -40,6 +40,15 @@ LAG_MIN_BLOW = 0.15
 #: clean records of 2-4 samples claim none (bench_impulse_check.py --lag seed 2, --coarse seeds
 #: 1 and 3: 0 clean lags named).
 MIN_BLOW_SAMPLES = 2
+#: Session 15: a one-sample blow (the hammer's pulse inside one sample at a coarse rate) has its
+#: lag measured too (the force is then a sampled delta: the correlation is the acceleration itself
+#: and its peak is where the response's blow is), and claimed only beyond this many samples. Both
+#: channels integrate the pulse over the same sample (simulated_rig.hammer), so a clean record's
+#: response peaks on the force's sample (|lag| < 0.5); a lag within a sample cannot be told from
+#: where the pulse fell, nor a delay from a low-pass (a blow inside one sample has no shape).
+#: Session 14's held-out "delay 1" (58 kg, 27 Hz, 1 kHz, 3.4-sample delay on a 1-sample blow) went
+#: unmeasured and read `unexplained` at 0.92 with no reason given.
+ONE_SAMPLE_MIN_LAG = 1.5
 
 
 #: Lags searched up to twice the blow, and at least this many samples (session 14: a 12-sample
@@ -68,7 +77,10 @@ class ResponseLag:
         The blow's duration above the pulse threshold [s].
     claimed : bool
         Beyond :data:`LAG_SIGMAS` sd and half a sample, and :data:`LAG_MIN_PHASE` at the
-        resonance or :data:`LAG_MIN_BLOW` of the blow.
+        resonance or :data:`LAG_MIN_BLOW` of the blow (on a one-sample blow, beyond
+        :data:`ONE_SAMPLE_MIN_LAG` samples too).
+    one_sample : bool
+        The blow lasts one sample (module notes on :data:`ONE_SAMPLE_MIN_LAG`).
     """
 
     lag_s: float
@@ -76,6 +88,7 @@ class ResponseLag:
     blow_s: float
     samples: float
     claimed: bool
+    one_sample: bool = False
 
     def text(self) -> str:
         """The finding in words (for a warning or a symptom)."""
@@ -83,17 +96,23 @@ class ResponseLag:
         return (f"the {which} by {1e3 * abs(self.lag_s):.3g} ms ({abs(self.samples):.1f} samples, +- "
                 f"{1e3 * self.sd_s:.2g} ms; the blow lasts {1e3 * self.blow_s:.3g} ms): a filter on one channel "
                 "(anti-alias, signal conditioner, the accelerometer's mounting) or channels sampled apart; the "
-                "force-driven simulation slips by it (the impulse check allows for it)")
+                "force-driven simulation slips by it (the impulse check allows for it)"
+                + ("; the blow lasts one sample, so the lag is known to about a sample and a delay cannot be "
+                   "told from a low-pass (no shape to fit): a longer blow (a softer tip) or a higher rate "
+                   "tells them apart" if self.one_sample else ""))
 
     def as_dict(self) -> dict[str, float | bool]:
         return {"lag_s": self.lag_s, "sd_s": self.sd_s, "blow_s": self.blow_s, "lag_samples": self.samples,
-                "claimed": self.claimed}
+                "claimed": self.claimed, "one_sample": self.one_sample}
 
 
-def response_lag(r: Record, f1: float, zeta: float = 0.0) -> ResponseLag | None:
-    """The lag of ``r``'s measured acceleration behind its force (module notes); None without a
-    force, a measured acceleration, a measured frequency ``f1`` [Hz], or a blow on at least
-    :data:`MIN_BLOW_SAMPLES` samples."""
+def blow_window(r: Record, f1: float, zeta: float = 0.0, min_width: int = MIN_BLOW_SAMPLES
+                ) -> tuple[np.ndarray, np.ndarray, int, int] | None:
+    """(force, corrected acceleration, blow width, lags searched) over the first blow's window
+    (module notes; each less its median before the blow), or None without a force, a measured
+    acceleration, a measured frequency ``f1`` [Hz], or a blow on at least ``min_width`` samples.
+    The corrected acceleration ``a + w1^2 x + 2 zeta w1 v`` is the force's shape over ``m``
+    through whatever filter the acceleration's channel has."""
     from eddi.diagnosis.chain import _record_pulses
 
     if r.force is None or not r.acc_measured or not f1 > 0:
@@ -103,7 +122,7 @@ def response_lag(r: Record, f1: float, zeta: float = 0.0) -> ResponseLag | None:
         return None
     a, b, _p = pulses[0]
     width = b - a
-    if width < MIN_BLOW_SAMPLES:
+    if width < min_width:
         return None
     reach = _reach(width, r.rate_hz, f1)
     lo, hi = max(0, a - max(3 * width, reach)), min(r.t.size, b + max(4 * width, reach + 2 * width))
@@ -114,6 +133,17 @@ def response_lag(r: Record, f1: float, zeta: float = 0.0) -> ResponseLag | None:
     acc = r.a[lo:hi] + w1**2 * x + 2 * zeta * w1 * v
     force = r.force[lo:hi] - np.median(r.force[lo:a]) if a > lo else r.force[lo:hi]
     acc = acc - (np.median(acc[:a - lo]) if a > lo else 0.0)
+    return np.asarray(force, float), np.asarray(acc, float), width, reach
+
+
+def response_lag(r: Record, f1: float, zeta: float = 0.0) -> ResponseLag | None:
+    """The lag of ``r``'s measured acceleration behind its force (module notes); None without a
+    force, a measured acceleration, a measured frequency ``f1`` [Hz], or a blow on at least
+    :data:`MIN_BLOW_SAMPLES` samples."""
+    win = blow_window(r, f1, zeta, min_width=1)
+    if win is None:
+        return None
+    force, acc, width, reach = win
     # up to twice the blow either way (blind unseen10: a lag of 9 samples on a 9-sample blow), and
     # at least LAG_SEARCH_SAMPLES (_reach)
     lags = np.arange(-reach, reach + 1)
@@ -140,5 +170,6 @@ def response_lag(r: Record, f1: float, zeta: float = 0.0) -> ResponseLag | None:
     sd = s / info if info > 0 else math.inf
     dt = 1.0 / r.rate_hz
     matters = 2 * math.pi * f1 * abs(lag) * dt > LAG_MIN_PHASE or abs(lag) > LAG_MIN_BLOW * width
-    claimed = bool(abs(lag) > LAG_SIGMAS * sd and abs(lag) > 0.5 and matters)
-    return ResponseLag(lag * dt, sd * dt, width * dt, lag, claimed)
+    claimed = bool(abs(lag) > LAG_SIGMAS * sd and abs(lag) > 0.5 and matters
+                   and (width > 1 or abs(lag) > ONE_SAMPLE_MIN_LAG))
+    return ResponseLag(lag * dt, sd * dt, width * dt, lag, claimed, width == 1)

@@ -22,7 +22,9 @@ from typing import Sequence
 import numpy as np
 
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
-from eddi.diagnosis.align import NAME as LAG_NAME, correction_note, lag_candidate
+from eddi.diagnosis import chainfix
+from eddi.diagnosis.align import NAME as LAG_NAME
+from eddi.diagnosis.lowpass import NAME as LOWPASS_NAME
 from eddi.diagnosis.chain import inspect, measured_frequency
 from eddi.diagnosis.conservative import stiffness_over_damping
 from eddi.diagnosis.highpass import recondition, sensor_highpass
@@ -253,27 +255,20 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
         else:
             hp, chain_sims = done.pop(0)
             candidates.append(hp)
-    lag = _lag_candidate(sh, symptoms, consistency)
-    if lag is not None:
-        candidates.append(lag)
-        notes = notes + [correction_note(lag)]
+    lags = _lag_candidates(sh, symptoms, consistency)
+    candidates += lags
+    notes = notes + chainfix.notes(lags)
     return rank(candidates), observed, chain_sims, notes, symptoms
 
 
-def _lag_candidate(sh: _Shown, symptoms: Sequence[Symptom], consistency: float) -> Candidate | None:
-    """The ``response_lag`` correction (:mod:`eddi.diagnosis.align`) when the chain names a lag
-    (its held-out simulations go to ``res.cand_sims``), else None."""
+def _lag_candidates(sh: _Shown, symptoms: Sequence[Symptom], consistency: float) -> list[Candidate]:
+    """The corrections of a lagging response (:mod:`eddi.diagnosis.chainfix`) when the chain
+    names a lag (their held-out simulations go to ``res.cand_sims``), else none."""
     if not any(s.kind == "response_lag" for s in symptoms):
-        return None
+        return []
     f1 = measured_frequency(sh.records) or _frequency(sh.bfit_all.eom)
-    out = lag_candidate(sh.records, sh.setup, sh.parts, sh.fold_masks, sh.res.base_fold, f1, consistency,
-                        sh.refine, sh.fitter.map)
-    if out is None:
-        return None
-    cand, sims = out
-    if sims:
-        sh.res.cand_sims[LAG_NAME] = sims
-    return cand
+    return chainfix.candidates(sh.records, sh.setup, sh.parts, sh.fold_masks, sh.res, f1, consistency,
+                               sh.floor.data_nrmse, sh.refine, sh.fitter.map)
 
 
 def _symptoms(sh: _Shown) -> list[Symptom]:
@@ -332,24 +327,29 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     f1 = _frequency(sh.bfit_all.eom)
     dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor, strong_margin=strong_margin,
                  eddi_fold=res.ref_fold, departs=_pipeline_check(pipeline, sh, none_factor))
-    dec = _lag_named(dec, candidates, res, floor, rules)
+    dec = chainfix.named(dec, candidates, res.base_fold, floor, rules, res.ref_fold)
     if dec.winner is not None and dec.winner.form != "observed" and dec.winner.name in res.cand_sims:
         natives = {m.name: m.native for m in catalogue()}
         dec = stiffness_over_damping(dec, symptoms, natives.get(dec.winner.name, ""), records, sh.parts,
                                      res.base_sims, res.cand_sims[dec.winner.name], sh.setup.mass,
                                      floor.part_conditioning_nrmse)
     symptoms = _impulse_through_coupling(dec, records, sh.setup.mass, f1, symptoms)
+    symptoms = chainfix.impulse_through_lowpass(dec, records, sh.setup.mass, f1, symptoms)
     # a chain that cannot be trusted earns neither silence nor a name (eddi.diagnosis.earn); the band
     # rule's "above the floor" is against the full floor, as calibrated: against the floor of the
     # data a short noisy null (blind unseen8, session 12: baseline 0.357, floor 0.358, data floor
     # 0.158, frequency bias 1.45 %) turned `unexplained`; `none` itself is judged against the floor
     # of the data (decide), which says `none (uncertain)` there with the symptoms
+    lag_ok = chainfix.immaterial(dec, candidates, floor, none_factor)
     dec = earn(dec, baseline.nrmse / floor.nrmse if floor.nrmse > 0 else math.inf,
-               [s for s in symptoms if not (s.kind == "response_lag" and dec.winner is not None
-                                            and dec.winner.name == LAG_NAME)])
+               [s for s in symptoms if not chainfix.lifts(dec, s, lag_ok is not None)])
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
-    verdict += reported_text(symptoms) + _lag_text(dec, candidates)
+    verdict += reported_text(symptoms)
+    if lag_ok is not None and dec.cause == "none":
+        verdict += chainfix.immaterial_text(lag_ok, symptoms, floor.data_nrmse)
+    else:
+        verdict += chainfix.text(dec, candidates, symptoms)
     notes = notes + _floor_note(dec, candidates, floor, baseline.nrmse, margin)
     if floor.chain_nrmse and max(floor.chain_nrmse) > 0.5 * MIN_FLOOR:
         # the floor says what the chain's calibration allows, in the verdict too (session 9)
@@ -413,31 +413,6 @@ def _impulse_through_coupling(dec: Decision, records: Sequence[Record], mass: fl
         return symptoms
     again = [s for s in inspect(fixed, mass, f1) if s.kind == "impulse_mass"]  # type: ignore[arg-type]
     return [s for s in symptoms if s.kind != "impulse_mass"] + again
-
-
-def _lag_text(dec: Decision, candidates: Sequence[Candidate]) -> str:
-    """A sentence for the verdict on the ``response_lag`` correction when it was measured and not
-    named (its figures: :func:`eddi.diagnosis.align.correction_note`), else ''."""
-    lag = next((c for c in candidates if c.name == LAG_NAME), None)
-    if lag is None or dec.winner is lag:
-        return ""
-    return " Corrected for the lag: " + correction_note(lag).split(": ", 1)[1] + "."
-
-
-def _lag_named(dec: Decision, candidates: Sequence[Candidate], res: FoldResults, floor: NoiseFloor,
-               rules: tuple[float, float, float, float | None]) -> Decision:
-    """``dec``, or ``response_lag`` named when the baseline is within the floor (``none``, which
-    the measured lag forbids: :mod:`eddi.diagnosis.earn`) and the force aligned with the response
-    passes every test of :func:`decide` with the margin's cut (the lag is measured directly, over
-    the blow; the held-out cut confirms that it is what the simulation misses)."""
-    lag = next((c for c in candidates if c.name == LAG_NAME and not c.skipped and c.model is not None), None)
-    if lag is None or dec.cause != "none":
-        return dec
-    margin, none_factor, named_factor, strong_margin = rules
-    again = decide([lag], res.base_fold, floor, margin, none_factor, named_factor,
-                   strong_margin=margin if strong_margin is None else min(margin, strong_margin),
-                   eddi_fold=res.ref_fold)
-    return again if again.winner is lag else dec
 
 
 def selected_terms(pipeline: PipelineBaseline | None, base: EquationOfMotion | None,
@@ -535,6 +510,7 @@ def _texts(dec: Decision, baseline: Score, floor: NoiseFloor, candidates: Sequen
                 if w.form == "observed" else
                 "the inverse of the sensor's high-pass in conditioning" if w.name == "sensor_highpass"
                 else "the force aligned with the lagging response" if w.name == LAG_NAME
+                else "the force through the acceleration channel's fitted low-pass" if w.name == LOWPASS_NAME
                 else "it")
         r = w.reference_nrmse if w.reference == UNREFINED else b
         cut = 1.0 - w.nrmse / r if r > 0 else 0.0
