@@ -23,14 +23,23 @@ import atexit, gc, os, sys
 atexit.register(lambda: sys.stderr.write("TEARDOWN\\n"))
 real_exit = os._exit
 def spy(code):
-    sys.stderr.write(f"QUICK {code} {gc.get_freeze_count()} {gc.isenabled()}\\n")
+    heavy = [m for m in NOT_FOR_IDENTIFY if m in sys.modules]
+    sys.stderr.write(f"QUICK {code} {gc.get_freeze_count()} {gc.isenabled()} {','.join(heavy) or '-'}\\n")
     sys.stderr.flush()
     real_exit(code)
 os._exit = spy
+NOT_FOR_IDENTIFY = {not_for_identify!r}
 sys.argv = ["station", *sys.argv[1:]]
 from station.cli import run
 run()
 """
+
+#: What a whole ``station identify`` process of a CSV record must not import (it draws nothing,
+#: fits no SINDy, runs no campaign, reads no HDF5; scipy.signal: modal sums only; the diagnosis
+#: loop: the impulse check reads eddi.diagnosis.chain alone).
+NOT_FOR_IDENTIFY = ("matplotlib", "pysindy", "dask", "distributed", "pyarrow", "h5py", "scipy.signal",
+                    "eddi.diagnosis.loop", "eddi.diagnosis.catalogue")
+PROBE = PROBE.replace("{not_for_identify!r}", repr(NOT_FOR_IDENTIFY))
 
 #: The same through main() alone (the ordinary end), for the reference output.
 ORDINARY = """
@@ -51,12 +60,13 @@ def _station(code: str, argv: list[str]) -> subprocess.CompletedProcess[str]:
                           timeout=300)
 
 
-def _ending(stderr: str) -> tuple[int, int, bool] | None:
-    """(exit code, frozen objects, collector enabled) of the quick end, or None without one."""
+def _ending(stderr: str) -> tuple[int, int, bool, str] | None:
+    """(exit code, frozen objects, collector enabled, forbidden modules imported or "-") of the
+    quick end, or None without one."""
     for line in stderr.splitlines():
         if line.startswith("QUICK "):
-            code, frozen, enabled = line.split()[1:]
-            return int(code), int(frozen), enabled == "True"
+            code, frozen, enabled, heavy = line.split()[1:]
+            return int(code), int(frozen), enabled == "True", heavy
     return None
 
 
@@ -69,9 +79,10 @@ def test_identify_ends_without_teardown_and_prints_the_same_bytes() -> None:
     assert json.loads(quick.stdout)["validation"]["nrmse"] < 0.1
     ending = _ending(quick.stderr)
     assert ending is not None and "TEARDOWN" not in quick.stderr
-    code, frozen, enabled = ending
+    code, frozen, enabled, heavy = ending
     # the engine's modules were frozen out of the collector's walks, and collecting resumed
     assert code == 0 and frozen > 10_000 and enabled
+    assert heavy == "-"  # the whole process, quiet load included, imports none of NOT_FOR_IDENTIFY
 
 
 def test_a_flagged_result_keeps_its_exit_code_and_its_warning_line() -> None:
