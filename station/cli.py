@@ -102,12 +102,14 @@ def flagged(command: str, why: str) -> int:
     print(f"station {command}: {why} (exit code {EXIT_FLAGGED}; see the WARNING lines)", file=sys.stderr)
     return EXIT_FLAGGED
 
-#: Commands that only read their inputs and print one result: a whole ``station`` process of one
-#: of them loads these modules (every run uses them) with the garbage collector paused and ends
-#: as soon as its output is flushed (:mod:`station.process`: ~0.15 s of CPU a `station identify`
-#: with the kernels built ahead of time, ~0.3 s with numba's JIT).
+#: Commands that only read their inputs and print one result (no file written, no worker, no
+#: device): a whole ``station`` process of one of them loads these modules (every run uses them)
+#: with the garbage collector paused and ends as soon as its output is flushed
+#: (:mod:`station.process`: ~0.1 s of CPU a `station identify` with the kernels built ahead of
+#: time, ~0.4 s with numba's JIT).
 QUICK_EXIT: dict[str, tuple[str, ...]] = {
     "identify": ("station.readers", "station.session", "station.coupling", "eddi.diagnosis.chain"),
+    "validate": ("station.session", "eddi.multimode"),
 }
 
 #: Commands that draw their own live status (the others get :class:`station.progress.Working`).

@@ -124,3 +124,28 @@ def test_the_modules_loaded_up_front_are_ones_identify_imports_anyway() -> None:
     res = _station(code, ["identify", str(EXAMPLE), "--mass", "0.815", "--no-refine", "--json"])
     missing = [ln for ln in res.stderr.splitlines() if ln.startswith("MISSING")]
     assert res.returncode == 0 and missing == ["MISSING "], res.stderr[-300:]
+
+
+def test_validate_ends_the_same_quick_way(tmp_path: Path) -> None:
+    """Fails without "validate" in QUICK_EXIT (the ordinary end: no quick line)."""
+    model = _station(ORDINARY, ["identify", str(EXAMPLE), "--mass", "0.815", "--no-refine", "--json"])
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(json.loads(model.stdout)["model"]), encoding="utf-8")
+    argv = ["validate", str(path), str(EXAMPLE), "--json"]
+    quick, ordinary = _station(PROBE, argv), _station(ORDINARY, argv)
+    assert quick.returncode == ordinary.returncode == 0, quick.stderr[-500:]
+    assert quick.stdout == ordinary.stdout and json.loads(quick.stdout)["nrmse"] < 0.1
+    ending = _ending(quick.stderr)
+    assert ending is not None and ending[0] == 0 and ending[2] and ending[3] == "-"
+
+
+def test_the_modules_validate_loads_up_front_are_ones_it_imports_anyway(tmp_path: Path) -> None:
+    model = _station(ORDINARY, ["identify", str(EXAMPLE), "--mass", "0.815", "--no-refine", "--json"])
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(json.loads(model.stdout)["model"]), encoding="utf-8")
+    mods = QUICK_EXIT["validate"]
+    code = ORDINARY.replace("sys.exit(main(sys.argv[1:]))", "rc = main(sys.argv[1:])\n"
+                            f"sys.stderr.write('MISSING ' + ','.join(m for m in {mods!r} if m not in sys.modules) + '\\n')")
+    res = _station(code, ["validate", str(path), str(EXAMPLE), "--json"])
+    missing = [ln for ln in res.stderr.splitlines() if ln.startswith("MISSING")]
+    assert res.returncode == 0 and missing == ["MISSING "], res.stderr[-300:]
