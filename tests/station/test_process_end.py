@@ -149,3 +149,14 @@ def test_the_modules_validate_loads_up_front_are_ones_it_imports_anyway(tmp_path
     res = _station(code, ["validate", str(path), str(EXAMPLE), "--json"])
     missing = [ln for ln in res.stderr.splitlines() if ln.startswith("MISSING")]
     assert res.returncode == 0 and missing == ["MISSING "], res.stderr[-300:]
+
+
+def test_a_first_run_with_the_jit_still_leaves_numba_s_cache(tmp_path: Path) -> None:
+    """numba writes its on-disk cache when it compiles, not at exit: ending without the teardown
+    must not cost the next run a compile (index files of the simulation kernels present)."""
+    env = {**_env(), "EDDI_JIT": "1", "NUMBA_CACHE_DIR": str(tmp_path / "numba-cache")}
+    argv = ["identify", str(EXAMPLE), "--mass", "0.815", "--no-refine", "--json"]
+    res = subprocess.run([sys.executable, "-c", PROBE, *argv], capture_output=True, text=True, env=env, timeout=600)
+    assert res.returncode == 0 and _ending(res.stderr) is not None, res.stderr[-500:]
+    index = sorted(p.name for p in (tmp_path / "numba-cache").rglob("*.nbi"))
+    assert any("_rk4" in name for name in index), index
