@@ -111,7 +111,8 @@ def main() -> None:
         print(f"whole-process `station identify FILE --json` on {rec.n_samples} samples "
               f"({rec.n_samples / rec.rate_hz:.0f} s at {rec.rate_hz:.0f} Hz); before = {args.before}, after = "
               f"{args.after or 'this working tree'}; {args.rounds} interleaved rounds ({args.cold} cold); "
-              f"load average {min(loads):.1f}-{max(loads):.1f} (now {os.getloadavg()[0]:.1f}) on {os.cpu_count()} cores")
+              f"load average {min(loads):.1f}-{max(loads):.1f} (now {os.getloadavg()[0]:.1f}) "
+              f"on {os.cpu_count()} cores")
         for key, xs in runs.items():
             cpus, walls = [c for c, _ in xs], [w for _, w in xs]
             print(f"  {key:<12} cpu min {min(cpus):6.3f} s ({min(cpus) / f_cpu:5.2f}x floor) median "

@@ -120,7 +120,8 @@ def test_the_modules_loaded_up_front_are_ones_identify_imports_anyway() -> None:
     """The quiet load only moves imports earlier: an identify through main() alone imports them all."""
     mods = QUICK_EXIT["identify"]
     code = ORDINARY.replace("sys.exit(main(sys.argv[1:]))", "rc = main(sys.argv[1:])\n"
-                            f"sys.stderr.write('MISSING ' + ','.join(m for m in {mods!r} if m not in sys.modules) + '\\n')")
+                            f"sys.stderr.write('MISSING ' + ','.join(m for m in {mods!r} "
+                            "if m not in sys.modules) + '\\n')")
     res = _station(code, ["identify", str(EXAMPLE), "--mass", "0.815", "--no-refine", "--json"])
     missing = [ln for ln in res.stderr.splitlines() if ln.startswith("MISSING")]
     assert res.returncode == 0 and missing == ["MISSING "], res.stderr[-300:]
@@ -145,7 +146,8 @@ def test_the_modules_validate_loads_up_front_are_ones_it_imports_anyway(tmp_path
     path.write_text(json.dumps(json.loads(model.stdout)["model"]), encoding="utf-8")
     mods = QUICK_EXIT["validate"]
     code = ORDINARY.replace("sys.exit(main(sys.argv[1:]))", "rc = main(sys.argv[1:])\n"
-                            f"sys.stderr.write('MISSING ' + ','.join(m for m in {mods!r} if m not in sys.modules) + '\\n')")
+                            f"sys.stderr.write('MISSING ' + ','.join(m for m in {mods!r} "
+                            "if m not in sys.modules) + '\\n')")
     res = _station(code, ["validate", str(path), str(EXAMPLE), "--json"])
     missing = [ln for ln in res.stderr.splitlines() if ln.startswith("MISSING")]
     assert res.returncode == 0 and missing == ["MISSING "], res.stderr[-300:]
