@@ -21,15 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from eddi.errors import TermError
+from eddi.term_defaults import DEFAULT_DAMPING, DEFAULT_STIFFNESS  # noqa: F401 (re-export; numpy-free for --help)
 
 _FACTOR = re.compile(r"^(x|v|abs\(x\)|abs\(v\)|sign\(x\)|sign\(v\))(?:\^(\d+))?$")
 _SLOT = {"x": 0, "v": 1, "abs(x)": 2, "abs(v)": 3, "sign(x)": 4, "sign(v)": 5}
 _NAMES = ("x", "v", "abs(x)", "abs(v)", "sign(x)", "sign(v)")
 
-#: Default damping library of the paper's experiments (Eqs. 21, 24).
-DEFAULT_DAMPING: tuple[str, ...] = ("v", "x^2*v", "v^3")
-#: Default stiffness library of the paper (Eqs. 22, 25).
-DEFAULT_STIFFNESS: tuple[str, ...] = ("x", "x^2", "x^3", "x^4", "x^5")
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ import argparse
 import math
 from typing import TYPE_CHECKING, Any
 
-from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
+from eddi.term_defaults import DEFAULT_DAMPING, DEFAULT_STIFFNESS  # numpy-free: --help loads no numpy
 from station.argtypes import add_adc_filter_option, add_refine_option, add_sensor_highpass_option, damping_terms, finite_positive, stiffness_terms  # noqa: F401 (re-export)
 from station.errors import ConfigError
 from station.output import emit
