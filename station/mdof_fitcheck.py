@@ -6,7 +6,7 @@ Two checks on the model ``station diagnose`` delivers, each a warning in plain n
 - **sensitive channel**: the model's prediction of a training capture with the blow
   :data:`BLOW_STEP` (0.1 %) stronger, against the prediction with the measured blow, per channel
   (nrmse relative to the measured channel). A linear structure moves by 0.001; a channel that
-  moves by more than its noise floor amplifies a change of the blow tenfold or more (energy
+  moves by more than :data:`AMPLIFIED` (10) times that amplifies a change of the blow (energy
   pumping into a light attachment: session 14 measured a nonlinear energy sink whose sink channel
   moved 3.7 % for a 1e-4 stronger blow, 16 % for 1e-3). Such a channel's held-out figure measures
   that sensitivity as much as the model: the true model itself may be far above the floor, and no
@@ -32,6 +32,11 @@ import numpy as np
 #: Relative change of the blow for the sensitivity check (a hammer's calibration is ~1 %; 0.1 % is
 #: well inside what any blow's measurement leaves uncertain).
 BLOW_STEP = 1e-3
+#: A channel whose prediction moves by more than this multiple of :data:`BLOW_STEP` is sensitive (a linear
+#: structure moves by 1x; the bench's cubic chains 1-3x; energy sinks 8-200x: nes-5-11 of
+#: ``bench_mdof_target.py --seed 5`` 8x / 33x, its sink channel held out at 0.137 by a model whose
+#: coefficients are within 0.4 % and whose training figures equal the truth's).
+AMPLIFIED = 10.0
 #: A channel whose training nrmse exceeds this multiple of its noise floor is a fit short of what the
 #: noise allows (the true model on the bench's two-mass cases: 0.5-1.3x the floor in training).
 SHORT_FACTOR = 2.0
@@ -67,11 +72,11 @@ def fit_check(model: Any, records: Sequence[Any], names: Sequence[str], floors: 
     warnings = []
     for c in names:
         fl, m, e = float(floors[c]), figures["blow_sensitivity"][c], figures["training_channel_nrmse"][c]
-        if m is not None and math.isfinite(m) and m > fl:
+        if m is not None and math.isfinite(m) and m > AMPLIFIED * BLOW_STEP:
             warnings.append(f"channel {c} is sensitive to the blow: {100 * BLOW_STEP:g} % stronger moves the model's "
-                            f"prediction by {m:.3g} nrmse ({m / fl:.1f}x its noise floor {fl:.3g}); its held-out "
-                            "figure measures that sensitivity as much as the model (the true model may be as far "
-                            "off): no per-channel accuracy is claimed on it")
+                            f"prediction by {m:.3g} nrmse ({m / BLOW_STEP:.0f}x the change; noise floor {fl:.3g}); "
+                            "its held-out figure measures that sensitivity as much as the model (the true model "
+                            "may be as far off): no per-channel accuracy is claimed on it")
         elif not (math.isfinite(e) and e <= SHORT_FACTOR * fl):
             warnings.append(f"channel {c}: the delivered model reproduces its own training captures at {e:.3g} nrmse, "
                             f"{e / fl:.1f}x the noise floor {fl:.3g}: the fit is short of what the noise allows "

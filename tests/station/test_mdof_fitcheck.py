@@ -43,7 +43,7 @@ def test_an_energy_sink_is_said_to_be_sensitive_not_fitted():
     assert case.name == "nes-5-1"
     figures, warnings = fit_check(case.system.model(), records, names, floors)
     moved = figures["blow_sensitivity"]
-    assert moved["acc2"] > 10 * floors["acc2"] and moved["acc1"] > 3 * floors["acc1"]  # 0.20, 0.058
+    assert moved["acc2"] > 0.1 and moved["acc1"] > 0.03  # 0.20, 0.058: amplified 200x, 58x
     assert figures["training_channel_nrmse"]["acc2"] > 0.1  # the TRUE model: 0.20
     assert len(warnings) == 2 and all("sensitive to the blow" in w for w in warnings)
 
