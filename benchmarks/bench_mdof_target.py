@@ -241,6 +241,10 @@ def run(case: Case, refine: bool) -> dict:
             return row
         rc_v, val, err_v = _station(["validate", "m.json", *hfiles, "--json"], tmp)
         _rc, tval, _e = _station(["validate", "truth.json", *hfiles, "--json"], tmp)
+        # the delivered model on its own training captures beside the truth's (a fit short of the
+        # truth there is the fit's, not the noise's)
+        _rc, trn, _e = _station(["validate", "m.json", *files, "--json"], tmp)
+        _rc, ttrn, _e = _station(["validate", "truth.json", *files, "--json"], tmp)
         row["model_json"] = Path(tmp, "m.json").read_text()
         model = MdofModel.from_json(row["model_json"])
     c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -251,6 +255,8 @@ def run(case: Case, refine: bool) -> dict:
         return row
     row["held"] = {c: round(v, 4) for c, v in val["channel_nrmse"].items()}
     row["true_held"] = {c: round(v, 4) for c, v in tval["channel_nrmse"].items()} if tval else {}
+    row["train"] = {c: round(v, 4) for c, v in trn["channel_nrmse"].items()} if trn else {}
+    row["true_train"] = {c: round(v, 4) for c, v in ttrn["channel_nrmse"].items()} if ttrn else {}
     row["f_err"] = [round(e, 4) for e in frequency_errors(truth, model)]
     proj = np.linalg.pinv(model.phi)
     amp = np.max(np.hstack([np.abs(proj @ r.truth_x) for r in train]), axis=1)
@@ -285,6 +291,7 @@ def show(row: dict) -> None:
           f"f err {[f'{100 * e:.2f}%' for e in row['f_err']]} {tag[v['freq']]}; "
           f"coef worst {worst_k[0]} {100 * worst_k[1]:.1f}% of {len(row['k_err'])} {tag[v['coef']]} "
           f"=> {'PASS' if v['all'] else 'FAIL'}", flush=True)
+    print(f"       training nrmse {row.get('train')} (true model {row.get('true_train')})", flush=True)
 
 
 def table(rows: list[dict]) -> None:
@@ -329,6 +336,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cases", default="", help="comma-separated indices (or rig system names)")
     ap.add_argument("--jobs", type=int, default=1, help="cases in parallel (at most 2 on this machine)")
     ap.add_argument("--no-refine", action="store_true", help="diagnose without the polish (not the CLI default)")
+    ap.add_argument("--snr", type=float, default=None, help="every case at this SNR in dB (the issue's 45)")
     ap.add_argument("--list", action="store_true", help="print the cases only")
     ap.add_argument("--json", help="write the rows to this JSON file")
     args = ap.parse_args(argv)
@@ -336,6 +344,10 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--n: expected >= 1; --jobs: 1 or 2")
     try:
         todo = cases(args)
+        if args.snr is not None:
+            from dataclasses import replace
+
+            todo = [replace(c, snr=args.snr, info={**c.info, "snr_db": args.snr}) for c in todo]
     except ValueError as exc:
         ap.error(f"--cases: {exc}")
     if args.list:

@@ -38,6 +38,7 @@ from eddi.mdof.validate import validate_mdof
 from eddi.mdof.verdict import held_out_gain
 from station.errors import InputFileError
 from station.mdof_data import condition_all, driving_point_how, reduce_rate
+from station.mdof_fitcheck import fit_warnings
 from station.mdof_mechanism import add_mechanisms, mechanism_lines
 from station.mdof_polish import polish_folds, polish_tag
 
@@ -181,6 +182,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     add_mechanisms(obj, final)
     obj["warnings"] = _model_flags(model, folds["coupled" if wins else "baseline"])
     obj["unstable"] = bool(obj["warnings"])
+    obj["warnings"] += fit_warnings(obj, model, records, names)  # the fit against its floor (station.mdof_fitcheck)
     # the declared driving point checked against the signs of every channel's residues (warned only)
     obj["warnings"] += check_driving_point(final.modes, records, names, dp,
                                            driving_point_how(raw[0], driving_point))
@@ -239,17 +241,12 @@ def fold_mean_per_mode(rows: Sequence[Sequence[float]]) -> list[float]:
     ``k`` is averaged over the folds that have it (session 12: a 3-mass chain with 2 blows and a
     2-mass chain with 6 stopped on a ragged array, a traceback instead of a verdict)."""
     width = max((len(r) for r in rows), default=0)
-    out = []
-    for k in range(width):
-        vals = [float(r[k]) for r in rows if len(r) > k]
-        out.append(float(np.mean(vals)))
-    return out
+    return [float(np.mean([float(r[k]) for r in rows if len(r) > k])) for k in range(width)]
 
 
 def _final_coupled(records: Sequence[Any], names: tuple[str, ...], dp: str, refine: bool, quiet: bool = False
                    ) -> tuple[Any, MdofModel] | None:
     """The coupled identification on every capture and the model delivered (polished with ``refine``).
-
     ``quiet`` (computed ahead, before it is known to be needed): None instead of an identification
     error (the error is raised when the model is needed and computed again)."""
     if quiet:
