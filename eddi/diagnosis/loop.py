@@ -139,6 +139,10 @@ def diagnose(
             # the folds are judged with EDDI's estimate, as the pipeline kept its own: EDDI as the
             # pipeline runs it (identify takes the conditioner's slow errors out, eddi.slow_many)
             setup = replace(setup, slow_errors=True)
+        if pipeline is not None and base is None:
+            # the pipeline judges the equation-error fit of its terms beside EDDI and its refinement
+            # (eddi.refinement_choice): so does each fold (fitter.FoldFitter.refined)
+            setup = replace(setup, ee_contender=True)
         cat = [m for m in catalogue() if m.name in chosen]
         effects = tuple(e.name for e in base.effects) if base is not None else ()
         skipped = {m.name: m.skip_reason(setup.damping, setup.stiffness, effects) for m in cat}
