@@ -63,3 +63,18 @@ def test_a_model_that_halves_the_baseline_on_every_part_is_found():
     assert halves_the_baseline([_cand("hysteresis", (0.07, 0.12, 0.08))], base, 0.5) is None
     # a chain correction judged on re-conditioned records does not count
     assert halves_the_baseline([_cand("sensor_highpass", (0.04, 0.09, 0.05))], base, 0.5) is None
+
+
+def test_a_blow_within_the_force_noise_is_refused_in_one_line():
+    # before: IndexError inside the conditioner (5.4 g, 68 Hz, 1 kHz, a 1e-5 m blow under a
+    # 0.01 N rms force sensor: seed 2 of the light family)
+    from eddi.conditioning import condition
+    from eddi.errors import SignalError
+
+    rng = np.random.default_rng(3)
+    t = np.arange(2000) / 1000.0 - 0.2
+    force = 0.01 * rng.standard_normal(t.size) + 0.02 * np.exp(-((t - 0.01) / 0.001) ** 2)
+    acc = 0.5 * np.exp(-2.0 * np.clip(t, 0, None)) * np.sin(2 * np.pi * 68 * np.clip(t, 0, None))
+    acc = acc + 1e-3 * rng.standard_normal(t.size)
+    with pytest.raises(SignalError, match="no blow above its noise"):
+        condition(t, acc=acc, force=force, pretrigger_samples=200)
