@@ -117,6 +117,17 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
         if not fails:
             return Decision(c.name, c, None, within, "")
         why.append(f"{c.name}: " + ", ".join(fails))
+    if (within and not ambiguous and base > floor.data_nrmse and eddi > none_factor * floor.data_nrmse
+            and not any(c.reference == "baseline" and c.name not in CORRECTIONS and COUPLING_CUT not in c.params
+                        for c in tried)):
+        # above the floor, `none (uncertain)` says no mechanism earns its place: untested when every
+        # candidate extends a fit (EDDI's per fold) that is itself beyond the factor while the judged
+        # baseline (its refinement, the equation-error contender) is within it (session 15: strong
+        # drag read `none (uncertain)` at 2.5x, its candidates extending a fit at 0.55)
+        return Decision("unexplained", None, partial, True,
+                        f"within {none_factor:g}x the floor ({base / floor.data_nrmse:.1f}x), but the candidates extend "
+                        f"EDDI's per-fold fit ({eddi:.3g}, {eddi / floor.data_nrmse:.1f}x the floor), not the judged "
+                        f"baseline ({base:.3g}): no mechanism was tested against it; " + "; ".join(why[:2]))
     beater = halves_the_baseline(tried, base_fold, margin) if within else None
     if within and ambiguous is None and beater is not None:
         # a floor a model halves is not a floor (session 15): the baseline misses what a model of the

@@ -78,3 +78,25 @@ def test_a_blow_within_the_force_noise_is_refused_in_one_line():
     acc = acc + 1e-3 * rng.standard_normal(t.size)
     with pytest.raises(SignalError, match="no blow above its noise"):
         condition(t, acc=acc, force=force, pretrigger_samples=200)
+
+
+def test_none_above_the_floor_needs_candidates_tested_against_the_judged_baseline():
+    # the held-out ladder's drag at 0.2 (session 15): judged baseline 0.052 (2.6x a floor of 0.02)
+    # while every candidate extends EDDI's per-fold fit, itself far beyond the factor: `none
+    # (uncertain)` would claim that no mechanism earns its place, which nothing tested
+    from eddi.diagnosis.decide import decide
+    from eddi.diagnosis.measure import data_floor
+    from eddi.diagnosis.results import NoiseFloor
+
+    fold, cond, pred = [0.02, 0.02, 0.02], [0.01, 0.01, 0.01], [0.005, 0.005, 0.005]
+    floor = NoiseFloor(nrmse=0.02, fold_nrmse=tuple(fold), noise_rms=(0.0,) * 3, conditioning_nrmse=tuple(cond),
+                       method="test", prediction_nrmse=tuple(pred), part_conditioning_nrmse=tuple(cond),
+                       data_fold_nrmse=data_floor(fold, cond, pred, ()))
+    base = (0.05, 0.055, 0.051)
+    drag = _cand("quadratic_damping", (0.14, 0.15, 0.13))
+    drag = Candidate(**{**drag.__dict__, "reference": "unrefined baseline", "wins_every_part": True})
+    dec = decide([drag], base, floor, 0.5, 3.5, 10.0, strong_margin=0.6, eddi_fold=(1.8, 1.7, 1.9))
+    assert dec.cause == "unexplained" and "no mechanism was tested against it" in dec.reason
+    # EDDI's fit within the factor too: the candidates were a test, `none` stands
+    dec = decide([drag], base, floor, 0.5, 3.5, 10.0, strong_margin=0.6, eddi_fold=(0.06, 0.06, 0.06))
+    assert dec.cause == "none"
