@@ -153,14 +153,16 @@ def _verdicts(d, factors, measured: list | None = None) -> tuple[dict[str, str],
     :func:`eddi.diagnosis.name.decide` gave before :func:`eddi.diagnosis.earn.earn` heard the
     chain and the symptoms (``--summary --rejudge`` applies the current rule to it)."""
     from eddi.diagnosis.earn import earn
+    from eddi.diagnosis.loop import records_share
     from eddi.diagnosis.name import decide
     from eddi.diagnosis.settings import NAMED_FACTOR
 
     out, raw = {}, {}
     pipe = d.pipeline
     floor = d.noise_floor.data_nrmse  # as the loop: the floor of the data (session 12)
-    if pipe is not None and pipe.held_out:  # as the loop: the floor over the records it did not fit
-        floors = [fl for p, fl in zip(d.parts, d.noise_floor.data_fold_nrmse or d.noise_floor.fold_nrmse)
+    if pipe is not None and pipe.held_out:  # as the loop: the records' own share over the records it did not fit (session 15)
+        floors = [fl for p, fl in zip(d.parts, records_share(d.noise_floor) or d.noise_floor.data_fold_nrmse
+                                              or d.noise_floor.fold_nrmse)
                   if p.record in pipe.held_out]
         floor = float(np.mean(floors)) if floors else floor
     for f in factors:
@@ -179,13 +181,15 @@ def _verdicts(d, factors, measured: list | None = None) -> tuple[dict[str, str],
 def _named_verdicts(d, measured: list | None = None) -> dict[str, str]:
     """The cause at each factor of :data:`NAMED_FACTORS` (default none factor and strong cut)."""
     from eddi.diagnosis.earn import earn
+    from eddi.diagnosis.loop import records_share
     from eddi.diagnosis.name import decide
     from eddi.diagnosis.settings import NONE_FACTOR, STRONG_MARGIN
 
     pipe = d.pipeline
     floor = d.noise_floor.data_nrmse  # as the loop: the floor of the data (session 12)
     if pipe is not None and pipe.held_out:
-        floors = [fl for p, fl in zip(d.parts, d.noise_floor.data_fold_nrmse or d.noise_floor.fold_nrmse)
+        floors = [fl for p, fl in zip(d.parts, records_share(d.noise_floor) or d.noise_floor.data_fold_nrmse
+                                              or d.noise_floor.fold_nrmse)
                   if p.record in pipe.held_out]
         floor = float(np.mean(floors)) if floors else floor
     departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= NONE_FACTOR * floor) else ""

@@ -49,6 +49,7 @@ from eddi.calculus import decimate_centred, decimation_factor, samples_per_cycle
 from eddi.conditioning import ConditionedSignal, condition
 from eddi.driven_validation import fused_impact_force, unsharpened, validate_conditioned
 from eddi.energy import noise_level
+from eddi.equation_error import equation_error_fit
 from eddi.errors import IdentificationError, SignalError, TooShortToRefine
 from eddi.identify import IdentifiedModel, identify
 from eddi.intervals import (loose_coefficient_warnings, sampling_kernel_margin, sampling_kernel_warning,
@@ -304,6 +305,11 @@ class Pipeline:
         # refinement's judge): independent simulations, through the mapper (station diagnose:
         # forked processes; 0.7 s of the double beam's ~5 s that ran in turn)
         models = [model.eom] + ([model.unrefined] if model.unrefined is not None else [])
+        # with held-out records, the equation-error fit of the same terms is judged beside them
+        # (eddi.equation_error: it need not lose to an ill-determined refinement)
+        ee = equation_error_fit(model.eom, cond) if held_out else None
+        if ee is not None:
+            models.append(ee)
         recs = [cond, *held_out]
         # EDDI's on the fit record alone serves the judge (eddi.judge), which reads every k-th
         # sample of it: simulated at those (the whole validation again only if it is delivered)
@@ -313,13 +319,16 @@ class Pipeline:
         got = (self.mapper or _in_turn)(
             lambda ij: validate_conditioned(models[ij[0]], recs[ij[1]], every=every if ij == (1, 0) else 1),
             [(i, j) for i in range(len(models)) for j in range(len(recs))])
+        n = len(recs)
         val, by_force = got[0]
-        pairs = got[1:len(recs)]
-        eddi_vals = (got[len(recs)][0], tuple(v for v, _ in got[len(recs) + 1:])) if len(models) > 1 else None
+        pairs = got[1:n]
+        eddi_vals = (got[n][0], tuple(v for v, _ in got[n + 1:2 * n])) if model.unrefined is not None else None
+        ee_vals = (ee, got[-n][0], tuple(v for v, _ in got[-n + 1:])) if ee is not None else None
         held = tuple(v for v, _ in pairs)
         held_force = tuple(f for _, f in pairs)
         judged_on = f"held-out records ({len(held)})" if held else "fit record"
-        judged = judge_refinement(model, cond, held_out, val, held, judged_on, eddi_vals, off_reason=too_short)
+        judged = judge_refinement(model, cond, held_out, val, held, judged_on, eddi_vals, off_reason=too_short,
+                                  ee_vals=ee_vals)
         model, val, held, eddi_held, refinement, reason, n_eddi, n_ref = judged
         nrmse_sensor = None
         if sensor_only and by_force and cond.acc_measured:

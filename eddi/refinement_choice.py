@@ -16,6 +16,7 @@ import numpy as np
 from eddi.conditioning import ConditionedSignal
 from eddi.driven_validation import validate_conditioned
 from eddi.identify import IdentifiedModel
+from eddi.model import EquationOfMotion
 from eddi.pipeline_result import REFINE_CHANNEL, SIGNAL_NAME
 from eddi.validate import Validation
 
@@ -23,11 +24,15 @@ from eddi.validate import Validation
 def judge_refinement(model: IdentifiedModel, cond: ConditionedSignal, held_out: Sequence[ConditionedSignal],
                       val: Validation, held: tuple[Validation, ...], judged_on: str,
                       eddi_vals: tuple[Validation, tuple[Validation, ...]] | None = None,
-                      off_reason: str = "") -> tuple:
+                      off_reason: str = "",
+                      ee_vals: tuple[EquationOfMotion, Validation, tuple[Validation, ...]] | None = None) -> tuple:
     """Keep the refined model or EDDI's (see the module notes); returns what :meth:`Pipeline.fit` needs.
 
     ``eddi_vals``: EDDI's model validated on ``cond`` and on ``held_out`` (computed here when None).
     ``off_reason``: why an unrefined model was not refined (default: not asked for).
+    ``ee_vals``: the equation-error fit of the same terms (:mod:`eddi.equation_error`) validated on
+    ``cond`` and on ``held_out``: with held-out records it is kept instead when it predicts them
+    better than the model chosen above (refinement ``"rejected"``, the reason says so).
 
     Returns
     -------
@@ -77,6 +82,16 @@ def judge_refinement(model: IdentifiedModel, cond: ConditionedSignal, held_out: 
             if eddi_val.every > 1:  # the judge's samples alone (Pipeline.fit): the delivered one compares all
                 eddi_val = validate_conditioned(model.eom, cond)[0]
             val, held = eddi_val, eddi_held
+    if ee_vals is not None and held:
+        ee, ee_val, ee_held = ee_vals
+        n_ee, n_kept = _mean_nrmse(ee_held), _mean_nrmse(held)
+        if not (ee_val.diverged or any(h.diverged for h in ee_held)) and n_ee < n_kept:
+            kept = {"kept": "refined", "rejected": "EDDI", "off": "EDDI"}[refinement]
+            reason = (f"{reason}; the equation-error fit of the same terms predicts the {judged_on} better "
+                      f"(displacement nrmse {n_kept:.4g} ({kept}) -> {n_ee:.4g}): equation-error fit kept")
+            refinement = "rejected" if refinement == "kept" else refinement
+            model = replace(model, eom=ee)
+            val, held = ee_val, ee_held
     return model, val, held, eddi_held, refinement, reason, n_eddi, n_ref
 
 

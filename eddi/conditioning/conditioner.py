@@ -243,6 +243,12 @@ def _impact_end_from_force(w: _Work) -> None:
     thr = max(5.0 * w.f_sigma, 0.01 * abs(float(f[f_peak_i])))
     look = f[f_peak_i: min(w.n, f_peak_i + int(0.1 * w.rate))]
     above = np.nonzero(np.abs(look) > thr)[0]
+    if above.size == 0:
+        # the largest force is within 5 noise sd: no blow to end (a light structure struck so
+        # gently that the hammer's noise hides it raised an IndexError here, session 15)
+        raise SignalError(f"the force channel shows no blow above its noise: largest force "
+                          f"{abs(float(f[f_peak_i])):.3g} N, noise {w.f_sigma:.3g} N rms at rest (a blow needs "
+                          f"> {thr:.3g} N); strike harder or leave the force channel out")
     w.impact_end = min(w.n - 1, f_peak_i + int(above[-1]) + 1 + w.margin)
     w.notes.append(f"impact ends at sample {w.impact_end} (force within {thr:.3g} N of zero)")
     _cut_at_second_blow(w, abs(float(f[f_peak_i])))

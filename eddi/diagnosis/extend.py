@@ -47,6 +47,10 @@ class Setup:
     #: pipeline's EDDI (identify) does: set when the folds are judged with EDDI's estimate because
     #: the pipeline rejected its refinement (loop.diagnose)
     slow_errors: bool = False
+    #: the equation-error fit of the baseline's terms is a contender of the judged baseline, as the
+    #: pipeline judges it beside EDDI and its refinement (eddi.equation_error; set by loop.diagnose
+    #: when a pipeline baseline is given; fitter.FoldFitter.refined)
+    ee_contender: bool = False
 
 
 @dataclass(frozen=True)

@@ -72,10 +72,37 @@ class FoldFitter:
 
     def refined(self, fit: Fit | None) -> Fit | None:
         """``fit`` (EDDI's fit of the baseline) as the fold judges it: refined as the pipeline
-        refines when the pipeline kept its refinement, else ``fit`` itself."""
-        if fit is None or not self.refine:
+        refines when the pipeline kept its refinement, else ``fit`` itself; with
+        ``setup.ee_contender`` the fold's equation-error fit of the same terms replaces it when it
+        predicts the fold's other training records better, as the pipeline judges its own
+        (:func:`eddi.refinement_choice.judge_refinement`)."""
+        if fit is None:
             return fit
-        return refined_baseline(fit, self.records, self.masks, self.setup)
+        out = refined_baseline(fit, self.records, self.masks, self.setup) if self.refine else fit
+        if not (self.setup.ee_contender and self.setup.fit == "eddi" and self.setup.base is None and self.records):
+            return out
+        ee = self.ee_fit_record()
+        if ee is None:
+            return out
+        err = training_error(self.records, self.masks)
+        return Fit(eom=ee.eom, mech=None, residual=fit.residual) if err(ee.eom) < err(out.eom) else out
+
+    def ee_fit_record(self) -> Fit | None:
+        """The equation-error fit of the baseline's terms on the fold's fit record alone (the
+        training record of the median peak force, :func:`fit_record_of`), as the pipeline fits
+        its own on its fit record (:func:`eddi.equation_error.equation_error_fit`): the other
+        training records then judge it out of sample, as they judge the refinement."""
+        k = fit_record_of(self.records, self.masks)
+        if k < 0:
+            return None
+        masks = [m if i == k else np.zeros_like(m) for i, m in enumerate(self.masks)]
+        st = self.setup
+        ee = Setup(mass=st.mass, damping=st.damping, stiffness=st.stiffness, base=st.base,
+                   coordinate=st.coordinate, fit="equation-error")
+        try:
+            return fit_ee(self.sigs, masks, ee, None)
+        except (IdentificationError, SignalError, ModelError, ValueError, np.linalg.LinAlgError):
+            return None
 
     def __call__(self, mech: Mechanism | None, base_fit: Fit | None = None) -> Fit | None:
         if self.fold is None:
@@ -97,9 +124,7 @@ def refined_baseline(fit: Fit, records: Sequence[Record], masks: Sequence[np.nda
     from eddi.fit_record import REFINE_CHANNEL
     from eddi.refine import refine_output_error
 
-    from eddi.diagnosis.extend import runs
-
-    train = [(i, max(runs(m), key=lambda ab: ab[1] - ab[0])) for i, m in enumerate(masks) if np.any(m)]
+    train = _training_runs(records, masks)
     if not train:
         return fit
     forces = [float(np.max(np.abs(records[i].force))) if records[i].force is not None else 0.0 for i, _ in train]
@@ -112,7 +137,34 @@ def refined_baseline(fit: Fit, records: Sequence[Record], masks: Sequence[np.nda
                                      min_gain=REFINE_FOLDS["min_gain"])
     except (IdentificationError, SignalError, ModelError, ValueError):
         return fit
-    judges = [(i, ab) for i, ab in train if i != k] or [(k, (a, b))]
+    error = training_error(records, masks)
+    return Fit(eom=eom, mech=None, residual=fit.residual) if error(eom) < error(fit.eom) else fit
+
+
+def _training_runs(records: Sequence[Record], masks: Sequence[np.ndarray]) -> list[tuple[int, tuple[int, int]]]:
+    """Per record with training samples, its longest training run ``(record, (start, stop))``."""
+    from eddi.diagnosis.extend import runs
+
+    return [(i, max(runs(m), key=lambda ab: ab[1] - ab[0])) for i, m in enumerate(masks) if np.any(m)]
+
+
+def fit_record_of(records: Sequence[Record], masks: Sequence[np.ndarray]) -> int:
+    """The fold's fit record: the training record of the median peak force (lower middle); -1: none."""
+    train = _training_runs(records, masks)
+    if not train:
+        return -1
+    forces = [float(np.max(np.abs(records[i].force))) if records[i].force is not None else 0.0 for i, _ in train]
+    order = sorted(range(len(train)), key=lambda j: forces[j])
+    return train[order[(len(order) - 1) // 2]][0]
+
+
+def training_error(records: Sequence[Record], masks: Sequence[np.ndarray]):
+    """``error(model)``: the mean displacement nrmse of ``model`` simulated over the fold's
+    training records other than the refinement's fit record (the median peak force; that record
+    itself when it is the only one), as the pipeline judges a model on the records it did not fit."""
+    train = _training_runs(records, masks)
+    k = fit_record_of(records, masks)
+    judges = [(i, ab) for i, ab in train if i != k] or train
 
     def error(model) -> float:
         errs = []
@@ -120,9 +172,9 @@ def refined_baseline(fit: Fit, records: Sequence[Record], masks: Sequence[np.nda
             r = records[i]
             part = Part(i, s0, s1, r.force is not None and r.free_start > 0 and s0 == r.free_start, r.label)
             errs.append(nrmse(simulate_part(model, r, part), r.x[s0:s1]))
-        return float(np.mean(errs))
+        return float(np.mean(errs)) if errs else float("inf")
 
-    return Fit(eom=eom, mech=None, residual=fit.residual) if error(eom) < error(fit.eom) else fit
+    return error
 
 
 def refine_start(eom: EquationOfMotion, records: Sequence[Record], masks: Sequence[np.ndarray],

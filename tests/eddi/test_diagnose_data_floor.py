@@ -23,6 +23,7 @@ import pytest
 from eddi.conditioning import condition
 from eddi.diagnosis import Record, diagnose
 from eddi.diagnosis.decide import decide
+from eddi.diagnosis.loop import records_share
 from eddi.diagnosis.measure import data_floor
 from eddi.diagnosis.pipeline_base import pipeline_baseline
 from eddi.diagnosis.results import NoiseFloor
@@ -67,13 +68,18 @@ def test_a_poor_fit_is_not_none_and_a_null_of_the_same_noise_is(clearance: bool)
     d = _diagnose(_records(clearance))
     fl = d.noise_floor
     if clearance:
-        # the part the baseline misses: its floor was the refit's spread, not the record's noise
+        # the floor is mostly the folds' refit spread, not the records' noise
         k = int(np.argmax(fl.prediction_nrmse))
-        assert fl.prediction_nrmse[k] > 5 * fl.part_conditioning_nrmse[k]
-        assert d.judging.fold_nrmse[k] > 0.4 and d.judging.nrmse < fl.nrmse  # plain `none` before
-        assert fl.data_nrmse < 0.5 * fl.nrmse
+        assert fl.prediction_nrmse[k] > 2.5 * fl.part_conditioning_nrmse[k]
         assert d.cause == "unexplained", d.verdict
-        assert d.judging.nrmse > 2 * fl.data_nrmse
+        # session 15: the pipeline keeps the equation-error fit of its terms (held out 0.418 -> 0.366)
+        # and the folds the better of their contenders (judged 0.27 -> 0.157, worst part 0.605 -> 0.237),
+        # which sits within the floor of the data (0.14, still mostly d_pred); the pipeline's model
+        # misses the records it did not fit by 5x their own share of the floor (d_cond and the chain,
+        # 0.074): `unexplained` by that (the floor's d_pred is the folds' procedure, not this model's)
+        share = [s for p, s in zip(d.parts, records_share(fl)) if p.record in d.pipeline.held_out]
+        assert d.pipeline.nrmse > 3.5 * float(np.mean(share))
+        assert "the records' own share of the floor" in d.verdict
     else:
         assert fl.data_nrmse == fl.nrmse  # an adequate baseline: nothing capped
         assert d.cause == "none", d.verdict

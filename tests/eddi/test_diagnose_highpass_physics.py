@@ -150,7 +150,12 @@ def test_a_refit_of_re_conditioned_records_does_not_name_a_coupling() -> None:
     d = diagnose(recs, m, pipeline=pipeline_baseline(recs, m))
     hp = next(c for c in d.candidates if c.name == "sensor_highpass")
     assert not hp.skipped and hp.model is not None and not hp.contradicted
-    assert hp.wins_every_part and hp.nrmse <= (1.0 - STRONG_MARGIN) * d.judging.nrmse  # what named it before
+    # what named it before session 15: the strong cut on every part against a baseline that missed the
+    # three largest blows; the pipeline now keeps the equation-error fit of its terms (held out 0.035 ->
+    # 0.032) and the folds judge with the better of their contenders (0.0089: 0.0185 / 0.0028 / 0.015 /
+    # 0.007 / 0.0042 / 0.0056), so the candidate's refit (0.0068) no longer makes that cut here
+    assert not (hp.wins_every_part and hp.nrmse <= (1.0 - STRONG_MARGIN) * d.judging.nrmse) or hp.params[
+        "coupling_cut"] < STRONG_MARGIN
     assert d.judging.nrmse <= d.noise_floor.nrmse  # within the floor: a clean chain's records
     assert d.cause == "none", d.verdict
     # its fold models reproduce the records as measured as well without the coupling

@@ -50,7 +50,7 @@ def test_one_route_seeds_the_refinement_and_reaches_the_scored_pipelines_optimum
 def _rejecting(real):
     """judge_refinement that rejects every refinement (EDDI's estimate delivered)."""
 
-    def judge(model, cond, held_out, val, held, judged_on, eddi_vals=None, off_reason=""):
+    def judge(model, cond, held_out, val, held, judged_on, eddi_vals=None, off_reason="", ee_vals=None):
         got = real(model, cond, held_out, val, held, judged_on, eddi_vals, off_reason)
         eddi_val, eddi_held = eddi_vals
         return (replace(got[0], eom=got[0].unrefined), eddi_val, eddi_held, eddi_held, "rejected", "test",
