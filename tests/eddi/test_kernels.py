@@ -237,3 +237,26 @@ def test_hermite_fill_reads_no_grid_point_past_the_last_sample() -> None:
     fill(xc, vc, ac, q, 1.0, x, v, a)
     assert x[-1] == 2.0 and v[-1] == 1.0 and a[-1] == 0.0
     assert x[4] == 1.0 and np.allclose(x, np.arange(n) / 4.0)  # linear data: Hermite is exact
+
+
+def test_if_stale_keeps_a_current_module_and_finds_none_where_there_is_none(aot_dir: Path,
+                                                                           tmp_path: Path) -> None:
+    # the editable installation's step (setup.py) runs `python -m eddi.kernels --if-stale`: a
+    # reinstall with the same source and processor must not pay the ~9 s build again
+    import eddi.kernels as kernels
+
+    so = next(p for p in aot_dir.iterdir() if p.name.startswith("_aot_kernels"))
+    mtime = so.stat().st_mtime_ns
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    env.pop("EDDI_AOT_DIR", None)
+    done = subprocess.run([sys.executable, "-m", "eddi.kernels", "--if-stale", "--output-dir", str(aot_dir)],
+                          env=env, cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == f"{so} (current: not rebuilt)"
+    assert so.stat().st_mtime_ns == mtime
+    sys.modules.pop("eddi._aot_kernels", None)
+    try:
+        assert kernels.current_module(tmp_path) is None  # nothing built there: --if-stale builds
+        assert kernels.current_module(aot_dir) == so
+    finally:
+        sys.modules.pop("eddi._aot_kernels", None)
