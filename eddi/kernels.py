@@ -355,6 +355,26 @@ def build(output_dir: str | Path | None = None, cpu: str = "host") -> Path:
     return max(built, key=lambda p: p.stat().st_mtime)
 
 
+def current_module(output_dir: str | Path | None = None) -> Path | None:
+    """The built module in ``output_dir`` (default: the eddi package) when every kernel module
+    would use it (built for this Python and processor, fingerprints equal to the source in
+    use), else None: ``python -m eddi.kernels --if-stale`` then builds."""
+    saved = os.environ.get("EDDI_AOT_DIR")
+    os.environ["EDDI_AOT_DIR"] = str(output_dir or Path(__file__).resolve().parent)
+    try:
+        if _load_aot_module() is None:
+            return None
+        for modname in KERNEL_MODULES:
+            if importlib.import_module(modname)._KERNELS._aot_functions() is None:
+                return None
+        return Path(sys.modules[f"eddi.{AOT_NAME}"].__file__)
+    finally:
+        if saved is None:
+            os.environ.pop("EDDI_AOT_DIR", None)
+        else:
+            os.environ["EDDI_AOT_DIR"] = saved
+
+
 if __name__ == "__main__":  # pragma: no cover - the build command
     import argparse
 
@@ -364,5 +384,9 @@ if __name__ == "__main__":  # pragma: no cover - the build command
                     help="host (default): this machine's processor, as fast as the JIT, not used on another "
                          "processor; generic: any processor of the architecture (the sensitivity kernel "
                          "~2x slower)")
+    ap.add_argument("--if-stale", action="store_true",
+                    help="build only when the module in the output directory is not current (another source, "
+                         "Python or processor); the installation's step for editable installs")
     a = ap.parse_args()
-    print(build(a.output_dir, a.cpu))
+    have = current_module(a.output_dir) if a.if_stale else None
+    print(f"{have} (current: not rebuilt)" if have is not None else build(a.output_dir, a.cpu))

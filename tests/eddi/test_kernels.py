@@ -122,17 +122,17 @@ def test_arguments_outside_the_built_signatures_fall_back_to_the_jit(aot_dir: Pa
 
 
 def test_identify_with_built_kernels_imports_no_numba(aot_dir: Path) -> None:
+    # the whole process (`station` ends with os._exit since session 15: no code runs after the
+    # command, so the imports are read from -X importtime's lines)
     csv = REPO / "station" / "examples" / "duffing-impact.csv"
-    code = ("import sys, runpy\n"
-            "sys.argv = ['station', 'identify', sys.argv[1], '--mass', '0.815', '--json']\n"
-            "try:\n    runpy.run_module('station.cli', run_name='__main__')\n"
-            "except SystemExit:\n    pass\n"
-            "print('NUMBA' if 'numba' in sys.modules else 'NO-NUMBA', file=sys.stderr)\n")
     env = {**os.environ, "PYTHONPATH": str(REPO), "EDDI_AOT_DIR": str(aot_dir)}
     env.pop("EDDI_JIT", None)
-    done = subprocess.run([sys.executable, "-c", code, str(csv)], capture_output=True, text=True, env=env)
+    done = subprocess.run([sys.executable, "-X", "importtime", "-m", "station.cli", "identify", str(csv),
+                           "--mass", "0.815", "--json"], capture_output=True, text=True, env=env)
     assert done.returncode == 0, done.stderr[-500:]
-    assert done.stderr.strip().endswith("NO-NUMBA"), done.stderr[-500:]
+    imported = [ln.rsplit("|", 1)[-1].strip() for ln in done.stderr.splitlines() if ln.startswith("import time:")]
+    assert "eddi.simulate" in imported and "scipy.optimize" in imported
+    assert not [m for m in imported if m.split(".")[0] in ("numba", "llvmlite")]
     assert json.loads(done.stdout)["validation"]["nrmse"] < 0.1
 
 
@@ -237,3 +237,26 @@ def test_hermite_fill_reads_no_grid_point_past_the_last_sample() -> None:
     fill(xc, vc, ac, q, 1.0, x, v, a)
     assert x[-1] == 2.0 and v[-1] == 1.0 and a[-1] == 0.0
     assert x[4] == 1.0 and np.allclose(x, np.arange(n) / 4.0)  # linear data: Hermite is exact
+
+
+def test_if_stale_keeps_a_current_module_and_finds_none_where_there_is_none(aot_dir: Path,
+                                                                           tmp_path: Path) -> None:
+    # the editable installation's step (setup.py) runs `python -m eddi.kernels --if-stale`: a
+    # reinstall with the same source and processor must not pay the ~9 s build again
+    import eddi.kernels as kernels
+
+    so = next(p for p in aot_dir.iterdir() if p.name.startswith("_aot_kernels"))
+    mtime = so.stat().st_mtime_ns
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    env.pop("EDDI_AOT_DIR", None)
+    done = subprocess.run([sys.executable, "-m", "eddi.kernels", "--if-stale", "--output-dir", str(aot_dir)],
+                          env=env, cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == f"{so} (current: not rebuilt)"
+    assert so.stat().st_mtime_ns == mtime
+    sys.modules.pop("eddi._aot_kernels", None)
+    try:
+        assert kernels.current_module(tmp_path) is None  # nothing built there: --if-stale builds
+        assert kernels.current_module(aot_dir) == so
+    finally:
+        sys.modules.pop("eddi._aot_kernels", None)
