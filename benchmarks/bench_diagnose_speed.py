@@ -32,7 +32,8 @@ CPU measured at whatever load (CPU rises with the load too: read it as an upper 
 same model with the items dealt round robin (how ForkMap shared them before session 8). The
 maps are made for ``--jobs`` processes (``STATION_JOBS``; their items still run in turn, timed):
 work a forking map computes beside the rest (the forward term selection's start) is counted
-as it runs. With ``--before TREE`` each of ``--runs`` rounds also runs from that checkout,
+as it runs, and so are the jobs queued with :meth:`station.forkmap.ForkMap.beside` (taken, as
+ForkMap takes them, by a process with no item left while another still runs one). With ``--before TREE`` each of ``--runs`` rounds also runs from that checkout,
 interleaved (alternating which goes first), and the medians' ratio and the JSON's sameness are printed.
 
 ``--case cli``: whole ``station diagnose`` processes (imports, reading, conditioning, the
@@ -234,30 +235,55 @@ def run_cli(runs: int, cases: tuple[str, ...] = ("three", "beam"), jobs: int = 2
 def _makespan(items: list[float], jobs: int, dealt: bool = False) -> float:
     """Time ``jobs`` processes take for items of these CPU times: round robin (``dealt``), or
     item ``k < jobs`` to process ``k`` and then each to the first process free (ForkMap)."""
-    import heapq
-
     if jobs < 2 or len(items) < 2:
         return float(sum(items))
     n = min(jobs, len(items))
     if dealt:
         return max(sum(items[w::n]) for w in range(n))
-    free = sorted(items[:n])
+    return max(_finish_times(items, jobs))
+
+
+def _finish_times(items: list[float], jobs: int) -> list[float]:
+    """When each of ``min(jobs, len(items))`` processes runs out of items (ForkMap's order)."""
+    import heapq
+
+    n = min(jobs, len(items))
+    free = list(items[:n])
     heapq.heapify(free)
     for t in items[n:]:
         heapq.heappush(free, heapq.heappop(free) + t)
-    return max(free)
+    return sorted(free)
 
 
 _ESTIMATE_CHILD = r"""
-import json, sys, time
+import json, os, sys, time
 c0 = time.process_time()
 import station.forkmap as fm
-calls = []
+sys.path.insert(0, os.environ["BENCH_DIR"])
+from bench_diagnose_speed import _finish_times
+calls, spans, sides = [], [], []
 def timed(self, fn, items):
     out, ts = [], []
     for x in items:
         t0 = time.process_time(); out.append(fn(x)); ts.append(time.process_time() - t0)
     calls.append(ts)
+    # jobs queued with ForkMap.beside: taken by a process with no item left while another still
+    # runs one (as ForkMap does), timed here; where the map's items leave a core idle
+    free = _finish_times(ts, self.jobs) if min(self.jobs, len(ts)) >= 2 else []
+    end, side = max(free, default=0.0), []
+    while free and getattr(self, "_queued", None) and min(free) < end:
+        key, job = next(iter(self._queued.items()))
+        t0 = time.process_time()
+        try:
+            self._done[key] = (job, job())
+        except Exception:
+            pass
+        self._queued.pop(key, None)
+        c = time.process_time() - t0
+        side.append(c)
+        free[free.index(min(free))] += c
+    spans.append(max(free, default=sum(ts)))
+    sides.append(side)
     return out
 fm.ForkMap.__call__ = timed
 from station.cli import main
@@ -266,7 +292,7 @@ try:
 finally:
     c2 = time.process_time()
     with open(sys.argv[1], "w") as f:
-        json.dump({"total": c2 - c0, "maps": calls}, f)
+        json.dump({"total": c2 - c0, "maps": calls, "spans": spans, "sides": sides}, f)
 """
 
 
@@ -277,7 +303,7 @@ def _estimate_once(tree: Path, args: list[str], tmp: str, jobs: int) -> tuple[di
     import subprocess
 
     env = {**os.environ, "PYTHONPATH": str(tree) + os.pathsep + os.environ.get("PYTHONPATH", ""),
-           "STATION_JOBS": str(jobs)}
+           "STATION_JOBS": str(jobs), "BENCH_DIR": str(Path(__file__).resolve().parent)}
     env.pop("STATION_SERIAL", None)
     out = Path(tmp) / "estimate.json"
     got = subprocess.run([sys.executable, "-c", _ESTIMATE_CHILD, str(out), *args], env=env, cwd=tmp,
@@ -287,11 +313,12 @@ def _estimate_once(tree: Path, args: list[str], tmp: str, jobs: int) -> tuple[di
 
 def _modelled(got: dict, jobs: int) -> tuple[float, float, float, float]:
     """(modelled wall, the same dealt round robin, CPU outside the maps, CPU inside)."""
-    maps = got["maps"]
-    inside = sum(sum(m) for m in maps)
+    maps, sides = got["maps"], got.get("sides") or [[] for _ in got["maps"]]
+    inside = sum(sum(m) + sum(b) for m, b in zip(maps, sides))
     outside = got["total"] - inside
-    return (outside + sum(_makespan(m, jobs) for m in maps),
-            outside + sum(_makespan(m, jobs, dealt=True) for m in maps), outside, inside)
+    spans = got.get("spans") or [_makespan(m, jobs) for m in maps]
+    return (outside + sum(spans),
+            outside + sum(_makespan(m + b, jobs, dealt=True) for m, b in zip(maps, sides)), outside, inside)
 
 
 def run_estimate(jobs: int, detail: bool = False, runs: int = 1, before: str | None = None) -> None:
@@ -329,10 +356,13 @@ def run_estimate(jobs: int, detail: bool = False, runs: int = 1, before: str | N
                           f"target {target:g} s: {'met' if wall <= target else 'NOT met'}; load "
                           f"{os.getloadavg()[0]:.2f} (CPU inflates with the load)", flush=True)
                     if detail:
+                        sides = got.get("sides") or [[] for _ in maps]
+                        spans = got.get("spans") or [_makespan(m, jobs) for m in maps]
                         for k, m in enumerate(maps):
                             print(f"estimate: {label}:   map {k + 1:2d}: {len(m):3d} items, CPU {sum(m):6.2f} s, "
                                   f"largest {max(m, default=0.0):5.2f} s, on {jobs} cores "
-                                  f"{_makespan(m, jobs):5.2f} s")
+                                  f"{spans[k]:5.2f} s" + (f" (with {len(sides[k])} queued jobs beside, CPU "
+                                                          f"{sum(sides[k]):.2f} s)" if sides[k] else ""))
             if before:
                 a, b = statistics.median(walls["tree"]), statistics.median(walls["before"])
                 print(f"estimate: {case}: median modelled wall tree {a:.2f} s, before {b:.2f} s: ratio "

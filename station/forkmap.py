@@ -17,6 +17,15 @@ worker that dies (killed, out of memory) is replaced by the same calls in this p
 error raised in a worker is raised here, after this process's own share: of the items that
 raised, the first in turn (the error a map in turn would raise). Which process computes an
 item depends on timing; the results do not.
+
+Work known to be needed later and independent of everything before it (the noise floor's
+perturbed records of ``station diagnose``, which depend on the records alone) can be queued
+with :meth:`ForkMap.beside`: during each later map, a process that has no item of the map left
+to take while another process still works on one takes a queued job instead of waiting (the
+core would idle; a job is short, so the map ends at most one job later). What was done comes
+back with the map's results, :meth:`ForkMap.done` hands it to the caller that needs it (the
+same call it would otherwise make, in this process or a forked copy: the same numbers), and
+what was not done stays queued. Nothing is done beside in a map that runs in turn.
 """
 
 from __future__ import annotations
@@ -26,7 +35,7 @@ import multiprocessing
 import os
 import pickle
 import threading
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Hashable, Sequence
 
 
 def usable_cores() -> int:
@@ -84,6 +93,29 @@ class ForkMap:
     def __init__(self, jobs: int) -> None:
         self.jobs = max(1, int(jobs))
         self.forked = 0  # workers started (for tests and benchmarks)
+        self._queued: dict[Hashable, Callable[[], Any]] = {}  # beside(): not done yet
+        # beside(): done, not yet handed out; with its job, so that what the job holds (and the
+        # ids a key may name) stays alive until then
+        self._done: dict[Hashable, tuple[Callable[[], Any], Any]] = {}
+
+    def beside(self, jobs: Sequence[tuple[Hashable, Callable[[], Any]]]) -> None:
+        """Queue independent ``(key, job)`` pairs to run while a later map leaves a core idle.
+
+        ``job()`` must depend on nothing a map computes (it may run in any process, at any
+        later map, or never): its result is handed out by :meth:`done`. A job that raises is
+        dropped (its caller then runs it itself, and meets the error there).
+        """
+        for key, job in jobs:
+            if key not in self._done:
+                self._queued[key] = job
+
+    def done(self, key: Hashable) -> tuple[bool, Any]:
+        """``(True, result)`` of a job queued by :meth:`beside` and done beside a map (handed
+        out once, and no longer queued), else ``(False, None)``."""
+        self._queued.pop(key, None)
+        if key in self._done:
+            return True, self._done.pop(key)[1]
+        return False, None
 
     def __call__(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> list:
         items = list(items)
@@ -96,21 +128,30 @@ class ForkMap:
         # one long item does not leave the others idle (round robin waited for the slowest
         # share: 11.3 s where taking in turn needs 10.1 s of the beam's 17.7 s of maps, 2 jobs)
         counter = ctx.Value("q", n)
+        # the queued jobs (beside()): taken from a second counter, only while an item is running
+        queued = list(self._queued.items())
+        side = _Side([job for _, job in queued], ctx.Value("q", 0), ctx.Value("q", 0), len(items)) if queued else None
         workers = []
         try:
             for w in range(1, n):
                 recv, send = ctx.Pipe(duplex=False)
                 # (multiprocessing flushes stdout / stderr before it forks: nothing is printed twice)
-                proc = ctx.Process(target=_worker, args=(send, fn, items, w, counter, recv), daemon=True)
+                proc = ctx.Process(target=_worker, args=(send, fn, items, w, counter, recv, side), daemon=True)
                 proc.start()
                 send.close()
                 workers.append((proc, recv))
                 self.forked += 1
-            done = dict(_run(fn, items, 0, counter, catch=False))
+            done = dict(_run(fn, items, 0, counter, catch=False, side=side))
             for proc, recv in workers:
                 got = _collect(recv)
                 proc.join()
                 done.update(got)
+            for b, (key, job) in enumerate(queued):
+                kind, value = done.pop(len(items) + b, ("none", None))
+                if kind == "ok":
+                    self._done[key] = (job, value)
+                if kind != "none":  # done (or raised: dropped, its caller runs it)
+                    self._queued.pop(key, None)
             out: list[Any] = []
             for k, x in enumerate(items):  # in order: the error raised is the first in turn
                 kind, value = done[k] if k in done else ("ok", fn(x))  # a dead worker's: here
@@ -133,11 +174,34 @@ def _take(counter: Any) -> int:
     return k
 
 
+class _Side:
+    """The queued jobs of a map (:meth:`ForkMap.beside`), the counter they are taken from and
+    the count of the map's items finished (a job is taken only while one is still running)."""
+
+    def __init__(self, jobs: list, taken: Any, finished: Any, n_items: int) -> None:
+        self.jobs, self.taken, self.finished, self.n_items = jobs, taken, finished, n_items
+
+    def run(self) -> list[tuple[int, tuple[str, Any]]]:
+        """While another process still runs an item of the map: the next queued jobs, as
+        ``(n_items + b, ("ok", result))`` (``("error", exc)`` for a job that raised)."""
+        out: list[tuple[int, tuple[str, Any]]] = []
+        while self.jobs and int(self.finished.value) < self.n_items:
+            b = _take(self.taken)
+            if b >= len(self.jobs):
+                break
+            try:
+                out.append((self.n_items + b, ("ok", self.jobs[b]())))
+            except Exception as exc:  # noqa: BLE001 - dropped by the parent (its caller runs it)
+                out.append((self.n_items + b, ("error", exc)))
+        return out
+
+
 def _run(fn: Callable[[Any], Any], items: list, first: int, counter: Any,
-         catch: bool = True) -> list[tuple[int, tuple[str, Any]]]:
+         catch: bool = True, side: _Side | None = None) -> list[tuple[int, tuple[str, Any]]]:
     """``(k, ("ok", fn(items[k])))`` for item ``first``, then the items taken from ``counter``,
     until none is left or one raises (``catch``: its ``("error", exc)`` ends the list; else
-    raised: this process's own errors propagate at once, Ctrl-C included)."""
+    raised: this process's own errors propagate at once, Ctrl-C included); then ``side``'s
+    queued jobs while another process still runs an item."""
     out: list[tuple[int, tuple[str, Any]]] = []
     k = first
     while k < len(items):
@@ -148,17 +212,22 @@ def _run(fn: Callable[[Any], Any], items: list, first: int, counter: Any,
                 raise
             out.append((k, ("error", exc)))
             break
+        finally:
+            if side is not None:
+                _take(side.finished)
         k = _take(counter)
+    if side is not None:
+        out.extend(side.run())
     return out
 
 
 def _worker(conn: Any, fn: Callable[[Any], Any], items: list, first: int, counter: Any,
-            own_recv: Any = None) -> None:  # pragma: no cover
+            own_recv: Any = None, side: _Side | None = None) -> None:  # pragma: no cover
     # the fork copied this pipe's read end: closed here, so that if the parent is killed the
     # result's send fails (broken pipe) instead of blocking this worker forever
     if own_recv is not None:
         own_recv.close()
-    out = _run(fn, items, first, counter)
+    out = _run(fn, items, first, counter, side=side)
     try:
         data = pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
     except Exception as exc:  # noqa: BLE001 - a result or error that does not pickle

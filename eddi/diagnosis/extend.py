@@ -11,6 +11,7 @@ the terms and the mechanism's regressors. A mechanism that is not a single-coord
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass
 from typing import Callable, Sequence
@@ -122,13 +123,14 @@ def _col_scale(a: np.ndarray) -> np.ndarray:
 
 
 def fit_ee(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,
-         mech: Mechanism | None, base_fit: Fit | None = None) -> Fit | None:
+           mech: Mechanism | None, base_fit: Fit | None = None, columns: dict | None = None) -> Fit | None:
     """Fit the baseline (``mech`` None) or the baseline plus one mechanism on training samples.
 
     Returns None when no physical fit of the mechanism exists. The least squares use every
     k-th training sample (at most :data:`EE_ROWS` rows): the records are sampled far above
     the motion's bandwidth, so the dropped rows repeat the kept ones (the QR and the
-    projections of every shape were 2.9 s of a 14.5 s profiled run).
+    projections of every shape were 2.9 s of a 14.5 s profiled run). ``columns``: a cache of
+    the mechanism's regressors shared by the fits on these signals (:func:`_extra`).
     """
     full = masks
     masks = thin_masks(masks, EE_ROWS)
@@ -141,14 +143,14 @@ def fit_ee(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,
         ctx = _context(sigs, full, setup, base_fit)
 
         def trial(shape: dict[str, float]) -> tuple | None:
-            c, ssr = proj.fit(_extra(mech, shape, sigs, masks, setup))
+            c, ssr = proj.fit(_extra(mech, shape, sigs, masks, setup, columns))
             mf = mech.to_fit(c, shape, setup.mass, setup.stiffness)
             return None if mf is None else (ssr, c, shape, mf)
 
         best = best_shape(trial, mech.shape_grid(ctx), mech.refine)
         if best is None:
             return None
-        coef = proj.base_given(_extra(mech, best[2], sigs, masks, setup), best[1])
+        coef = proj.base_given(_extra(mech, best[2], sigs, masks, setup, columns), best[1])
         mfit = best[3]
     if setup.base is None:
         nd = len(setup.damping)
@@ -195,10 +197,34 @@ def thin_masks(masks: Sequence[np.ndarray], max_rows: int) -> list[np.ndarray]:
 
 
 def _extra(mech: Mechanism, shape: dict[str, float], sigs: Sequence[Signal],
-           masks: Sequence[np.ndarray], setup: Setup) -> np.ndarray:
+           masks: Sequence[np.ndarray], setup: Setup, columns: dict | None = None) -> np.ndarray:
+    """The mechanism's regressors for one shape over every record's training rows.
+
+    ``columns`` (a dict shared by the fits on ``sigs``: :class:`eddi.diagnosis.fitter.Fitter`)
+    keeps each record's block by mechanism, shape, terms and rows: the folds share most training
+    rows (every record but the held-out one, thinned alike) and search the same grid of shapes,
+    so the same block was computed once per fold (the hysteresis' path integral and the second
+    mode's filter: ~0.5 s of CPU repeated on the double beam). The same numbers either way.
+    """
     # a record without training samples adds no rows (a fold's held-out record)
-    used = [(s, m) for s, m in zip(sigs, masks) if np.any(m)] or list(zip(sigs, masks))[:1]
-    return np.vstack([mech.masked_columns(s, shape, setup.stiffness, m) for s, m in used])
+    used = [(i, s, m) for i, (s, m) in enumerate(zip(sigs, masks)) if np.any(m)] or [(0, sigs[0], masks[0])]
+    if columns is None:
+        return np.vstack([mech.masked_columns(s, shape, setup.stiffness, m) for _, s, m in used])
+    blocks = []
+    for i, s, m in used:
+        key = (mech.name, i, tuple(sorted(shape.items())), tuple(setup.stiffness),
+               hashlib.blake2b(np.packbits(m).tobytes(), digest_size=16).digest(), m.size)
+        block = columns.get(key)
+        if block is None:
+            block = columns[key] = mech.masked_columns(s, shape, setup.stiffness, m)
+            if len(columns) > COLUMN_BLOCKS:  # the oldest out: a fold reuses the last folds' blocks
+                del columns[next(iter(columns))]
+        blocks.append(block)
+    return np.vstack(blocks)
+
+
+#: Blocks :func:`_extra` keeps (~20 kB each on the double beam's 2e4 rows; a fold asks for ~900).
+COLUMN_BLOCKS = 2000
 
 
 def _context(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,
@@ -301,7 +327,7 @@ class EddiFold:
 
 def fit_eddi(fold: EddiFold, sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,
              mech: Mechanism | None, base_fit: Fit | None = None,
-             ee_base: Callable[[], Fit | None] | None = None) -> Fit | None:
+             ee_base: Callable[[], Fit | None] | None = None, columns: dict | None = None) -> Fit | None:
     """EDDI fit of the baseline (``mech`` None) or the baseline plus one mechanism.
 
     A ``"damping"`` mechanism (friction, drag, the second mode's force, whose power is the
@@ -327,7 +353,7 @@ def fit_eddi(fold: EddiFold, sigs: Sequence[Signal], masks: Sequence[np.ndarray]
                    base=setup.base, coordinate=setup.coordinate, fit="equation-error")
         # the equation-error baseline: its residual spectrum shows the hidden mode
         eb = ee_base() if ee_base is not None else fit_ee(sigs, masks, ee, None)
-        return fit_ee(sigs, masks, ee, mech, base_fit=eb) if eb is not None else None
+        return fit_ee(sigs, masks, ee, mech, base_fit=eb, columns=columns) if eb is not None else None
     return _fit_native(fold, sigs, masks, setup, mech, base_fit)
 
 

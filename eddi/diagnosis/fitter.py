@@ -37,6 +37,7 @@ class Fitter:
         self.sigs = list(sigs)
         self.setup = setup
         self.cache: dict = {}
+        self.columns: dict = {}  # mechanisms' regressors by record, shape and rows (extend._extra)
         self.records = list(records)
         self.refine = bool(refine) and bool(self.records) and setup.base is None
         self.map: Mapper = mapper or serial_map
@@ -49,7 +50,7 @@ class FoldFitter:
     """The fits of one fold (training masks); the equation-error baseline is fitted once."""
 
     def __init__(self, fitter: Fitter, masks: Sequence[np.ndarray]) -> None:
-        self.sigs, self.setup, self.masks = fitter.sigs, fitter.setup, masks
+        self.sigs, self.setup, self.masks, self.columns = fitter.sigs, fitter.setup, masks, fitter.columns
         self.records, self.refine = fitter.records, fitter.refine
         self.fold = EddiFold(self.sigs, masks, self.setup, fitter.cache) if self.setup.fit == "eddi" else None
         self._ee: list[Fit | None] = []
@@ -106,9 +107,9 @@ class FoldFitter:
 
     def __call__(self, mech: Mechanism | None, base_fit: Fit | None = None) -> Fit | None:
         if self.fold is None:
-            return fit_ee(self.sigs, self.masks, self.setup, mech, base_fit=base_fit)
+            return fit_ee(self.sigs, self.masks, self.setup, mech, base_fit=base_fit, columns=self.columns)
         return fit_eddi(self.fold, self.sigs, self.masks, self.setup, mech, base_fit=base_fit,
-                        ee_base=self.ee_base)
+                        ee_base=self.ee_base, columns=self.columns)
 
 
 def refined_baseline(fit: Fit, records: Sequence[Record], masks: Sequence[np.ndarray], setup: Setup) -> Fit:

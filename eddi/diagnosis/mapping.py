@@ -9,6 +9,12 @@ mapper that runs them in other processes (``station diagnose`` does:
 :mod:`station.forkmap`). ``fn`` may be a closure over large arrays: a mapper must either run it
 in this process or in a forked copy of it (nothing is pickled but the items' results).
 The results are the same either way (the same code on the same inputs).
+
+A mapper may also offer ``done(key) -> (bool, result)``: work its caller queued beforehand
+because it depends on nothing computed since (:meth:`station.forkmap.ForkMap.beside`; the
+noise floor's perturbed records, :func:`eddi.diagnosis.measure.draw_jobs`), done where a map
+left a core idle. The engine takes such a result only under the key it would have queued
+itself, and computes what is missing.
 """
 
 from __future__ import annotations

@@ -33,7 +33,8 @@ The full floor stays in :attr:`NoiseFloor.fold_nrmse` (what the draws measured).
 
 from __future__ import annotations
 
-from typing import Sequence
+from functools import partial
+from typing import Any, Callable, Hashable, Sequence
 
 import numpy as np
 
@@ -52,6 +53,8 @@ LOST = 1.0
 DRAWS = 3
 #: Seed offset between draws (each record of a draw gets ``seed + SEED_STEP * draw + index``).
 SEED_STEP = 100
+#: Seed of the first draw (:func:`noise_floor`'s default).
+DRAW_SEED = 1
 
 
 def _tail_noise(x: np.ndarray) -> float:
@@ -81,9 +84,48 @@ def perturbed_record(rec: Record, seed: int) -> Record:
     return rec.replace(x=rec.x + sx * rng.standard_normal(rec.x.size))
 
 
+def draw_jobs(records: Sequence[Record], seed: int = DRAW_SEED) -> list[tuple[Hashable, Callable[[], Any]]]:
+    """The floor's perturbed records (:func:`perturbed_record` of every record in every draw) as
+    ``(key, job)`` pairs for a mapper that runs work beside its maps
+    (:meth:`station.forkmap.ForkMap.beside`): they depend on the records alone, so a caller
+    can queue them before the diagnosis (``station diagnose``: while the pipeline's baseline is
+    fitted) and :func:`noise_floor` takes what was done (for these very record objects and
+    seeds) instead of conditioning them again."""
+    m = len(records)
+    return [(_draw_key(records[i], seed + SEED_STEP * j + i),
+             partial(perturbed_record, records[i], seed + SEED_STEP * j + i))
+            for j in range(DRAWS) for i in range(m)]
+
+
+def _draw_key(rec: Record, seed: int) -> Hashable:
+    # the record object itself (its id: the job holding it keeps it alive until it is handed out)
+    return ("noise floor draw", id(rec), int(seed))
+
+
+def _perturbed(records: Sequence[Record], seed: int, mapper: Mapper | None) -> list[Record]:
+    """Every record of every draw conditioned again (draw-major): those a mapper did beside
+    (:func:`draw_jobs`; the mapper's ``done(key)``) taken, the others through ``mapper``."""
+    m = len(records)
+    items = [(j, i) for j in range(DRAWS) for i in range(m)]
+    got: dict[tuple[int, int], Record] = {}
+    done = getattr(mapper, "done", None)
+    if done is not None:
+        for j, i in items:
+            ok, value = done(_draw_key(records[i], seed + SEED_STEP * j + i))
+            if ok:
+                got[(j, i)] = value
+    rest = [ji for ji in items if ji not in got]
+    # independent: through ``mapper`` too (in turn they were 1.5 s of the double beam's 6 s
+    # that two cores could not share)
+    made = (mapper or serial_map)(lambda ji: perturbed_record(records[ji[1]], seed + SEED_STEP * ji[0] + ji[1]),
+                                  rest)
+    got.update(zip(rest, made))
+    return [got[ji] for ji in items]
+
+
 def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
                 fold_masks: Sequence[Sequence[np.ndarray]], base_sims: Sequence[np.ndarray],
-                seed: int = 1, refine: bool = False, mapper: Mapper | None = None,
+                seed: int = DRAW_SEED, refine: bool = False, mapper: Mapper | None = None,
                 chain: tuple[Sequence[float], dict] | None = None) -> NoiseFloor:
     """The floor of the module notes, per held-out part (``base_sims``: the baseline's
     held-out simulations on the records as measured).
@@ -96,10 +138,7 @@ def noise_floor(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
     tolerances used; it joins each part's noise floor in quadrature.
     """
     m = len(records)
-    # every record of every draw conditioned again: independent, through ``mapper`` too (in
-    # turn they were 1.5 s of the double beam's 6 s that two cores could not share)
-    perts = (mapper or serial_map)(lambda ji: perturbed_record(records[ji[1]], seed + SEED_STEP * ji[0] + ji[1]),
-                                   [(j, i) for j in range(DRAWS) for i in range(m)])
+    perts = _perturbed(records, seed, mapper)
     draws = []
     for j in range(DRAWS):
         pert = perts[j * m:(j + 1) * m]

@@ -132,9 +132,12 @@ def load_measurements(specs: list[str], sensor_highpass: float | None = None
                           for spec in expand_specs(specs)])
 
 
-def condition_all(read: list[Any]) -> tuple[list[Record], float | None, list[Any], str | None, list[Any]]:
+def condition_all(read: list[Any], mapper: Any = None
+                  ) -> tuple[list[Record], float | None, list[Any], str | None, list[Any]]:
     """:func:`load_measurements` on measurements already read (``station campaign --task
-    diagnose`` reads its capture on the worker): the same checks, grid and conditioning."""
+    diagnose`` reads its capture on the worker): the same checks, grid and conditioning.
+    ``mapper`` (``mapper(fn, items)``, :class:`station.forkmap.ForkMap`): how the records'
+    conditionings (independent) run; default here, in turn."""
     from eddi.diagnosis import Record
     from station.session import condition_measurement, on_one_grid
 
@@ -147,8 +150,10 @@ def condition_all(read: list[Any]) -> tuple[list[Record], float | None, list[Any
     records: list[Record] = []
     conditioned = []
     mass: float | None = None
-    for m in meas:
-        c = condition_measurement(m)
+    # the first here (what conditioning imports when it needs it, scipy.signal, is then imported
+    # once, before any fork), the others through ``mapper``
+    got = [condition_measurement(m) for m in meas[:1]] + (mapper or _in_turn)(condition_measurement, meas[1:])
+    for m, c in zip(meas, got):
         conditioned.append(c)
         if note:
             c = replace(c, notes=c.notes + (note,))
@@ -159,8 +164,12 @@ def condition_all(read: list[Any]) -> tuple[list[Record], float | None, list[Any
     return records, mass, meas, note, conditioned
 
 
+def _in_turn(fn: Any, items: list[Any]) -> list[Any]:
+    return [fn(x) for x in items]
+
+
 def pipeline_baseline(measurements: list[Any], mass: float, damping: str, stiffness: str,
-                      refine: bool, conditioned: list[Any] | None = None
+                      refine: bool, conditioned: list[Any] | None = None, mapper: Any = None
                       ) -> tuple[dict[str, Any], PipelineBaseline, Any]:
     """The baseline every other command gives (:func:`station.session.run_session`).
 
@@ -169,7 +178,9 @@ def pipeline_baseline(measurements: list[Any], mass: float, damping: str, stiffn
     the JSON object (as ``replay``), the :class:`~eddi.diagnosis.PipelineBaseline` the
     diagnosis takes as its baseline and the :class:`station.session.SessionResult`.
     ``conditioned``: the measurements already conditioned
-    (:func:`load_measurements`), not conditioned again.
+    (:func:`load_measurements`), not conditioned again. ``mapper``: how the refinement's
+    independent trials run (default: a :class:`station.forkmap.ForkMap` of
+    :func:`~station.forkmap.jobs_wanted` processes).
     """
     from eddi.diagnosis import PipelineBaseline
     from eddi.fit_record import Pipeline
@@ -179,7 +190,8 @@ def pipeline_baseline(measurements: list[Any], mass: float, damping: str, stiffn
 
     # the refinement's forward term selection tries independent terms: in forked workers when
     # cores are free (the same result)
-    pipe = replace(Pipeline.create(damping, stiffness, refine=refine), mapper=ForkMap(jobs_wanted()))
+    pipe = replace(Pipeline.create(damping, stiffness, refine=refine),
+                   mapper=mapper if mapper is not None else ForkMap(jobs_wanted()))
     session = run_session(measurements, mass, pipeline=pipe, conditioned=conditioned)
     obj = session_object(session)
     obj["model"] = session.fit.model.eom.to_dict()
@@ -292,23 +304,31 @@ def diagnosis_object(read: list[Any], args: argparse.Namespace) -> tuple[Diagnos
     mechanisms = None
     if args.mechanisms:
         mechanisms = [s.strip() for s in args.mechanisms.split(",") if s.strip()]
-    records, meta_mass, measurements, resampled, conditioned = condition_all(read)
+    from station.forkmap import ForkMap, jobs_wanted
+
+    # the records' conditionings, the pipeline's independent refits and the folds' fits: in
+    # forked workers when cores are free (the same result)
+    mapper = ForkMap(jobs_wanted())
+    records, meta_mass, measurements, resampled, conditioned = condition_all(read, mapper)
     mass = args.mass if args.mass is not None else (base.mass if base is not None else meta_mass)
     if mass is None:
         raise InputFileError("no mass: give --mass KG (or --model, or captures with a mass in their metadata)")
     if base is not None and args.mass is not None and abs(args.mass - base.mass) > 1e-9 * base.mass:
         raise ModelError(f"--mass {args.mass} differs from the model's mass {base.mass}")
+    from eddi.diagnosis.measure import draw_jobs
+
+    # the noise floor's perturbed records depend on the records alone: queued to run where a
+    # map of the pipeline's refinement or of the folds leaves a core idle (ForkMap.beside)
+    if mapper.jobs > 1:
+        mapper.beside(draw_jobs(records))
     pipe_obj, baseline, session = None, None, None
     if base is None:  # the baseline is the pipeline's (the same model and error as identify); the
         # diagnosis judges its folds with the pipeline's choices, so it comes first
         pipe_obj, baseline, session = pipeline_baseline(measurements, float(mass), args.damping, args.stiffness,
-                                                        args.refine, conditioned)
-    from station.forkmap import ForkMap, jobs_wanted
-
-    # the folds' fits are independent: in forked workers when cores are free (same result)
+                                                        args.refine, conditioned, mapper)
     diag = diagnose(records, mass, damping=args.damping, stiffness=args.stiffness, base=base,
                     mechanisms=mechanisms, margin=args.margin, fit=args.fit, pipeline=baseline,
-                    mapper=ForkMap(jobs_wanted()), chain=_tolerance(args))
+                    mapper=mapper, chain=_tolerance(args))
     obj = diag.to_dict()
     obj["captures"] = [r.label for r in records]
     obj["resampled"] = resampled

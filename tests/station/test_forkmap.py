@@ -95,6 +95,57 @@ def test_a_worker_that_dies_is_replaced_here() -> None:
     assert m.forked == 1
 
 
+def test_queued_jobs_run_beside_an_item_still_running() -> None:
+    # item 0 (here) runs until the worker has done every queued job: the worker, with no item
+    # left while item 0 runs, takes them (ForkMap.beside); done() hands each out once
+    parent = os.getpid()
+    ctx = multiprocessing.get_context("fork")
+    ran = ctx.Semaphore(0)
+
+    def job(k: int):  # type: ignore[no-untyped-def]
+        def run() -> tuple[int, bool]:
+            ran.release()
+            return k * k, os.getpid() != parent
+        return run
+
+    def bad() -> None:
+        ran.release()
+        raise ValueError("a queued job that fails is dropped")
+
+    def fn(i: int) -> int:
+        if i == 0:
+            for _ in range(4):
+                assert ran.acquire(timeout=60)
+        return i
+
+    m = ForkMap(2)
+    m.beside([(("sq", k), job(k)) for k in range(3)] + [("bad", bad)])
+    assert m(fn, [0, 1]) == [0, 1]
+    assert [m.done(("sq", k)) for k in range(3)] == [(True, (k * k, True)) for k in range(3)]
+    assert m.done(("sq", 0)) == (False, None)  # handed out once
+    assert m.done("bad") == (False, None)  # raised in the worker: its caller runs it itself
+    assert m.done("never queued") == (False, None)
+
+
+def test_queued_jobs_wait_for_a_map_that_forks() -> None:
+    # nothing runs beside a map in turn (no core idles): the job stays queued for a later map
+    m = ForkMap(2)
+    m.beside([("k", lambda: 7)])
+    assert m(lambda i: i, [5]) == [5]  # one item: in turn
+    assert m.done("k") == (False, None)
+    release = multiprocessing.get_context("fork").Semaphore(0)
+
+    def fn(i: int) -> int:
+        if i == 0:  # here, until the worker has taken the job (it signals from inside it)
+            assert release.acquire(timeout=60)
+        return i
+
+    # (done() above took it off the queue, as its caller then runs it): queued again
+    m.beside([("k", lambda: (release.release(), 7)[1])])
+    assert m(fn, [0, 1]) == [0, 1]
+    assert m.done("k") == (True, 7)
+
+
 def _ignore_leftover_threads(monkeypatch: pytest.MonkeyPatch) -> None:
     """Threads other tests of the session left running (idle pools) are not this process's
     work: count only the threads started after this point, as a fresh ``station`` has none."""
@@ -148,6 +199,10 @@ def test_diagnose_forked_equals_in_turn(tmp_path: Path, capsys: pytest.CaptureFi
         return out
 
     monkeypatch.setattr(ForkMap, "__call__", counting)
+    taken = []  # the noise floor's perturbed records done beside the maps (ForkMap.beside)
+    real_done = ForkMap.done
+    monkeypatch.setattr(ForkMap, "done", lambda self, key: (lambda got: (taken.append(got[0]), got)[1])(
+        real_done(self, key)))
     outs = []
     for env in ({"STATION_SERIAL": "1"}, {"STATION_JOBS": "2"}):
         monkeypatch.delenv("STATION_SERIAL", raising=False)
@@ -155,9 +210,12 @@ def test_diagnose_forked_equals_in_turn(tmp_path: Path, capsys: pytest.CaptureFi
         for k, v in env.items():
             monkeypatch.setenv(k, v)
         forks.clear()
+        taken.clear()
         assert main(["diagnose", *caps, "--mass", "0.1", "--json"]) == 0
         outs.append(json.loads(capsys.readouterr().out))
         assert (max(forks) > 0) == ("STATION_JOBS" in env)
+        # 3 draws of 3 records asked for; in one process none was queued
+        assert len(taken) == 9 and (any(taken) if "STATION_JOBS" in env else not any(taken))
     assert outs[0] == outs[1]  # every number the same bit for bit
 
 
