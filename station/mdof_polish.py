@@ -110,11 +110,12 @@ def polish_folds(fits: list[dict[str, tuple]], records: Sequence[Any], names: tu
 
 
 def polished_fold(ident: Any, train: Sequence[Any], held: Any, unpolished: Any) -> Any:
-    """The held-out validation of ``ident``'s model polished on ``train`` (``unpolished`` if it diverges)."""
+    """The held-out validation of ``ident``'s model polished on ``train`` (``unpolished`` if it diverges);
+    the fold model's intervals are not computed (only its prediction is read)."""
     from eddi.mdof.refine import refine_identified
 
     try:
-        model, _b, _a = refine_identified(ident, train)
+        model, _b, _a = refine_identified(ident, train, intervals=False)
     except (IdentificationError, ValueError, FloatingPointError):
         return unpolished
     v = validate_mdof(model, held)

@@ -108,6 +108,10 @@ class MdofIdentification:
     form_error : float
         The smallest training nrmse the lumped form reached over the variants it tried (rows'
         starts, slow band), NaN otherwise: :mod:`eddi.mdof.candidates` judges the form by it.
+    training_nrmse : float
+        ``model``'s training nrmse on the records it was identified from
+        (:func:`eddi.mdof.candidates.training_error`) when the identification simulated it, NaN
+        otherwise (the candidate choice then simulates it).
     """
 
     model: MdofModel
@@ -120,6 +124,7 @@ class MdofIdentification:
     unresolved: bool = False
     lumped: Any = None
     form_error: float = math.nan
+    training_nrmse: float = math.nan
 
 
 @one_blas_thread()
@@ -205,7 +210,7 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
     choice = choose_candidate(candidates, [_candidate_name(c) for c in candidates], records)
     if choice.index == 0 and len(ladder := _prune_ladder(records, args, chosen, coordinates, opts)) > 1:
         candidates += ladder[1:]  # modal coordinates kept: their lower prunes too (only then: cost)
-        choice = choose_candidate(candidates, [_candidate_name(c) for c in candidates], records)
+        choice = choose_candidate(candidates, [_candidate_name(c) for c in candidates], records, known=choice.own)
     keep = candidates[choice.index]
     return replace(keep, notes=tuple(dict.fromkeys(keep.notes + (choice.note,))), modal_basis=chosen.modal_basis,
                    unresolved=chosen.unresolved)

@@ -107,8 +107,9 @@ def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], d
     if all(r.force is None for r in records):
         notes.append("no force: every mass per unit driven mass")
     eqs = tuple(_equation(model, fit, i) for i in range(n))
+    # ``err`` is ``model``'s training nrmse (:func:`_scored` built the same model from ``fit``)
     return MdofIdentification(model, modes, "physical", eqs, 0.0, tuple(notes), True, lumped=fit,
-                              form_error=float(form_error))
+                              form_error=float(form_error), training_nrmse=float(err))
 
 
 @dataclass(frozen=True)

@@ -184,11 +184,14 @@ def _rk4_sens(force, dt, substeps, x0, v0, eq, coef, fvar, fpow, fabs, inv_m, u,
 def simulate_sensitivities(model: MdofModel, t: np.ndarray, force: np.ndarray | None, *,
                            x0: np.ndarray | None = None, v0: np.ndarray | None = None,
                            x_scale: float | np.ndarray | None = None, directions: np.ndarray | None = None,
-                           states: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, bool]:
+                           states: np.ndarray | None = None, coarsen: int = 1) -> tuple[np.ndarray, np.ndarray, bool]:
     """Coordinates and their derivatives in ``theta`` (module docstring) on the uniform grid ``t``.
 
     Same sub-steps (:func:`~eddi.mdof.simulate.step_count` of ``x_scale`` or ``states``), force
     interpolation and initial state as :func:`~eddi.mdof.simulate.simulate_mdof` (whose ``x`` the first output equals).
+    ``coarsen``: that many times fewer sub-steps (rounded up; at least one): ``h * omega`` up to
+    ``coarsen`` times the simulation's 0.05, RK4's error about ``coarsen^4`` times its own (for a
+    Jacobian that steers a least squares, not for a prediction: :data:`eddi.mdof.refine.JACOBIAN_COARSEN`).
 
     Returns
     -------
@@ -204,7 +207,7 @@ def simulate_sensitivities(model: MdofModel, t: np.ndarray, force: np.ndarray | 
     f = np.zeros(t.size) if force is None else np.ascontiguousarray(force, dtype=float)
     x0a = np.zeros(n) if x0 is None else np.asarray(x0, float).reshape(n).copy()
     v0a = np.zeros(n) if v0 is None else np.asarray(v0, float).reshape(n).copy()
-    substeps = step_count(model, dt, x_scale, states)
+    substeps = max(1, -(-step_count(model, dt, x_scale, states) // max(1, int(coarsen))))
     eq, coef, exps = term_table(model)
     xs = np.full((n, t.size), np.nan)
     dirs = np.eye(eq.size + n) if directions is None else np.ascontiguousarray(directions, dtype=float)
@@ -242,9 +245,10 @@ def theta(model: MdofModel) -> np.ndarray:
     return np.concatenate([term_table(model)[1], 1.0 / np.asarray(model.mass, float)])
 
 
-def predict_sensitivities(model: MdofModel, record, directions: np.ndarray | None = None
+def predict_sensitivities(model: MdofModel, record, directions: np.ndarray | None = None, coarsen: int = 1
                           ) -> tuple[np.ndarray, np.ndarray, bool]:
-    """:func:`eddi.mdof.validate.predict_channels`'s ``y_sim`` and its derivatives in ``theta``.
+    """:func:`eddi.mdof.validate.predict_channels`'s ``y_sim`` and its derivatives in ``theta``
+    (``coarsen``: :func:`simulate_sensitivities`).
 
     The high-pass, the window and the shapes are linear, so the derivative goes through them as
     the displacement does.
@@ -267,7 +271,7 @@ def predict_sensitivities(model: MdofModel, record, directions: np.ndarray | Non
     st = simulation_start(model, record)
     s = st.sample
     xs, dx, div = simulate_sensitivities(model, record.t[s:], st.force, x0=st.x0, v0=st.v0, states=st.states,
-                                         directions=directions)
+                                         directions=directions, coarsen=coarsen)
     n_theta = dx.shape[0]
     if div or not (np.all(np.isfinite(xs)) and np.all(np.isfinite(dx))):
         return (np.full((phi.shape[0], w1 - w0), np.nan), np.zeros((n_theta, phi.shape[0], w1 - w0)), True)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 import eddi.mdof.sensitivity as sensitivity
-from eddi.mdof.refine import frequency_terms, refine_mdof
+from eddi.mdof.refine import JACOBIAN_COARSEN, frequency_terms, refine_mdof
 from tests.eddi.test_mdof_sensitivity import SYSTEM, _records  # the same records (seeds 3.., 45 dB)
 
 
@@ -32,9 +32,12 @@ def test_polish_recovers_a_frequency_error_in_the_free_terms_only(monkeypatch):
     directions: list[int] = []
     plain = sensitivity.predict_sensitivities
 
-    def counted(model, record, dirs=None):
+    coarse: list[int] = []
+
+    def counted(model, record, dirs=None, coarsen=1):
         directions.append(dirs.shape[1])
-        return plain(model, record, dirs)
+        coarse.append(coarsen)
+        return plain(model, record, dirs, coarsen=coarsen)
 
     monkeypatch.setattr(sensitivity, "predict_sensitivities", counted)
     out, before, after = refine_mdof(start, records, max_nfev=40)
@@ -51,3 +54,10 @@ def test_polish_recovers_a_frequency_error_in_the_free_terms_only(monkeypatch):
     assert directions.count(6) == 5 * per_record
     assert all(np.isfinite(list(ci.values())).all() and set(ci) == set(s)
                for ci, s in zip(out.stiffness_ci95, out.stiffness))
+    # session 15: every Jacobian integrates its sensitivities at half the simulation's sub-steps
+    assert set(coarse) == {JACOBIAN_COARSEN} == {2}
+    # a fold model (intervals=False): the same polish, no Jacobian in every coefficient, EDDI's intervals kept
+    directions.clear()
+    fold, b2, a2 = refine_mdof(start, records, max_nfev=40, intervals=False)
+    assert (b2, a2) == (before, after) and fold.stiffness == out.stiffness
+    assert set(directions) == {6} and fold.stiffness_ci95 == start.stiffness_ci95
