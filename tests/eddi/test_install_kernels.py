@@ -30,7 +30,10 @@ def test_the_build_environment_has_numba_numpy_and_pydantic_with_the_runtimes_co
     build_reqs, runtime = conf["build-system"]["requires"], conf["project"]["dependencies"]
     for name in ("numba", "numpy", "pydantic"):
         assert _requirement(build_reqs, name) == _requirement(runtime, name)
-    assert _requirement(build_reqs, "setuptools") == "setuptools>=68"  # editable_mode (PEP 660): >= 64
+    # editable_mode (PEP 660): >= 64; the SPDX string form of project.license: >= 77
+    least = _requirement(build_reqs, "setuptools").split(">=")[1]
+    assert tuple(int(p) for p in least.split(".")) >= (77,)
+    assert isinstance(conf["project"]["license"], str)
 
 
 @pytest.fixture()
