@@ -79,13 +79,13 @@ class FoldFitter:
         (:func:`eddi.refinement_choice.judge_refinement`)."""
         if fit is None:
             return fit
-        out = refined_baseline(fit, self.records, self.masks, self.setup) if self.refine else fit
+        err = _remembered(training_error(self.records, self.masks))  # one simulation per model
+        out = refined_baseline(fit, self.records, self.masks, self.setup, err) if self.refine else fit
         if not (self.setup.ee_contender and self.setup.fit == "eddi" and self.setup.base is None and self.records):
             return out
         ee = self.ee_fit_record()
         if ee is None:
             return out
-        err = training_error(self.records, self.masks)
         return Fit(eom=ee.eom, mech=None, residual=fit.residual) if err(ee.eom) < err(out.eom) else out
 
     def ee_fit_record(self) -> Fit | None:
@@ -112,7 +112,8 @@ class FoldFitter:
                         ee_base=self.ee_base, columns=self.columns)
 
 
-def refined_baseline(fit: Fit, records: Sequence[Record], masks: Sequence[np.ndarray], setup: Setup) -> Fit:
+def refined_baseline(fit: Fit, records: Sequence[Record], masks: Sequence[np.ndarray], setup: Setup,
+                     error=None) -> Fit:
     """The pipeline's refinement policy on a fold's training records.
 
     :class:`eddi.fit_record.Pipeline` refines EDDI's model by output error on its fit record
@@ -138,8 +139,21 @@ def refined_baseline(fit: Fit, records: Sequence[Record], masks: Sequence[np.nda
                                      min_gain=REFINE_FOLDS["min_gain"])
     except (IdentificationError, SignalError, ModelError, ValueError):
         return fit
-    error = training_error(records, masks)
+    error = error or training_error(records, masks)
     return Fit(eom=eom, mech=None, residual=fit.residual) if error(eom) < error(fit.eom) else fit
+
+
+def _remembered(error):
+    """``error`` evaluated once per model object (the fold judges the refined model against
+    EDDI's and then against the equation-error fit: the same simulations otherwise twice)."""
+    seen: dict[int, tuple[object, float]] = {}
+
+    def once(model) -> float:
+        if id(model) not in seen:
+            seen[id(model)] = (model, error(model))  # the model kept: its id stays its own
+        return seen[id(model)][1]
+
+    return once
 
 
 def _training_runs(records: Sequence[Record], masks: Sequence[np.ndarray]) -> list[tuple[int, tuple[int, int]]]:
