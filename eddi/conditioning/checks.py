@@ -161,8 +161,10 @@ def dropout_runs(y: np.ndarray, max_run: int = 8) -> list[tuple[int, int]]:
     at rest or at a zero crossing. A run of zeros is a dropout when the cubic through the
     samples either side (:func:`eddi.calculus.fill_gaps`) puts the signal there beyond 10 noise
     RMS (noise from the median third difference, which a signal sampled 10+ times a cycle
-    barely feeds) and 2 counts (the smallest step between the channel's values). Runs at the
-    record's ends are left alone; runs longer than ``max_run`` are returned too (the caller
+    barely feeds) and 2 counts (the smallest step between the channel's values), and the signal
+    moves beyond that on both sides (one of the two samples before, one of the two after: a
+    quantized rest before a blow reads 0 up to the blow's foot). Runs at the record's ends are
+    left alone; runs longer than ``max_run`` are returned too (the caller
     decides whether they can be filled).
     """
     from eddi.calculus import fill_gaps
@@ -179,6 +181,12 @@ def dropout_runs(y: np.ndarray, max_run: int = 8) -> list[tuple[int, int]]:
     edges = np.diff(np.concatenate(([0], zero.astype(np.int8), [0])))
     out = []
     for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
-        if a > 0 and b < y.size and float(np.max(np.abs(guess[a:b]))) > level:
+        if a < 2 or b > y.size - 2:
+            continue
+        # moving on both sides (a blow's foot after a quantized rest reads 0 before a steep rise:
+        # the cubic through the rise puts large values in the rest, a false impulse when filled)
+        left, right = np.abs(y[a - 2:a]), np.abs(y[b:b + 2])
+        if (float(np.max(left)) > level and float(np.max(right)) > level
+                and float(np.max(np.abs(guess[a:b]))) > level):
             out.append((int(a), int(b)))
     return out
