@@ -59,6 +59,10 @@ class ConditionedSignal:
         True when the sampling was stated (point samples or a decimation filter); otherwise the
         95 % intervals make room for means over each sample interval
         (:func:`eddi.intervals.sampling_kernel_margin`).
+    ac_coupling_s : float
+        Time constant [s] of the AC coupling inverted on the response channel (0: none). The
+        inversion multiplies the channel's noise by ``|1 + 1 / (j 2 pi f tau)|`` at ``f``:
+        white noise at rest comes out with a ``1/f`` rise below the corner.
     """
 
     t: np.ndarray
@@ -79,6 +83,7 @@ class ConditionedSignal:
     response: str = "acc"
     sample_kernel_var: float = 0.0
     sample_kernel_known: bool = False
+    ac_coupling_s: float = 0.0
 
     def __post_init__(self) -> None:
         n = self.t.size

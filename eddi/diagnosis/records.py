@@ -60,6 +60,8 @@ class Record:
         Noise RMS of the force channel [N] (0 when unknown).
     acc_measured : bool
         True when ``a`` is the measured acceleration.
+    ac_coupling_s : float
+        Time constant [s] of the AC coupling the conditioning inverted (0: none).
     """
 
     t: np.ndarray
@@ -77,6 +79,7 @@ class Record:
     impact_end: int = 0
     force_noise_rms: float = 0.0
     acc_measured: bool = False
+    ac_coupling_s: float = 0.0
 
     @property
     def rate_hz(self) -> float:
@@ -148,6 +151,9 @@ class Record:
                          response=str(getattr(sig, "response", "") or ""),
                          noise_rms=float(getattr(sig, "noise_rms", 0.0) or 0.0),
                          pretrigger_samples=pretrigger_samples)
+        tau = float(getattr(sig, "ac_coupling_s", 0.0) or 0.0)
+        if tau > 0 and math.isfinite(tau):
+            rec = rec.replace(ac_coupling_s=tau)
         i0, i1 = int(getattr(sig, "impact_start", 0) or 0), int(getattr(sig, "impact_end", 0) or 0)
         if rec.force is None or not 0 <= i0 < i1 <= rec.free_start:
             return rec
