@@ -114,7 +114,10 @@ class _CornerSearch:
             recs = [recondition(r, fc) for r in self.records]
             self.variants[fc] = None if any(r is None for r in recs) else recs  # type: ignore[assignment]
             if self.variants[fc] is not None:
-                self.fitters[fc] = Fitter([r.signal() for r in self.variants[fc]], self.setup)  # type: ignore[union-attr]
+                # with the records, a fold's fit can be judged beside the equation-error fit of the
+                # same terms as the baseline's is (FoldFitter.refined with setup.ee_contender)
+                self.fitters[fc] = Fitter([r.signal() for r in self.variants[fc]], self.setup,  # type: ignore[union-attr]
+                                          self.variants[fc])  # type: ignore[arg-type]
         return self.fitters.get(fc)
 
     def best(self, masks: Sequence[np.ndarray], corners: Sequence[float], patience: int = 0
@@ -242,7 +245,12 @@ def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Par
     floor 0.02: a fold fit with a spurious ``x^2*v`` extrapolating in amplitude, and the
     verdict was ``none``; refined: 0.0047/0.0047/0.0057/0.0046, named. Short of it only within
     the floor, it is not refined: the 0.3 Hz held-out rung's largest blow read 0.0084 unrefined
-    against 0.0032, floor 0.02, and refined 0.0034 lost "every part" by the noise.) (Refined even where the
+    against 0.0032, floor 0.02, and refined 0.0034 lost "every part" by the noise.) With
+    ``setup.ee_contender`` (the folds judge the equation-error fit of the baseline's terms beside
+    EDDI's, as the pipeline does) each fold's fit on its corner's records gets the same choice
+    (:meth:`~eddi.diagnosis.fitter.FoldFitter.refined`; without it that oscillator's largest
+    blow held out read 0.081, its EDDI fit's spurious ``x^2*v``, and the verdict was
+    ``unexplained``: 0.0051/0.0048/0.0063/0.0042 with it). (Refined even where the
     unrefined comparison wins on every part, a part already at the noise (0.0039 against the
     refined baseline's 0.0037, floor 0.02) lost "every part" on the held-out ladder's 0.3 Hz
     rung.) (Judged unrefined against
@@ -276,6 +284,10 @@ def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Par
     folds, sims, corners, fits, plain = [], [], [], [], []
     for part, masks in zip(parts, fold_masks):
         fc, fit = best_corner(masks, near)
+        if fit is not None and setup.ee_contender and fc > 0:
+            # like the baseline's fold: the equation-error fit of its terms replaces EDDI's when
+            # it predicts the fold's other training records better (the pipeline's own choice)
+            fit = search.fitters[fc](masks).refined(fit)
         corners.append(fc)
         fits.append(fit)
         if fit is None:
