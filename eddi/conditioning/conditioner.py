@@ -52,6 +52,7 @@ def condition(
     ac_coupling_s: float | None = None,
     noise_factor: float = 10.0,
     free_drift_slope: bool = False,
+    coupling_offset: bool = True,
 ) -> ConditionedSignal:
     """Turn measured channels into ``x, v, a`` and find the free-response window.
 
@@ -70,6 +71,11 @@ def condition(
     ac_coupling_s : float, optional
         Time constant [s] of a first-order AC coupling (IEPE) on ``acc`` (with no ``acc``: on
         ``vel``, a velocity sensor's); when given, the coupling is inverted before integration.
+    coupling_offset : bool
+        With ``ac_coupling_s``: remove the ramp a residual rest offset grows into through the
+        inversion (default; ``_uncoupled``). False for trial corners (the ``sensor_highpass``
+        search): at a corner off the truth the inverted channel is not "motion + offset ramp"
+        and the removal misreads it (module notes of :mod:`eddi.diagnosis.highpass`).
     noise_factor : float
         The free response stops where the envelope of the measured response falls below
         ``noise_factor`` times its noise RMS.
@@ -92,7 +98,7 @@ def condition(
     w = _inputs(t, acc, vel, disp, force)
     w.free_slope = bool(free_drift_slope)
     _onset_and_rest(w, pretrigger_samples)
-    _remove_rest_offsets(w, ac_coupling_s)
+    _remove_rest_offsets(w, ac_coupling_s, coupling_offset)
     _impact_end_from_force(w)
     _period(w)
     if w.disp is not None:
@@ -208,7 +214,7 @@ def _onset_and_rest(w: _Work, pretrigger_samples: int | None) -> None:
 
 
 
-def _remove_rest_offsets(w: _Work, ac_coupling_s: float | None) -> None:
+def _remove_rest_offsets(w: _Work, ac_coupling_s: float | None, ramp: bool = True) -> None:
     """Offsets seen at rest removed from the force and the acceleration; AC coupling inverted."""
     n, ns = w.n, w.noise_stop
     if w.force is not None:
@@ -221,7 +227,9 @@ def _remove_rest_offsets(w: _Work, ac_coupling_s: float | None) -> None:
             raise SignalError(f"ac_coupling_s must be > 0, got {ac_coupling_s}")
         w.ac_coupling_s = float(ac_coupling_s)
         if w.acc is not None:
-            w.acc = _uncoupled(w.acc + cumulative_trapezoid(w.acc, w.t) / ac_coupling_s, w.t, ac_coupling_s)
+            w.acc = w.acc + cumulative_trapezoid(w.acc, w.t) / ac_coupling_s
+            if ramp:
+                w.acc = _uncoupled(w.acc, w.t, ac_coupling_s)
             w.notes.append(f"AC coupling ({ac_coupling_s:g} s) inverted")
         else:
             # a velocity sensor's AC coupling (session 14): the same first-order inversion; the

@@ -74,8 +74,13 @@ def recondition(rec: Record, corner_hz: float) -> Record | None:
     if corner_hz == 0.0:
         return rec
     try:
+        # the inversion alone (coupling_offset=False): at a trial corner off the truth the
+        # conditioner's offset-ramp removal misreads the mis-inverted channel, which is not
+        # "motion + offset ramp" (held-out ladder, true 2 Hz: training error at 1.7 Hz 0.84 with
+        # it, 0.15 without, and the search went to 5 Hz; on the 12 kg, 9 Hz oscillator behind a
+        # 0.6 Hz coupling the largest blow held out read 0.081 and the coupling was not named)
         c = condition(rec.t, acc=rec.a, force=rec.force, pretrigger_samples=rec.pretrigger_samples,
-                      ac_coupling_s=1.0 / (2 * math.pi * corner_hz))
+                      ac_coupling_s=1.0 / (2 * math.pi * corner_hz), coupling_offset=False)
     except EddiError:
         return None
     return Record.from_conditioned(c, rec.label).replace(
@@ -114,10 +119,7 @@ class _CornerSearch:
             recs = [recondition(r, fc) for r in self.records]
             self.variants[fc] = None if any(r is None for r in recs) else recs  # type: ignore[assignment]
             if self.variants[fc] is not None:
-                # with the records, a fold's fit can be judged beside the equation-error fit of the
-                # same terms as the baseline's is (FoldFitter.refined with setup.ee_contender)
-                self.fitters[fc] = Fitter([r.signal() for r in self.variants[fc]], self.setup,  # type: ignore[union-attr]
-                                          self.variants[fc])  # type: ignore[arg-type]
+                self.fitters[fc] = Fitter([r.signal() for r in self.variants[fc]], self.setup)  # type: ignore[union-attr]
         return self.fitters.get(fc)
 
     def best(self, masks: Sequence[np.ndarray], corners: Sequence[float], patience: int = 0
@@ -229,28 +231,15 @@ def _contradiction(slope: float) -> str:
 
 def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Part],
                     fold_masks: Sequence[Sequence[np.ndarray]], base_fold: Sequence[float],
-                    consistency: float, refined_fold: Sequence[float] = (), base: Fitter | None = None,
-                    floor_fold: Sequence[float] = ()) -> tuple[Candidate, list[np.ndarray]]:
+                    consistency: float, refined_fold: Sequence[float] = (), base: Fitter | None = None
+                    ) -> tuple[Candidate, list[np.ndarray]]:
     """The ``sensor_highpass`` candidate (module notes) and its held-out simulations.
 
     ``base_fold`` is EDDI's (unrefined) baseline per fold: the candidate's EDDI fit is judged
     against it, like for like. With ``refined_fold`` (the baseline refined by output error per
     fold, as the pipeline fits it) a candidate that beats EDDI's baseline on average but not on
     every part is refined the same way per fold, on the records conditioned with its corner,
-    and judged against the refined baseline: like for like again. So is one that falls short
-    of the refined baseline on a part beyond that part's noise floor (``floor_fold``; session
-    15: on the 12 kg, 9 Hz oscillator behind a 0.6 Hz coupling, its records re-conditioned
-    without the inversion's ramp, the unrefined folds 0.014/0.013/0.10/0.008 beat EDDI's 0.54
-    everywhere, but the largest blow held out read 0.10 against the refined baseline's 0.07,
-    floor 0.02: a fold fit with a spurious ``x^2*v`` extrapolating in amplitude, and the
-    verdict was ``none``; refined: 0.0047/0.0047/0.0057/0.0046, named. Short of it only within
-    the floor, it is not refined: the 0.3 Hz held-out rung's largest blow read 0.0084 unrefined
-    against 0.0032, floor 0.02, and refined 0.0034 lost "every part" by the noise.) With
-    ``setup.ee_contender`` (the folds judge the equation-error fit of the baseline's terms beside
-    EDDI's, as the pipeline does) each fold's fit on its corner's records gets the same choice
-    (:meth:`~eddi.diagnosis.fitter.FoldFitter.refined`; without it that oscillator's largest
-    blow held out read 0.081, its EDDI fit's spurious ``x^2*v``, and the verdict was
-    ``unexplained``: 0.0051/0.0048/0.0063/0.0042 with it). (Refined even where the
+    and judged against the refined baseline: like for like again. (Refined even where the
     unrefined comparison wins on every part, a part already at the noise (0.0039 against the
     refined baseline's 0.0037, floor 0.02) lost "every part" on the held-out ladder's 0.3 Hz
     rung.) (Judged unrefined against
@@ -284,10 +273,6 @@ def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Par
     folds, sims, corners, fits, plain = [], [], [], [], []
     for part, masks in zip(parts, fold_masks):
         fc, fit = best_corner(masks, near)
-        if fit is not None and setup.ee_contender and fc > 0:
-            # like the baseline's fold: the equation-error fit of its terms replaces EDDI's when
-            # it predicts the fold's other training records better (the pipeline's own choice)
-            fit = search.fitters[fc](masks).refined(fit)
         corners.append(fc)
         fits.append(fit)
         if fit is None:
@@ -303,11 +288,7 @@ def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Par
     mean = float(np.mean(folds))
     ref = float(np.mean(base_fold))
     wins = all(c < b for c, b in zip(folds, base_fold))
-    # refined like the baseline also where a part falls short of the refined baseline (the
-    # pipeline's, which the name is judged against) beyond the noise floor (docstring)
-    short = len(refined_fold) == n and any(c > r and c > f for c, r, f in
-                                           zip(folds, refined_fold, list(floor_fold) or [0.0] * n))
-    if len(refined_fold) == n and mean < ref and (not wins or short) and fc_all > 0:
+    if len(refined_fold) == n and mean < ref and not wins and fc_all > 0:
         folds, sims, plain, fit_all = _refined(records, setup, parts, fold_masks, search, corners, fits,
                                                (folds, sims, plain), fit_all, all_m, fc_all)
         mean, ref, base_fold = float(np.mean(folds)), float(np.mean(refined_fold)), refined_fold

@@ -235,8 +235,7 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
         # beats that (highpass.sensor_highpass; a strong drag is kept from the name by the damping slope)
         refined = res.base_fold if (sh.fitter.refine and REFINE_CANDIDATES["on"]) else ()
         extra.append(lambda: sensor_highpass(records, sh.setup, sh.parts, sh.fold_masks, res.ref_fold,
-                                             consistency, refined, base=sh.fitter,
-                                             floor_fold=sh.floor.fold_nrmse))
+                                             consistency, refined, base=sh.fitter))
     finals, done = judge_candidates(res, sh.fold_fits, records, sh.setup, cat, skipped, sh.parts, sh.fold_masks,
                                     sh.fitter, (sh.fit_all, sh.bfit_all), extra,
                                     # the symptoms need only the baseline's held-out simulations

@@ -158,11 +158,9 @@ def test_a_refit_of_re_conditioned_records_does_not_name_a_coupling() -> None:
         "coupling_cut"] < STRONG_MARGIN
     assert d.judging.nrmse <= d.noise_floor.nrmse  # within the floor: a clean chain's records
     assert d.cause == "none", d.verdict
-    # its fold models reproduce the records as measured nearly as well without the coupling
-    # (session 15, the inversion's ramp removed: 0.0072 against 0.0058, a cut of 19 %; 0.0068
-    # against 0.0069 before), far from the strong cut the name needs
+    # its fold models reproduce the records as measured as well without the coupling
     assert hp.params["coupling_cut"] < 0.2
-    assert abs(hp.params["uncoupled_nrmse"] - hp.nrmse) < 0.25 * hp.nrmse
+    assert abs(hp.params["uncoupled_nrmse"] - hp.nrmse) < 0.2 * hp.nrmse
 
 
 def test_coupling_cut_compares_the_same_models_with_and_without_the_coupling() -> None:
