@@ -190,10 +190,10 @@ def weak_dashpots(ctx: _Context, err: float, fit: LumpedFit, held: frozenset = f
     is above the floor. Returns the error, the fit, ``held`` with the dashpots kept, and a note."""
     from eddi.mdof.lumped import fit_lumped
 
-    records, n, d, floor = ctx.records, ctx.n, ctx.d, ctx.floor
-    keep, note = set(held), ""
-    while err > floor:
-        tries = []
+    records, n, d = ctx.records, ctx.n, ctx.d
+
+    def tries(fit: LumpedFit, keep: set) -> list:
+        out = []
         for cand in [e for e in candidate_elements(n) if e.kind == "c" and e not in fit.constants]:
             elements, hold = list(fit.constants) + [cand], frozenset(keep | {cand})
             got = _scored(lambda: _rescaled(fit_lumped(_rows(records, ctx.settle), _pulses(records), n, d,
@@ -203,17 +203,10 @@ def weak_dashpots(ctx: _Context, err: float, fit: LumpedFit, held: frozenset = f
                 continue
             c = got[1].constants[cand]
             if c > 0 and abs(c) > got[1].ci95.get(cand, np.inf):
-                tries.append((float(np.sqrt(max(err**2 - got[0] ** 2, 0.0))), got, cand))
-        if not tries:
-            break
-        removed, (err_c, fit_c), cand = max(tries, key=lambda t: t[0])
-        if not removed > floor:
-            break
-        note += (f"; {cand.label} kept though its force is under the pruning rule: training nrmse {err:.3g} -> "
-                 f"{err_c:.3g} ({removed:.3g} in quadrature, floor {floor:.3g})")
-        err, fit = err_c, fit_c
-        keep.add(cand)
-    return err, fit, frozenset(keep), note
+                out.append((cand, got))
+        return out
+
+    return _put_back(err, fit, set(held), ctx.floor, tries, "kept though its force is under the pruning rule")
 
 
 def _weak_cubics(records: Sequence[ChannelRecord], err: float, fit: LumpedFit, n: int, d: int, prune: float,
@@ -234,29 +227,42 @@ def _weak_cubics(records: Sequence[ChannelRecord], err: float, fit: LumpedFit, n
     first, until none passes. ``held``: elements already kept (:func:`_undetermined_back`). Returns
     the error, the fit, the elements kept (``held`` and the cubics) and a note.
     """
-    keep: set[Element] = set(held)
-    note = ""
-    while err > floor:  # else no cubic can pass: the error it removes is at most ``err``
-        tries = []
+    def tries(fit: LumpedFit, keep: set) -> list:
+        out = []
         for e in list(fit.constants):
             cubic = Element("k3", e.a, e.b)
             if e.kind != "k" or cubic in fit.constants or not couplings:
                 continue
-            elements, held = list(fit.constants) + [cubic], frozenset(keep | {cubic})
+            elements, hold = list(fit.constants) + [cubic], frozenset(keep | {cubic})
             got = _scored(lambda: _rescaled(fit_lumped(_rows(records, settle), _pulses(records), n, d,
-                                                       elements=elements, prune=prune, keep=held), records, n, d),
+                                                       elements=elements, prune=prune, keep=hold), records, n, d),
                           records, channels, driving_point, d)
             if got is not None and np.isfinite(got[0]) and _determined(got[1], cubic):
-                tries.append((float(np.sqrt(max(err**2 - got[0] ** 2, 0.0))), got, cubic))
-        if not tries:
+                out.append((cubic, got))
+        return out
+
+    return _put_back(err, fit, set(held), floor, tries, "kept though weak")
+
+
+def _put_back(err: float, fit: LumpedFit, keep: set, floor: float, tries, why: str
+              ) -> tuple[float, LumpedFit, frozenset, str]:
+    """Elements put back one at a time, the one whose refit removes the most training error (in
+    quadrature, ``sqrt(e_without^2 - e_with^2)``) first, while that exceeds the records' noise
+    floor. ``tries(fit, keep)`` lists ``(element, (error, fit, ...))`` refits that may be kept
+    (:func:`weak_dashpots`, :func:`_weak_cubics`). Returns the error, the fit, ``keep`` with the
+    elements kept, and a note."""
+    note = ""
+    while err > floor:  # else nothing can pass: the error an element removes is at most ``err``
+        scored = [(float(np.sqrt(max(err**2 - got[0] ** 2, 0.0))), got, e) for e, got in tries(fit, keep)]
+        if not scored:
             break
-        removed, (err_c, fit_c), cubic = max(tries, key=lambda t: t[0])
+        removed, (err_c, fit_c), e = max(scored, key=lambda t: t[0])
         if not removed > floor:
             break
-        note += (f"; {cubic.label} kept though weak: training nrmse {err:.3g} -> {err_c:.3g} "
+        note += (f"; {e.label} {why}: training nrmse {err:.3g} -> {err_c:.3g} "
                  f"({removed:.3g} in quadrature, floor {floor:.3g})")
         err, fit = err_c, fit_c
-        keep.add(cubic)
+        keep.add(e)
     return err, fit, frozenset(keep), note
 
 
