@@ -96,9 +96,13 @@ def test_the_last_chain_difference_false_alarm_is_none() -> None:
         SLOW_ERRORS["on"] = True
     # the folds' biased fits (4x the pipeline's error) were a false alarm before session 13; since
     # the frequency bias carries its standard error (s13noisy) the band rule no longer fires on
-    # them either, so the verdict is `none` both ways: the judged error is what the correction fixes
-    assert before.cause in ("unexplained", "none") and before.judging.nrmse > 4 * pipe.nrmse
-    assert got.judging.nrmse < 0.5 * before.judging.nrmse
+    # them either, so the verdict is `none` both ways: the judged error is what the correction fixes.
+    # Since session 15 (s15floor) each fold also judges the equation-error fit of its terms and
+    # keeps it where it predicts the other training records better: that contender already holds
+    # the uncorrected folds down (0.28 -> 0.068 against the pipeline's 0.046), and the correction
+    # still cuts the judged error by a quarter (0.068 -> 0.051)
+    assert before.cause in ("unexplained", "none") and before.judging.nrmse > 1.25 * pipe.nrmse
+    assert got.judging.nrmse < 0.85 * before.judging.nrmse
 
 
 def test_the_correction_is_evaluated_at_the_rows_only_and_equals_every_sample_thinned(monkeypatch) -> None:
