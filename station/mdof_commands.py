@@ -179,6 +179,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         "model": model.equation_text(), "notes": notes,
     }
     _coupling_determined(obj)
+    _uncertain_none(obj, "coupled" if wins else "baseline")
     add_mechanisms(obj, final)
     obj["warnings"] = _model_flags(model, folds["coupled" if wins else "baseline"])
     obj["unstable"] = bool(obj["warnings"])
@@ -190,6 +191,30 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         Path(save_model).write_text(model.to_json() + "\n")
         obj["saved_model"] = save_model
     return obj
+
+
+def _uncertain_none(obj: dict[str, Any], delivered: str) -> None:
+    """A ``none`` whose delivered model sits above a channel's noise floor held out (within the
+    ``NONE_FACTOR`` allowed) is said to be uncertain, as the one-coordinate loop says it
+    (``Cause: none (uncertain)``): JSON ``uncertain`` true and a note with the worst channel and
+    how the coupled model fared (better on how many folds, its gain against the margin). Never a
+    plain ``none`` above the floor."""
+    obj["uncertain"] = False
+    if obj["cause"] != "none":
+        return
+    held, floors = obj[delivered]["channel_nrmse"], obj["noise_floor"]
+    ratios = {c: held[c] / floors[c] for c in held if c in floors and floors[c] > 0 and math.isfinite(held[c])}
+    if not ratios or max(ratios.values()) <= 1.0:
+        return
+    worst = max(ratios, key=ratios.__getitem__)
+    base, cpl = obj["baseline"]["folds"], obj["coupled"]["folds"]
+    better = sum(float(c) < float(b) for b, c in zip(base, cpl))
+    obj["uncertain"] = True
+    obj["notes"].append(
+        f"none (uncertain): the delivered model's held-out error is {ratios[worst]:.1f}x the noise floor on channel "
+        f"{worst} (nrmse {held[worst]:.3g}, floor {floors[worst]:.3g}): above the floor, within the allowance, and no "
+        f"coupling earns its place (the coupled model is better on {better} of {len(base)} folds, gain "
+        f"{100 * obj['gain']:.0f} % against a margin of {100 * obj['margin']:.0f} %)")
 
 
 def _coupling_earned(folds: dict[str, list], per_channel: dict[str, dict[str, list]], records: Sequence[Any],
@@ -575,7 +600,8 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
              f"  with coupling       held-out nrmse {c['nrmse']:.4g}   per channel: {chans(c)}   per mode: {modes(c)}"
              + polish_tag(obj, "coupled"),
              f"  gain {100 * obj['gain']:.0f} % (margin {100 * obj['margin']:.0f} %)",
-             f"Cause: {obj['cause']}" + ("" if obj["cause"] != "modal_coupling" else
+             f"Cause: {obj['cause']}" + (" (uncertain)" if obj.get("uncertain") else "")
+             + ("" if obj["cause"] != "modal_coupling" else
                                          f" (coupling terms: {obj['coupling_terms']})")
              + ("" if obj["amplitude"]["span"]["extrapolation_tested"] else
                 f" (within {min(obj['amplitude']['span']['peak_m_s2']):.3g}..{max(obj['amplitude']['span']['peak_m_s2']):.3g}"
