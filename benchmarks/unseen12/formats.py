@@ -433,7 +433,7 @@ def _samples(path_base, t, channels, rng, with_time=False):
         q = _quantity(name)
         heads.append(f"{_label(name, q)} [{'N' if q == 'force' else {'acc': 'm/s^2', 'vel': 'm/s', 'disp': 'm'}[q]}]")
         cols.append(np.asarray(y, float))
-    lines = [f"# recorder export, channel group 1", f"# sample rate: {fs:.6g} Hz", ",".join(heads)]
+    lines = ["# recorder export, channel group 1", f"# sample rate: {fs:.6g} Hz", ",".join(heads)]
     for row in np.column_stack(cols):
         lines.append(",".join([str(int(row[0]))] + [f"{v:.9g}" for v in row[1:]]))
     with open(path, "w") as fh:
