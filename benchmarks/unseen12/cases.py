@@ -70,6 +70,8 @@ GERMAN_WORDS = [r"\bcolumn", r"header", r"unknown", r"zeit", r"kraft", r"beschle
                 r"\bname"]
 NUMBER_WORDS = [r"thousand", r"separator", r"not a (finite )?number", r"\bline \d", r"\brow \d", r"\bvalue",
                 r"\bnumber", r"pars", r"decimal"]
+APPEND_WORDS = [r"header", r"\bline \d", r"\btime", r"monoton", r"backward", r"repeat", r"second", r"increas",
+                r"not a (finite )?number", r"\bsort"]
 SWAP_WORDS = [r"swap", r"exchang", r"interchang", r"wir(ed|ing)", r"\blabel", r"hammer", r"impulse", r"momentum",
               r"no (blow|impact|hit|pulse)", r"not an? (blow|impact|hammer|pulse)",
               r"(force|response) (channel|column)s? (look|is|are|seem|ring|oscillat)"]
@@ -123,6 +125,12 @@ RECORDS = {
               "coefficients in 1.5 x ci95 and held-out nrmse <= max(0.10, 2 x noise); a refusal fails",
               "`Time [us]` as integers: a documented unit, and docs/capture-format.md reads times printed with few "
               "digits as the least-squares grid while the last digit's unit is at most half a step (1 us here)"),
+    "appended": ("csv-si", APPEND_WORDS, APPEND_WORDS,
+                 "coefficients in 1.5 x ci95 and held-out nrmse <= max(0.10, 2 x noise) (from the first record or "
+                 "both); or one refusal line (exit 2) naming the repeated header, its line or the time going back",
+                 "a logger that appends each trigger to the same file: a second `t,force,acc` header and a second "
+                 "blow follow the first record, the time restarting; read as one record the time runs backwards, "
+                 "so a lab expects the records split or a one-line refusal that points at the second header"),
     "swapped": ("csv-si", SWAP_WORDS, SWAP_WORDS + [r"\bforce", r"\bacceleration", r"\bacc\b", r"\bresponse"],
                 "one refusal line (exit 2) that names the swap or a channel (force, acceleration); or a model with a "
                 "warning of identify / validate naming the swap, the hammer blow or the impulse; a model without "
@@ -140,9 +148,14 @@ def record_case(defect):
 
     def make(rng, cid, out):
         sysd = system(rng, **MIDDLE, kind=["hardening", "softening"][rng.integers(2)])
-        levels = [1.0, float(rng.uniform(0.55, 0.75))]
+        levels = [1.0, float(rng.uniform(0.55, 0.75))] + ([float(rng.uniform(0.75, 0.9))] if defect == "appended"
+                                                          else [])
         files, meta = _captures(rng, cid, out, sysd, levels, fmt, chain={"gain": 1.0, "ppm": 0.0},
                                 swap=defect == "swapped")
+        if defect == "appended":  # the third blow appended to the first file, header and all
+            with open(os.path.join(out, files[0]), "a") as fh, open(os.path.join(out, files[2])) as extra:
+                fh.write(extra.read())
+            os.remove(os.path.join(out, files.pop()))
         damp, stiff = draw.truth_terms(sysd)
         return {"files": {"fit": files[0], "held": files[1]}, "truth": {"mass": sysd["mass"], "damping": damp,
                 "stiffness": stiff}, "given_mass": sysd["mass"], "system": sysd, "meta": meta, "defect": defect,
@@ -213,12 +226,19 @@ def _draw_chain(rng, n, masses, scale):
     raise RuntimeError("no chain drawn")
 
 
-def _coupling_effect(system_lin, system_nl, p, fs, post, names):
-    """Per channel, the nrmse between the held blow's clean acceleration with the nonlinear terms and without."""
+MIXED_WORDS = [r"\bvel", r"velocity", r"\bmix", r"quantit", r"\bkind", r"same (kind|quantity|sensor)",
+               r"\bchannel"]
+
+
+def _coupling_effect(system_lin, system_nl, p, fs, post, names, kinds):
+    """Per channel, the nrmse between the held blow's clean signal (the channel's own quantity) with the nonlinear
+    terms and without them."""
     t = np.arange(0, int(post * fs)) / fs
     pulse = [tuple(p[:3]) + (tuple(p[3]),)]
-    a_nl = physics.simulate(system_nl, pulse, t)[2]
-    a_li = physics.simulate(system_lin, pulse, t)[2]
+    q = [{"disp": 0, "vel": 1, "acc": 2}[k] for k in kinds]
+    s_nl, s_li = physics.simulate(system_nl, pulse, t), physics.simulate(system_lin, pulse, t)
+    a_nl = np.array([s_nl[q[i]][i] for i in range(len(names))])
+    a_li = np.array([s_li[q[i]][i] for i in range(len(names))])
     after = t > 2 * p[1]
     return {n: float(np.sqrt(np.mean((a_nl[i, after] - a_li[i, after]) ** 2) / np.mean(a_nl[i, after] ** 2)))
             for i, n in enumerate(names)}
@@ -237,6 +257,9 @@ MDOF_RULES = {
                   "asks diagnose to name"),
     "cubic": ("as quadcubic", "a hardening cubic link between two masses (15-40 % of its linear force at the "
               "largest blow): a coupling term in physical coordinates that issue 14 asks diagnose to name"),
+    "dashpot": ("as quadcubic", "a cubic dashpot on the link between two masses (at the largest blow's peak "
+                "relative speed 3-8 x the linear dashpot's force): a nonlinear damping coupling B(q, q') of issue "
+                "14 outside the rig's catalogue"),
     "ground-soft": ("`none` correct, `unexplained` abstains, `modal_coupling` FALSE-COUPLING; unless "
                     "`unexplained`, every channel's held-out nrmse <= max(0.05, 2 x its noise nrmse)",
                     "a softening cubic spring from one mass to the ground (8-15 % of its linear force at the "
@@ -245,13 +268,16 @@ MDOF_RULES = {
 }
 
 
-def mdof_case(n, coupling=None, masses=None, names="numbered", fmt="csv-si", via_h5=False, scale="kilograms"):
+def mdof_case(n, coupling=None, masses=None, names="numbered", fmt="csv-si", via_h5=False, scale="kilograms",
+              sensors=None):
     """A chain of ``n`` masses (``_draw_chain``) struck at a mass other than the first, every mass measured by
     an accelerometer, four captures (three to diagnose, one held out), no mass given. ``coupling``: None (linear),
     ``"quadcubic"`` quadratic + cubic terms on a link, ``"cubic"`` a hardening cubic link, ``"ground-soft"`` a
     softening cubic spring from mass 0 to the ground. ``names``: ``"numbered"`` acc1..accN, else labelled
     channels (``Acceleration NAME [unit]``). ``via_h5``: the scorer imports the four CSVs into one HDF5 session
-    (no mass) and diagnoses / validates its captures."""
+    (no mass) and diagnoses / validates its captures. ``coupling`` ``"dashpot"``: a cubic dashpot on the link
+    (its force at the largest blow's peak relative speed 3-8 x the linear dashpot's). ``sensors``: the kind of
+    each channel (``["acc", "vel"]``: a laser vibrometer on the second mass), named ``acc1``, ``vel2``..."""
     def make(rng, cid, out):
         ms, links, grounds, K, fr, d = _draw_chain(rng, n, masses, scale)
         beta = 2 * draw.loguni(rng, 0.004, 0.015) / (2 * np.pi * fr[0])  # classical damping C = beta K
@@ -267,16 +293,19 @@ def mdof_case(n, coupling=None, masses=None, names="numbered", fmt="csv-si", via
         levels = [1.0] + list(rng.uniform(0.5, 0.95, 3))
         levels = [levels[i] for i in rng.permutation(4)]
         p1, tip = draw.hammer(rng, sysd, f_hi, 1.0, width_frac=0.1, tip="plastic", fs=fs)
-        link = min(1, n - 1) if coupling in ("quadcubic", "cubic") else None
+        link = min(1, n - 1) if coupling in ("quadcubic", "cubic", "dashpot") else None
         if coupling == "quadcubic" and n > 2:
             link = int(rng.integers(1, n))
         if coupling:
             tp = np.arange(0, int(6 / fr[0] * fs)) / fs
-            xp = physics.simulate(lin, [tuple(p1[:3]) + (tuple(p1[3]),)], tp)[0]
+            xp, vp = physics.simulate(lin, [tuple(p1[:3]) + (tuple(p1[3]),)], tp)[:2]
             L = laws[link] if link is not None else laws[0]
             s = np.abs(xp[L["i"]] - (xp[L["j"]] if L["j"] >= 0 else 0.0)).max()
             k1 = L["k"][1]
-            if coupling == "quadcubic":
+            if coupling == "dashpot":
+                sd = np.abs(vp[L["i"]] - vp[L["j"]]).max()
+                L["c"] = {1: L["c"][1], 3: float(L["c"][1] * rng.uniform(3.0, 8.0) / sd ** 2)}
+            elif coupling == "quadcubic":
                 L["k"] = {1: k1, 2: float(rng.choice([-1, 1]) * k1 * rng.uniform(0.15, 0.4) / s),
                           3: float(k1 * rng.uniform(0.1, 0.25) / s ** 2)}
             elif coupling == "cubic":
@@ -284,8 +313,9 @@ def mdof_case(n, coupling=None, masses=None, names="numbered", fmt="csv-si", via
             else:  # ground-soft: laws[0] is mass 0's spring to the ground
                 L["k"] = {1: k1, 3: float(-k1 * rng.uniform(0.08, 0.15) / s ** 2)}
         system_ = physics.System(ms, laws, drive=d)
+        kinds = sensors or ["acc"] * n
         if names == "numbered":
-            cols = [f"acc{i + 1}" for i in range(n)]
+            cols = [f"{kinds[i]}{i + 1}" for i in range(n)]
         else:
             cols = ["acc_" + x for x in rng.choice(["base", "tip", "hub", "rim", "deck", "arm", "cab"], n,
                                                    replace=False)]
@@ -293,20 +323,27 @@ def mdof_case(n, coupling=None, masses=None, names="numbered", fmt="csv-si", via
         files, noise = [], []
         for c, s in enumerate(draw.sessions(rng, 4, snr=(40.0, 55.0))):
             s["names"] = cols
+            s["sensors"] = kinds
             p, tip = draw.hammer(rng, sysd, f_hi, levels[c], width_frac=rng.uniform(0.05, 0.15), tip=tip, fs=fs)
             t, ch = draw.record(rng, system_, [p], fs, pre, post, s)
             noise.append(s["noise_nrmse_ch"])
             files.append(os.path.basename(formats.write(os.path.join(out, f"{cid}-{c}"), fmt, t, ch, rng)))
-        effect = _coupling_effect(lin, system_, p, fs, post, cols) if coupling else {}
+        effect = _coupling_effect(lin, system_, p, fs, post, cols, kinds) if coupling else {}
         rule, reason = MDOF_RULES[coupling]
-        if coupling == "cubic":
+        if coupling in ("cubic", "dashpot"):
             rule = MDOF_RULES["quadcubic"][0]
+        if sensors:
+            rule += ("; or one refusal line (exit 2) naming the mixed channel kinds (docs/multi-dof.md does not "
+                     "promise a mix)")
+            reason += ("; an accelerometer on one mass and a laser vibrometer (velocity) on the other, the usual "
+                       "way to spare a light part a sensor's mass")
         reason += {"spread": "; the masses 8-14 x apart", "close": "; two modes 1.08-1.25 apart (a weak link between "
                    "two masses each on a spring to the ground)"}.get(masses, "")
         return {"files": {"train": files[:3], "held": files[3]}, "all_files": files, "driving_point": cols[d],
                 "columns": cols, "coupling_effect_nrmse": effect, "freqs_hz": fr, "masses": ms, "laws": laws,
                 "fs": fs, "coupling": coupling, "link": link, "gyro": False, "noise_nrmse": noise, "sensor": "acc",
-                "fmt": fmt, "via_h5": via_h5, "refusal_ok": None, "rule": rule, "reason": reason,
+                "sensors": kinds, "fmt": fmt, "via_h5": via_h5, "refusal_ok": MIXED_WORDS if sensors else None,
+                "rule": rule, "reason": reason,
                 "limit_cpu_s": MDOF_LIMIT, "levels": levels}
     return make
 
@@ -322,6 +359,8 @@ CASES = [
     ("mdof-2close-cubic", "mdof", mdof_case(2, "cubic", masses="close"), True),
     ("mdof-2spread-lin-h5", "mdof", mdof_case(2, None, masses="spread", names="labelled", fmt="csv-export",
                                               via_h5=True), True),
+    ("mdof-2dashpot", "mdof", mdof_case(2, "dashpot", names="labelled", fmt="csv-export"), True),
+    ("mdof-2mixed-quad", "mdof", mdof_case(2, "quadcubic", sensors=["acc", "vel"]), True),
     ("mdof-3quad", "mdof", mdof_case(3, "quadcubic", names="labelled", fmt="csv-export"), False),
     ("mdof-3groundsoft", "mdof", mdof_case(3, "ground-soft", masses="spread", fmt="csv-reordered",
                                            names="labelled"), False),
@@ -334,5 +373,6 @@ CASES = [
     ("rec-reordered", "record", record_case("reordered"), True),
     ("rec-swapped", "record", record_case("swapped"), True),
     ("rec-thousands", "record", record_case("thousands"), True),
+    ("rec-appended", "record", record_case("appended"), True),
     ("rec-micro", "record", record_case("micro"), True),
 ]

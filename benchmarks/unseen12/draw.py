@@ -1,4 +1,4 @@
-"""Random draws of the eleventh scorecard (unseen9's; anti-alias filters, a 2nd high-pass, drift added): systems, hammers, sessions.
+"""Random draws of the twelfth scorecard (unseen11's; per-channel sensor kinds added): systems, hammers, sessions.
 
 Every draw comes from ``rng`` (seeded per case by ``generate.py``). Nothing imported from the station.
 """
@@ -121,7 +121,7 @@ def record(rng, system, pulses, fs, pre, post, session, sensor="acc", extra=None
     names = session.get("names") or [sensor]
     after = k > int(2 * max(p[1] for p in pulses) * fs) + 1
     for i, name in enumerate(names):
-        y = truth[i]
+        y = truth[i] if not session.get("sensors") else {"acc": a, "vel": v, "disp": x}[session["sensors"][i]][i]
         peak = np.abs(y[after]).max()
         clip = session.get("clip_frac") and session["clip_frac"] * peak
         hum = session.get("hum_db") and (peak * 10 ** (-session["hum_db"] / 20), session["hum_hz"],
