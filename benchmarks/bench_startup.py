@@ -273,8 +273,8 @@ def library_floor(repeats: int) -> None:
             loads.append(os.getloadavg()[0])
             for i, cmd in enumerate(cmds):
                 cpus[i].append(run(cmd, env)[1])
-        print(f"\nwhat `station identify FILE.csv` pays before its own work (CPU, min / median of {repeats} interleaved "
-              f"runs; load average {min(loads):.1f}-{max(loads):.1f}); each line adds to the one above:")
+        print(f"\nwhat `station identify FILE.csv` pays before its own work (CPU, min / median of {repeats} "
+              f"interleaved runs; load average {min(loads):.1f}-{max(loads):.1f}); each line adds to the one above:")
         for (name, _), cmd, xs in zip(LIBRARY_LINES, cmds, cpus):
             loaded = subprocess.run([cmd[0], "-c", cmd[2] + LOADED], env=env, capture_output=True, text=True)
             n, _, sub = loaded.stdout.strip().partition(" ")
