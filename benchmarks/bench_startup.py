@@ -1,6 +1,7 @@
 """Whole-process start-up of the station CLI, as ratios to the floor (issue 13, item 1).
 
     python benchmarks/bench_startup.py [--repeats 5] [--importtime COMMAND] [--identify [--no-refine]]
+    python benchmarks/bench_startup.py --libraries [--repeats 7]
 
 Times each command line in a fresh interpreter (wall and CPU, best of --repeats) beside two
 floors measured in the same run: ``python -c pass`` and ``python -c "import numpy"`` (the
@@ -27,6 +28,12 @@ In the same run (``--identify``), the library call on arrays in memory (in proce
 CLI sets, CPU of the best of ``--repeats`` after one warm-up call), beside the in-process floor
 (``np.load`` of the ``.npy`` + one pass, timed in that same child process). Issue 13 target:
 <= 50 ms. Every line states the load average: on a shared machine compare ratios.
+
+``--libraries``: what the libraries cost before the command's own work, CPU of ``python -c``
+lines each adding to the last (numpy; scipy.linalg with scipy's array-API layer; scipy.optimize's
+``least_squares``, and the same through its private module, which loads the same modules;
+scipy.interpolate; pydantic's ``BaseModel``; ``eddi.model``; ``np.loadtxt`` of the 33 MB CSV),
+with the modules each loaded: the part of the 0.5 s target no change in this project can cut.
 
 The kernels (``eddi.kernels``) run two ways, both timed: numba's JIT (``EDDI_JIT=1``; cold: an
 empty ``NUMBA_CACHE_DIR``, every kernel compiled) and built ahead of time (``python -m
@@ -222,6 +229,61 @@ def identify_whole_process(repeats: int, extra: list[str]) -> None:
             import_budget(argv, env=env, how=" with numba's JIT")
 
 
+#: The libraries every `station identify FILE.csv` pays before its own work, one line adding to
+#: the last (``--libraries``). The private path to ``least_squares`` is timed beside the public
+#: one: importing any submodule runs its package's ``__init__`` first, so it loads the same modules.
+LIBRARY_LINES = (
+    ("python -c pass", "pass"),
+    ("+ numpy", "import numpy"),
+    ("+ scipy.linalg (scipy's array-API layer)", "import numpy, scipy.linalg"),
+    ("+ scipy.optimize.least_squares", "import numpy, scipy.linalg; from scipy.optimize import least_squares"),
+    ("  (private: scipy.optimize._lsq.least_squares)",
+     "import numpy, scipy.linalg; from scipy.optimize._lsq.least_squares import least_squares"),
+    ("+ scipy.interpolate", "import numpy, scipy.linalg, scipy.interpolate; from scipy.optimize import least_squares"),
+    ("+ pydantic.BaseModel", "import numpy, scipy.linalg, scipy.interpolate; from scipy.optimize import "
+                             "least_squares; from pydantic import BaseModel"),
+    ("+ eddi.model (the schema's two models)", "import numpy, scipy.linalg, scipy.interpolate; from scipy.optimize "
+                                               "import least_squares; import eddi.model"),
+    ("+ np.loadtxt of the 33 MB CSV", "import numpy as np, scipy.linalg, scipy.interpolate; from scipy.optimize "
+                                      "import least_squares; import eddi.model; np.loadtxt({csv!r}, delimiter=',', "
+                                      "skiprows=1, ndmin=2, quotechar='\"', encoding='utf-8')"),
+)
+#: Reports what a line loaded: the scipy subpackages and the modules in all.
+LOADED = ("; import sys; print(len(sys.modules), ','.join(sorted(m[6:] for m in sys.modules "
+          "if m.startswith('scipy.') and m.count('.') == 1 and not m.startswith('scipy._'))))")
+
+
+def library_floor(repeats: int) -> None:
+    """Print what the libraries of `station identify FILE.csv` cost before its own work (CPU)."""
+    import numpy as np
+
+    sys.path.insert(0, str(REPO))
+    from simulated_rig.bench import impact_test
+
+    rec = impact_test("duffing-smooth", 600.0, snr_db=45.0, seed=1)
+    with tempfile.TemporaryDirectory() as tmp:
+        csv = Path(tmp) / "long.csv"
+        np.savetxt(csv, np.column_stack((rec.t, rec.force_n, rec.acc_m_s2)), delimiter=",", header="t,force,acc",
+                   comments="", fmt="%.9g")
+        env = {**ENV, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+        cmds = [[sys.executable, "-c", code.format(csv=str(csv))] for _, code in LIBRARY_LINES]
+        cpus: list[list[float]] = [[] for _ in cmds]
+        loads = []
+        for _ in range(repeats):  # interleaved, so a change of load hits all alike
+            loads.append(os.getloadavg()[0])
+            for i, cmd in enumerate(cmds):
+                cpus[i].append(run(cmd, env)[1])
+        print(f"\nwhat `station identify FILE.csv` pays before its own work (CPU, min / median of {repeats} "
+              f"interleaved runs; load average {min(loads):.1f}-{max(loads):.1f}); each line adds to the one above:")
+        for (name, _), cmd, xs in zip(LIBRARY_LINES, cmds, cpus):
+            loaded = subprocess.run([cmd[0], "-c", cmd[2] + LOADED], env=env, capture_output=True, text=True)
+            n, _, sub = loaded.stdout.strip().partition(" ")
+            print(f"  {name:<47} cpu {min(xs):6.3f} / {statistics.median(xs):6.3f} s  {n:>4} modules  "
+                  f"{'scipy: ' + sub if sub else ''}")
+        print(f"  the target (0.5 s) minus the last line leaves {0.5 - min(cpus[-1]):+.3f} s for the engine's own "
+              "modules, conditioning, EDDI, the refinement, validation and the checks")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -233,7 +295,13 @@ def main() -> None:
                          "and print its import budget")
     ap.add_argument("--no-refine", action="store_true", help="with --identify: pass --no-refine")
     ap.add_argument("--only-identify", action="store_true", help="skip the --help lines")
+    ap.add_argument("--libraries", action="store_true",
+                    help="only print what the libraries of `station identify FILE.csv` cost before its own work "
+                         "(numpy, scipy's pieces, pydantic, the CSV parse), each line adding to the last")
     args = ap.parse_args()
+    if args.libraries:
+        library_floor(args.repeats)
+        return
     if args.only_identify:
         identify_whole_process(args.repeats, ["--no-refine"] if args.no_refine else [])
         return

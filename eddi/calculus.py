@@ -36,6 +36,7 @@ One module owns these so that conditioning (:mod:`eddi.conditioning`), the modal
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -288,7 +289,8 @@ def delay(y: np.ndarray, samples: float) -> np.ndarray:
     return out
 
 
-def fill_gaps(y: np.ndarray, bad: np.ndarray, side: int = 2) -> np.ndarray:
+def fill_gaps(y: np.ndarray, bad: np.ndarray, side: int = 2,
+              runs: Sequence[tuple[int, int]] | None = None) -> np.ndarray:
     """``y`` with the samples where ``bad`` is True replaced by the cubic through ``side`` good
     samples on each side of each run of bad samples (least squares when ``side > 2``; a copy).
 
@@ -296,16 +298,22 @@ def fill_gaps(y: np.ndarray, bad: np.ndarray, side: int = 2) -> np.ndarray:
     within 0.3 % of the amplitude (1-2 samples: 0.03 %; ``side=4`` gives 1.5 %: the wider cubic
     spans 0.4 cycle). A run with fewer good samples on a side is filled from what it has (a
     line or a constant when only 1-3 samples are there).
+
+    ``runs``: only these runs ``[a, b)`` of ``bad`` are filled (default: every run); each is
+    filled as it is when all are (its cubic sees the good samples only).
     """
     y = np.array(y, dtype=float)
     bad = np.asarray(bad, dtype=bool)
-    edges = np.diff(np.concatenate(([0], bad.astype(np.int8), [0])))
-    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
-        left = np.arange(a - 1, -1, -1)
-        left = left[~bad[left]][:side]
-        right = np.arange(b, y.size)
-        right = right[~bad[right]][:side]
-        idx = np.concatenate((left, right))
+    if runs is None:
+        edges = np.diff(np.concatenate(([0], bad.astype(np.int8), [0])))
+        runs = list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)))
+    good = np.flatnonzero(~bad)
+    for a, b in runs:
+        # the nearest ``side`` good samples before the run (nearest first) and after it: a search
+        # in the good samples' indices, not a scan of the record per run (a quantized record
+        # has hundreds of zero runs: 0.3-0.5 s of CPU a channel, session 16)
+        at = int(np.searchsorted(good, a))
+        idx = np.concatenate((good[max(at - side, 0):at][::-1], good[at:at + side]))
         if idx.size == 0:
             continue
         deg = min(3, idx.size - 1)

@@ -177,16 +177,14 @@ def dropout_runs(y: np.ndarray, max_run: int = 8) -> list[tuple[int, int]]:
     levels = np.unique(y)
     count = float(np.min(np.diff(levels))) if levels.size > 1 else 0.0
     level = max(10.0 * noise, 2.0 * count, 1e-12 * float(np.max(np.abs(y))))
-    guess = fill_gaps(y, zero)
     edges = np.diff(np.concatenate(([0], zero.astype(np.int8), [0])))
-    out = []
+    moving = []
     for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
         if a < 2 or b > y.size - 2:
             continue
         # moving on both sides (a blow's foot after a quantized rest reads 0 before a steep rise:
         # the cubic through the rise puts large values in the rest, a false impulse when filled)
-        left, right = np.abs(y[a - 2:a]), np.abs(y[b:b + 2])
-        if (float(np.max(left)) > level and float(np.max(right)) > level
-                and float(np.max(np.abs(guess[a:b]))) > level):
-            out.append((int(a), int(b)))
-    return out
+        if float(np.max(np.abs(y[a - 2:a]))) > level and float(np.max(np.abs(y[b:b + 2]))) > level:
+            moving.append((int(a), int(b)))
+    guess = fill_gaps(y, zero, runs=moving)  # the cubics of those runs only (a quantized rest has hundreds)
+    return [(a, b) for a, b in moving if float(np.max(np.abs(guess[a:b]))) > level]

@@ -287,7 +287,17 @@ def response_lag(r: Record, f1: float, zeta: float | None = None):
 
     if not f1 > 0:
         return None
-    return lag_of(r, f1, _damping_ratio(r) if zeta is None else zeta)
+    zeta = _damping_ratio(r) if zeta is None else zeta
+    # kept on the record per (f1, zeta), as its pulses (:func:`_record_pulses`): the impulse check
+    # asks twice (the window's widening, the warning), momentum_bend five times more
+    memo = r.__dict__.get("_lag_memo")
+    if memo is None or memo[0] is not r.a or memo[1] is not r.force:
+        memo = (r.a, r.force, {})
+        object.__setattr__(r, "_lag_memo", memo)  # not a field: eq, repr and replace ignore it
+    key = (float(f1), float(zeta))
+    if key not in memo[2]:
+        memo[2][key] = lag_of(r, f1, zeta)
+    return memo[2][key]
 
 
 def _lag_symptom(r: Record, f1: float) -> Symptom | None:
@@ -319,6 +329,15 @@ def _damping_ratio(r: Record) -> float:
     largest amplitude of the energy lost per cycle (:func:`eddi.diagnosis.show.backbone`,
     independent of the mass), as ``-ln(1 - dE/E) / (4 pi)``; 0 when no cycle can be measured,
     at most :data:`MAX_ZETA`."""
+    memo = r.__dict__.get("_zeta_memo")  # kept on the record, as its pulses (:func:`_record_pulses`)
+    if memo is None or memo[0] is not r.x or memo[1] is not r.v:
+        memo = (r.x, r.v, _damping_ratio_of(r))
+        object.__setattr__(r, "_zeta_memo", memo)  # not a field: eq, repr and replace ignore it
+    return memo[2]
+
+
+def _damping_ratio_of(r: Record) -> float:
+    """:func:`_damping_ratio`, computed."""
     from eddi.diagnosis.show import backbone
 
     s, e = r.free_start, r.free_stop

@@ -49,3 +49,35 @@ def test_a_record_with_another_force_gets_its_own_pulses():
     assert len(chain._record_pulses(other)) == len(first) + 1
     assert chain._record_pulses(rec) == first
     assert other == dataclasses.replace(rec, force=twice)  # the memo is not a field
+
+
+def test_the_impulse_check_measures_the_damping_and_the_lag_once(monkeypatch):
+    # session 16: the window's widening and the lag warning each measured the record's damping
+    # ratio (a backbone over the free response) and its lag: ~15 ms of a 45 s record's identify
+    import eddi.diagnosis.lag as lag
+    import eddi.diagnosis.show as show
+
+    backbones, lags = [], []
+    real_backbone, real_lag = show.backbone, lag.response_lag
+    monkeypatch.setattr(show, "backbone", lambda *a, **k: backbones.append(1) or real_backbone(*a, **k))
+    monkeypatch.setattr(lag, "response_lag", lambda *a, **k: lags.append(a[1:]) or real_lag(*a, **k))
+    sig = _sig()
+    chk = check_signal(sig, SYSTEM["mass"])
+    assert chk is not None and chk.fault == ""
+    assert len(backbones) == 1 and len(lags) == 1  # 2 and 2 before
+    # the same numbers as measured afresh on a new record
+    rec = Record.from_conditioned(sig)
+    f1 = lags[0][0]
+    assert chain._damping_ratio(rec) == chain._damping_ratio_of(rec)
+    assert chain.response_lag(rec, f1) == real_lag(rec, f1, chain._damping_ratio_of(rec))
+    monkeypatch.undo()
+    fresh = check_signal(sig, SYSTEM["mass"])
+    assert fresh == chk
+
+
+def test_a_record_with_another_response_gets_its_own_damping_and_lag():
+    rec = Record.from_conditioned(_sig())
+    z = chain._damping_ratio(rec)
+    other = dataclasses.replace(rec, x=rec.x * 1.0, v=rec.v * (1.0 + 1e-3 * np.arange(rec.v.size) / rec.v.size))
+    assert chain._damping_ratio(other) == chain._damping_ratio_of(other) != z
+    assert chain._damping_ratio(rec) == z

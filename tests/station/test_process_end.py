@@ -36,9 +36,14 @@ run()
 
 #: What a whole ``station identify`` process of a CSV record must not import (it draws nothing,
 #: fits no SINDy, runs no campaign, reads no HDF5; scipy.signal: modal sums only; the diagnosis
-#: loop: the impulse check reads eddi.diagnosis.chain alone).
+#: loop: the impulse check reads eddi.diagnosis.chain alone). Session 16: nor the scipy
+#: subpackages the path does not use (scipy.optimize's own imports bring linalg, sparse, special,
+#: fft and spatial; stats ~0.1 s more, integrate: eddi.calculus has its functions, ndimage and io:
+#: multi-DOF and .mat records only), nor threadpoolctl (the CLI starts BLAS with one thread,
+#: eddi.threads: ~7 ms of look-up).
 NOT_FOR_IDENTIFY = ("matplotlib", "pysindy", "dask", "distributed", "pyarrow", "h5py", "scipy.signal",
-                    "eddi.diagnosis.loop", "eddi.diagnosis.catalogue")
+                    "eddi.diagnosis.loop", "eddi.diagnosis.catalogue", "scipy.stats", "scipy.integrate",
+                    "scipy.ndimage", "scipy.io", "threadpoolctl")
 PROBE = PROBE.replace("{not_for_identify!r}", repr(NOT_FOR_IDENTIFY))
 
 #: The same through main() alone (the ordinary end), for the reference output.
@@ -52,6 +57,8 @@ sys.exit(main(sys.argv[1:]))
 def _env() -> dict[str, str]:
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     env.pop("PYTHONUNBUFFERED", None)  # stdout block-buffered, as a pipe normally is: must be flushed
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        env.pop(var, None)  # the station's own default (one BLAS thread), not the caller's
     return env
 
 
