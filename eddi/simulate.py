@@ -391,28 +391,88 @@ def local_angular_frequency(eom: EquationOfMotion, x_amp: float, v_amp: float) -
     From the tangent stiffness ``|dK/dx|`` and tangent damping ``|dB/dv|`` evaluated on a grid
     of the range (not the sum of ``|c|`` bounds of :func:`max_angular_frequency`, which
     alternating-sign polynomials inflate several times); models with effects, or without a
-    range, use that bound.
+    range, use that bound. :func:`local_angular_frequencies` of one range.
     """
-    if eom.effects or not (x_amp > 0 and v_amp > 0):
-        return max_angular_frequency(eom, x_amp, v_amp)
-    n = 257
-    xs = np.linspace(-x_amp, x_amp, n)
-    vs = np.linspace(-v_amp, v_amp, n)
-    # the six lines (K along x at v = 0, +-v_amp, B along v at x = 0, +-x_amp) in one evaluation
-    # (this runs ~30 times per identification, ~100 per diagnosis fit: a sum of small array
-    # operations, so the arrays are filled in place and the force summed without
-    # EquationOfMotion.restoring_force's general checks; the same numbers bit for bit)
-    xx = np.empty(6 * n)
-    vv = np.empty(6 * n)
-    for i, xv in enumerate((0.0, x_amp, -x_amp)):
-        xx[i * n:(i + 1) * n] = xs
-        xx[(3 + i) * n:(4 + i) * n] = xv
-        vv[i * n:(i + 1) * n] = xv * v_amp / x_amp
-        vv[(3 + i) * n:(4 + i) * n] = vs
-    f = _polynomial_force(eom, xx, vv).reshape(6, n)
-    k_tan = float(np.max(np.abs(np.gradient(f[:3], xs, axis=1))))
-    c_tan = float(np.max(np.abs(np.gradient(f[3:], vs, axis=1))))
-    return max(math.sqrt(k_tan / eom.mass), c_tan / eom.mass)
+    return float(local_angular_frequencies(eom, [x_amp], [v_amp])[0])
+
+
+#: Points of :func:`local_angular_frequencies`' grid along each range.
+LOCAL_FREQUENCY_POINTS = 257
+
+
+def local_angular_frequencies(eom: EquationOfMotion, x_amps, v_amps) -> np.ndarray:
+    """:func:`local_angular_frequency` at several ranges ``(x_amps[i], v_amps[i])``, in one evaluation.
+
+    The same numbers bit for bit as one call per range (``np.linspace``'s and ``np.gradient``'s
+    arithmetic, element by element, on a ``(ranges, 6, 257)`` array: the six lines ``K`` along
+    ``x`` at ``v = 0, +-v_amp`` and ``B`` along ``v`` at ``x = 0, +-x_amp``). It runs ~30 times per
+    identification (the validation's segments, the refinement's steps: 12 ranges at once) and
+    ~100 per diagnosis fit: a sum of small array operations, so the force is summed without
+    EquationOfMotion.restoring_force's general checks (:func:`_polynomial_force`).
+    """
+    xa = np.array(x_amps, dtype=float).reshape(-1)
+    va = np.array(v_amps, dtype=float).reshape(-1)
+    out = np.empty(xa.size)
+    ranged = (xa > 0) & (va > 0)
+    if eom.effects or not ranged.all():
+        for i in range(xa.size):  # the bound, where there is no range to grid (or effects)
+            if eom.effects or not ranged[i]:
+                out[i] = max_angular_frequency(eom, float(xa[i]), float(va[i]))
+        if eom.effects or not ranged.any():
+            return out
+    sel = np.flatnonzero(ranged)
+    xa, va = xa[sel, None], va[sel, None]
+    n = LOCAL_FREQUENCY_POINTS
+    xs = _linspace_rows(xa, n)
+    vs = _linspace_rows(va, n)
+    m = sel.size
+    xx = np.empty((m, 6, n))
+    vv = np.empty((m, 6, n))
+    for i, sgn in enumerate((0.0, 1.0, -1.0)):
+        xv = sgn * xa  # 0.0, x_amp, -x_amp (exact)
+        xx[:, i] = xs
+        xx[:, 3 + i] = xv
+        vv[:, i] = xv * va / xa
+        vv[:, 3 + i] = vs
+    f = _polynomial_force(eom, xx, vv)
+    k_tan = np.max(np.abs(_gradient_rows(f[:, :3], xs)), axis=(1, 2))
+    c_tan = np.max(np.abs(_gradient_rows(f[:, 3:], vs)), axis=(1, 2))
+    for j, i in enumerate(sel):
+        out[i] = max(math.sqrt(float(k_tan[j]) / eom.mass), float(c_tan[j]) / eom.mass)
+    return out
+
+
+def _linspace_rows(amp: np.ndarray, n: int) -> np.ndarray:
+    """``np.linspace(-a, a, n)`` for each ``a`` of ``amp`` (shape (m, 1)): numpy's arithmetic."""
+    step = (amp - (-amp)) / (n - 1)
+    if not np.all(step != 0.0):  # numpy's path for subnormal ranges
+        return np.stack([np.linspace(-a, a, n) for a in amp[:, 0]])
+    y = np.arange(0, n, dtype=float)[None, :] * step
+    y += -amp
+    y[:, -1] = amp[:, 0]
+    return y
+
+
+def _gradient_rows(f: np.ndarray, xs: np.ndarray) -> np.ndarray:
+    """``np.gradient(f[i], xs[i], axis=1)`` for each ``i`` (``f``: (m, k, n), ``xs``: (m, n)),
+    with numpy's arithmetic (first-order edges; the uniform formula where ``diff(xs[i])`` is
+    constant, the non-uniform one elsewhere)."""
+    dx = np.diff(xs, axis=1)
+    out = np.empty_like(f)
+    dx1, dx2 = dx[:, None, :-1], dx[:, None, 1:]
+    a = -dx2 / (dx1 * (dx1 + dx2))
+    b = (dx2 - dx1) / (dx1 * dx2)
+    c = dx1 / (dx2 * (dx1 + dx2))
+    out[:, :, 1:-1] = a * f[:, :, :-2] + b * f[:, :, 1:-1] + c * f[:, :, 2:]
+    out[:, :, 0] = (f[:, :, 1] - f[:, :, 0]) / dx[:, None, 0]
+    out[:, :, -1] = (f[:, :, -1] - f[:, :, -2]) / dx[:, None, -1]
+    uniform = (dx == dx[:, :1]).all(axis=1)
+    for i in np.flatnonzero(uniform):
+        h = dx[i, 0]
+        out[i, :, 1:-1] = (f[i, :, 2:] - f[i, :, :-2]) / (2.0 * h)
+        out[i, :, 0] = (f[i, :, 1] - f[i, :, 0]) / h
+        out[i, :, -1] = (f[i, :, -1] - f[i, :, -2]) / h
+    return out
 
 
 def _polynomial_force(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -574,7 +634,7 @@ def _at(sim: SimulationResult, at: np.ndarray | None) -> SimulationResult:
                             y=None if sim.y is None else sim.y[at], diverged=sim.diverged, substeps=sim.substeps)
 
 
-def _hermite_at(seg: SimulationResult, q: int, h: float, j: np.ndarray, x: np.ndarray, v: np.ndarray,
+def _hermite_at(seg: "SimulationResult | _Segment", q: int, h: float, j: np.ndarray, x: np.ndarray, v: np.ndarray,
                 a: np.ndarray) -> None:
     """``_hermite_fill`` at the segment's samples ``j`` alone (numpy: the same formulas)."""
     k = j // q
@@ -612,6 +672,7 @@ def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: flo
     """
     length = max(4 * q, -(-(n - start) // DENSE_SEGMENTS))
     s, xs, vs, first = start, x0, v0, 0
+    run = _free_runner(eom)
     while s < n:
         stop = n if n - s < 2 * length else s + max(1, length // q) * q
         idx = np.arange(s, stop, q)
@@ -619,7 +680,7 @@ def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: flo
             idx = np.append(idx, idx[-1] + q)  # one point past the end: the interpolation covers it
         steps = max(1, math.ceil(q * dt * omega / DENSE_STEP_H_OMEGA))
         first = first or steps
-        seg = simulate(eom, (idx - idx[0]) * dt, x0=xs, v0=vs, substeps=steps)
+        seg = run(idx.size, float((idx[1] - idx[0]) * dt), xs, vs, steps)
         if at is None:
             hi = stop
             _KERNELS._hermite_fill(seg.x, seg.v, seg.a, q, q * dt, x[s:stop], v[s:stop], a[s:stop])
@@ -638,6 +699,36 @@ def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: flo
                 q = max(q, int(DENSE_H_OMEGA / (omega * dt)))
         s = stop
     return False, first
+
+
+@dataclass(frozen=True)
+class _Segment:
+    """A force-free run of :func:`_free_runner`: ``x, v, a`` on its grid (views of one array)."""
+
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    diverged: bool
+
+
+def _free_runner(eom: EquationOfMotion):
+    """``simulate(eom, arange(m) * h, x0=x0, v0=v0, substeps=steps)`` of a model without effects,
+    as ``run(m, h, x0, v0, steps) -> _Segment``: the term tables made once for all of
+    :func:`_dense_tail`'s segments, no copies of the columns; the same numbers bit for bit
+    (the same kernel and arguments; ``tests/eddi/test_free_runner.py``)."""
+    exps = exponent_table(eom.damping_terms() + eom.stiffness_terms())
+    coefs = np.array(list(eom.damping.values()) + list(eom.stiffness.values()), dtype=float)
+    eff = _effect_vector(eom)
+    inv_m = 1.0 / eom.mass
+    no_force = np.zeros(0)
+
+    def run(m: int, h: float, x0: float, v0: float, steps: int) -> _Segment:
+        out = np.empty((m, 4))
+        div = _KERNELS._rk4(no_force, h, int(steps), np.array([float(x0), float(v0), 0.0, 0.0]), inv_m, exps,
+                            coefs, eff, out)
+        return _Segment(out[:, 0], out[:, 1], out[:, 2], bool(div >= 0))
+
+    return run
 
 
 #: The compiled kernels (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
