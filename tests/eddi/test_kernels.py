@@ -260,3 +260,23 @@ def test_if_stale_keeps_a_current_module_and_finds_none_where_there_is_none(aot_
         assert kernels.current_module(aot_dir) == so
     finally:
         sys.modules.pop("eddi._aot_kernels", None)
+
+
+def test_the_conditioning_kernels_are_built_and_give_the_jits_numbers(aot_dir: Path) -> None:
+    # session 16: the conditioning's integral and crossings (eddi.calculus, eddi.conditioning.levels)
+    from eddi.kernels import KERNEL_MODULES
+
+    assert {"eddi.calculus", "eddi.conditioning.levels"} <= set(KERNEL_MODULES)
+    rng = np.random.default_rng(9)
+    y = np.cumsum(rng.normal(size=5000))
+    res = []
+    for where in (aot_dir, None):
+        kc, kl = _fresh("eddi.calculus", where), _fresh("eddi.conditioning.levels", where)
+        assert kc.source == kl.source == ("ahead of time" if where else "numba JIT")
+        out = np.empty(y.size)
+        kc._integrate_sum(y, 1e-3, 17, out)
+        cr = np.empty(y.size)
+        k = kl._crossing_scan(y - np.mean(y), 2.0, 3.0, cr)
+        res.append((out, cr[:k]))
+    assert np.array_equal(res[0][0], res[1][0]) and np.array_equal(res[0][1], res[1][1]) and res[0][1].size > 5
+    assert importlib.import_module("eddi.calculus")._KERNELS is not None
