@@ -401,14 +401,14 @@ LOCAL_FREQUENCY_POINTS = 257
 
 
 def local_angular_frequencies(eom: EquationOfMotion, x_amps, v_amps) -> np.ndarray:
-    """:func:`local_angular_frequency` at several ranges ``(x_amps[i], v_amps[i])``, in one evaluation.
+    """:func:`local_angular_frequency` at several ranges ``(x_amps[i], v_amps[i])``.
 
-    The same numbers bit for bit as one call per range (``np.linspace``'s and ``np.gradient``'s
-    arithmetic, element by element, on a ``(ranges, 6, 257)`` array: the six lines ``K`` along
-    ``x`` at ``v = 0, +-v_amp`` and ``B`` along ``v`` at ``x = 0, +-x_amp``). It runs ~30 times per
-    identification (the validation's segments, the refinement's steps: 12 ranges at once) and
-    ~100 per diagnosis fit: a sum of small array operations, so the force is summed without
-    EquationOfMotion.restoring_force's general checks (:func:`_polynomial_force`).
+    The same numbers bit for bit as before session 16 (``tests/eddi/test_local_frequency.py``):
+    the force of :func:`_polynomial_force` on the six lines (``K`` along ``x`` at ``v = 0,
+    +-v_amp``, ``B`` along ``v`` at ``x = 0, +-x_amp``, 257 points each, ``np.linspace``'s grid)
+    and ``np.gradient``'s arithmetic, in one compiled pass per range (:func:`_tangent_max`). It
+    runs ~20 times per identification (the validation's segments, the refinement's 12 amplitude
+    levels) and ~100 per diagnosis fit: the numpy version was ~30 small array operations a range.
     """
     xa = np.array(x_amps, dtype=float).reshape(-1)
     va = np.array(v_amps, dtype=float).reshape(-1)
@@ -420,59 +420,56 @@ def local_angular_frequencies(eom: EquationOfMotion, x_amps, v_amps) -> np.ndarr
                 out[i] = max_angular_frequency(eom, float(xa[i]), float(va[i]))
         if eom.effects or not ranged.any():
             return out
-    sel = np.flatnonzero(ranged)
-    xa, va = xa[sel, None], va[sel, None]
+    terms = {**eom.damping, **eom.stiffness}  # _polynomial_force's terms and order
+    exps = np.array([parse_term(text).exponents for text in terms], dtype=np.int64).reshape(-1, 6)
+    coefs = np.array(list(terms.values()), dtype=float)
     n = LOCAL_FREQUENCY_POINTS
-    xs = _linspace_rows(xa, n)
-    vs = _linspace_rows(va, n)
-    m = sel.size
-    xx = np.empty((m, 6, n))
-    vv = np.empty((m, 6, n))
-    for i, sgn in enumerate((0.0, 1.0, -1.0)):
-        xv = sgn * xa  # 0.0, x_amp, -x_amp (exact)
-        xx[:, i] = xs
-        xx[:, 3 + i] = xv
-        vv[:, i] = xv * va / xa
-        vv[:, 3 + i] = vs
-    f = _polynomial_force(eom, xx, vv)
-    k_tan = np.max(np.abs(_gradient_rows(f[:, :3], xs)), axis=(1, 2))
-    c_tan = np.max(np.abs(_gradient_rows(f[:, 3:], vs)), axis=(1, 2))
-    for j, i in enumerate(sel):
-        out[i] = max(math.sqrt(float(k_tan[j]) / eom.mass), float(c_tan[j]) / eom.mass)
+    tan = np.empty(2)
+    for i in np.flatnonzero(ranged):
+        a, b = float(xa[i]), float(va[i])
+        if not (TINY_RANGE <= a < math.inf and TINY_RANGE <= b < math.inf):
+            out[i] = _local_frequency_numpy(eom, a, b)  # spacings whose products underflow to 0
+            continue
+        _KERNELS._tangent_max(exps, coefs, _linspace(a, n), _linspace(b, n), a, b, tan)
+        out[i] = max(math.sqrt(float(tan[0]) / eom.mass), float(tan[1]) / eom.mass)
     return out
 
 
-def _linspace_rows(amp: np.ndarray, n: int) -> np.ndarray:
-    """``np.linspace(-a, a, n)`` for each ``a`` of ``amp`` (shape (m, 1)): numpy's arithmetic."""
-    step = (amp - (-amp)) / (n - 1)
-    if not np.all(step != 0.0):  # numpy's path for subnormal ranges
-        return np.stack([np.linspace(-a, a, n) for a in amp[:, 0]])
-    y = np.arange(0, n, dtype=float)[None, :] * step
-    y += -amp
-    y[:, -1] = amp[:, 0]
+#: Below this range the grid's spacings (range / 128) multiply to a subnormal or 0, which the
+#: compiled kernel would divide by (an exception there, inf / NaN in numpy): numpy answers.
+TINY_RANGE = 1e-140
+
+
+def _local_frequency_numpy(eom: EquationOfMotion, x_amp: float, v_amp: float) -> float:
+    """:func:`local_angular_frequency` of a model without effects as numpy computed it before
+    session 16 (the compiled :func:`_tangent_max` gives the same numbers)."""
+    n = LOCAL_FREQUENCY_POINTS
+    xs = np.linspace(-x_amp, x_amp, n)
+    vs = np.linspace(-v_amp, v_amp, n)
+    xx = np.empty(6 * n)
+    vv = np.empty(6 * n)
+    for i, xv in enumerate((0.0, x_amp, -x_amp)):
+        xx[i * n:(i + 1) * n] = xs
+        xx[(3 + i) * n:(4 + i) * n] = xv
+        vv[i * n:(i + 1) * n] = xv * v_amp / x_amp
+        vv[(3 + i) * n:(4 + i) * n] = vs
+    with np.errstate(all="ignore"):
+        f = _polynomial_force(eom, xx, vv).reshape(6, n)
+        k_tan = float(np.max(np.abs(np.gradient(f[:3], xs, axis=1))))
+        c_tan = float(np.max(np.abs(np.gradient(f[3:], vs, axis=1))))
+    return max(math.sqrt(k_tan / eom.mass), c_tan / eom.mass)
+
+
+def _linspace(a: float, n: int) -> np.ndarray:
+    """``np.linspace(-a, a, n)`` with numpy's arithmetic (its ~10 us of argument handling spared)."""
+    step = (a - (-a)) / (n - 1)
+    if step == 0.0:  # numpy's path for subnormal ranges
+        return np.linspace(-a, a, n)
+    y = np.arange(0, n, dtype=float)
+    y *= step
+    y += -a
+    y[-1] = a
     return y
-
-
-def _gradient_rows(f: np.ndarray, xs: np.ndarray) -> np.ndarray:
-    """``np.gradient(f[i], xs[i], axis=1)`` for each ``i`` (``f``: (m, k, n), ``xs``: (m, n)),
-    with numpy's arithmetic (first-order edges; the uniform formula where ``diff(xs[i])`` is
-    constant, the non-uniform one elsewhere)."""
-    dx = np.diff(xs, axis=1)
-    out = np.empty_like(f)
-    dx1, dx2 = dx[:, None, :-1], dx[:, None, 1:]
-    a = -dx2 / (dx1 * (dx1 + dx2))
-    b = (dx2 - dx1) / (dx1 * dx2)
-    c = dx1 / (dx2 * (dx1 + dx2))
-    out[:, :, 1:-1] = a * f[:, :, :-2] + b * f[:, :, 1:-1] + c * f[:, :, 2:]
-    out[:, :, 0] = (f[:, :, 1] - f[:, :, 0]) / dx[:, None, 0]
-    out[:, :, -1] = (f[:, :, -1] - f[:, :, -2]) / dx[:, None, -1]
-    uniform = (dx == dx[:, :1]).all(axis=1)
-    for i in np.flatnonzero(uniform):
-        h = dx[i, 0]
-        out[i, :, 1:-1] = (f[i, :, 2:] - f[i, :, :-2]) / (2.0 * h)
-        out[i, :, 0] = (f[i, :, 1] - f[i, :, 0]) / h
-        out[i, :, -1] = (f[i, :, -1] - f[i, :, -2]) / h
-    return out
 
 
 def _polynomial_force(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -701,6 +698,98 @@ def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: flo
     return False, first
 
 
+def _power_of(y, p):  # pragma: no cover - compiled
+    """:func:`eddi.terms._power` of one value (``y**p``: ``y``, ``y*y``, then repeated products)."""
+    if p == 1:
+        return y
+    out = y * y
+    for _ in range(p - 2):
+        out *= y
+    return out
+
+
+def _force_at(exps, coefs, x, v):  # pragma: no cover - compiled
+    """:func:`_polynomial_force` at one point: each term's factors multiplied in
+    :func:`eddi.terms._factor_product`'s order, times its coefficient, the first plus 0.0, the
+    others added in order (the same operations, so the same number)."""
+    total = 0.0
+    for i in range(exps.shape[0]):
+        have = False
+        prod = 1.0
+        for k in range(6):
+            p = exps[i, k]
+            if k >= 4:
+                p = p % 2
+            if p == 0:
+                continue
+            if k == 0:
+                fac = _power_of(x, p)
+            elif k == 1:
+                fac = _power_of(v, p)
+            elif k == 2:
+                fac = _power_of(abs(x), p)
+            elif k == 3:
+                fac = _power_of(abs(v), p)
+            else:
+                y = x if k == 4 else v
+                fac = 1.0 if y > 0.0 else (-1.0 if y < 0.0 else (y if y != y else 0.0))  # np.sign
+            if have:
+                prod *= fac
+            else:
+                prod = fac
+                have = True
+        f = coefs[i] * prod
+        if i == 0:
+            total = f + 0.0
+        else:
+            total += f
+    return total
+
+
+def _tangent_max(exps, coefs, xs, vs, xa, va, out):  # pragma: no cover - compiled
+    """:func:`local_angular_frequencies`' largest ``|dK/dx|`` (``out[0]``, along ``x`` at
+    ``v = 0, +-va``) and ``|dB/dv|`` (``out[1]``, along ``v`` at ``x = 0, +-xa``) of one range:
+    the force on the six lines and ``np.gradient``'s arithmetic (first-order edges; the
+    uniform formula when the spacing is constant), the maximum propagating a NaN as ``np.max``."""
+    n = xs.shape[0]
+    f = np.empty(n)
+    for axis in range(2):
+        grid = xs if axis == 0 else vs
+        uniform = True
+        for j in range(1, n - 1):
+            if (grid[j + 1] - grid[j]) != (grid[1] - grid[0]):
+                uniform = False
+        best = 0.0
+        nan = False
+        for line in range(3):
+            other = 0.0 if line == 0 else (xa if line == 1 else -xa)
+            for j in range(n):
+                if axis == 0:
+                    f[j] = _force_at(exps, coefs, grid[j], other * va / xa)
+                else:
+                    f[j] = _force_at(exps, coefs, other, grid[j])
+            for j in range(n):
+                if j == 0:
+                    g = (f[1] - f[0]) / (grid[1] - grid[0])
+                elif j == n - 1:
+                    g = (f[n - 1] - f[n - 2]) / (grid[n - 1] - grid[n - 2])
+                elif uniform:
+                    g = (f[j + 1] - f[j - 1]) / (2.0 * (grid[1] - grid[0]))
+                else:
+                    dx1 = grid[j] - grid[j - 1]
+                    dx2 = grid[j + 1] - grid[j]
+                    a = -dx2 / (dx1 * (dx1 + dx2))
+                    b = (dx2 - dx1) / (dx1 * dx2)
+                    c = dx1 / (dx2 * (dx1 + dx2))
+                    g = a * f[j - 1] + b * f[j] + c * f[j + 1]
+                g = abs(g)
+                if g != g:
+                    nan = True
+                elif g > best:
+                    best = g
+        out[axis] = np.nan if nan else best
+
+
 @dataclass(frozen=True)
 class _Segment:
     """A force-free run of :func:`_free_runner`: ``x, v, a`` on its grid (views of one array)."""
@@ -736,4 +825,5 @@ _KERNELS = Kernels(globals(), {
     "_rk4": ["i8(f8[::1], f8, i8, f8[::1], f8, i8[:, ::1], f8[::1], f8[::1], f8[:, ::1])"],
     "_internal_many": ["void(f8[::1], f8[::1], i8[:, ::1], f8[::1], f8[::1], f8[::1])"],
     "_hermite_fill": ["void(f8[:], f8[:], f8[:], i8, f8, f8[:], f8[:], f8[:])"],
-}, callees=("_internal",))
+    "_tangent_max": ["void(i8[:, ::1], f8[::1], f8[::1], f8[::1], f8, f8, f8[::1])"],
+}, callees=("_internal", "_power_of", "_force_at"))
