@@ -290,4 +290,13 @@ def test_the_conditioning_kernels_are_built_and_give_the_jits_numbers(aot_dir: P
         ks._tangent_max(exps, coefs, np.linspace(-0.01, 0.01, 257), np.linspace(-2.0, 2.0, 257), 0.01, 2.0, tan)
         tans.append(tan)
     assert np.array_equal(tans[0], tans[1]) and tans[0][0] > 2.1e4
+    # and the input checks (eddi.conditioning.checks, session 16)
+    t = np.arange(3000) / 19200.0
+    verdicts = []
+    for where in (aot_dir, None):
+        kk = _fresh("eddi.conditioning.checks", where)
+        steps = np.empty(2)
+        verdicts.append((kk._finite(t), kk._finite(np.append(t, np.nan)), kk._steps(t, steps), tuple(steps),
+                         kk._time_on_grid(t, 1.0 / 19200.0), kk._time_on_grid(t[::-1].copy(), -1.0 / 19200.0)))
+    assert verdicts[0] == verdicts[1] and verdicts[0][:3] == (True, False, True) and verdicts[0][4:] == (True, False)
     assert importlib.import_module("eddi.calculus")._KERNELS is not None
