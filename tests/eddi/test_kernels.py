@@ -299,4 +299,13 @@ def test_the_conditioning_kernels_are_built_and_give_the_jits_numbers(aot_dir: P
         verdicts.append((kk._finite(t), kk._finite(np.append(t, np.nan)), kk._steps(t, steps), tuple(steps),
                          kk._time_on_grid(t, 1.0 / 19200.0), kk._time_on_grid(t[::-1].copy(), -1.0 / 19200.0)))
     assert verdicts[0] == verdicts[1] and verdicts[0][:3] == (True, False, True) and verdicts[0][4:] == (True, False)
+    # and the drift spline's evaluation (eddi.conditioning.kinematics, session 16)
+    fills = []
+    for where in (aot_dir, None):
+        kk = _fresh("eddi.conditioning.kinematics", where)
+        d, dd = np.zeros(3000), np.ones(3000)
+        kk._horner_fill(t, np.array([0, 1000], dtype=np.int64), np.array([1000, 3000], dtype=np.int64),
+                        np.array([0.0, t[1000]]), np.array([[1.0, -2.0, 3.0, 4.0], [5.0, 6.0, -7.0, 8.0]]), 1, d, dd)
+        fills.append((d, dd))
+    assert np.array_equal(fills[0][0], fills[1][0]) and np.array_equal(fills[0][1], fills[1][1]) and fills[0][0][0] == -4.0
     assert importlib.import_module("eddi.calculus")._KERNELS is not None

@@ -1,4 +1,4 @@
-"""Session 16 (s16ident): the conditioning's two record-length passes compiled, bit for bit.
+"""Session 16 (s16ident): the conditioning's record-length passes compiled, bit for bit.
 
 :func:`eddi.calculus.integrate` (the 4th-order cumulative integral, twice per acceleration
 record) and :func:`eddi.conditioning.levels.crossings` (twice per record) ran as 6-8 numpy passes
@@ -74,3 +74,30 @@ def test_the_ring_down_crossings_and_integral_are_exact():
     v = integrate(a, 1.0 / rate)
     xi = integrate(v + w, 1.0 / rate)  # v(0) = w
     assert np.max(np.abs(xi - x)) < 1e-6
+
+
+def test_drift_spline_evaluation_compiled_is_the_numpy_loop_bit_for_bit():
+    """The drift spline's Horner evaluation on every sample (kinematics._horner_fill, session 16)
+    against the numpy loop (strided inputs take it), written and subtracted in place."""
+    from scipy.interpolate import BSpline
+
+    from eddi.conditioning import kinematics
+
+    assert kinematics._KERNELS is not None
+    rng = np.random.default_rng(11)
+    for case in range(80):
+        n = int(rng.integers(50, 20000))
+        t = np.sort(rng.uniform(0, 10, n)) if case % 2 else np.arange(n) / 1000.0
+        inner = np.linspace(t[0], t[-1], int(rng.integers(1, 12)) + 1)
+        knots = np.concatenate(([t[0]] * 3, inner, [t[-1]] * 3))
+        spl = BSpline(knots, rng.normal(size=knots.size - 4) * 10 ** rng.uniform(-6, 2), 3, extrapolate=False)
+        start = int(rng.integers(0, n // 2))
+        got = kinematics._drift_spline_eval(spl, t, start)
+        want = kinematics._drift_spline_eval(spl, _strided(t), start)
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+        assert not got[0][:start].any() and got[0][start:].any()
+        x, v = rng.normal(size=n), rng.normal(size=n)
+        xs, vs = _strided(x), _strided(v)
+        kinematics._drift_spline_eval(spl, t, start, minus=(x, v))
+        kinematics._drift_spline_eval(spl, _strided(t), start, minus=(xs, vs))
+        assert np.array_equal(x, xs) and np.array_equal(v, vs)
