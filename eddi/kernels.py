@@ -42,8 +42,8 @@ from typing import Any, Callable
 
 AOT_NAME = "_aot_kernels"
 #: The modules whose kernels go into the built module.
-KERNEL_MODULES = ("eddi.simulate", "eddi.sensitivity", "eddi.iir", "eddi.hysteresis", "eddi.calculus",
-                  "eddi.conditioning.levels", "eddi.conditioning.checks",
+KERNEL_MODULES = ("eddi.simulate", "eddi.local_frequency", "eddi.sensitivity", "eddi.iir", "eddi.hysteresis",
+                  "eddi.calculus", "eddi.conditioning.levels", "eddi.conditioning.checks",
                   "eddi.conditioning.kinematics")
 
 

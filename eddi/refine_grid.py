@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from eddi.model import EquationOfMotion
-from eddi.simulate import local_angular_frequencies, local_angular_frequency
+from eddi.local_frequency import local_angular_frequencies, local_angular_frequency
 
 
 #: Largest ``omega_max * block * dt`` (rad) of a block: the block mean then differs from the

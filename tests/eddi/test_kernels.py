@@ -279,13 +279,13 @@ def test_the_conditioning_kernels_are_built_and_give_the_jits_numbers(aot_dir: P
         k = kl._crossing_scan(y - np.mean(y), 2.0, 3.0, cr)
         res.append((out, cr[:k]))
     assert np.array_equal(res[0][0], res[1][0]) and np.array_equal(res[0][1], res[1][1]) and res[0][1].size > 5
-    # and the simulator's local frequency (eddi.simulate._tangent_max, session 16)
+    # and the simulator's local frequency (eddi.local_frequency._tangent_max, session 16)
     exps = np.array([[1, 0, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0], [3, 0, 0, 0, 0, 0], [2, 1, 0, 0, 0, 0],
                      [0, 0, 0, 1, 0, 1]], dtype=np.int64)
     coefs = np.array([2.1e4, 0.9, 4e7, 40.0, 0.3])
     tans = []
     for where in (aot_dir, None):
-        ks = _fresh("eddi.simulate", where)
+        ks = _fresh("eddi.local_frequency", where)
         tan = np.empty(2)
         ks._tangent_max(exps, coefs, np.linspace(-0.01, 0.01, 257), np.linspace(-2.0, 2.0, 257), 0.01, 2.0, tan)
         tans.append(tan)
