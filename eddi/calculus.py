@@ -40,6 +40,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from eddi.kernels import Kernels
+
 #: Largest relative difference of sample rates :func:`common_rate` accepts (200 ppm).
 RATE_TOLERANCE = 200e-6
 #: Below this many samples per cycle the pipeline warns (accuracy of EDDI worsens quickly).
@@ -117,6 +119,11 @@ def integrate(y: np.ndarray, dt: float, smooth_from: int = 0, out: np.ndarray | 
         out[:] = 0.0
         return out
     out[0] = 0.0
+    if n >= 4 and y.flags.c_contiguous and out.flags.c_contiguous:
+        # one compiled pass: the same increments and running sum (np.cumsum adds in order), bit
+        # for bit (the numpy passes below cost ~4x as much on the 45 s record: 8 passes over it)
+        _KERNELS._integrate_sum(y, float(dt), min(max(1, int(smooth_from)), n - 2), out)
+        return out
     inc = out[1:]  # the increments, summed in place (no temporaries of the record's length)
     k = max(1, int(smooth_from)) if n >= 4 else n - 1
     k = min(k, n - 2) if n >= 4 else k
@@ -435,3 +442,25 @@ def bspline_design_matrix(x: np.ndarray, knots: np.ndarray, k: int = 3):
                          " or not finite")
     return BSpline.design_matrix(x, knots, k, extrapolate=True)
 
+
+def _integrate_sum(y, dt, k, out):  # pragma: no cover - compiled
+    """:func:`integrate`'s increments and their running sum in one pass (``n >= 4``, ``1 <= k <= n - 2``):
+    the trapezoid before interval ``k``, the 4th-order stencil to interval ``n - 3``, the
+    trapezoid on the last; each increment as the numpy passes form it, summed in order."""
+    n = y.shape[0]
+    h = 0.5 * dt
+    c = dt / 24.0
+    s = 0.0
+    out[0] = 0.0
+    for j in range(k):
+        s += (y[j] + y[j + 1]) * h
+        out[j + 1] = s
+    for j in range(k, n - 2):
+        s += ((((y[j] + y[j + 1]) * 13.0) - y[j - 1]) - y[j + 2]) * c
+        out[j + 1] = s
+    s += h * (y[n - 2] + y[n - 1])
+    out[n - 1] = s
+
+
+#: The compiled kernel (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
+_KERNELS = Kernels(globals(), {"_integrate_sum": ["void(f8[::1], f8, i8, f8[::1])"]})

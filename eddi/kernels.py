@@ -1,7 +1,8 @@
 """The compiled kernels of the simulator: built ahead of time, or compiled by numba when used.
 
 The RK4 kernels of :mod:`eddi.simulate` and :mod:`eddi.sensitivity` (and the IIR filter of
-:mod:`eddi.iir`, the Bouc-Wen operator of :mod:`eddi.hysteresis`) are plain Python source
+:mod:`eddi.iir`, the Bouc-Wen operator of :mod:`eddi.hysteresis`, the conditioning's integral
+and zero crossings in :mod:`eddi.calculus` and :mod:`eddi.conditioning.levels`) are plain Python source
 compiled by numba. Compiled at first use (JIT) they cost every process numba's import and
 set-up (~0.5 s of CPU even when its on-disk cache holds them) and the first run after an
 installation ~2.5 s of compilation. Built ahead of time (``python -m eddi.kernels``: the same
@@ -41,7 +42,9 @@ from typing import Any, Callable
 
 AOT_NAME = "_aot_kernels"
 #: The modules whose kernels go into the built module.
-KERNEL_MODULES = ("eddi.simulate", "eddi.sensitivity", "eddi.iir", "eddi.hysteresis")
+KERNEL_MODULES = ("eddi.simulate", "eddi.local_frequency", "eddi.sensitivity", "eddi.iir", "eddi.hysteresis",
+                  "eddi.calculus", "eddi.conditioning.levels", "eddi.conditioning.checks",
+                  "eddi.conditioning.kinematics")
 
 
 def _aot_dir() -> Path:

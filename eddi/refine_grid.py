@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from eddi.model import EquationOfMotion
-from eddi.simulate import local_angular_frequency
+from eddi.local_frequency import local_angular_frequencies, local_angular_frequency
 
 
 #: Largest ``omega_max * block * dt`` (rad) of a block: the block mean then differs from the
@@ -64,7 +64,7 @@ def local_substeps(eom: EquationOfMotion, h: float, x_abs: np.ndarray, v_abs: np
         return np.full(max(1, ax.size - 1), most, dtype=np.int64)
     levels = np.geomspace(max(ax[0] * 1e-3, float(ax[-1]) or ax[0] * 1e-3), ax[0], 12)
     ratio = av[0] / ax[0]
-    omega = np.array([local_angular_frequency(eom, a, a * ratio) for a in levels])
+    omega = local_angular_frequencies(eom, levels, levels * ratio)  # one evaluation of the 12 ranges
     om = np.interp(ax[:-1], levels, omega)
     # the next level up bounds the interpolation between levels
     steps = np.ceil(h * np.maximum(om, np.interp(ax[:-1] * 1.2, levels, omega)) / LOCAL_H_OMEGA).astype(np.int64)

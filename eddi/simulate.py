@@ -22,7 +22,10 @@ import numpy as np
 from eddi.errors import ModelError, SignalError
 from eddi.kernels import Kernels
 from eddi.model import EquationOfMotion
-from eddi.terms import exponent_table, parse_term
+from eddi.local_frequency import _polynomial_force as _polynomial_force  # re-exported (tests)
+from eddi.local_frequency import local_angular_frequencies as local_angular_frequencies  # re-exported
+from eddi.local_frequency import local_angular_frequency, max_angular_frequency
+from eddi.terms import exponent_table
 
 # Layout of the effect parameter vector handed to the kernel.
 _E_COULOMB, _E_VS, _E_QUAD, _E_GAP, _E_KC, _E_K2, _E_K4 = 0, 1, 2, 3, 4, 5, 6
@@ -193,49 +196,6 @@ def _effect_vector(eom: EquationOfMotion) -> np.ndarray:
     return eff
 
 
-def max_angular_frequency(eom: EquationOfMotion, x_scale: float = 0.0, v_scale: float = 0.0) -> float:
-    """Largest local angular frequency [rad/s] the model reaches for ``|x| <= x_scale``.
-
-    Uses the tangent stiffness ``|dK/dx|`` and the tangent damping ``|dB/dv| / m`` of every
-    term at the given scales; the second mode's own frequency is included.
-    """
-    k_tan = 0.0
-    c_tan = 0.0
-    xs = max(abs(x_scale), 0.0)
-    vs = max(abs(v_scale), 0.0)
-    for text, c in eom.stiffness.items():
-        t = parse_term(text)
-        deg = t.x_degree
-        if deg >= 1:
-            k_tan += abs(c) * deg * (xs ** (deg - 1) if deg > 1 else 1.0)
-    for text, c in eom.damping.items():
-        t = parse_term(text)
-        dv = t.v_degree
-        dx = t.x_degree
-        if dv >= 1:
-            c_tan += abs(c) * dv * (vs ** (dv - 1) if dv > 1 else 1.0) * (xs**dx if dx else 1.0)
-    omega2 = 0.0
-    for e in eom.effects:
-        p = e.params
-        if e.name == "clearance":
-            k_tan += abs(p["stiffness_n_per_m"])
-        elif e.name == "asymmetric_stiffness":
-            k_tan += abs(p["k2"]) * 2 * xs + abs(p["k4"]) * 4 * xs**3
-        elif e.name == "second_mode":
-            k_tan += abs(p["coupling_n_per_m"])
-            omega2 = (abs(p["stiffness_n_per_m"]) + abs(p["coupling_n_per_m"])) / p["mass_kg"]
-            c_tan = max(c_tan, 0.0)
-        elif e.name == "quadratic_damping":
-            c_tan += abs(p["coefficient"]) * 2 * vs
-        elif e.name == "hysteresis":
-            k_tan += abs(p["yield_force_n"]) / p["yield_displacement_m"]
-        elif e.name == "coulomb_friction":
-            c_tan += abs(p["force_n"]) / p["velocity_scale"] * 0.0  # smoothed; not a rate limit
-    omega = math.sqrt(k_tan / eom.mass) if k_tan > 0 else 0.0
-    omega = max(omega, math.sqrt(omega2), c_tan / eom.mass)
-    return omega
-
-
 #: Most RK4 sub-steps per output interval: 64 steps of ``omega h = 0.1`` span 6.4 rad, twice the
 #: Nyquist frequency of the output grid; a model that needs more at the record's amplitudes
 #: oscillates faster than the record can show (a wild fit, not the structure) and is left to
@@ -385,53 +345,6 @@ def free_simulator(eom: EquationOfMotion, t: np.ndarray, *, force: np.ndarray | 
     return run
 
 
-def local_angular_frequency(eom: EquationOfMotion, x_amp: float, v_amp: float) -> float:
-    """Largest local angular frequency [rad/s] of ``eom`` over ``|x| <= x_amp``, ``|v| <= v_amp``.
-
-    From the tangent stiffness ``|dK/dx|`` and tangent damping ``|dB/dv|`` evaluated on a grid
-    of the range (not the sum of ``|c|`` bounds of :func:`max_angular_frequency`, which
-    alternating-sign polynomials inflate several times); models with effects, or without a
-    range, use that bound.
-    """
-    if eom.effects or not (x_amp > 0 and v_amp > 0):
-        return max_angular_frequency(eom, x_amp, v_amp)
-    n = 257
-    xs = np.linspace(-x_amp, x_amp, n)
-    vs = np.linspace(-v_amp, v_amp, n)
-    # the six lines (K along x at v = 0, +-v_amp, B along v at x = 0, +-x_amp) in one evaluation
-    # (this runs ~30 times per identification, ~100 per diagnosis fit: a sum of small array
-    # operations, so the arrays are filled in place and the force summed without
-    # EquationOfMotion.restoring_force's general checks; the same numbers bit for bit)
-    xx = np.empty(6 * n)
-    vv = np.empty(6 * n)
-    for i, xv in enumerate((0.0, x_amp, -x_amp)):
-        xx[i * n:(i + 1) * n] = xs
-        xx[(3 + i) * n:(4 + i) * n] = xv
-        vv[i * n:(i + 1) * n] = xv * v_amp / x_amp
-        vv[(3 + i) * n:(4 + i) * n] = vs
-    f = _polynomial_force(eom, xx, vv).reshape(6, n)
-    k_tan = float(np.max(np.abs(np.gradient(f[:3], xs, axis=1))))
-    c_tan = float(np.max(np.abs(np.gradient(f[3:], vs, axis=1))))
-    return max(math.sqrt(k_tan / eom.mass), c_tan / eom.mass)
-
-
-def _polynomial_force(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """:meth:`EquationOfMotion.restoring_force` of a model without effects, on two float arrays of
-    one shape, bit for bit: each term as :meth:`eddi.terms.Term.evaluate_unchecked` gives it, times
-    its coefficient, the first term plus 0.0 and the others added in order, as that method sums
-    them; without its checks and broadcasting (~2x faster on :func:`local_angular_frequency`'s
-    1542 points; ``tests/eddi/test_local_frequency.py`` compares the two)."""
-    total = None
-    for text, c in {**eom.damping, **eom.stiffness}.items():
-        f = c * parse_term(text).evaluate_unchecked(x, v)
-        if total is None:
-            f += 0.0
-            total = f
-        else:
-            total += f
-    return np.zeros(x.shape) if total is None else total
-
-
 #: Dense output: largest ``omega * q * dt`` of the coarse output grid (cubic Hermite
 #: interpolation error ~``(omega h)^4 / 384``: 4e-6 relative at 0.2) ...
 DENSE_H_OMEGA = 0.2
@@ -574,7 +487,7 @@ def _at(sim: SimulationResult, at: np.ndarray | None) -> SimulationResult:
                             y=None if sim.y is None else sim.y[at], diverged=sim.diverged, substeps=sim.substeps)
 
 
-def _hermite_at(seg: SimulationResult, q: int, h: float, j: np.ndarray, x: np.ndarray, v: np.ndarray,
+def _hermite_at(seg: "SimulationResult | _Segment", q: int, h: float, j: np.ndarray, x: np.ndarray, v: np.ndarray,
                 a: np.ndarray) -> None:
     """``_hermite_fill`` at the segment's samples ``j`` alone (numpy: the same formulas)."""
     k = j // q
@@ -612,6 +525,7 @@ def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: flo
     """
     length = max(4 * q, -(-(n - start) // DENSE_SEGMENTS))
     s, xs, vs, first = start, x0, v0, 0
+    run = _free_runner(eom)
     while s < n:
         stop = n if n - s < 2 * length else s + max(1, length // q) * q
         idx = np.arange(s, stop, q)
@@ -619,7 +533,7 @@ def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: flo
             idx = np.append(idx, idx[-1] + q)  # one point past the end: the interpolation covers it
         steps = max(1, math.ceil(q * dt * omega / DENSE_STEP_H_OMEGA))
         first = first or steps
-        seg = simulate(eom, (idx - idx[0]) * dt, x0=xs, v0=vs, substeps=steps)
+        seg = run(idx.size, float((idx[1] - idx[0]) * dt), xs, vs, steps)
         if at is None:
             hi = stop
             _KERNELS._hermite_fill(seg.x, seg.v, seg.a, q, q * dt, x[s:stop], v[s:stop], a[s:stop])
@@ -638,6 +552,36 @@ def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: flo
                 q = max(q, int(DENSE_H_OMEGA / (omega * dt)))
         s = stop
     return False, first
+
+
+@dataclass(frozen=True)
+class _Segment:
+    """A force-free run of :func:`_free_runner`: ``x, v, a`` on its grid (views of one array)."""
+
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    diverged: bool
+
+
+def _free_runner(eom: EquationOfMotion):
+    """``simulate(eom, arange(m) * h, x0=x0, v0=v0, substeps=steps)`` of a model without effects,
+    as ``run(m, h, x0, v0, steps) -> _Segment``: the term tables made once for all of
+    :func:`_dense_tail`'s segments, no copies of the columns; the same numbers bit for bit
+    (the same kernel and arguments; ``tests/eddi/test_free_runner.py``)."""
+    exps = exponent_table(eom.damping_terms() + eom.stiffness_terms())
+    coefs = np.array(list(eom.damping.values()) + list(eom.stiffness.values()), dtype=float)
+    eff = _effect_vector(eom)
+    inv_m = 1.0 / eom.mass
+    no_force = np.zeros(0)
+
+    def run(m: int, h: float, x0: float, v0: float, steps: int) -> _Segment:
+        out = np.empty((m, 4))
+        div = _KERNELS._rk4(no_force, h, int(steps), np.array([float(x0), float(v0), 0.0, 0.0]), inv_m, exps,
+                            coefs, eff, out)
+        return _Segment(out[:, 0], out[:, 1], out[:, 2], bool(div >= 0))
+
+    return run
 
 
 #: The compiled kernels (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).

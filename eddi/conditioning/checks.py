@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from eddi.errors import SignalError
+from eddi.kernels import Kernels
 
 
 
@@ -22,6 +23,9 @@ def check_time(t: np.ndarray) -> float:
     t = np.asarray(t, dtype=float)
     if t.ndim != 1 or t.size < 16:
         raise SignalError(f"time must be a 1-D array of at least 16 samples, got shape {t.shape}")
+    step = (t[-1] - t[0]) / (t.size - 1)
+    if t.flags.c_contiguous and _KERNELS._time_on_grid(t, float(step)):
+        return 1.0 / step  # one compiled pass found every check passed (else the messages below)
     if not np.isfinite(t).all():
         bad = np.nonzero(~np.isfinite(t))[0]
         raise SignalError(f"time is NaN or infinite at sample {int(bad[0])}")
@@ -57,6 +61,8 @@ def check_channel(name: str, y: np.ndarray, n: int) -> np.ndarray:
     y = np.asarray(y, dtype=float)
     if y.shape != (n,):
         raise SignalError(f"channel {name!r} has shape {y.shape}, expected ({n},) like the time")
+    if all_finite(y):
+        return y
     bad = np.nonzero(~np.isfinite(y))[0]
     if bad.size:
         raise SignalError(f"channel {name!r} is NaN or infinite at sample {int(bad[0])}")
@@ -188,3 +194,70 @@ def dropout_runs(y: np.ndarray, max_run: int = 8) -> list[tuple[int, int]]:
             moving.append((int(a), int(b)))
     guess = fill_gaps(y, zero, runs=moving)  # the cubics of those runs only (a quantized rest has hundreds)
     return [(a, b) for a, b in moving if float(np.max(np.abs(guess[a:b]))) > level]
+
+
+def all_finite(y: np.ndarray) -> bool:
+    """``np.isfinite(y).all()`` of a 1-D float array (compiled, no temporary, when contiguous)."""
+    if y.ndim == 1 and y.dtype == np.float64 and y.flags.c_contiguous:
+        return bool(_KERNELS._finite(y))
+    return bool(np.isfinite(y).all())
+
+
+def time_steps(t: np.ndarray) -> tuple[float, float] | None:
+    """``(min, max)`` of ``np.diff(t)`` when ``t`` (1-D float, contiguous, >= 2 samples) is finite
+    and strictly increasing; None otherwise (or for another layout: the caller's numpy checks
+    then answer, with their messages)."""
+    if not (t.ndim == 1 and t.size >= 2 and t.dtype == np.float64 and t.flags.c_contiguous):
+        return None
+    out = np.empty(2)
+    return (float(out[0]), float(out[1])) if _KERNELS._steps(t, out) else None
+
+
+def _finite(y):  # pragma: no cover - compiled
+    for i in range(y.shape[0]):
+        if not np.isfinite(y[i]):
+            return False
+    return True
+
+
+def _steps(t, out):  # pragma: no cover - compiled
+    """Whether ``t`` is finite and strictly increasing; ``out``: the smallest and largest step."""
+    if not np.isfinite(t[0]):
+        return False
+    lo = np.inf
+    hi = -np.inf
+    for i in range(1, t.shape[0]):
+        if not np.isfinite(t[i]):
+            return False
+        d = t[i] - t[i - 1]
+        if not d > 0.0:
+            return False
+        lo = min(lo, d)
+        hi = max(hi, d)
+    out[0] = lo
+    out[1] = hi
+    return True
+
+
+def _time_on_grid(t, step):  # pragma: no cover - compiled
+    """:func:`check_time`'s checks in one pass: finite, increasing, and every sample within 1 %
+    of a step of ``t[0] + step i`` (its deviation formed as the numpy passes form it)."""
+    t0 = t[0]
+    if not np.isfinite(t0):
+        return False
+    worst = 0.0
+    for i in range(t.shape[0]):
+        ti = t[i]
+        if not np.isfinite(ti):
+            return False
+        if i > 0 and not (ti - t[i - 1]) > 0.0:
+            return False
+        dev = abs((float(i) * step + t0) - ti)
+        if dev > worst:
+            worst = dev
+    return not worst > 0.01 * step
+
+
+#: The compiled kernels (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
+_KERNELS = Kernels(globals(), {"_finite": ["b1(f8[::1])"], "_steps": ["b1(f8[::1], f8[::1])"],
+                               "_time_on_grid": ["b1(f8[::1], f8)"]})

@@ -12,6 +12,7 @@ from eddi.calculus import bspline_design_matrix, cumulative_trapezoid
 from eddi.conditioning.checks import check_time
 from eddi.conditioning.equilibrium import _spectral_peaks
 from eddi.conditioning.levels import _at, crossings, noise_rms
+from eddi.kernels import Kernels
 
 
 
@@ -162,6 +163,11 @@ def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int,
     last = np.searchsorted(ts, hi, side="left")
     last[-1] = np.searchsorted(ts, hi[-1], side="right")
     dv, ddv = d[start:], dd[start:]
+    if ts.flags.c_contiguous and dv.flags.c_contiguous and ddv.flags.c_contiguous and c.shape[0] == 4:
+        # one compiled pass (the same Horner steps per sample, in the same order: bit for bit)
+        _KERNELS._horner_fill(ts, first.astype(np.int64), last.astype(np.int64), np.ascontiguousarray(lo),
+                              np.ascontiguousarray(c[:, keep].T), int(sub), dv, ddv)
+        return d, dd
     for i0, i1, x0, (c3, c2, c1, c0) in zip(first.tolist(), last.tolist(), lo.tolist(), c[:, keep].T.tolist()):
         if i1 <= i0:
             continue
@@ -186,6 +192,30 @@ def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int,
             ddv[i0:i1] = y
     return d, dd
 
+
+
+def _horner_fill(ts, first, last, lo, coef, sub, d, dd):  # pragma: no cover - compiled
+    """:func:`_drift_spline_eval`'s loop: on ``ts[first[k]:last[k]]`` the cubic ``coef[k]``
+    (``c3, c2, c1, c0``) about ``lo[k]`` and its slope, by the numpy passes' Horner steps,
+    written to (``sub`` = 1: subtracted from) ``d, dd``."""
+    for k in range(first.shape[0]):
+        c3 = coef[k, 0]
+        c2 = coef[k, 1]
+        c1 = coef[k, 2]
+        c0 = coef[k, 3]
+        x0 = lo[k]
+        a3 = 3.0 * c3
+        a2 = 2.0 * c2
+        for j in range(first[k], last[k]):
+            u = ts[j] - x0
+            y = ((c3 * u + c2) * u + c1) * u + c0
+            g = (a3 * u + a2) * u + c1
+            if sub:
+                d[j] -= y
+                dd[j] -= g
+            else:
+                d[j] = y
+                dd[j] = g
 
 
 def anchor_residual(x: np.ndarray, v: np.ndarray, a: np.ndarray) -> float:
@@ -217,3 +247,7 @@ def anchor_residual(x: np.ndarray, v: np.ndarray, a: np.ndarray) -> float:
     coef, *_ = np.linalg.lstsq(design, xa, rcond=None)
     return float(np.sqrt(np.mean((xa - design @ coef) ** 2)) / max(np.sqrt(np.mean(x ** 2)), 1e-300))
 
+
+#: The compiled kernel (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
+_KERNELS = Kernels(globals(), {"_horner_fill": ["void(f8[::1], i8[::1], i8[::1], f8[::1], f8[:, ::1], i8, "
+                                                "f8[::1], f8[::1])"]})

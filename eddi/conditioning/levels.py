@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from eddi.kernels import Kernels
+
 
 
 def noise_rms(y: np.ndarray, rest_stop: int) -> float:
@@ -49,6 +51,12 @@ def crossings(y: np.ndarray, hysteresis: float, start: int = 0, stop: int | None
     seg = np.asarray(y[start:stop], float)
     if seg.size < 3:
         return np.zeros(0)
+    if seg.flags.c_contiguous and math.isfinite(hysteresis):
+        # one compiled pass over the samples (the numpy passes below: ~4x the CPU on the 45 s
+        # record); the same crossings bit for bit
+        out = np.empty(seg.size)
+        k = _KERNELS._crossing_scan(seg, float(hysteresis), float(start), out)
+        return out[:k].copy()
     above = seg > hysteresis  # on the positive side
     beyond = seg < -hysteresis
     beyond |= above  # beyond the threshold
@@ -149,3 +157,40 @@ def _pulse_end(y: np.ndarray, start: int, impact_end: int) -> int:
     first_peak = int(np.argmax(seg[: max(4, seg.size // 20)]))
     return start + 2 * first_peak + 3
 
+
+def _crossing_scan(seg, h, start, out):  # pragma: no cover - compiled
+    """:func:`crossings` in one pass: ``out[:k]`` the crossings, ``k`` returned.
+
+    At each sample beyond ``+-h`` on the other side from the last one beyond it (a flip), the
+    last sign-bit change before that sample (between ``i`` and ``i + 1``) gives the crossing
+    ``start + i + clip(y_i / (y_i - y_{i+1}), 0, 1)`` (0.5 where ``y_i == y_{i+1}``); a flip
+    with no sign change before it gives none, as the searchsorted of the numpy passes."""
+    k = 0
+    last = -1  # the last sign change (i, i + 1) before the current sample
+    side = -1  # side of the last sample beyond the threshold (-1: none yet; 1: above; 0: below)
+    prev_neg = np.signbit(seg[0])
+    for j in range(seg.shape[0]):
+        yj = seg[j]
+        neg = np.signbit(yj)
+        if j > 0 and neg != prev_neg:
+            last = j - 1
+        prev_neg = neg
+        above = yj > h
+        if above or yj < -h:
+            s = 1 if above else 0
+            if side >= 0 and s != side and last >= 0:
+                y0 = seg[last]
+                y1 = seg[last + 1]
+                frac = y0 / (y0 - y1) if y1 != y0 else 0.5
+                if frac < 0.0:
+                    frac = 0.0
+                elif frac > 1.0:
+                    frac = 1.0
+                out[k] = (start + last) + frac
+                k += 1
+            side = s
+    return k
+
+
+#: The compiled kernel (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
+_KERNELS = Kernels(globals(), {"_crossing_scan": ["i8(f8[::1], f8, f8, f8[::1])"]})

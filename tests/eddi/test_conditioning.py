@@ -306,7 +306,10 @@ def test_crossings_are_the_index_lists_without_listing_every_sample(block, monke
         n = int(rng.integers(3, 3000))
         y = np.cumsum(rng.standard_normal(n)) * rng.uniform(0.1, 3.0) + rng.standard_normal(n)
         h, start = float(rng.uniform(0.0, 2.0)), int(rng.integers(0, 3))
-        assert np.array_equal(levels.crossings(y, h, start=start), _crossings_by_index_list(y, h, start))
+        want = _crossings_by_index_list(y, h, start)
+        assert np.array_equal(levels.crossings(y, h, start=start), want)  # the compiled scan
+        strided = np.repeat(y, 2)[::2]  # not contiguous: the numpy passes (session 16 kept them)
+        assert np.array_equal(levels.crossings(strided, h, start=start), want)
     t = np.arange(400_000) / 19_200.0
     ring = np.exp(-0.1 * t) * np.sin(2 * np.pi * 15.0 * t) + 1e-3 * rng.standard_normal(t.size)
     sizes = []
@@ -319,8 +322,11 @@ def test_crossings_are_the_index_lists_without_listing_every_sample(block, monke
 
     monkeypatch.setattr(np, "flatnonzero", listed)
     got = levels.crossings(ring, 3e-3)
+    assert not sizes  # the compiled scan lists nothing
+    got_np = levels.crossings(np.repeat(ring, 2)[::2], 3e-3)
     monkeypatch.setattr(np, "flatnonzero", real)
-    assert np.array_equal(got, _crossings_by_index_list(ring, 3e-3)) and got.size > 600
+    want = _crossings_by_index_list(ring, 3e-3)
+    assert np.array_equal(got, want) and np.array_equal(got_np, want) and got.size > 600
     assert max(sizes) <= max(block, 0.1 * t.size)
 
 

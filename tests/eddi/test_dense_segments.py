@@ -19,17 +19,21 @@ V0, XS = 0.47, 0.0111
 
 
 def _steps_counted(monkeypatch) -> list[int]:
-    """RK4 steps of every force-free simulate call simulate_dense makes."""
+    """RK4 steps of every force-free segment simulate_dense runs (eddi.simulate._free_runner:
+    the simulator's kernel, as simulate would run it)."""
     counted: list[int] = []
-    real = sim_mod.simulate
+    real = sim_mod._free_runner
 
-    def counting(eom, t=None, **kw):
-        out = real(eom, t, **kw)
-        if kw.get("force") is None and kw.get("substeps"):
-            counted.append((np.asarray(t).size - 1) * kw["substeps"])
-        return out
+    def counting(eom):
+        run = real(eom)
 
-    monkeypatch.setattr(sim_mod, "simulate", counting)
+        def counted_run(m, h, x0, v0, steps):
+            counted.append((m - 1) * steps)
+            return run(m, h, x0, v0, steps)
+
+        return counted_run
+
+    monkeypatch.setattr(sim_mod, "_free_runner", counting)
     return counted
 
 

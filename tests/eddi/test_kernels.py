@@ -260,3 +260,52 @@ def test_if_stale_keeps_a_current_module_and_finds_none_where_there_is_none(aot_
         assert kernels.current_module(aot_dir) == so
     finally:
         sys.modules.pop("eddi._aot_kernels", None)
+
+
+def test_the_conditioning_kernels_are_built_and_give_the_jits_numbers(aot_dir: Path) -> None:
+    # session 16: the conditioning's integral and crossings (eddi.calculus, eddi.conditioning.levels)
+    from eddi.kernels import KERNEL_MODULES
+
+    assert {"eddi.calculus", "eddi.conditioning.levels"} <= set(KERNEL_MODULES)
+    rng = np.random.default_rng(9)
+    y = np.cumsum(rng.normal(size=5000))
+    res = []
+    for where in (aot_dir, None):
+        kc, kl = _fresh("eddi.calculus", where), _fresh("eddi.conditioning.levels", where)
+        assert kc.source == kl.source == ("ahead of time" if where else "numba JIT")
+        out = np.empty(y.size)
+        kc._integrate_sum(y, 1e-3, 17, out)
+        cr = np.empty(y.size)
+        k = kl._crossing_scan(y - np.mean(y), 2.0, 3.0, cr)
+        res.append((out, cr[:k]))
+    assert np.array_equal(res[0][0], res[1][0]) and np.array_equal(res[0][1], res[1][1]) and res[0][1].size > 5
+    # and the simulator's local frequency (eddi.local_frequency._tangent_max, session 16)
+    exps = np.array([[1, 0, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0], [3, 0, 0, 0, 0, 0], [2, 1, 0, 0, 0, 0],
+                     [0, 0, 0, 1, 0, 1]], dtype=np.int64)
+    coefs = np.array([2.1e4, 0.9, 4e7, 40.0, 0.3])
+    tans = []
+    for where in (aot_dir, None):
+        ks = _fresh("eddi.local_frequency", where)
+        tan = np.empty(2)
+        ks._tangent_max(exps, coefs, np.linspace(-0.01, 0.01, 257), np.linspace(-2.0, 2.0, 257), 0.01, 2.0, tan)
+        tans.append(tan)
+    assert np.array_equal(tans[0], tans[1]) and tans[0][0] > 2.1e4
+    # and the input checks (eddi.conditioning.checks, session 16)
+    t = np.arange(3000) / 19200.0
+    verdicts = []
+    for where in (aot_dir, None):
+        kk = _fresh("eddi.conditioning.checks", where)
+        steps = np.empty(2)
+        verdicts.append((kk._finite(t), kk._finite(np.append(t, np.nan)), kk._steps(t, steps), tuple(steps),
+                         kk._time_on_grid(t, 1.0 / 19200.0), kk._time_on_grid(t[::-1].copy(), -1.0 / 19200.0)))
+    assert verdicts[0] == verdicts[1] and verdicts[0][:3] == (True, False, True) and verdicts[0][4:] == (True, False)
+    # and the drift spline's evaluation (eddi.conditioning.kinematics, session 16)
+    fills = []
+    for where in (aot_dir, None):
+        kk = _fresh("eddi.conditioning.kinematics", where)
+        d, dd = np.zeros(3000), np.ones(3000)
+        kk._horner_fill(t, np.array([0, 1000], dtype=np.int64), np.array([1000, 3000], dtype=np.int64),
+                        np.array([0.0, t[1000]]), np.array([[1.0, -2.0, 3.0, 4.0], [5.0, 6.0, -7.0, 8.0]]), 1, d, dd)
+        fills.append((d, dd))
+    assert np.array_equal(fills[0][0], fills[1][0]) and np.array_equal(fills[0][1], fills[1][1]) and fills[0][0][0] == -4.0
+    assert importlib.import_module("eddi.calculus")._KERNELS is not None
