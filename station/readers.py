@@ -279,6 +279,9 @@ def checked_measurement(cols: dict[str, np.ndarray], where: str, at: Any, since:
     cols, metadata = _one_sensor(cols, metadata)
     if "force" in cols:
         check_force_impact(cols["force"], f"{where}: column 'force'")
+        from station.swapped_channels import check_swapped_channels
+
+        check_swapped_channels(cols, {n: a for n, (_q, a) in response_channels(cols).items()}, where, rate)
     for name in response_channels(cols):  # every sensor of a multi-channel record too
         if not np.ptp(cols[name]) > 0:
             raise InputFileError(f"{where}: column {name!r} is constant ({cols[name][0]:g}); expected a measured "
