@@ -16,6 +16,10 @@ folds run here, where the profiler sees them):
 
     PYTHONPATH=. nice -n 5 python benchmarks/bench_mdof_three_profile.py --fold 0
     PYTHONPATH=. nice -n 5 python benchmarks/bench_mdof_three_profile.py --stages
+    PYTHONPATH=. nice -n 5 python benchmarks/bench_mdof_three_profile.py --stages --before   # session 15's polish
+
+``--before`` (session 16): the polish as it was before the noise stop (:data:`eddi.mdof.refine.NOISE_STOP`
+off, :data:`eddi.mdof.refine.BROYDEN_RUN` 0), for a same-run ratio.
 """
 
 from __future__ import annotations
@@ -124,7 +128,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--driving-point", default="acc2")
     ap.add_argument("--stages", action="store_true", help="profile the whole diagnose")
     ap.add_argument("--fold", type=int, help="time the candidates of this held-out fold's identification")
+    ap.add_argument("--before", action="store_true",
+                    help="the polish before session 16 (no noise stop; run beside the default for a same-run ratio)")
     args = ap.parse_args(argv)
+    if args.before:
+        import eddi.mdof.refine as refine
+
+        refine.NOISE_STOP, refine.BROYDEN_RUN = False, 0
     if not args.stages and args.fold is None:
         ap.error("give --stages and/or --fold K")
     os.environ["STATION_SERIAL"] = "1"

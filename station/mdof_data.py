@@ -101,17 +101,18 @@ def condition_multichannel(meas: Measurement, driving_point: str | None = None) 
             raise InputFileError(f"{meas.source}: channel {name!r}: {exc}") from None
     k0 = parts[list(resp).index(dp)]
     impact = k0.impact
-    f = None
+    f, f_noise = None, 0.0
     if force is not None and impact[1] > impact[0]:
         f = np.zeros(force.size)
         f[impact[0]:impact[1]] = force[impact[0]:impact[1]] - np.median(force[:max(rest, 1)])
+        f_noise = float(np.std(force[:rest])) if rest >= 8 else 0.0
     start = max(p.window[0] for p in parts)
     stop = max(p.window[1] for p in parts)
     return ChannelRecord(
         t=np.asarray(meas.t, float), x=np.vstack([p.x for p in parts]), v=np.vstack([p.v for p in parts]),
         a=np.vstack([p.a for p in parts]), force=f, impact=impact, window=(start, stop),
         noise=np.concatenate([p.noise for p in parts]), label=str(meas.source),
-        highpass_hz=cut)
+        highpass_hz=cut, force_noise=f_noise)
 
 
 def condition_all(measurements: Sequence[Measurement], driving_point: str | None = None,

@@ -32,6 +32,10 @@ class ChannelRecord:
     label : str
     highpass_hz : float
         Cut-off of the zero-phase drift high-pass ``x`` and ``v`` went through [Hz].
+    force_noise : float
+        RMS of the force channel's noise per sample before the trigger [N] (0: unknown); the
+        impulse it leaves in the blow sets the input's share of the noise floor
+        (:func:`eddi.mdof.validate.impulse_floor`).
     """
 
     t: np.ndarray
@@ -44,4 +48,5 @@ class ChannelRecord:
     noise: np.ndarray
     label: str = ""
     highpass_hz: float = HIGHPASS_HZ
+    force_noise: float = 0.0
 

@@ -30,6 +30,7 @@ from scipy import optimize, signal
 from eddi.threads import one_blas_thread
 from eddi.mdof.identify import ChannelRecord
 from eddi.mdof.model import MdofModel
+from eddi.mdof.steering import Steering, noise_cost
 from eddi.mdof.terms import parse_multi_term
 from eddi.mdof.validate import noise_floor, predict_channels
 
@@ -143,7 +144,7 @@ def _jacobian_function(records: Sequence[ChannelRecord], build, horizon: float =
 
 @one_blas_thread()
 def refine_lumped(fit, channels: tuple[str, ...], driving_point: str, records: Sequence[ChannelRecord], *,
-                  max_nfev: int = 40, jac: str = "sensitivity"):
+                  max_nfev: int = 40, jac: str = "sensitivity", noise_stop: bool | None = None):
     """Polish a :class:`~eddi.mdof.lumped.LumpedFit`'s masses and element constants (module docstring).
 
     Returns
@@ -171,20 +172,27 @@ def refine_lumped(fit, channels: tuple[str, ...], driving_point: str, records: S
     n_par = n_m + len(elements)
     p, nfev = np.zeros(n_par), max(4, max_nfev // len(HORIZONS))
     memo: dict = {}
+    r0 = _residual_function(records, build, memo=memo)[0](p)
+    fun, final_jac = r0, None
     for horizon in HORIZONS:  # continuation in the simulated span (docstring)
         residual, sizes = _residual_function(records, build, horizon, memo)
-        if horizon == HORIZONS[0]:
-            r0 = _residual_function(records, build, memo=memo)[0](p)
-        sol = optimize.least_squares(residual, p, jac=_jac(jac, records, build, horizon), x_scale=0.01,
-                                     diff_step=1e-5, max_nfev=nfev,
-                                     bounds=(-0.9 * np.ones(n_par), 2.0 * np.ones(n_par)))
-        p = sol.x
+        stop = Steering(residual, _jac(jac, records, build, horizon),
+                        noise_cost(_weights(records, horizon), FLOOR_MIN) if _stops(noise_stop) else -1.0)
+        final_jac = None
+        if stop.within(p):  # already within the noise on this span: no step
+            fun = residual(p)
+            continue
+        sol = optimize.least_squares(residual, p, jac=stop.scipy_jac, x_scale=0.01, diff_step=1e-5, max_nfev=nfev,
+                                     bounds=(-0.9 * np.ones(n_par), 2.0 * np.ones(n_par)), callback=stop.callback)
+        p, fun, final_jac = sol.x, sol.fun, (sol.jac if stop.exact else None)
     n_ch = len(channels)
     before = float(np.sum(r0**2) * 2 / len(records) / n_ch)
-    after = float(np.sum(sol.fun**2) * 2 / len(records) / n_ch)
+    after = float(np.sum(fun**2) * 2 / len(records) / n_ch)
     if after >= before:
         return fit, build(np.zeros(n_par)), before, before
-    half = _ci95_scales(sol.jac, sol.fun, sizes)  # the last horizon is the whole window
+    if final_jac is None:  # the whole window's Jacobian at the result (the stop left none there)
+        final_jac = _jacobian_at(jac, records, build, p, fun)
+    half = _ci95_scales(final_jac, fun, sizes)  # the last horizon is the whole window
     out = make(sol.x)
     out = LumpedFit(out.masses, out.constants,
                     {e: float(abs(c) * h) for (e, c), h in zip(out.constants.items(), half[n_m:])}, out.residual)
@@ -204,6 +212,16 @@ HORIZONS = (0.2, 0.5, 1.0)
 #: chain, fold 0, 16 Jacobians of 10 directions on 2 records): 35.7 -> 22.4 s CPU, the same steps
 #: (cost 37.623 -> 19.303, held-out 0.3612 both, per channel the same to 4 digits).
 JACOBIAN_COARSEN = 2
+#: The polishes stop within the records' noise (:mod:`eddi.mdof.steering`; their ``noise_stop``).
+NOISE_STOP = True
+#: :func:`refine_mdof` takes at most this many Broyden updates of its Jacobian between two computed
+#: ones (:class:`eddi.mdof.steering.Steering`; its ``broyden``). 0: every Jacobian computed. Measured
+#: (session 16, session 13's three-mass chain, fold 0, the same model polished in one process): with 2,
+#: 9 computed Jacobians instead of 15 (18 sensitivity runs, 7.5 s, against 30, 12.5 s) but 46
+#: simulations instead of 30 (12.7 s against 8.2 s: the secant Jacobians' steps are refused more
+#: often), 20.3 against 20.9 s CPU in all, and a different end (training cost 19.60 against 19.30,
+#: the middle mode 186.6 against 195.2 Hz, held out 0.3618 against 0.3612): no gain, not taken.
+BROYDEN_RUN = 0
 #: Parameter vectors whose simulations a polish keeps (:func:`_residual_function`).
 MEMO_SIZE = 64
 #: Smallest noise floor a channel is weighted by (relative nrmse).
@@ -242,8 +260,8 @@ def frequency_terms(model: MdofModel) -> np.ndarray:
 
 @one_blas_thread()
 def refine_mdof(model: MdofModel, records: Sequence[ChannelRecord], *, max_nfev: int = 60,
-                jac: str = "sensitivity", free: str | None = None, intervals: bool = True
-                ) -> tuple[MdofModel, float, float]:
+                jac: str = "sensitivity", free: str | None = None, intervals: bool = True,
+                noise_stop: bool | None = None, broyden: int | None = None) -> tuple[MdofModel, float, float]:
     """Polish the coefficients on the records' simulated displacements.
 
     ``free``: ``"frequency"`` polishes :func:`frequency_terms` only (the rest kept at EDDI's values);
@@ -281,9 +299,12 @@ def refine_mdof(model: MdofModel, records: Sequence[ChannelRecord], *, max_nfev:
     before = float(np.sum(r0**2) * 2 / len(records) / n_ch)
     if n_par == 0:
         return model, before, before
-    sol = optimize.least_squares(residual, p0, jac=_jac(jac, records, build), x_scale=0.01,
-                                 diff_step=1e-5, max_nfev=max_nfev, ftol=POLISH_FTOL,
-                                 bounds=(-0.9 * np.ones(n_par), 2.0 * np.ones(n_par)))
+    stop = Steering(residual, _jac(jac, records, build),
+                    noise_cost(_weights(records, 1.0), FLOOR_MIN) if _stops(noise_stop) else -1.0,
+                    BROYDEN_RUN if broyden is None else broyden)
+    if stop.within(p0):  # the start is within the noise: nothing the records can tell
+        return model, before, before
+    sol = _converged(residual, p0, stop, max_nfev)
     after = float(np.sum(sol.fun**2) * 2 / len(records) / n_ch)
     if after >= before:
         return model, before, before
@@ -293,7 +314,8 @@ def refine_mdof(model: MdofModel, records: Sequence[ChannelRecord], *, max_nfev:
     if not intervals:
         return out, before, after
     if n_par == n_all:
-        half = _ci95_scales(sol.jac, sol.fun, sizes)
+        half = _ci95_scales(sol.jac if stop.exact else _jacobian_at(jac, records, build, sol.x, sol.fun),
+                            sol.fun, sizes)
     else:  # the intervals of every coefficient, as the polish of all gives them
         every = _jac(jac, records, lambda p: _with(model, p))
         if not callable(every):
@@ -315,6 +337,37 @@ def _jac(kind: str, records: Sequence[ChannelRecord], build, horizon: float = 1.
     if kind == "2-point":
         return "2-point"
     raise ValueError(f"jac: expected 'sensitivity' or '2-point', got {kind!r}")
+
+
+def _stops(noise_stop: bool | None) -> bool:
+    return NOISE_STOP if noise_stop is None else bool(noise_stop)
+
+
+def _converged(residual, p0: np.ndarray, stop: Steering, max_nfev: int):
+    """``least_squares`` (trust region, ``ftol`` :data:`POLISH_FTOL`) steered by ``stop``; convergence
+    is declared on a computed Jacobian only: a run that ended on its tolerances with a Broyden one
+    starts again from its result with a computed one (within the evaluations left). Measured on
+    session 13's three-mass chain (fold 0): a Broyden step that gained little ended the polish at a
+    training cost 22.3 where the computed Jacobians went on to 19.3."""
+    bounds = (-0.9 * np.ones(p0.size), 2.0 * np.ones(p0.size))
+    left, p = max_nfev, p0
+    while True:
+        sol = optimize.least_squares(residual, p, jac=stop.scipy_jac, x_scale=0.01, diff_step=1e-5, max_nfev=left,
+                                     ftol=POLISH_FTOL, bounds=bounds, callback=stop.callback)
+        left -= sol.nfev
+        if stop.exact or sol.status not in (1, 2, 3, 4) or left <= 0 or np.array_equal(sol.x, p):
+            return sol
+        stop.recompute()
+        p = sol.x
+
+
+def _jacobian_at(kind: str, records: Sequence[ChannelRecord], build, p: np.ndarray, fun: np.ndarray) -> np.ndarray:
+    """The whole window's Jacobian at ``p`` (``fun`` its residual), for the intervals where the
+    noise stop or a Broyden update (:class:`~eddi.mdof.steering.Steering`) left the previous point's."""
+    jac = _jac(kind, records, build)
+    if not callable(jac):
+        jac = _forward_differences(_residual_function(records, build)[0], fun)
+    return jac(p)
 
 
 def _forward_differences(residual, at_value: np.ndarray, step: float = 1e-5):
