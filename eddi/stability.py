@@ -152,7 +152,48 @@ def model_warnings(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> tuple
     if scale > 0 and np.any(sums < -1e-6 * scale):
         out.append(f"negative damping: the model feeds energy in over {int(np.sum(sums < -1e-6 * scale))} of "
                    f"{sums.size} half cycles of the record (b[v] = {eom.damping.get('v', 0.0):.4g} N s/m)")
+    elif k1 > 0:
+        cycle = self_excited_amplitude(eom, float(np.max(np.abs(x))))
+        if cycle is not None:
+            unit = "rad" if "rad" in eom.coordinate else "m"
+            out.append(f"negative damping at small amplitude: below about {cycle:.3g} {unit} (the record reaches "
+                       f"{float(np.max(np.abs(x))):.3g} {unit}) the model feeds energy in over every cycle (b[v] = "
+                       f"{eom.damping.get('v', 0.0):.4g} N s/m), so its rest is unstable: it does not ring down "
+                       f"to rest but grows to a limit cycle (a damping term of the wrong sign the fit needed "
+                       f"for the record's amplitudes?)")
     return tuple(out)
+
+
+#: Amplitudes (shares of the record's largest ``|x|``) at which :func:`self_excited_amplitude`
+#: looks for a cycle that gains energy: down to this share (a limit cycle below a thousandth of
+#: the record's amplitude is below the noise of any sensor a record here came from: 60 dB) ...
+SELF_EXCITED_SHARE = 1e-3
+#: ... on this many amplitudes (log grid) and phase points per cycle.
+SELF_EXCITED_GRID = (48, 256)
+
+
+def self_excited_amplitude(eom: EquationOfMotion, x_max: float) -> float | None:
+    """The largest amplitude at or below ``x_max`` under which a harmonic cycle at the linear
+    natural frequency gains energy from the damping (``sum B(x, v) v < 0`` over the cycle) while
+    the cycle at :data:`SELF_EXCITED_SHARE` of ``x_max`` gains too: the model's rest is unstable
+    and its response grows to a limit cycle of about that amplitude; None when the smallest
+    cycle dissipates (a stable rest; a Coulomb term dominates there, for one) or there is no
+    positive linear stiffness to set the frequency."""
+    k1, m = eom.linear_stiffness(), float(eom.mass)
+    if not (k1 > 0 and m > 0 and x_max > 0 and np.isfinite(x_max)):
+        return None
+    w = float(np.sqrt(k1 / m))
+    n_amp, n_ph = SELF_EXCITED_GRID
+    amps = np.geomspace(SELF_EXCITED_SHARE * x_max, x_max, n_amp)
+    th = np.linspace(0.0, 2.0 * np.pi, n_ph, endpoint=False)
+    xs = np.outer(amps, np.sin(th)).ravel()
+    vs = np.outer(amps * w, np.cos(th)).ravel()
+    work = (_damping_force(eom, xs, vs) * vs).reshape(n_amp, n_ph).sum(axis=1)
+    scale = float(np.max(np.abs(work))) or 1.0
+    gains = work < -1e-9 * scale * (amps / x_max) ** 2  # the work of a linear dashpot scales with A^2
+    if not gains[0]:
+        return None
+    return float(amps[np.argmin(gains)]) if not gains.all() else float(x_max)
 
 
 def _damping_force(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> np.ndarray:
