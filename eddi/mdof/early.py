@@ -133,8 +133,8 @@ def _tail_modes(records: Sequence[tuple[np.ndarray, int, int]], rate_hz: float, 
             except IdentificationError as exc:
                 last = exc
         if records and records[0][0].shape[0] < 2:
-            break
-    raise last
+            raise last
+    raise IdentificationError(f"{last} - on every channel and on the driving-point channel alone")
 
 
 #: Periods of the lowest mode over which :func:`residue_masses` fits the start of each free decay.

@@ -47,3 +47,16 @@ def test_the_sinks_primary_mode_comes_from_the_struck_channel():
     assert np.allclose(m.mass, s.masses_kg, rtol=0.005)  # 29.368 / 1.8728 kg (29.370 / 1.8724)
     k3 = next(e.k3 for e in s.elements if e.k3)
     assert abs(m.stiffness[1]["x2^3"] / k3 - 1) < 0.01  # 6.1241e12 (6.124e12)
+
+
+def test_no_pole_anywhere_is_one_line_naming_both_tries():
+    import pytest
+
+    from eddi.errors import IdentificationError
+    from eddi.mdof.early import era_windows
+
+    rng = np.random.default_rng(0)
+    recs = [(rng.standard_normal((2, 3000)), 0, 3000) for _ in range(2)]
+    with pytest.raises(IdentificationError, match="on every channel and on the driving-point channel alone") as err:
+        era_windows(recs, 2048.0)
+    assert "\n" not in str(err.value)
