@@ -25,8 +25,9 @@ FLOOR_WARN = 0.05
 
 
 def add_floors(obj: dict[str, Any], model: Any, records: Sequence[Any]) -> None:
-    """Put each record's ``channel_floor`` / ``impulse_uncertainty`` and the mean ``channel_floor``
-    into a ``station validate`` object (``obj["records"]`` in the order of ``records``); warn."""
+    """Put each record's ``channel_floor`` / ``impulse_uncertainty``, and ``channel_floor`` over the
+    records (the mean noise and impulse parts in quadrature), into a ``station validate`` object
+    (``obj["records"]`` in the order of ``records``); warn."""
     from eddi.mdof.validate import force_floor, impulse_floor, noise_floor
 
     per = []

@@ -230,10 +230,3 @@ def force_floor(model: MdofModel, record: ChannelRecord) -> np.ndarray:
             return np.full(n_ch, np.nan)
         moves.append(np.linalg.norm(y - y0, axis=1) ** 2)
     return np.sqrt(np.mean(moves, axis=0)) / np.maximum(rms, 1e-300)
-
-
-def prediction_floor(model: MdofModel, record: ChannelRecord) -> np.ndarray:
-    """Each channel's floor: the acceleration noise (:func:`noise_floor`) and the impulse's
-    uncertainty (:func:`force_floor`) in quadrature. No model predicts the record better than
-    this on average (the truth included); shape ``(n_channels,)``."""
-    return np.hypot(noise_floor(record), force_floor(model, record))
