@@ -105,7 +105,7 @@ def condition_multichannel(meas: Measurement, driving_point: str | None = None) 
     if force is not None and impact[1] > impact[0]:
         f = np.zeros(force.size)
         f[impact[0]:impact[1]] = force[impact[0]:impact[1]] - np.median(force[:max(rest, 1)])
-        f_noise = float(np.std(force[:min(rest, impact[0])])) if min(rest, impact[0]) > 8 else 0.0
+        f_noise = float(np.std(force[:rest])) if rest >= 8 else 0.0
     start = max(p.window[0] for p in parts)
     stop = max(p.window[1] for p in parts)
     return ChannelRecord(

@@ -33,8 +33,9 @@ class ChannelRecord:
     highpass_hz : float
         Cut-off of the zero-phase drift high-pass ``x`` and ``v`` went through [Hz].
     force_noise : float
-        RMS of the force channel before the impact [N] (0 when unknown): sets how well the
-        measured impulse is known (:func:`eddi.mdof.validate.impulse_uncertainty`).
+        RMS of the force channel's noise per sample before the trigger [N] (0: unknown); the
+        impulse it leaves in the blow sets the input's share of the noise floor
+        (:func:`eddi.mdof.validate.impulse_floor`).
     """
 
     t: np.ndarray
