@@ -17,6 +17,10 @@ and coupling coefficients within 3 %. Each case here is run as a user would:
    the model lacks counts 100 %).
 
 PASS needs all three (every channel <= 0.05, every frequency and scored coefficient within 3 %).
+Each channel's held-out prediction floor (the true model's ``channel_floor`` from ``station validate``:
+acceleration noise and the impulse's uncertainty, :mod:`station.mdof_floor`) is printed; a second count
+scores only the channels whose floor allows 0.05 (session 16: an energy sink's channel can sit above it
+for the true model itself).
 
 Sets: ``rig`` (the three systems of ``simulated_rig/mdof`` at 45 dB), ``tuning`` (even indices of
 family seed 1) and ``heldout`` (odd indices of seed 2; not tuned on). The family (:func:`draw`):
@@ -255,6 +259,9 @@ def run(case: Case, refine: bool) -> dict:
         return row
     row["held"] = {c: round(v, 4) for c, v in val["channel_nrmse"].items()}
     row["true_held"] = {c: round(v, 4) for c, v in tval["channel_nrmse"].items()} if tval else {}
+    # each channel's prediction floor on the held-out captures (station.mdof_floor), the truth's: what
+    # the measurement allows any model (acceleration noise, and the impulse's uncertainty carried through)
+    row["floor"] = {c: round(v, 4) for c, v in tval["channel_floor"].items()} if tval else {}
     row["train"] = {c: round(v, 4) for c, v in trn["channel_nrmse"].items()} if trn else {}
     row["true_train"] = {c: round(v, 4) for c, v in ttrn["channel_nrmse"].items()} if ttrn else {}
     row["f_err"] = [round(e, 4) for e in frequency_errors(truth, model)]
@@ -267,10 +274,13 @@ def run(case: Case, refine: bool) -> dict:
 def verdict(row: dict) -> dict:
     """PASS / FAIL per criterion (None where the row has no figure)."""
     if "held" not in row:
-        return {"nrmse": False, "freq": False, "coef": False, "all": False}
+        return {"nrmse": False, "freq": False, "coef": False, "all": False, "reachable": False}
     out = {"nrmse": max(row["held"].values()) <= LIMIT_NRMSE, "freq": max(row["f_err"]) <= LIMIT_REL,
            "coef": max(row["k_err"].values(), default=0.0) <= LIMIT_REL}
     out["all"] = all(out.values())
+    # the same with the channels no model can meet excluded (their floor above the limit; scored on the rest)
+    reach = [v for c, v in row["held"].items() if row.get("floor", {}).get(c, 0.0) <= LIMIT_NRMSE]
+    out["reachable"] = out["freq"] and out["coef"] and max(reach, default=0.0) <= LIMIT_NRMSE
     return out
 
 
@@ -292,6 +302,8 @@ def show(row: dict) -> None:
           f"coef worst {worst_k[0]} {100 * worst_k[1]:.1f}% of {len(row['k_err'])} {tag[v['coef']]} "
           f"=> {'PASS' if v['all'] else 'FAIL'}", flush=True)
     print(f"       training nrmse {row.get('train')} (true model {row.get('true_train')})", flush=True)
+    print(f"       held-out floor {row.get('floor')} (channels above {LIMIT_NRMSE} excluded: "
+          f"{'PASS' if v['reachable'] else 'FAIL'})", flush=True)
 
 
 def table(rows: list[dict]) -> None:
@@ -310,7 +322,8 @@ def table(rows: list[dict]) -> None:
         print(f"| {r['name']} | {r['form']} | {r.get('cause', '-')} | {ch} | {fe} | {ke} | {p[v['nrmse']]} | "
               f"{p[v['freq']]} | {p[v['coef']]} | **{p[v['all']]}** |")
     n = sum(verdict(r)["all"] for r in rows)
-    print(f"\n{n}/{len(rows)} PASS; CPU {sum(r.get('cpu_s', 0) for r in rows):.0f} s; "
+    m = sum(verdict(r)["reachable"] for r in rows)
+    print(f"\n{n}/{len(rows)} PASS ({m}/{len(rows)} on the channels whose floor allows {LIMIT_NRMSE}); CPU {sum(r.get('cpu_s', 0) for r in rows):.0f} s; "
           f"load average {os.getloadavg()[0]:.1f}", flush=True)
 
 

@@ -39,6 +39,7 @@ from eddi.mdof.verdict import held_out_gain
 from station.errors import InputFileError
 from station.mdof_data import condition_all, driving_point_how, reduce_rate
 from station.mdof_fitcheck import fit_warnings
+from station.mdof_floor import add_floors
 from station.mdof_mechanism import add_mechanisms, mechanism_lines
 from station.mdof_polish import polish_folds, polish_tag
 
@@ -62,9 +63,11 @@ def validate_mdof_object(model: MdofModel, model_path: str, specs: Sequence[str]
                     "mode_nrmse": [float(x) for x in v.mode_nrmse], "driven_by": v.driven_by,
                     "diverged": v.diverged, "nmte": None})
     per = {c: float(np.mean([o["channel_nrmse"][c] for o in out])) for c in model.channels}
-    return {"model": model_path, "model_kind": "mdof", "compared": "displacement of every channel",
-            "records": out, "channel_nrmse": per, "nrmse": float(np.mean([o["nrmse"] for o in out])),
-            "nmte": None, "warnings": _driving_point_heard(records, names, model.driving_point)}
+    obj = {"model": model_path, "model_kind": "mdof", "compared": "displacement of every channel",
+           "records": out, "channel_nrmse": per, "nrmse": float(np.mean([o["nrmse"] for o in out])),
+           "nmte": None, "warnings": _driving_point_heard(records, names, model.driving_point)}
+    add_floors(obj, model, records)  # each channel's prediction floor (station.mdof_floor)
+    return obj
 
 
 def _driving_point_heard(records: Sequence[Any], names: Sequence[str], dp: str) -> list[str]:
@@ -87,7 +90,7 @@ def validate_mdof_text(obj: dict[str, Any]) -> str:
         chans = "  ".join(f"{c} {v:.4g}" for c, v in r["channel_nrmse"].items())
         lines.append(f"  {r['source']:<40} nrmse {r['nrmse']:.4g}  ({chans}; from rest, {r['driven_by']}"
                      + (", diverged" if r["diverged"] else "") + ")")
-    chans = "  ".join(f"{c} {v:.4g}" for c, v in obj["channel_nrmse"].items())
+    chans = "  ".join(f"{c} {v:.4g} (floor {obj['channel_floor'][c]:.2g})" for c, v in obj["channel_nrmse"].items())
     lines.append(f"  mean over {len(obj['records'])} record(s): nrmse {obj['nrmse']:.4g}  ({chans})")
     lines += [f"WARNING: {w}" for w in obj.get("warnings", [])]
     return "\n".join(lines)

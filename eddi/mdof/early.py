@@ -81,14 +81,9 @@ def era_windows(records: Sequence[tuple[np.ndarray, int, int]], rate_hz: float, 
 def _era_windows(records: Sequence[tuple[np.ndarray, int, int]], rate_hz: float, tail_fraction: float,
                  early_fractions: Sequence[float], **kwargs) -> tuple[LinearModes, np.ndarray]:
     """:func:`era_windows` without the masses; also which modes were added from earlier windows."""
-    tails = [tail_segments(y, s, e, tail_fraction) for y, s, e in records]
-    try:
-        base = era(tails, rate_hz, **kwargs)
-    except IdentificationError:
-        # a lightly damped record never decays to a tail long enough for ERA: the whole free
-        # window is the lowest amplitude these records hold (session 9: 0.2 % damping, 2 s records)
-        tails = [tail_segments(y, s, e, 1.0) for y, s, e in records]
-        base = era(tails, rate_hz, **kwargs)
+    tails, base, kwargs = _tail_modes(records, rate_hz, tail_fraction, kwargs)
+    if base.pole_channels:  # one channel's earlier windows hold its mode gliding with amplitude, not new modes
+        return base, np.zeros(base.frequencies_hz.size, bool)
     n_ch = base.shapes.shape[0]
     tracked = [(float(f), base.shapes[:, k]) for k, f in enumerate(base.frequencies_hz)]
     added: list[tuple[float, float, np.ndarray]] = []
@@ -114,6 +109,32 @@ def _era_windows(records: Sequence[tuple[np.ndarray, int, int]], rate_hz: float,
         return base, np.zeros(base.frequencies_hz.size, bool)
     out = _with_added(base, added, tails, rate_hz)
     return out, np.isin(out.frequencies_hz, [a[0] for a in added])
+
+
+def _tail_modes(records: Sequence[tuple[np.ndarray, int, int]], rate_hz: float, tail_fraction: float,
+                kwargs: dict) -> tuple[list[np.ndarray], LinearModes, dict]:
+    """ERA on the tails: ``(tails, modes, kwargs)`` (``kwargs`` as used, for the earlier windows).
+
+    A lightly damped record never decays to a tail long enough for ERA: then the whole free window
+    is the lowest amplitude these records hold (session 9: 0.2 % damping, 2 s records). When
+    neither finds a pole stable over the orders, the poles come from the driving-point channel
+    alone (``pole_channels``; shapes still from every channel's residues): an essentially
+    nonlinear attachment (the energy sink, no linear stiffness) has no linear mode, and its
+    gliding, amplitude-dependent motion can leave no pole stable in a realisation of every
+    channel (session 16, nes-5-6: the struck primary's mode at 15.6 Hz from its own channel;
+    every channel together: no stable pole, exit 2). The struck mass carries the primary's mode.
+    """
+    last: IdentificationError | None = None
+    for kw in (kwargs, {**kwargs, "pole_channels": (int(kwargs.get("driving_point", 0)),)}):
+        for frac in (tail_fraction, 1.0):
+            tails = [tail_segments(y, s, e, frac) for y, s, e in records]
+            try:
+                return tails, era(tails, rate_hz, **kw), kw
+            except IdentificationError as exc:
+                last = exc
+        if records and records[0][0].shape[0] < 2:
+            raise last
+    raise IdentificationError(f"{last} - on every channel and on the driving-point channel alone")
 
 
 #: Periods of the lowest mode over which :func:`residue_masses` fits the start of each free decay.

@@ -212,8 +212,18 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
         candidates += ladder[1:]  # modal coordinates kept: their lower prunes too (only then: cost)
         choice = choose_candidate(candidates, [_candidate_name(c) for c in candidates], records, known=choice.own)
     keep = candidates[choice.index]
-    return replace(keep, notes=tuple(dict.fromkeys(keep.notes + (choice.note,))), modal_basis=chosen.modal_basis,
-                   unresolved=chosen.unresolved)
+    return replace(keep, notes=tuple(dict.fromkeys(keep.notes + (choice.note,) + _era_note(chosen.modes, channels))),
+                   modal_basis=chosen.modal_basis, unresolved=chosen.unresolved)
+
+
+def _era_note(modes: LinearModes, channels: tuple[str, ...]) -> tuple[str, ...]:
+    """What the notes say when the linear modes came from some channels only
+    (:func:`eddi.mdof.early.era_windows`' fallback for an essentially nonlinear attachment)."""
+    if not modes.pole_channels:
+        return ()
+    return (f"ERA on every channel found no pole stable over the model orders; the linear modes come from "
+            f"{', '.join(channels[c] for c in modes.pole_channels)} alone (a channel with no linear mode of its own, "
+            "e.g. an essentially nonlinear attachment, glides with amplitude)",)
 
 
 #: Lower prunes (times ``prune``) also tried in modal coordinates (:func:`_prune_ladder`).
@@ -285,7 +295,7 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
     modes = linear_modes(records, tail_fraction=tail_fraction, max_freq_hz=max_freq_hz, driving_point=d)
     kind, tmat, span = choose_coordinates(records, modes, coordinates=coordinates)
     fits = fit_all(records, tmat, coupling, prune, prefilter)
-    notes_pre: list[str] = []
+    notes_pre: list[str] = list(_era_note(modes, channels))
     evidence = modal_evidence(modes, tmat.shape[0])
     basis = not (coordinates == "auto" and kind == "physical" and evidence == "missing_mode")
     unresolved = coordinates == "auto" and kind == "physical" and basis

@@ -78,6 +78,9 @@ class LinearModes:
         ``(max - min) / median`` (:func:`eddi.mdof.early.residue_masses`): small for a linear
         mode, large when the early residue moves with the blow (a nonlinear mode). Empty when
         not computed.
+    pole_channels : tuple of int
+        The channels the poles were realised from when not every channel (empty: all;
+        :func:`eddi.mdof.early.era_windows`' fallback for an essentially nonlinear attachment).
     """
 
     frequencies_hz: np.ndarray
@@ -91,6 +94,7 @@ class LinearModes:
     energy_share: np.ndarray = field(default_factory=lambda: np.zeros(0))
     modal_masses: np.ndarray = field(default_factory=lambda: np.zeros(0))
     modal_mass_spread: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    pole_channels: tuple[int, ...] = ()
 
 
 def tail_segments(y: np.ndarray, start: int, stop: int, fraction: float) -> np.ndarray:
@@ -133,6 +137,7 @@ def era(
     driving_point: int = 0,
     min_stable: int = 4,
     min_energy: float = 0.001,
+    pole_channels: Sequence[int] | None = None,
 ) -> LinearModes:
     """Poles and real mode shapes of free decays (see the module docstring).
 
@@ -164,6 +169,11 @@ def era(
     min_energy : float
         ... and when its part of the tails (least-squares fit of every stable mode's free decay
         to the segments) carries at least this fraction of the fitted signal's energy.
+    pole_channels : sequence of int, optional
+        Realise the poles (Hankel matrices, stabilisation diagram, energy shares) from these
+        channels only; the shapes and ``unexplained`` still come from every channel's residues.
+        For a channel whose motion has no linear mode (an essentially nonlinear attachment: its
+        gliding, amplitude-dependent response leaves no pole stable over the orders).
 
     Raises
     ------
@@ -191,6 +201,9 @@ def era(
                 for s in segs if s.shape[1] > 30 * q]
     if not segs:
         raise IdentificationError("free decays too short for ERA after decimation; record longer ring-downs")
+    every = segs
+    if pole_channels is not None:
+        segs = [s[list(pole_channels)] for s in segs]
     longest = max(s.shape[1] for s in segs)
     n_ch = segs[0].shape[0]
     p = block_rows or int(np.clip(math.ceil(1.0 / (max(f_lo, 1e-3) * dt)), max_order // n_ch + 2, 400 // n_ch))
@@ -207,7 +220,7 @@ def era(
     diagram = [(n, _poles(u, sv, g, n, n_ch, dt)) for n in range(2, min(max_order, rank) + 1, 2)]
     modes = _stable_modes(diagram, f_min, f_max, max_zeta, min_stable)
     modes = _merge_gliding(significant(modes, segs, dt, min_energy))
-    modes, unexplained = _shapes_from_residues(modes, segs, dt, floor * 0.5 / dt)
+    modes, unexplained = _shapes_from_residues(modes, every, dt, floor * 0.5 / dt)
     if not modes:
         raise IdentificationError(
             f"ERA found no oscillating mode stable over {min_stable} model orders in the free decays "
@@ -216,7 +229,8 @@ def era(
     n_real = int(np.sum(np.abs(lam_t.imag) < 1e-9 * np.maximum(np.abs(lam_t), 1.0)))
     freqs, zetas, shapes, cplx = real_modes([m[:3] for m in modes], driving_point)
     return LinearModes(freqs, zetas, shapes, cplx, svn, max(n for n, _ in diagram), n_real, unexplained,
-                       np.array([m[3] for m in modes]))
+                       np.array([m[3] for m in modes]),
+                       pole_channels=tuple(int(c) for c in pole_channels) if pole_channels is not None else ())
 
 
 def response_band(segs: Sequence[np.ndarray], rate_hz: float) -> tuple[float, float, np.ndarray]:
