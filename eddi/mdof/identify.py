@@ -209,7 +209,9 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
         except (IdentificationError, np.linalg.LinAlgError, ValueError) as exc:
             # said, not silent (session 15: a three-mass chain's lumped candidate refused for masses
             # of ~1e-5 kg, and nothing in the notes told why the modal model was delivered)
-            refused = f"warning: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}"
+            why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            refused = "warning: " + (why if why.startswith("lumped candidate refused") else
+                                     f"lumped candidate refused: {why}")
     choice = choose_candidate(candidates, [_candidate_name(c) for c in candidates], records)
     if choice.index == 0 and len(ladder := _prune_ladder(records, args, chosen, coordinates, opts)) > 1:
         candidates += ladder[1:]  # modal coordinates kept: their lower prunes too (only then: cost)
