@@ -199,20 +199,28 @@ def identify_mdof(records: Sequence[ChannelRecord], channels: Sequence[str], dri
         candidates.append(_identify_twice(records, *args, "physical", *opts, prefilter=True))
     except IdentificationError:
         pass
+    refused = ""
     if any(r.force is not None for r in records):
         from eddi.mdof.physical import identify_lumped  # it builds on this module
 
         try:  # masses joined by springs and dashpots (the channels at the masses)
             candidates.append(identify_lumped(records, channels, driving_point, prune=prune,
                                               tail_fraction=tail_fraction))
-        except (IdentificationError, np.linalg.LinAlgError, ValueError):
-            pass
+        except (IdentificationError, np.linalg.LinAlgError, ValueError) as exc:
+            # said, not silent (session 15: a three-mass chain's lumped candidate refused for masses
+            # of ~1e-5 kg, and nothing in the notes told why the modal model was delivered)
+            why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            refused = "warning: " + (why if why.startswith("lumped candidate refused") else
+                                     f"lumped candidate refused: {why}")
     choice = choose_candidate(candidates, [_candidate_name(c) for c in candidates], records)
     if choice.index == 0 and len(ladder := _prune_ladder(records, args, chosen, coordinates, opts)) > 1:
         candidates += ladder[1:]  # modal coordinates kept: their lower prunes too (only then: cost)
         choice = choose_candidate(candidates, [_candidate_name(c) for c in candidates], records, known=choice.own)
     keep = candidates[choice.index]
-    return replace(keep, notes=tuple(dict.fromkeys(keep.notes + (choice.note,) + _era_note(chosen.modes, channels))),
+    if refused:  # in the model's own notes too (its JSON), not only the diagnosis'
+        keep = replace(keep, model=keep.model.model_copy(update={"notes": f"{keep.model.notes}; {refused}"}))
+    return replace(keep, notes=tuple(dict.fromkeys(keep.notes + (choice.note,) + ((refused,) if refused else ())
+                                                   + _era_note(chosen.modes, channels))),
                    modal_basis=chosen.modal_basis, unresolved=chosen.unresolved)
 
 

@@ -254,7 +254,8 @@ def _jackknife_blocks(lengths: Sequence[int]) -> np.ndarray:
 
 def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: int, *,
                elements: list[Element] | None = None, prune: float = 3e-3, prefilter: bool = True,
-               instruments: Sequence[tuple] | None = None, keep: frozenset | set = frozenset()) -> LumpedFit:
+               instruments: Sequence[tuple] | None = None, keep: frozenset | set = frozenset(),
+               mass_prior: tuple[np.ndarray, np.ndarray] | None = None) -> LumpedFit:
     """Masses and element constants from the records (module docstring).
 
     Parameters
@@ -286,6 +287,13 @@ def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: in
     keep : set of Element, optional
         Elements never dropped for a small force (a weak cubic spring whose effect the simulated
         training records show: :func:`eddi.mdof.physical.identify_lumped`).
+    mass_prior : (ndarray, ndarray), optional
+        ``(ratios, weights)``: each mass per unit driven mass expected from the modal masses
+        (:mod:`eddi.mdof.massprior`) and the weight of that expectation per row of its equation,
+        one extra row per mass other than the driven one, ``sqrt(N_i) w_i (m_i - ratio_i) = 0``
+        (``N_i`` rows of equation ``i``, each scaled to an inertia RMS of 1: a mass ``1 / w_i`` off
+        the expectation costs as much as a residual of 1 inertia RMS on every row of its
+        equation). The rows are in every jackknife fit.
     """
     elements = list(candidate_elements(n) if elements is None else elements)
     lengths = [r[4][1] - r[4][0] for r in records]
@@ -293,6 +301,9 @@ def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: in
     # column is filtered on its own): stacked once, not once per pruning round
     full, b, eq_of = _stack(records, elements, n, d, prefilter)
     inst = _stack(instruments, elements, n, d, prefilter)[0] if instruments is not None else None
+    n_data = full.shape[0]
+    if mass_prior is not None:
+        full, b, eq_of, inst = _prior_rows(full, b, eq_of, inst, mass_prior, n, d, sum(lengths))
     where = {e: n - 1 + k for k, e in enumerate(elements)}
     rest = list(range(n - 1 + len(elements), full.shape[1]))
     blocks = np.tile(_jackknife_blocks(lengths), n)  # the same blocks in every equation
@@ -312,7 +323,7 @@ def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: in
         if small or active:
             elements.remove(min(small or active, key=lambda e: force_rms[elements.index(e)]))
             continue
-        ci = jackknife_lstsq_ci95(a_fit, b, blocks, slice(n - 1, n - 1 + ne))
+        ci = _jackknife(a_fit, b, blocks, n_data, slice(n - 1, n - 1 + ne))
         loose = undetermined_couplings(elements, ecoef, ci, keep)
         if not loose:
             break
@@ -321,11 +332,42 @@ def fit_lumped(records: Sequence[tuple], impacts: Sequence[tuple], n: int, d: in
     masses = np.ones(n)
     masses[[i for i in range(n) if i != d]] = p[: n - 1]
     consts = dict(zip(elements, ecoef))
-    resid = a_mat @ p - b
+    resid = (a_mat @ p - b)[:n_data]
+    eq_of = eq_of[:n_data]
     residual = np.array([float(np.sqrt(np.mean(resid[eq_of == i] ** 2))) for i in range(n)])
     scale = driven_mass(impacts, masses, consts, d)
     return LumpedFit(masses * scale, {e: c * scale for e, c in consts.items()},
                      {e: float(h) * scale for e, h in zip(elements, ci)}, residual, tuple(dropped))
+
+
+def _prior_rows(full: np.ndarray, b: np.ndarray, eq_of: np.ndarray, inst: np.ndarray | None,
+                mass_prior: tuple[np.ndarray, np.ndarray], n: int, d: int, rows_per_eq: int) -> tuple:
+    """The design with :func:`fit_lumped`'s ``mass_prior`` rows appended (equation index ``n``: in
+    no equation's residual or force)."""
+    ratios, weights = (np.asarray(v, float) for v in mass_prior)
+    others = [i for i in range(n) if i != d]
+    rows = np.zeros((len(others), full.shape[1]))
+    for k, i in enumerate(others):
+        rows[k, k] = np.sqrt(rows_per_eq) * weights[i]
+    rhs = np.array([np.sqrt(rows_per_eq) * weights[i] * ratios[i] for i in others])
+    out_inst = None if inst is None else np.vstack([inst, rows])
+    return (np.vstack([full, rows]), np.concatenate([b, rhs]), np.concatenate([eq_of, np.full(len(others), n)]),
+            out_inst)
+
+
+def _jackknife(a: np.ndarray, b: np.ndarray, blocks: np.ndarray, n_data: int, keep: slice) -> np.ndarray:
+    """:func:`jackknife_lstsq_ci95` over the data rows ``[:n_data]``; rows after them (the mass prior)
+    are in every delete-one fit (each block holds them at ``1 / sqrt(g - 1)`` of their weight, so
+    the ``g - 1`` blocks of a fit hold them once)."""
+    if a.shape[0] == n_data:
+        return jackknife_lstsq_ci95(a, b, blocks, keep)
+    ids = np.unique(blocks)
+    g = max(ids.size - 1, 1)
+    extra_a, extra_b = a[n_data:] / np.sqrt(g), b[n_data:] / np.sqrt(g)
+    a_all = np.vstack([a[:n_data]] + [extra_a] * ids.size)
+    b_all = np.concatenate([b[:n_data]] + [extra_b] * ids.size)
+    blocks_all = np.concatenate([blocks] + [np.full(extra_a.shape[0], k) for k in ids])
+    return jackknife_lstsq_ci95(a_all, b_all, blocks_all, keep)
 
 
 def undetermined_couplings(elements: Sequence[Element], values: Sequence[float], ci95: Sequence[float],
