@@ -88,3 +88,10 @@ REFINE_FOLDS: dict = {"warm": False, "min_gain": 1.0}
 #: session 10: without it the fold fits of a 2 kHz, 31.6 dB asymmetric null were 1-2 % low in
 #: ``k[x]`` and 4-7x the pipeline's held-out error). A switch for same-run comparisons.
 SLOW_ERRORS = {"on": True}
+#: Where a fold is judged with its equation-error contender (the pipeline's rule kept it over
+#: EDDI's fit and its refinement: :meth:`eddi.diagnosis.fitter.FoldFitter.refined`), the
+#: EDDI-fitted (native) candidates of that fold extend the contender, fitted the same way on the
+#: same rows (:meth:`~eddi.diagnosis.fitter.FoldFitter.extend_contender`), and are measured against
+#: it (session 16: extending EDDI's per-fold fit there cost the held-out ladder three names).
+#: A switch for same-run comparisons (``{"on": False}``: the session-15 rule), not a user option.
+EXTEND_JUDGED = {"on": True}
