@@ -100,11 +100,15 @@ def _hidden_drag_records(seed: int = 1):
     return recs, m
 
 
-def test_hidden_drag_is_named_against_the_contender_it_extends():
-    # before (candidates extending EDDI's per-fold fit): `unexplained`, quadratic_damping's folds
-    # measured from EDDI's fits while the folds were judged with the better equation-error fit
+def test_hidden_drag_is_named_against_the_contender_it_extends(monkeypatch):
+    # before (candidates extending EDDI's per-fold fit; EXTEND_JUDGED off): `unexplained`,
+    # quadratic_damping's folds measured from EDDI's fits while the folds were judged with the
+    # better equation-error fit
     from eddi.diagnosis import diagnose
     from eddi.diagnosis.pipeline_base import pipeline_baseline
+    from eddi.diagnosis.settings import EXTEND_JUDGED
+
+    monkeypatch.setitem(EXTEND_JUDGED, "on", True)
 
     recs, m = _hidden_drag_records(1)
     d = diagnose(recs, m, pipeline=pipeline_baseline(recs, m))
