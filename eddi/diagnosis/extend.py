@@ -22,6 +22,7 @@ from scipy import optimize
 from eddi.diagnosis.catalogue import Context, Mechanism, MechanismFit, Signal, extend
 from eddi.diagnosis.settings import SLOW_ERRORS
 from eddi.energy import zero_crossings
+from eddi.equation_error import MAX_ROWS as EE_ROWS, Projector, rows as ee_rows, thin_masks
 from eddi.errors import IdentificationError, ModelError, SignalError
 from eddi.identify_many import (
     Basis, PotentialRows, Segment, SegmentEnergy, model_bases, phase_one_many, phase_two_many,
@@ -29,7 +30,7 @@ from eddi.identify_many import (
 )
 from eddi.model import EquationOfMotion
 from eddi.slow_many import corrected, rows_correction
-from eddi.terms import evaluate, parse_terms
+from eddi.terms import parse_terms
 
 
 @dataclass(frozen=True)
@@ -59,71 +60,28 @@ class Fit:
     eom: EquationOfMotion
     mech: MechanismFit | None
     residual: tuple[np.ndarray, ...]  # per record, NaN outside training samples
+    #: the fold's equation-error contender (its terms fitted on the fold's fit record alone,
+    #: fitter.FoldFitter.ee_fit_record) or a mechanism added to it (FoldFitter.extend_contender)
+    contender: bool = False
 
 
 def _rows(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup) -> tuple[np.ndarray, np.ndarray]:
     """Base regressors and target over the training samples."""
-    cols, ys = [], []
+    out, ys = [], []
     terms = parse_terms(list(setup.damping) + list(setup.stiffness)) if setup.base is None else ()
     for s, m in zip(sigs, masks):
         x, v = s.x[m], s.v[m]
-        y = s.force[m] - setup.mass * s.a[m]
+        cols, y = ee_rows(terms, x, v, s.a[m], s.force[m], setup.mass)
         if setup.base is not None:
             y = y - setup.base.restoring_force(x, v)
         ys.append(y)
-        cols.append(evaluate(terms, x, v) if terms else np.zeros((x.size, 0)))
-    return np.vstack(cols), np.concatenate(ys)
-
-
-class _Projector:
-    """Least squares of ``y`` on ``[a0, e]`` for many extra blocks ``e``, sharing one QR of ``a0``."""
-
-    def __init__(self, a0: np.ndarray, y: np.ndarray) -> None:
-        self.y = y
-        self.scale = _col_scale(a0)
-        if a0.shape[1]:
-            self.q, self.r = np.linalg.qr(a0 / self.scale)
-            self.r0 = y - self.q @ (self.q.T @ y)
-        else:
-            self.q = np.zeros((y.size, 0))
-            self.r = np.zeros((0, 0))
-            self.r0 = y
-
-    def base(self, y: np.ndarray | None = None) -> np.ndarray:
-        yy = self.y if y is None else y
-        if self.q.shape[1] == 0:
-            return np.zeros(0)
-        return np.linalg.solve(self.r, self.q.T @ yy) / self.scale
-
-    def fit(self, e: np.ndarray) -> tuple[np.ndarray, float]:
-        """Coefficients of ``e`` and the residual sum of squares (base block projected out)."""
-        se = _col_scale(e)
-        es = e / se
-        ep = es - self.q @ (self.q.T @ es)
-        if ep.shape[1] == 1:
-            # one column (most mechanisms' shapes): the least squares in closed form (LAPACK's
-            # SVD solver took ~1 ms a shape on 2e4 rows, ~15 % of the candidates' fold fits)
-            col = ep[:, 0]
-            nn = float(col @ col)
-            c = np.array([float(col @ self.r0) / nn if nn > 0 else 0.0])
-        else:
-            c, *_ = np.linalg.lstsq(ep, self.r0, rcond=None)
-        res = self.r0 - ep @ c
-        return c / se, float(res @ res)
-
-    def base_given(self, e: np.ndarray, c: np.ndarray) -> np.ndarray:
-        """Coefficients of the base block once those of ``e`` are fixed to ``c``."""
-        return self.base(self.y - e @ c)
-
-
-def _col_scale(a: np.ndarray) -> np.ndarray:
-    scale = np.sqrt(np.mean(a * a, axis=0)) if a.shape[0] else np.ones(a.shape[1])
-    scale[~(scale > 0)] = 1.0
-    return scale
+        out.append(cols)
+    return np.vstack(out), np.concatenate(ys)
 
 
 def fit_ee(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,
-           mech: Mechanism | None, base_fit: Fit | None = None, columns: dict | None = None) -> Fit | None:
+           mech: Mechanism | None, base_fit: Fit | None = None, columns: dict | None = None,
+           context_masks: Sequence[np.ndarray] | None = None, thin: bool = True) -> Fit | None:
     """Fit the baseline (``mech`` None) or the baseline plus one mechanism on training samples.
 
     Returns None when no physical fit of the mechanism exists. The least squares use every
@@ -131,16 +89,19 @@ def fit_ee(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,
     the motion's bandwidth, so the dropped rows repeat the kept ones (the QR and the
     projections of every shape were 2.9 s of a 14.5 s profiled run). ``columns``: a cache of
     the mechanism's regressors shared by the fits on these signals (:func:`_extra`).
+    ``context_masks``: the samples the mechanism's shape grid is drawn from (default ``masks``:
+    a fit on one record's rows extends a fold that trains on all its training records);
+    ``thin=False``: ``masks`` are the rows already (every one is used).
     """
     full = masks
-    masks = thin_masks(masks, EE_ROWS)
+    masks = thin_masks(masks, EE_ROWS) if thin else list(masks)
     a0, y = _rows(sigs, masks, setup)
-    proj = _Projector(a0, y)
+    proj = Projector(a0, y)
     if mech is None:
         coef = proj.base()
         mfit = None
     else:
-        ctx = _context(sigs, full, setup, base_fit)
+        ctx = _context(sigs, full if context_masks is None else context_masks, setup, base_fit)
 
         def trial(shape: dict[str, float]) -> tuple | None:
             c, ssr = proj.fit(_extra(mech, shape, sigs, masks, setup, columns))
@@ -175,25 +136,6 @@ def fit_ee(sigs: Sequence[Signal], masks: Sequence[np.ndarray], setup: Setup,
             r[m] = s.force[m] - setup.mass * s.a[m] - eom.restoring_force(s.x[m], s.v[m])
         residual.append(r)
     return Fit(eom=eom, mech=mfit, residual=tuple(residual))
-
-
-#: Rows of an equation-error least-squares fit (every k-th training sample).
-EE_ROWS = 20000
-
-
-def thin_masks(masks: Sequence[np.ndarray], max_rows: int) -> list[np.ndarray]:
-    """Every k-th True sample of each mask (the same k for all), at most ``max_rows`` in all."""
-    total = int(sum(int(np.count_nonzero(m)) for m in masks))
-    step = max(1, -(-total // max(1, max_rows)))
-    if step == 1:
-        return list(masks)
-    out = []
-    for m in masks:
-        idx = np.flatnonzero(m)[::step]
-        t = np.zeros_like(m)
-        t[idx] = True
-        out.append(t)
-    return out
 
 
 def _extra(mech: Mechanism, shape: dict[str, float], sigs: Sequence[Signal],
@@ -291,7 +233,7 @@ class EddiFold:
             lo = min(float(np.min(e.seg.x)) for e in energies)
             hi = max(float(np.max(e.seg.x)) for e in energies)
             self.fd, self.fs = model_bases(setup.base, (lo, hi))
-        self._proj0: _Projector | None = None
+        self._proj0: Projector | None = None
         self.b0, _ = phase_one_many(energies, self.d, self.fd)
         rows0 = potential_rows(energies, self.d, self.b0, fixed_damping=self.fd, fixed_stiffness=self.fs)
         # the conditioner's slow errors, fitted per segment and taken out of every fit's rows
@@ -310,7 +252,7 @@ class EddiFold:
             coef, res = phase_two_many(rows, list(self.k) + list(extra))
             return coef, res * res * rows.x.size
         if self._proj0 is None:
-            self._proj0 = _Projector(stiffness_columns(rows, self.k), rows.potential * rows.weight)
+            self._proj0 = Projector(stiffness_columns(rows, self.k), rows.potential * rows.weight)
         e = stiffness_columns(rows, extra)
         c, ssr = self._proj0.fit(e)
         return np.concatenate([self._proj0.base_given(e, c), c]), ssr

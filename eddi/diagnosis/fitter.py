@@ -9,6 +9,7 @@ pipeline kept its output-error refinement, a fold's baseline is refined the same
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Sequence
 
 import numpy as np
@@ -19,8 +20,10 @@ from eddi.diagnosis.mapping import Mapper, serial_map
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.settings import REFINE_FOLDS
 from eddi.diagnosis.show import nrmse, simulate_part
+from eddi.equation_error import fit_coefficients, window_rows
 from eddi.errors import IdentificationError, ModelError, SignalError
 from eddi.model import EquationOfMotion
+from eddi.terms import parse_terms
 
 
 class Fitter:
@@ -95,7 +98,7 @@ class FoldFitter:
         if ee is None:
             return out
         # err(ee) < err(out), its simulations stopped once they hold ee's mean at or above out's
-        return Fit(eom=ee.eom, mech=None, residual=fit.residual) if err.below(ee.eom, err(out.eom), key) else out
+        return replace(ee, residual=fit.residual) if err.below(ee.eom, err(out.eom), key) else out
 
     def _ee_key(self) -> tuple | None:
         """What the fold's equation-error contender depends on: its fit record and that record's
@@ -106,24 +109,59 @@ class FoldFitter:
     def ee_fit_record(self) -> Fit | None:
         """The equation-error fit of the baseline's terms on the fold's fit record alone (the
         training record of the median peak force, :func:`fit_record_of`), as the pipeline fits
-        its own on its fit record (:func:`eddi.equation_error.equation_error_fit`): the other
-        training records then judge it out of sample, as they judge the refinement."""
+        its own on its fit record: the same rows and solve
+        (:func:`eddi.equation_error.fit_coefficients`, the rows :func:`contender_rows`); the
+        other training records then judge it out of sample, as they judge the refinement."""
         key = self._ee_key()
         if key is None:
             return None
         if key not in self._fitter.ee_fits:  # the same fit for every fold with this fit record's samples
-            self._fitter.ee_fits[key] = self._ee_fit(key[0])
+            self._fitter.ee_fits[key] = self._ee_fit()
         return self._fitter.ee_fits[key]
 
-    def _ee_fit(self, k: int) -> Fit | None:
-        masks = [m if i == k else np.zeros_like(m) for i, m in enumerate(self.masks)]
+    def _ee_fit(self) -> Fit | None:
+        rows = contender_rows(self.records, self.masks)
+        if rows is None:
+            return None
+        k, m = rows
+        s, st = self.sigs[k], self.setup
+        try:
+            coef = fit_coefficients(parse_terms(list(st.damping) + list(st.stiffness)), s.x[m], s.v[m], s.a[m],
+                                    s.force[m], st.mass)
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+        if coef is None:
+            return None
+        nd = len(st.damping)
+        try:
+            eom = EquationOfMotion.create(
+                mass=st.mass, damping={t: float(c) for t, c in zip(st.damping, coef[:nd])},
+                stiffness={t: float(c) for t, c in zip(st.stiffness, coef[nd:])}, coordinate=st.coordinate,
+                notes="fitted by eddi.diagnose (least squares on the equation of motion)")
+        except ModelError:
+            return None
+        return Fit(eom=eom, mech=None, residual=(), contender=True)
+
+    def extend_contender(self, mech: Mechanism, judged: Fit) -> Fit | None:
+        """``mech`` added to the fold's equation-error contender (``judged``, which the fold judges
+        with): the baseline's terms and the mechanism fitted by equation error on the contender's
+        own rows (:func:`contender_rows`), the shape grid drawn from every training record. A
+        candidate then extends the baseline the fold is judged with, so its gain is the
+        mechanism's over the best baseline, not the fitter's (session 16)."""
+        rows = contender_rows(self.records, self.masks)
+        if rows is None:
+            return None
+        k, m = rows
+        masks = [m if i == k else np.zeros_like(x) for i, x in enumerate(self.masks)]
         st = self.setup
         ee = Setup(mass=st.mass, damping=st.damping, stiffness=st.stiffness, base=st.base,
                    coordinate=st.coordinate, fit="equation-error")
         try:
-            return fit_ee(self.sigs, masks, ee, None)
+            fit = fit_ee(self.sigs, masks, ee, mech, base_fit=judged, columns=self.columns,
+                         context_masks=self.masks, thin=False)
         except (IdentificationError, SignalError, ModelError, ValueError, np.linalg.LinAlgError):
             return None
+        return replace(fit, contender=True) if fit is not None else None
 
     def __call__(self, mech: Mechanism | None, base_fit: Fit | None = None) -> Fit | None:
         if self.fold is None:
@@ -178,6 +216,19 @@ def fit_record_of(records: Sequence[Record], masks: Sequence[np.ndarray]) -> int
     forces = [float(np.max(np.abs(records[i].force))) if records[i].force is not None else 0.0 for i, _ in train]
     order = sorted(range(len(train)), key=lambda j: forces[j])
     return train[order[(len(order) - 1) // 2]][0]
+
+
+def contender_rows(records: Sequence[Record], masks: Sequence[np.ndarray]) -> tuple[int, np.ndarray] | None:
+    """The rows of the fold's equation-error contender: its fit record (:func:`fit_record_of`) and
+    that record's training samples, every k-th as the pipeline thins its fit record's window
+    (:func:`eddi.equation_error.window_rows`); None without a fit record."""
+    k = fit_record_of(records, masks)
+    if k < 0:
+        return None
+    idx = np.flatnonzero(masks[k])
+    m = np.zeros_like(masks[k])
+    m[idx[window_rows(0, idx.size)]] = True
+    return k, m
 
 
 def training_error(records: Sequence[Record], masks: Sequence[np.ndarray]) -> "TrainingError":

@@ -19,7 +19,7 @@ from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.fitter import Fitter, FoldFitter, refined_baseline
 from eddi.diagnosis.mapping import Mapper, serial_map
 from eddi.diagnosis.records import Part, Record
-from eddi.diagnosis.settings import NRMSE_CAP
+from eddi.diagnosis.settings import EXTEND_JUDGED, NRMSE_CAP
 from eddi.diagnosis.show import nmte, nrmse, simulate_part, simulate_part_xv
 from eddi.errors import IdentificationError, ModelError, SignalError
 from eddi.model import EquationOfMotion
@@ -30,7 +30,12 @@ class FoldResults:
     """What the folds measured (one entry per held-out part in every list)."""
 
     base_fold: list[float] = field(default_factory=list)
-    ref_fold: list[float] = field(default_factory=list)  # EDDI's baseline (unrefined) per fold
+    #: per fold, the fit the native candidates extend: EDDI's (unrefined), or the judged baseline
+    #: itself where that is the fold's equation-error contender (settings.EXTEND_JUDGED)
+    ref_fold: list[float] = field(default_factory=list)
+    eddi_fold: list[float] = field(default_factory=list)  # EDDI's baseline (unrefined) per fold
+    #: per fold, the judged baseline when it is the equation-error contender (else None)
+    contenders: list[Fit | None] = field(default_factory=list)
     base_nmte: list[float] = field(default_factory=list)
     base_sims: list[np.ndarray] = field(default_factory=list)
     base_vsims: list[np.ndarray] = field(default_factory=list)
@@ -86,7 +91,10 @@ def judge_baseline(records: Sequence[Record], setup: Setup, parts: Sequence[Part
             raise ModelError("the baseline could not be fitted on the training parts")
         rec = records[part.record]
         res.base_fold.append(nrmse(xb, rec.x[part.start:part.stop]))
-        res.ref_fold.append(res.base_fold[-1] if xe is None else nrmse(xe, rec.x[part.start:part.stop]))
+        res.eddi_fold.append(res.base_fold[-1] if xe is None else nrmse(xe, rec.x[part.start:part.stop]))
+        extends = bfit.contender and EXTEND_JUDGED["on"]
+        res.contenders.append(bfit if extends else None)
+        res.ref_fold.append(res.base_fold[-1] if extends else res.eddi_fold[-1])
         res.base_nmte.append(nmte(vb, rec.v[part.start:part.stop]))
         res.base_sims.append(xb)
         res.base_vsims.append(vb)
@@ -136,8 +144,12 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
             ee_fit = fit_fold.ee_base()
             ee_ref = nrmse(simulate_part(ee_fit.eom, rec, part), xm) if ee_fit else NRMSE_CAP
         out = []
+        judged = res.contenders[k] if k < len(res.contenders) else None
         for mech in tried:
-            fit = fit_fold(mech, bfit)
+            # a native mechanism extends the fit the fold is judged with: its equation-error
+            # contender where that won (settings.EXTEND_JUDGED), else EDDI's fit
+            fit = (fit_fold.extend_contender(mech, judged) if judged is not None and mech.native
+                   else fit_fold(mech, bfit))
             # (res.cand_fits, filled below): native ones are refined, look-alikes compared
             kept = fit if (mech.native or mech.lookalikes) else None
             if fit is None or fit.mech is None:
@@ -215,6 +227,8 @@ def refine_candidates(res: FoldResults, records: Sequence[Record], setup: Setup,
     def one(item: tuple[Mechanism, int]) -> np.ndarray | None:
         mech, k = item
         part, masks, fit = parts[k], fold_masks[k], res.cand_fits[mech.name][k]
+        if fit is not None and fit.contender:  # extends the fold's equation-error contender: as judged
+            return res.cand_sims[mech.name][k] if res.cand_fold[mech.name][k] < NRMSE_CAP else None
         rfit = refined_baseline(fit, records, masks, setup) if fit is not None else None
         return simulate_part(rfit.eom, records[part.record], part) if rfit is not None else None
 

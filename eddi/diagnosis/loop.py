@@ -234,7 +234,10 @@ def _name(shown: _Shown, cat: Sequence[Mechanism], chosen: Sequence[str], skippe
         # judged against EDDI's per-fold fit, and refined against the refined baseline when it
         # beats that (highpass.sensor_highpass; a strong drag is kept from the name by the damping slope)
         refined = res.base_fold if (sh.fitter.refine and REFINE_CANDIDATES["on"]) else ()
-        extra.append(lambda: sensor_highpass(records, sh.setup, sh.parts, sh.fold_masks, res.ref_fold,
+        # (EDDI's per-fold fit at every corner: res.eddi_fold, not the equation-error contender,
+        # which extended on re-conditioned records picked a 0.1 Hz corner for a 0.6 Hz coupling
+        # on a heavy slow oscillator, session 16)
+        extra.append(lambda: sensor_highpass(records, sh.setup, sh.parts, sh.fold_masks, res.eddi_fold,
                                              consistency, refined, base=sh.fitter))
     finals, done = judge_candidates(res, sh.fold_fits, records, sh.setup, cat, skipped, sh.parts, sh.fold_masks,
                                     sh.fitter, (sh.fit_all, sh.bfit_all), extra,

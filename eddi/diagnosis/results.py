@@ -315,9 +315,10 @@ class Diagnosis:
         With a pipeline baseline: the same terms fitted per fold (:data:`JUDGED_WHAT`).
     pipeline : PipelineBaseline or None
     reference_fold : tuple of float
-        Per part, the held-out nrmse of EDDI's per-fold baseline before the pipeline's
-        refinement policy (the fit the candidates extend and their cut is measured against);
-        the same as the judged baseline's when nothing was refined.
+        Per part, the held-out nrmse of the fit the candidates extend and their cut is measured
+        against: EDDI's per-fold baseline before the pipeline's refinement policy, or the judged
+        baseline itself where that is the fold's equation-error contender (session 16); the same
+        as the judged baseline's when nothing was refined.
     """
 
     cause: str

@@ -1,4 +1,4 @@
-"""The shared-QR least squares of the candidates' shapes (``eddi.diagnosis.extend._Projector``):
+"""The shared-QR least squares of the candidates' shapes (``eddi.equation_error.Projector``):
 one extra column in closed form, not LAPACK's SVD solver (session 11b, issue 13: ~1 ms a shape
 on 2e4 rows, ~15 % of the candidates' fold fits); the same coefficients to rounding."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eddi.diagnosis.extend import _Projector
+from eddi.equation_error import Projector
 
 
 def _problem(n: int, seed: int):
@@ -22,7 +22,7 @@ def _problem(n: int, seed: int):
 @pytest.mark.parametrize("n, seed", [(20000, 0), (3001, 1)])
 def test_one_column_is_solved_in_closed_form_to_rounding(monkeypatch, n, seed) -> None:
     a0, e, y = _problem(n, seed)
-    proj = _Projector(a0, y)
+    proj = Projector(a0, y)
     # the reference: LAPACK's solver on the same projected column
     se = np.sqrt(np.mean(e * e, axis=0))
     ep = e / se - proj.q @ (proj.q.T @ (e / se))
@@ -39,6 +39,6 @@ def test_one_column_is_solved_in_closed_form_to_rounding(monkeypatch, n, seed) -
 
 def test_a_zero_column_after_projection_gets_no_coefficient() -> None:
     a0, _, y = _problem(2000, 2)
-    proj = _Projector(a0, y)
+    proj = Projector(a0, y)
     c, ssr = proj.fit(np.zeros((2000, 1)))
     assert c[0] == 0.0 and ssr == pytest.approx(float(proj.r0 @ proj.r0))
