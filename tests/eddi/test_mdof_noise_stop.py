@@ -9,15 +9,10 @@ and the polish moved the cubic by 3 %.
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 import numpy as np
 from scipy import optimize
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-
-from bench_mdof_target import draw  # noqa: E402
 from eddi.mdof.identify import identify_mdof  # noqa: E402
 from eddi.mdof.lumped import Element  # noqa: E402
 from eddi.mdof.records import ChannelRecord  # noqa: E402
@@ -25,9 +20,8 @@ from eddi.mdof.refine import FLOOR_MIN, _residual_function, _weights, refine_ide
 from eddi.mdof.physical import lumped_model  # noqa: E402
 from eddi.mdof.steering import Steering, noise_cost  # noqa: E402
 from eddi.mdof.validate import impulse_floor, noise_floor  # noqa: E402
-from simulated_rig.mdof_systems import mdof_impact_test  # noqa: E402
 from station.mdof_data import condition_all  # noqa: E402
-from station.readers import Measurement  # noqa: E402
+from tests.eddi.mdof_target_cases import target_measurements  # noqa: E402
 
 
 def test_impulse_floor_is_the_force_noise_over_the_blow():
@@ -42,14 +36,8 @@ def test_impulse_floor_is_the_force_noise_over_the_blow():
 
 
 def _chain_6_0():
-    case = draw(0, 6)
-    assert case.name == "chain-6-0"
+    case, meas = target_measurements(0, 6, "chain-6-0")
     s = case.system
-    meas = []
-    for k, peak in enumerate(s.impacts_n):
-        r = mdof_impact_test(s, peak, snr_db=45.0, seed=100 + k)
-        meas.append(Measurement(t=r.t, channels=r.columns(), rate_hz=r.rate_hz,
-                                pretrigger_samples=r.pretrigger_samples, mass=None, source=f"{peak} N", metadata={}))
     records, names, dp = condition_all(meas, "acc1")
     return s, records, names, dp
 

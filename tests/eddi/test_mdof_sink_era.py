@@ -12,30 +12,18 @@ old code: IdentificationError ("ERA found no oscillating mode stable over 4 mode
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-
-from bench_mdof_target import draw  # noqa: E402
 from eddi.mdof.coordinates import linear_modes  # noqa: E402
 from eddi.mdof.identify import identify_mdof  # noqa: E402
-from simulated_rig.mdof_systems import mdof_impact_test  # noqa: E402
 from station.mdof_data import condition_all, reduce_rate  # noqa: E402
-from station.readers import Measurement  # noqa: E402
+from tests.eddi.mdof_target_cases import target_measurements  # noqa: E402
 
 
 def test_the_sinks_primary_mode_comes_from_the_struck_channel():
-    case = draw(6, 5)
-    assert case.name == "nes-5-6"
+    case, meas = target_measurements(6, 5, "nes-5-6")
     s = case.system
-    meas = []
-    for k, peak in enumerate(s.impacts_n):
-        r = mdof_impact_test(s, peak, snr_db=45.0, seed=100 + k)
-        meas.append(Measurement(t=r.t, channels=r.columns(), rate_hz=r.rate_hz,
-                                pretrigger_samples=r.pretrigger_samples, mass=None, source=f"{peak} N", metadata={}))
     records, names, dp = condition_all(reduce_rate(meas)[0], "acc1")
     modes = linear_modes(records)
     assert modes.pole_channels == (0,)

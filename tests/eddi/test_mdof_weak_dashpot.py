@@ -12,29 +12,17 @@ within 3 % of the truth. Fails on the old code: no c(1-2) in the fit, training n
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-
-from bench_mdof_target import draw  # noqa: E402
 from eddi.mdof.candidates import training_error  # noqa: E402
 from eddi.mdof.lumped import Element  # noqa: E402
 from eddi.mdof.physical import identify_lumped  # noqa: E402
-from simulated_rig.mdof_systems import mdof_impact_test  # noqa: E402
 from station.mdof_data import condition_all, reduce_rate  # noqa: E402
-from station.readers import Measurement  # noqa: E402
+from tests.eddi.mdof_target_cases import target_measurements  # noqa: E402
 
 
 def _records():
-    case = draw(5, 5)
-    assert case.name == "chain-5-5"
+    case, meas = target_measurements(5, 5, "chain-5-5")
     s = case.system
-    meas = []
-    for k, peak in enumerate(s.impacts_n):
-        r = mdof_impact_test(s, peak, snr_db=45.0, seed=100 + k)
-        meas.append(Measurement(t=r.t, channels=r.columns(), rate_hz=r.rate_hz,
-                                pretrigger_samples=r.pretrigger_samples, mass=None, source=f"{peak} N", metadata={}))
     meas, note = reduce_rate(meas)
     assert note is not None and "1250 Hz" in note
     records, names, dp = condition_all(meas, "acc1")

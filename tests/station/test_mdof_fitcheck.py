@@ -13,27 +13,15 @@ no such check (ImportError), ``station diagnose`` said nothing of either.
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-
-from bench_mdof_target import draw  # noqa: E402
 from eddi.mdof.verdict import channel_floor  # noqa: E402
-from simulated_rig.mdof_systems import mdof_impact_test  # noqa: E402
 from station.mdof_data import condition_all, reduce_rate  # noqa: E402
 from station.mdof_fitcheck import fit_check  # noqa: E402
-from station.readers import Measurement  # noqa: E402
+from tests.eddi.mdof_target_cases import target_measurements  # noqa: E402
 
 
 def _case(index: int):
-    case = draw(index, 5)
-    s = case.system
-    meas = []
-    for k, peak in enumerate(s.impacts_n):
-        r = mdof_impact_test(s, peak, snr_db=45.0, seed=100 + k)
-        meas.append(Measurement(t=r.t, channels=r.columns(), rate_hz=r.rate_hz,
-                                pretrigger_samples=r.pretrigger_samples, mass=None, source=f"{peak} N", metadata={}))
+    case, meas = target_measurements(index, 5)
     records, names, _dp = condition_all(reduce_rate(meas)[0], "acc1")
     return case, records, names, channel_floor(records, names)
 

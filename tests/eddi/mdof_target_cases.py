@@ -1,0 +1,25 @@
+"""The captures of a ``benchmarks/bench_mdof_target.py`` case as the multi-DOF tests read them
+(one rig capture per blow of the case's system, 45 dB, seeds 100, 101, ...)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+
+from bench_mdof_target import draw  # noqa: E402
+from simulated_rig.mdof_systems import mdof_impact_test  # noqa: E402
+from station.readers import Measurement  # noqa: E402
+
+
+def target_measurements(index: int, seed: int, name: str | None = None, snr_db: float = 45.0):
+    """``(case, measurements)`` of case ``index`` of the draw ``seed`` (``name``: asserted)."""
+    case = draw(index, seed)
+    assert name is None or case.name == name
+    meas = []
+    for k, peak in enumerate(case.system.impacts_n):
+        r = mdof_impact_test(case.system, peak, snr_db=snr_db, seed=100 + k)
+        meas.append(Measurement(t=r.t, channels=r.columns(), rate_hz=r.rate_hz,
+                                pretrigger_samples=r.pretrigger_samples, mass=None, source=f"{peak} N", metadata={}))
+    return case, meas
