@@ -47,10 +47,17 @@ def one(args):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) < 4 or sys.argv[1] not in OWN or sys.argv[2] not in ("on", "off"):
-        sys.exit("usage: bench_diagnose_own16.py ownA|ownB|ownC on|off OUT [SEEDS, e.g. 1,2]")
-    setn, flag, out = sys.argv[1], sys.argv[2], sys.argv[3]
-    seeds = [int(s) for s in (sys.argv[4] if len(sys.argv) > 4 else "1,2").split(",")]
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 epilog="Example: python benchmarks/bench_diagnose_own16.py ownC off rows.jsonl 1,2")
+    ap.add_argument("set", choices=sorted(OWN), help="ownA (tuning), ownB / ownC (held out)")
+    ap.add_argument("switch", choices=("on", "off"), help="settings.EXTEND_JUDGED for a same-run before / after")
+    ap.add_argument("out", help="JSON lines appended here")
+    ap.add_argument("seeds", nargs="?", default="1,2", help="comma-separated seeds (default 1,2)")
+    args = ap.parse_args()
+    setn, flag, out = args.set, args.switch, args.out
+    seeds = [int(s) for s in args.seeds.split(",")]
     tasks = [(setn, n, m, s, flag == "on") for n, m in CASES for s in seeds]
     with ProcessPoolExecutor(2) as pool:
         for row in pool.map(one, tasks):
