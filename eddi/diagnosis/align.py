@@ -103,20 +103,34 @@ def lag_candidate(records: Sequence[Record], setup: Setup, parts: Sequence[Part]
         params["impulse_ratio_before"], params["impulse_ratio_after"] = before[0], after[0]
     spread = {"lag_samples": float(np.std(lags, ddof=1)) if len(lags) > 1 else 0.0}
     consistent = bool(spread["lag_samples"] < consistency * abs(params["lag_samples"]))
-    try:
-        res, fit_all = refit(records, al, setup, parts, fold_masks, refine, mapper)
-    except EddiError as exc:
-        return (Candidate(NAME, float("nan"), (), float("nan"), False, False, params, spread, None, "",
-                          f"the baseline could not be refitted on the aligned records ({exc})"), [])
-    folds = [float(v) for v in res.base_fold]
-    mean, ref = float(np.mean(folds)), float(np.mean(base_fold))
     symptom = (f"is driven by a force {abs(params['lag_s']) * 1e3:.3g} ms ({abs(params['lag_samples']):.1f} "
                f"samples) {'ahead of' if params['lag_s'] > 0 else 'behind'} the measured response (a filter on "
                "one channel: anti-alias, conditioner, the accelerometer's mounting, or channels sampled apart): "
                "the force-driven simulation slips; the force aligned with the response fixes it")
-    return (Candidate(NAME, mean, tuple(folds), 1.0 - mean / ref if ref > 0 else 0.0,
+    return refitted_candidate(NAME, records, al, setup, parts, fold_masks, base_fold, refine, mapper,
+                              consistent, params, spread, symptom, "aligned records")
+
+
+def refitted_candidate(name: str, records: Sequence[Record], al: Sequence[Record], setup: Setup,
+                       parts: Sequence[Part], fold_masks: Sequence[Sequence[np.ndarray]],
+                       base_fold: Sequence[float], refine: bool, mapper, consistent: bool,
+                       params: dict[str, float], spread: dict[str, float], symptom: str, what: str,
+                       contradicted: str = "") -> tuple[Candidate, list[np.ndarray]]:
+    """A measurement-chain correction's candidate (``response_lag``, ``sensor_lowpass``): the
+    baseline refitted on the corrected records ``al`` (:func:`refit`) and judged against
+    ``base_fold`` on the held-out parts, with its held-out simulations; a failed refit is a skipped
+    candidate saying why (``what``: the corrected records, for that line)."""
+    try:
+        res, fit_all = refit(records, al, setup, parts, fold_masks, refine, mapper)
+    except EddiError as exc:
+        return (Candidate(name, float("nan"), (), float("nan"), False, False, params, spread, None, "",
+                          f"the baseline could not be refitted on the {what} ({exc})"), [])
+    folds = [float(v) for v in res.base_fold]
+    mean, ref = float(np.mean(folds)), float(np.mean(base_fold))
+    return (Candidate(name, mean, tuple(folds), 1.0 - mean / ref if ref > 0 else 0.0,
                       _wins(folds, base_fold, parts), consistent, params, spread,
-                      fit_all.eom if fit_all is not None else None, symptom, "", ref, "baseline"),
+                      fit_all.eom if fit_all is not None else None, symptom, "", ref, "baseline",
+                      contradicted=contradicted),
             list(res.base_sims))
 
 

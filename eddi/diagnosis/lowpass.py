@@ -45,12 +45,11 @@ from typing import Sequence
 import numpy as np
 
 from eddi.calculus import delay
-from eddi.diagnosis.align import _wins, record_lags, refit
+from eddi.diagnosis.align import record_lags, refitted_candidate
 from eddi.diagnosis.extend import Setup
 from eddi.diagnosis.lag import blow_window
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.results import Candidate
-from eddi.errors import EddiError
 
 #: The candidate's name (a measurement-chain cause).
 NAME = "sensor_lowpass"
@@ -234,19 +233,9 @@ def lowpass_candidate(records: Sequence[Record], setup: Setup, parts: Sequence[P
                f"low-passes it ({fit.kind.capitalize()} order {fit.order}, corner {fit.corner_hz:.4g} Hz, group delay "
                f"{fit.group_delay_samples:.1f} samples): the blow is delayed and rounded; the force through "
                "the fitted filter fixes it")
-    try:
-        res, fit_all = refit(records, al, setup, parts, fold_masks, refine, mapper)
-    except EddiError as exc:
-        return (Candidate(NAME, float("nan"), (), float("nan"), False, False, params, spread, None, "",
-                          f"the baseline could not be refitted on the filtered forces ({exc})"), [])
-    folds = [float(v) for v in res.base_fold]
-    mean, ref = float(np.mean(folds)), float(np.mean(base_fold))
     consistent = bool(fit.corner_spread_hz < 0.5 * fit.corner_hz)
-    return (Candidate(NAME, mean, tuple(folds), 1.0 - mean / ref if ref > 0 else 0.0,
-                      _wins(folds, base_fold, parts), consistent, params, spread,
-                      fit_all.eom if fit_all is not None else None, symptom, "", ref, "baseline",
-                      contradicted=contradicted),
-            list(res.base_sims))
+    return refitted_candidate(NAME, records, al, setup, parts, fold_masks, base_fold, refine, mapper,
+                              consistent, params, spread, symptom, "filtered forces", contradicted)
 
 
 def over_delay(low: Candidate, lag: Candidate | None, floor_nrmse: float) -> Candidate:
