@@ -29,6 +29,7 @@ import resource
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -53,12 +54,20 @@ print(min(floor), min(call))
 """
 
 
+def child(cmd: list[str], env: dict[str, str], cwd: Path) -> tuple[float, float, str]:
+    """(CPU seconds, wall seconds, stdout) of one child process (also bench_identify_process.py's)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    out = subprocess.run(cmd, env=env, cwd=cwd, capture_output=True, text=True).stdout
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), wall, out
+
+
 def child_cpu(cmd: list[str], env: dict[str, str], cwd: Path) -> tuple[float, str]:
     """(CPU seconds, stdout) of one child process."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    out = subprocess.run(cmd, env=env, cwd=cwd, capture_output=True, text=True).stdout
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), out
+    cpu, _wall, out = child(cmd, env, cwd)
+    return cpu, out
 
 
 def extract(rev: str, into: Path) -> Path:

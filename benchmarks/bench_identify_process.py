@@ -27,26 +27,14 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_identify_ab import ARGS, ONE_BLAS, REPO, extract, json_change  # noqa: E402
-
-
-def child(cmd: list[str], env: dict[str, str], cwd: Path) -> tuple[float, float, str]:
-    """(CPU seconds, wall seconds, stdout) of one child process."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    res = subprocess.run(cmd, env=env, cwd=cwd, capture_output=True, text=True)
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), wall, res.stdout
+from bench_identify_ab import ARGS, ONE_BLAS, REPO, child, extract, json_change  # noqa: E402
 
 
 def main() -> None:
