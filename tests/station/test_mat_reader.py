@@ -93,3 +93,34 @@ def test_not_a_mat_file_is_one_line_exit_2(tmp_path: Path, capsys: pytest.Captur
     assert main(["identify", str(path), "--mass", "1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "junk.mat" in err[0]
+
+
+def test_raw_counts_with_their_scale_and_offset(example: np.ndarray, tmp_path: Path) -> None:
+    # blind unseen12 F5 (session 17): int16 counts beside `force_scale` / `acc_scale` were read as
+    # newtons and m/s^2 - the impulse check's mass 0.17x the given one, x^3 100 % off
+    f_scale, a_scale, a_offset = 0.0144205, 0.00243058, -0.0375
+    force = np.round(example[:, 1] / f_scale).astype(np.int16)
+    acc = np.round((example[:, 2] - a_offset) / a_scale).astype(np.int32)
+    path = tmp_path / "counts.mat"
+    scipy.io.savemat(path, {"Fs": 1.0 / float(example[1, 0] - example[0, 0]), "force": force, "acc": acc,
+                            "force_scale": f_scale, "ACC_GAIN": a_scale, "acc_offset": a_offset, "operator": "jd"})
+    m = read_measurement(str(path))
+    np.testing.assert_array_equal(m.channels["force"], force.astype(np.float64) * f_scale)
+    np.testing.assert_array_equal(m.channels["acc"], acc.astype(np.float64) * a_scale + a_offset)
+    assert np.max(np.abs(m.channels["acc"] - example[:, 2])) <= 0.5 * a_scale * (1 + 1e-9)
+    assert sorted(m.metadata["scaled"]) == ["acc_gain", "acc_offset", "force_scale"]
+    assert m.metadata["ignored"] == ["operator"]
+
+
+@pytest.mark.parametrize("extra,message", [
+    ({}, "'acc' holds integer counts \\(int16\\) and the file gives no scale"),
+    ({"acc_scale": 0.0}, "the scale of 'acc' \\(acc_scale\\) is 0"),
+    ({"acc_scale": np.array([1.0, 2.0])}, "'acc_scale' should be one number"),
+])
+def test_counts_without_a_usable_scale_are_refused(example: np.ndarray, tmp_path: Path, extra: dict,
+                                                    message: str) -> None:
+    path = tmp_path / "counts.mat"
+    scipy.io.savemat(path, {"fs": 1000.0, "force": example[:, 1],
+                            "acc": np.round(example[:, 2] * 100).astype(np.int16), **extra})
+    with pytest.raises(InputFileError, match=message):
+        read_measurement(str(path))
