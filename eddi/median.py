@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from eddi.kernels import Kernels
+
 #: Below this many values ``numpy.median`` is as fast.
 MIN_SIZE = 20_000
 #: Values in the strided sample that brackets the middle ranks.
@@ -48,13 +50,44 @@ def median(a: np.ndarray) -> float:
     if lo_i < 0 or hi_i >= m:
         return float(np.median(a))
     lo, hi = sample[lo_i], sample[hi_i]
-    below = int(np.count_nonzero(a < lo))
-    inside = a[(a >= lo) & (a <= hi)]
+    if a.flags.c_contiguous:
+        # one compiled pass: the same counts, and the values inside in their order (the numpy
+        # passes below: ~4x the CPU on 460k values)
+        buf, counts = np.empty(n), np.zeros(3, dtype=np.int64)
+        _KERNELS._bracket_split(a, float(lo), float(hi), buf, counts)
+        below, inside, above = int(counts[0]), buf[: int(counts[1])], int(counts[2])
+    else:
+        below = int(np.count_nonzero(a < lo))
+        inside = a[(a >= lo) & (a <= hi)]
+        above = int(np.count_nonzero(a > hi))
     # every value is below, inside or above (a NaN is none of them): the bracket holds the
     # middle ranks when as many as the ranks below it are below lo and the rest fit inside
-    above = int(np.count_nonzero(a > hi))
     if below + inside.size + above != n or below > ranks[0] or below + inside.size <= ranks[-1]:
         return float(np.median(a))
     k = [r - below for r in ranks]
     part = np.partition(inside, k)
     return float(np.mean(part[k[0]:k[-1] + 1]))
+
+
+def _bracket_split(a, lo, hi, inside, counts):  # pragma: no cover - compiled
+    """Values of ``a`` below ``lo`` and above ``hi`` counted (``counts[0]``, ``counts[2]``), those
+    in ``[lo, hi]`` copied in order to ``inside`` (``counts[1]`` of them); a NaN is none of them."""
+    below = 0
+    k = 0
+    above = 0
+    for i in range(a.shape[0]):
+        x = a[i]
+        if x < lo:
+            below += 1
+        elif x > hi:
+            above += 1
+        elif x >= lo and x <= hi:
+            inside[k] = x
+            k += 1
+    counts[0] = below
+    counts[1] = k
+    counts[2] = above
+
+
+#: The compiled kernel (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
+_KERNELS = Kernels(globals(), {"_bracket_split": ["void(f8[::1], f8, f8, f8[::1], i8[::1])"]})
