@@ -71,19 +71,20 @@ def median(a: np.ndarray) -> float:
 
 def _bracket_split(a, lo, hi, inside, counts):  # pragma: no cover - compiled
     """Values of ``a`` below ``lo`` and above ``hi`` counted (``counts[0]``, ``counts[2]``), those
-    in ``[lo, hi]`` copied in order to ``inside`` (``counts[1]`` of them); a NaN is none of them."""
+    in ``[lo, hi]`` copied in order to ``inside`` (``counts[1]`` of them); a NaN is none of them.
+
+    Without branches (every value is stored, the count advances only for one inside): the side
+    of a value is a coin toss here, and a branch per value cost ~7x the time (2.0 against 0.3 ms
+    on 460k values)."""
     below = 0
     k = 0
     above = 0
     for i in range(a.shape[0]):
         x = a[i]
-        if x < lo:
-            below += 1
-        elif x > hi:
-            above += 1
-        elif x >= lo and x <= hi:
-            inside[k] = x
-            k += 1
+        below += x < lo
+        above += x > hi
+        inside[k] = x
+        k += (x >= lo) & (x <= hi)
     counts[0] = below
     counts[1] = k
     counts[2] = above
