@@ -44,7 +44,8 @@ AOT_NAME = "_aot_kernels"
 #: The modules whose kernels go into the built module.
 KERNEL_MODULES = ("eddi.simulate", "eddi.local_frequency", "eddi.sensitivity", "eddi.iir", "eddi.hysteresis",
                   "eddi.calculus", "eddi.conditioning.levels", "eddi.conditioning.checks",
-                  "eddi.conditioning.kinematics", "eddi.median")
+                  "eddi.conditioning.kinematics", "eddi.median",
+                  "eddi.refine_grid")
 
 
 def _aot_dir() -> Path:
