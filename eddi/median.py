@@ -4,7 +4,8 @@
 of a 24 s free response at 19.2 kHz); the noise estimates of one identification take three
 such medians (``eddi.energy.noise_level``). Here a strided sample of the array brackets the
 middle ranks (its order statistics a few binomial deviations either side of the middle), one
-vectorised pass counts the values below the bracket and keeps those inside it, and only those
+compiled pass (:func:`_bracket_split`; numpy's passes for a strided array) counts the values
+below and above the bracket and keeps those inside it, and only those
 (a few per cent of the array) are partitioned. The result is the same element(s) of the same
 array, averaged as ``numpy.median`` does, so the same float; when the bracket misses (the
 counts say so) or the array holds a NaN, ``numpy.median`` itself answers.
