@@ -462,5 +462,34 @@ def _integrate_sum(y, dt, k, out):  # pragma: no cover - compiled
     out[n - 1] = s
 
 
-#: The compiled kernel (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
-_KERNELS = Kernels(globals(), {"_integrate_sum": ["void(f8[::1], f8, i8, f8[::1])"]})
+def abs_third_difference(y: np.ndarray) -> np.ndarray:
+    """``numpy.abs(numpy.diff(y, 3))`` bit for bit, in one pass over ``y``.
+
+    Parameters
+    ----------
+    y : ndarray, shape (n,)
+
+    Returns
+    -------
+    ndarray, shape (max(n - 3, 0),)
+    """
+    y = np.asarray(y, dtype=float)
+    if y.ndim != 1 or y.size < 4 or not y.flags.c_contiguous:
+        return np.abs(np.diff(y, 3))
+    out = np.empty(y.size - 3)
+    _KERNELS._abs_diff3(y, out)
+    return out
+
+
+def _abs_diff3(y, out):  # pragma: no cover - compiled
+    """:func:`abs_third_difference`: ``numpy.diff``'s three passes per element, in their order."""
+    for i in range(out.shape[0]):
+        d0 = y[i + 1] - y[i]
+        d1 = y[i + 2] - y[i + 1]
+        d2 = y[i + 3] - y[i + 2]
+        out[i] = abs((d2 - d1) - (d1 - d0))
+
+
+#: The compiled kernels (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
+_KERNELS = Kernels(globals(), {"_integrate_sum": ["void(f8[::1], f8, i8, f8[::1])"],
+                               "_abs_diff3": ["void(f8[::1], f8[::1])"]})

@@ -43,6 +43,7 @@ from typing import Any, Callable
 AOT_NAME = "_aot_kernels"
 #: The modules whose kernels go into the built module.
 KERNEL_MODULES = ("eddi.simulate", "eddi.local_frequency", "eddi.sensitivity", "eddi.iir", "eddi.hysteresis",
+                  "eddi.median", "eddi.refine_grid",
                   "eddi.calculus", "eddi.conditioning.levels", "eddi.conditioning.checks",
                   "eddi.conditioning.kinematics")
 

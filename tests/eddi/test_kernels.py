@@ -309,3 +309,27 @@ def test_the_conditioning_kernels_are_built_and_give_the_jits_numbers(aot_dir: P
         fills.append((d, dd))
     assert np.array_equal(fills[0][0], fills[1][0]) and np.array_equal(fills[0][1], fills[1][1]) and fills[0][0][0] == -4.0
     assert importlib.import_module("eddi.calculus")._KERNELS is not None
+    # and the noise level's third difference and median bracket (eddi.calculus, eddi.median, session 17)
+    assert "eddi.median" in KERNEL_MODULES
+    noise = []
+    for where in (aot_dir, None):
+        kc, km = _fresh("eddi.calculus", where), _fresh("eddi.median", where)
+        assert km.source == ("ahead of time" if where else "numba JIT")
+        d3 = np.empty(y.size - 3)
+        kc._abs_diff3(y, d3)
+        inside, counts = np.empty(d3.size), np.zeros(3, dtype=np.int64)
+        km._bracket_split(d3, 0.5, 1.5, inside, counts)
+        noise.append((d3, inside[: counts[1]], tuple(counts)))
+    assert np.array_equal(noise[0][0], noise[1][0]) and np.array_equal(noise[0][1], noise[1][1])
+    assert noise[0][2] == noise[1][2] and sum(noise[0][2]) == y.size - 3 and noise[0][2][1] > 100
+    # and the block-mean model of a Jacobian (eddi.refine_grid._through_sampling, session 17)
+    assert "eddi.refine_grid" in KERNEL_MODULES
+    jac = rng.normal(size=(500, 7))
+    passes = []
+    for where in (aot_dir, None):
+        kr = _fresh("eddi.refine_grid", where)
+        assert kr.source == ("ahead of time" if where else "numba JIT")
+        out = np.empty_like(jac)
+        kr._through_sampling(jac, 0.04, -0.0013, 1, out)
+        passes.append(out)
+    assert np.array_equal(passes[0], passes[1]) and not np.array_equal(passes[0], jac)

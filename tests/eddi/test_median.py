@@ -72,3 +72,43 @@ def test_the_force_channels_noise_is_numpys_median_without_numpy_median(monkeypa
 
     monkeypatch.setattr(np, "median", no_median)
     assert _force_noise(f) == want
+
+
+def test_the_bracket_is_one_compiled_pass(monkeypatch) -> None:
+    """Session 17: a long contiguous array's counts and middle values come from one compiled pass
+    (``_bracket_split``), not numpy's comparison passes; the same float as numpy.median."""
+    rng = np.random.default_rng(17)
+    arrays = [rng.normal(size=460_000), np.round(rng.normal(size=200_001), 2), rng.exponential(size=77_777)]
+    want = [float(np.median(a)) for a in arrays]
+
+    def no_count(*a, **k):
+        raise AssertionError("a numpy pass over the whole array")
+
+    monkeypatch.setattr(em.np, "count_nonzero", no_count)
+    assert [em.median(a) for a in arrays] == want
+    strided = rng.normal(size=100_000)[::2]  # not contiguous: numpy's passes, the same value
+    monkeypatch.undo()
+    assert em.median(strided) == float(np.median(strided))
+
+
+def test_noise_levels_third_difference_is_numpys_bit_for_bit(monkeypatch) -> None:
+    """Session 17: ``|diff(y, 3)|`` in one compiled pass (``eddi.calculus.abs_third_difference``):
+    numpy's three passes' values exactly, on rough and smooth signals and quantized ties."""
+    from eddi.calculus import abs_third_difference
+
+    rng = np.random.default_rng(5)
+    ys = [np.cumsum(rng.normal(size=n)) * s + rng.normal(size=n) * e
+          for n, s, e in ((4, 1.0, 1.0), (5_000, 1e-6, 1e-9), (300_001, 1e3, 1e-12))]
+    ys.append(np.round(np.sin(np.arange(100_000) * 0.003), 3))
+    want = [np.abs(np.diff(y, 3)) for y in ys]
+
+    def no_diff(*a, **k):
+        raise AssertionError("numpy.diff's passes")
+
+    monkeypatch.setattr(np, "diff", no_diff)
+    for y, w in zip(ys, want):
+        got = abs_third_difference(y)
+        assert got.shape == w.shape and np.array_equal(got, w)
+    monkeypatch.undo()
+    assert np.array_equal(abs_third_difference(ys[2][::3]), np.abs(np.diff(ys[2][::3], 3)))  # strided: numpy
+    assert abs_third_difference(np.ones(3)).size == 0
