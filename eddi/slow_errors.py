@@ -144,7 +144,7 @@ def nuisance_values(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.ndarr
     rate_terms : ndarray, shape (k,), [J]
         The rate-error columns' contribution to ``E - T`` at ``t``.
     """
-    from scipy.interpolate import BSpline  # local: keeps `import eddi` light
+    from eddi.bspline import Spline as BSpline  # numpy (scipy.interpolate imports scipy.optimize)
 
     t = np.asarray(t, dtype=float)
     v = np.asarray(v, dtype=float)
