@@ -154,9 +154,9 @@ def spline_cumulative_integral(t: np.ndarray, y: np.ndarray) -> np.ndarray:
     ndarray, shape (n,)
         ``int_{t0}^{t} y dt`` (units of ``y`` times s).
     """
-    from scipy.interpolate import make_interp_spline
+    from eddi.bspline import interpolate
 
-    s = make_interp_spline(t, y, k=3).antiderivative()
+    s = interpolate(t, y, 3).antiderivative()
     out = s(t)
     return out - out[0]
 
@@ -197,9 +197,9 @@ def spline_derivative(t: np.ndarray, y: np.ndarray, degree: int = 5) -> np.ndarr
     ndarray, shape (n,)
         ``dy/dt`` at ``t`` (units of ``y`` per s).
     """
-    from scipy.interpolate import make_interp_spline
+    from eddi.bspline import interpolate
 
-    return make_interp_spline(t, y, k=degree).derivative()(t)
+    return interpolate(t, y, degree).derivative()(t)
 
 
 def common_rate(rates_hz: list[float] | tuple[float, ...], tolerance: float = RATE_TOLERANCE) -> float | None:
@@ -253,14 +253,14 @@ def resample(t: np.ndarray, y: np.ndarray, rate_hz: float) -> tuple[np.ndarray, 
         ``t[0] + k / rate_hz`` within ``[t[0], t[-1]]``.
     y_new : ndarray, shape (m,)
     """
-    from scipy.interpolate import make_interp_spline
+    from eddi.bspline import interpolate
 
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
     m = int(math.floor((t[-1] - t[0]) * rate_hz + 1e-9)) + 1
     t_new = t[0] + np.arange(m) / rate_hz
     t_new = t_new[t_new <= t[-1] + 1e-12]
-    return t_new, make_interp_spline(t, y, k=5)(t_new)
+    return t_new, interpolate(t, y, 5)(t_new)
 
 
 def delay(y: np.ndarray, samples: float) -> np.ndarray:
@@ -290,9 +290,9 @@ def delay(y: np.ndarray, samples: float) -> np.ndarray:
     if abs(float(samples) - k) < 1e-9 or n < 6:
         j = np.clip(np.round(idx).astype(int), 0, max(n - 1, 0))
         return np.where(inside, y[j], out)
-    from scipy.interpolate import make_interp_spline
+    from eddi.bspline import interpolate
 
-    out[inside] = make_interp_spline(np.arange(n, dtype=float), y, k=5)(idx[inside])
+    out[inside] = interpolate(np.arange(n, dtype=float), y, 5)(idx[inside])
     return out
 
 
@@ -417,30 +417,32 @@ def decimate_centred(t: np.ndarray, x: np.ndarray, v: np.ndarray, a: np.ndarray 
 
 
 def bspline_design_matrix(x: np.ndarray, knots: np.ndarray, k: int = 3):
-    """``scipy.interpolate.BSpline.design_matrix(x, knots, k)``: the same CSR array bit for bit.
+    """``scipy.interpolate.BSpline.design_matrix(x, knots, k)``: the same CSR array, to rounding.
 
-    scipy (1.17) checks that ``x`` lies within ``[knots[k], knots[-k-1]]`` with Python's
-    ``min(x)`` and ``max(x)``, one interpreted comparison per sample: 4.4 of the 7.3 ms the
-    conditioning's drift spline spent on its 76,814 anchor samples (45 s record, session 12).
-    Here numpy checks the bounds (and finiteness) and scipy builds the matrix without its own
-    check (``extrapolate=True``, which for points inside the base interval locates the same knot
-    interval: the same rows, ``tests/eddi/test_calculus.py``).
+    Built by :func:`eddi.bspline.design_matrix_parts` (numpy; ``scipy.interpolate`` imports
+    ``scipy.optimize``, ~0.13 s a process) as a ``scipy.sparse.csr_array``. numpy checks the
+    bounds (and finiteness): scipy (1.17) checked them with Python's ``min(x)`` and ``max(x)``,
+    one interpreted comparison per sample (4.4 of 7.3 ms on the 45 s record, session 12).
 
     Raises
     ------
     ValueError
         On a point outside the base interval or not finite, as scipy does.
     """
-    from scipy.interpolate import BSpline  # local: keeps `import eddi` light
+    from scipy import sparse  # local: keeps `import eddi` light
+
+    from eddi.bspline import design_matrix_parts
 
     x = np.ascontiguousarray(x, dtype=float)
     knots = np.asarray(knots, dtype=float)
-    if x.ndim != 1 or knots.ndim != 1 or knots.size < 2 * k + 2:
-        return BSpline.design_matrix(x, knots, k)  # scipy's own checks and messages
+    if x.ndim != 1 or knots.ndim != 1 or knots.size < 2 * k + 2 or np.any(np.diff(knots) < 0):
+        raise ValueError(f"B-spline design matrix: points and knots must be 1-D, the knots non-decreasing and "
+                         f"at least {2 * k + 2}")
     if x.size and not (float(np.min(x)) >= knots[k] and float(np.max(x)) <= knots[knots.size - k - 1]):
         raise ValueError(f"B-spline design matrix: points outside [{knots[k]:g}, {knots[knots.size - k - 1]:g}]"
                          " or not finite")
-    return BSpline.design_matrix(x, knots, k, extrapolate=True)
+    data, indices, indptr, cols = design_matrix_parts(x, knots, k)
+    return sparse.csr_array((data, indices, indptr), shape=(x.size, cols))
 
 
 def _integrate_sum(y, dt, k, out):  # pragma: no cover - compiled

@@ -18,7 +18,7 @@ Accuracy notes
 from __future__ import annotations
 
 import numpy as np
-from scipy.interpolate import BSpline, CubicHermiteSpline, make_interp_spline
+from eddi.bspline import Spline, hermite, interpolate
 
 from eddi.calculus import abs_third_difference
 from eddi.median import median
@@ -173,8 +173,8 @@ def rate_interpolant(t: np.ndarray, v: np.ndarray, a: np.ndarray | None = None):
         ``f(tq) -> v(tq)``.
     """
     if a is not None:
-        return CubicHermiteSpline(t, v, a)
-    return make_interp_spline(t, v, k=SPLINE_DEGREE)
+        return hermite(t, v, a)
+    return interpolate(t, v, SPLINE_DEGREE)
 
 
 def term_matrix(terms: tuple[Term, ...], x: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -247,7 +247,7 @@ def integrated_term(term: Term, x: np.ndarray) -> np.ndarray:
     return out
 
 
-def cumulative_energy(t: np.ndarray, power: np.ndarray) -> BSpline:
+def cumulative_energy(t: np.ndarray, power: np.ndarray) -> Spline:
     """Antiderivative of a power signal, exact on its quintic spline interpolant.
 
     Parameters
@@ -257,10 +257,10 @@ def cumulative_energy(t: np.ndarray, power: np.ndarray) -> BSpline:
 
     Returns
     -------
-    BSpline
+    Spline
         ``A(tq)``: integral of the spline of ``power`` from ``t[0]`` to ``tq`` [J].
     """
-    return make_interp_spline(t, power, k=SPLINE_DEGREE, axis=0).antiderivative()
+    return interpolate(t, power, SPLINE_DEGREE).antiderivative()
 
 
 def check_series(t: np.ndarray, named: dict[str, np.ndarray | None], min_samples: int = 4) -> tuple[np.ndarray, dict[str, np.ndarray | None]]:

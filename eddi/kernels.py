@@ -45,7 +45,7 @@ AOT_NAME = "_aot_kernels"
 KERNEL_MODULES = ("eddi.simulate", "eddi.local_frequency", "eddi.sensitivity", "eddi.iir", "eddi.hysteresis",
                   "eddi.median", "eddi.refine_grid",
                   "eddi.calculus", "eddi.conditioning.levels", "eddi.conditioning.checks",
-                  "eddi.conditioning.kinematics")
+                  "eddi.conditioning.kinematics", "eddi.bspline")
 
 
 def _aot_dir() -> Path:

@@ -4,13 +4,14 @@
 (:mod:`eddi.refine_grid`) and the scaled parameters (the coefficients of the active terms,
 then the initial state ``x0, v0`` and the measured signal's offset: :data:`NUISANCE`); it
 simulates them, differentiates them (forward sensitivity equations, :mod:`eddi.sensitivity`,
-else forward differences) and fits them (:func:`scipy.optimize.least_squares`,
-Levenberg-Marquardt) over the first ``stop`` block means. :func:`eddi.refine.refine_output_error`
+else forward differences) and fits them (:func:`eddi.lsq.least_squares`,
+MINPACK's Levenberg-Marquardt in numpy) over the first ``stop`` block means. :func:`eddi.refine.refine_output_error`
 fits it in :data:`STAGES`; :mod:`eddi.selection` removes and adds terms with it.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -228,11 +229,11 @@ class OutputErrorProblem:
     def fit(self, p: np.ndarray, stop: int, max_nfev: int, free: np.ndarray | None = None):
         """Levenberg-Marquardt from ``p`` over ``[0, stop)``; ``free`` masks the fitted parameters.
         A ``stop`` beyond the record is the whole record (the stages' 64 on a short one)."""
-        from scipy.optimize import least_squares  # local: scipy.optimize only when refining
+        from eddi.lsq import least_squares  # numpy's MINPACK lmder (EDDI_LSQ=scipy: scipy's)
 
         stop = min(int(stop), self.n)
         if free is None:
-            return least_squares(lambda q: self.residual(q, stop), p, jac=self._jac_function(stop), method="lm",
+            return least_squares(lambda q: self.residual(q, stop), p, jac=self._jac_function(stop),
                                  x_scale=self.x_scale, max_nfev=max_nfev, xtol=1e-12,
                                  ftol=1e-12 if self.min_gain is None else max(1e-12, self.min_gain / stop))
         fixed = p.copy()
@@ -244,15 +245,14 @@ class OutputErrorProblem:
 
         jac_all = self._jac_function(stop)
         jac = "2-point" if jac_all == "2-point" else (lambda q: jac_all(full(q))[:, free])  # type: ignore[operator]
-        sol = least_squares(lambda q: self.residual(full(q), stop), p[free], jac=jac, method="lm", x_scale=1.0,
+        sol = least_squares(lambda q: self.residual(full(q), stop), p[free], jac=jac, x_scale=1.0,
                             max_nfev=max_nfev)
         out = fixed.copy()
         out[free] = sol.x
-        sol.x = out
-        return sol
+        return _with_x(sol, out)
 
     def _jac_function(self, stop: int):
-        """The Jacobian for :func:`scipy.optimize.least_squares`: sensitivities, else 2-point."""
+        """The Jacobian for :func:`eddi.lsq.least_squares`: sensitivities, else 2-point."""
         if not smooth_model(self.eom):
             return "2-point"
 
@@ -319,3 +319,11 @@ class OutputErrorProblem:
             group, name = self.names[i]
             out[group][name] = float(half[k])
         return out
+
+
+def _with_x(sol, x: np.ndarray):
+    """``sol`` with its ``x`` replaced (a frozen :class:`eddi.lsq.LsqResult`, or scipy's result)."""
+    if dataclasses.is_dataclass(sol):
+        return dataclasses.replace(sol, x=x)
+    sol.x = x
+    return sol

@@ -9,7 +9,7 @@ so a long ring-down constrains both far more tightly than any single cycle does.
 
 :func:`refine_output_error` starts from the EDDI estimate (which is close enough for the
 non-convex output-error problem to converge to the right minimum) and minimises, with
-:func:`scipy.optimize.least_squares`,
+:func:`eddi.lsq.least_squares` (MINPACK's Levenberg-Marquardt in numpy),
 
     sum_k (y_sim(t_k; b, k, x0, v0) - y_meas(t_k))^2
 

@@ -144,7 +144,7 @@ def nuisance_values(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.ndarr
     rate_terms : ndarray, shape (k,), [J]
         The rate-error columns' contribution to ``E - T`` at ``t``.
     """
-    from scipy.interpolate import BSpline  # local: keeps `import eddi` light
+    from eddi.bspline import Spline as BSpline  # numpy (scipy.interpolate imports scipy.optimize)
 
     t = np.asarray(t, dtype=float)
     v = np.asarray(v, dtype=float)
@@ -271,15 +271,13 @@ def normal_lstsq(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
         norms = np.where(norms > 0, norms, 1.0)
         a_s = a / norms
         gram = a_s.T @ a_s
-    from scipy.linalg import cho_factor, cho_solve  # local: keeps `import eddi` light
-
     # the scaled columns have unit norm: the Gram matrix has a unit diagonal
-    factor = cho_factor(gram + 1e-14 * np.eye(gram.shape[0]), lower=True)
-    diag = np.abs(np.diag(factor[0]))
+    low = _cholesky(gram)
+    diag = np.abs(np.diag(low))
     cond = float(np.max(diag) / max(float(np.min(diag)), 1e-300))
 
     def normal_solve(rhs: np.ndarray) -> np.ndarray:
-        return cho_solve(factor, np.asarray(a_s.T @ rhs).ravel())
+        return _cholesky_solve(low, np.asarray(a_s.T @ rhs).ravel())
 
     sol = normal_solve(b)
     for _ in range(2):
@@ -313,8 +311,6 @@ def normal_lstsq_split(dense: np.ndarray, nuisance: sparse.spmatrix, b: np.ndarr
     cond : float
         As :func:`normal_lstsq`.
     """
-    from scipy.linalg import cho_factor, cho_solve  # local: keeps `import eddi` light
-
     m = dense.shape[1]
     sp = sparse.csr_matrix(nuisance)
     nd = np.linalg.norm(dense, axis=0)
@@ -326,12 +322,12 @@ def normal_lstsq_split(dense: np.ndarray, nuisance: sparse.spmatrix, b: np.ndarr
     s_t = s_s.T.tocsr()
     sd = np.asarray(s_t @ d_s)
     gram = np.block([[d_s.T @ d_s, sd.T], [sd, (s_t @ s_s).toarray()]])
-    factor = cho_factor(gram + 1e-14 * np.eye(gram.shape[0]), lower=True)
-    diag = np.abs(np.diag(factor[0]))
+    low = _cholesky(gram)
+    diag = np.abs(np.diag(low))
     cond = float(np.max(diag) / max(float(np.min(diag)), 1e-300))
 
     def normal_solve(rhs: np.ndarray) -> np.ndarray:
-        return cho_solve(factor, np.concatenate([d_s.T @ rhs, np.asarray(s_t @ rhs).ravel()]))
+        return _cholesky_solve(low, np.concatenate([d_s.T @ rhs, np.asarray(s_t @ rhs).ravel()]))
 
     def times(sol: np.ndarray) -> np.ndarray:
         return d_s @ sol[:m] + np.asarray(s_s @ sol[m:]).ravel()
@@ -341,3 +337,16 @@ def normal_lstsq_split(dense: np.ndarray, nuisance: sparse.spmatrix, b: np.ndarr
         sol = sol + normal_solve(b - times(sol))
     return sol / norms, cond
 
+
+
+def _cholesky(gram: np.ndarray) -> np.ndarray:
+    """Lower Cholesky factor of ``gram + 1e-14 I`` (numpy's; ``numpy.linalg.LinAlgError`` when not
+    positive definite). Not scipy.linalg's ``cho_factor``: importing ``scipy.linalg`` cost ~0.03-0.05 s
+    of every ``station identify`` process for these two small systems (54 x 54 on the 45 s record)."""
+    return np.linalg.cholesky(gram + 1e-14 * np.eye(gram.shape[0]))
+
+
+def _cholesky_solve(low: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """``(L L^T)^-1 rhs`` for the factor of :func:`_cholesky` (two solves; the refinement steps of
+    :func:`normal_lstsq` correct their rounding as they did ``cho_solve``'s)."""
+    return np.linalg.solve(low.T, np.linalg.solve(low, rhs))

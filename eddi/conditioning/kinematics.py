@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.interpolate import BSpline
+from eddi.bspline import Spline, piecewise
 
 from eddi.calculus import bspline_design_matrix, cumulative_trapezoid
 from eddi.conditioning.checks import check_time
@@ -93,7 +93,7 @@ def _sg_derivative_modes(y: np.ndarray, rate_hz: float, period_s: float) -> np.n
 def _drift_spline(
     t: np.ndarray, y: np.ndarray, t_pts: np.ndarray, knot_s: float, start: int, clamped: bool,
     local: np.ndarray, free_slope: bool = False,
-) -> BSpline:
+) -> Spline:
     """Least-squares cubic spline ``d`` with ``y = d(t_pts) + local @ c`` (``y``: the integrated ``x`` at the anchors).
 
     ``t`` is the record's time (the spline spans ``t[start:]``); ``t_pts, y, local`` are the
@@ -132,11 +132,11 @@ def _drift_spline(
     sol = np.linalg.solve(normal + 1e-12 * np.eye(k), rhs)
     coef = np.zeros(basis.shape[1])
     coef[first:] = sol[:m]
-    return BSpline(knots, coef, 3, extrapolate=False)
+    return Spline(knots, coef, 3, extrapolate=False)
 
 
 
-def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int,
+def _drift_spline_eval(spl: Spline, t: np.ndarray, start: int,
                        minus: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``d`` and ``d'`` of the drift spline on ``t[start:]`` (0 before ``start``).
 
@@ -144,18 +144,15 @@ def _drift_spline_eval(spl: BSpline, t: np.ndarray, start: int,
     same values bit for bit as subtracting the returned ``d, d'``, without two arrays of the
     record's length and two passes over it).
 
-    Evaluated as its piecewise polynomial (:meth:`scipy.interpolate.PPoly.from_spline`: the
+    Evaluated as its piecewise polynomial (:func:`eddi.bspline.piecewise`, scipy's ``PPoly.from_spline``: the
     cubic of each knot interval, by Horner on the interval's samples): equal to the B-spline's
     own evaluation within rounding (~1e-15 of the drift), at a fraction of the cost on a long
     record (the samples are sorted, so each interval's samples are one slice).
     """
-    from scipy.interpolate import PPoly
-
     d, dd = (np.zeros(t.size), np.zeros(t.size)) if minus is None else minus
     sub = minus is not None
     ts = t[start:]
-    pp = PPoly.from_spline(spl, extrapolate=False)
-    brk, c = pp.x, pp.c
+    brk, c = piecewise(spl)
     keep = np.nonzero(brk[1:] > brk[:-1])[0]  # the knot intervals of non-zero length
     lo, hi = brk[keep], brk[keep + 1]
     # samples in [lo, hi) per interval; the last interval is closed (t[-1] is its end)

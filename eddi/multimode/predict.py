@@ -6,7 +6,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
 
 from eddi.errors import SignalError
 from eddi.multimode.model import ModalSumModel
@@ -122,6 +121,8 @@ def estimate_initial_states(
         return np.where(np.isfinite(r), r, big)
 
     z0 = (p0.reshape(n_modes, 2) / scale).ravel()
+    from scipy import optimize  # local: station identify reads trajectory_errors only (no scipy.optimize)
+
     sol = optimize.least_squares(resid, z0, method="lm", xtol=1e-10, ftol=1e-10)
     return sol.x.reshape(n_modes, 2) * scale
 

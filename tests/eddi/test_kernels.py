@@ -131,7 +131,10 @@ def test_identify_with_built_kernels_imports_no_numba(aot_dir: Path) -> None:
                            "--mass", "0.815", "--json"], capture_output=True, text=True, env=env)
     assert done.returncode == 0, done.stderr[-500:]
     imported = [ln.rsplit("|", 1)[-1].strip() for ln in done.stderr.splitlines() if ln.startswith("import time:")]
-    assert "eddi.simulate" in imported and "scipy.optimize" in imported
+    # the engine ran (the simulator, the refinement's least squares: eddi.lsq since session 17,
+    # not scipy.optimize) with the B-spline solver built too
+    assert "eddi.simulate" in imported and "eddi.lsq" in imported and "eddi.bspline" in imported
+    assert "scipy.optimize" not in imported
     assert not [m for m in imported if m.split(".")[0] in ("numba", "llvmlite")]
     assert json.loads(done.stdout)["validation"]["nrmse"] < 0.1
 

@@ -40,10 +40,13 @@ run()
 #: subpackages the path does not use (scipy.optimize's own imports bring linalg, sparse, special,
 #: fft and spatial; stats ~0.1 s more, integrate: eddi.calculus has its functions, ndimage and io:
 #: multi-DOF and .mat records only), nor threadpoolctl (the CLI starts BLAS with one thread,
-#: eddi.threads: ~7 ms of look-up).
+#: eddi.threads: ~7 ms of look-up). Session 17: nor scipy.optimize and scipy.interpolate (the
+#: refinement's Levenberg-Marquardt is eddi.lsq, the splines eddi.bspline: ~0.13 s of imports),
+#: nor scipy.linalg (eddi.slow_errors' Cholesky is numpy's); scipy.sparse stays (EDDI's drift basis).
 NOT_FOR_IDENTIFY = ("matplotlib", "pysindy", "dask", "distributed", "pyarrow", "h5py", "scipy.signal",
                     "eddi.diagnosis.loop", "eddi.diagnosis.catalogue", "scipy.stats", "scipy.integrate",
-                    "scipy.ndimage", "scipy.io", "threadpoolctl")
+                    "scipy.ndimage", "scipy.io", "threadpoolctl", "scipy.optimize", "scipy.interpolate",
+                    "scipy.linalg")
 PROBE = PROBE.replace("{not_for_identify!r}", repr(NOT_FOR_IDENTIFY))
 
 #: The same through main() alone (the ordinary end), for the reference output.
