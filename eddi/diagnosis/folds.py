@@ -147,8 +147,7 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
         out = []
         judged = res.contenders[k] if k < len(res.contenders) else None
         for mech in tried:
-            # a native mechanism extends EDDI's fit; in a fold judged with its equation-error
-            # contender it is fitted by the fold's procedure (settings.EXTEND_JUDGED)
+            # EDDI's fit + mechanism; by the fold's procedure where it judges its contender
             fit = fit_fold(mech, bfit)
             if judged is not None and mech.native:
                 fit = fit_fold.procedure(mech, judged, fit)
