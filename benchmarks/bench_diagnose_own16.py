@@ -3,8 +3,8 @@
     python benchmarks/bench_diagnose_own16.py SET on|off OUT [SEEDS]
 
 SET: ``ownA`` (tuning: looked at while building), ``ownB``, ``ownC`` (held out). ``on|off``: the switch
-:data:`eddi.diagnosis.settings.EXTEND_JUDGED` (candidates extend the fold's equation-error contender where it
-is the judged baseline; ``off``: the session-15 rule) for a same-run before / after. SEEDS: e.g. ``1,2``.
+:data:`eddi.diagnosis.settings.EXTEND_JUDGED` (where a fold is judged with its equation-error contender, the
+candidates are fitted by the fold's procedure, session 17; ``off``: the session-15 rule) for a same-run before / after. SEEDS: e.g. ``1,2``.
 The cases are the calibration's ladder cases (``bench_diagnose_calibration.ladder_case``) on these systems,
 two rungs per mechanism and a null (``amplitude_damping`` 0); each row (appended to OUT as JSON) holds the
 verdict at the default factor and strong cut (docs/diagnosis.md, "Session 16").

@@ -163,6 +163,24 @@ class FoldFitter:
             return None
         return replace(fit, contender=True) if fit is not None else None
 
+    def procedure(self, mech: Mechanism, judged: Fit, efit: Fit | None) -> Fit | None:
+        """``mech`` fitted by the fold's own procedure, where the fold is judged with its
+        equation-error contender (``judged``): EDDI's fit with the mechanism (``efit``), refined as
+        the fold refines (:func:`refined_baseline`), against the contender with the mechanism
+        (:meth:`extend_contender`), the one the fold's other training records reproduce better, as
+        the fold's baseline was chosen (session 17). Marked ``contender``: judged as it is."""
+        err = TrainingError(self.records, self.masks, self._fitter.ee_errors)
+        best = efit
+        if efit is not None and efit.mech is not None and self.refine:
+            best = refined_baseline(efit, self.records, self.masks, self.setup, err)
+            best = replace(best, mech=efit.mech) if best.mech is None else best
+        cfit = self.extend_contender(mech, judged)
+        if cfit is None or cfit.mech is None:
+            return replace(best, contender=True) if best is not None else None
+        if best is None or best.mech is None:
+            return cfit
+        return cfit if err.below(cfit.eom, err(best.eom)) else replace(best, contender=True)
+
     def __call__(self, mech: Mechanism | None, base_fit: Fit | None = None) -> Fit | None:
         if self.fold is None:
             return fit_ee(self.sigs, self.masks, self.setup, mech, base_fit=base_fit, columns=self.columns)

@@ -30,8 +30,9 @@ class FoldResults:
     """What the folds measured (one entry per held-out part in every list)."""
 
     base_fold: list[float] = field(default_factory=list)
-    #: per fold, the fit the native candidates extend: EDDI's (unrefined), or the judged baseline
-    #: itself where that is the fold's equation-error contender (settings.EXTEND_JUDGED)
+    #: per fold, the native candidates' reference: EDDI's fit (unrefined), or the judged baseline
+    #: itself where that is the fold's equation-error contender (there the candidates are fitted by
+    #: the fold's procedure, FoldFitter.procedure; settings.EXTEND_JUDGED)
     ref_fold: list[float] = field(default_factory=list)
     eddi_fold: list[float] = field(default_factory=list)  # EDDI's baseline (unrefined) per fold
     #: per fold, the judged baseline when it is the equation-error contender (else None)
@@ -146,10 +147,10 @@ def judge_candidates(res: FoldResults, fits: Sequence[tuple[FoldFitter, Fit]], r
         out = []
         judged = res.contenders[k] if k < len(res.contenders) else None
         for mech in tried:
-            # a native mechanism extends the fit the fold is judged with: its equation-error
-            # contender where that won (settings.EXTEND_JUDGED), else EDDI's fit
-            fit = (fit_fold.extend_contender(mech, judged) if judged is not None and mech.native
-                   else fit_fold(mech, bfit))
+            # EDDI's fit + mechanism; by the fold's procedure where it judges its contender
+            fit = fit_fold(mech, bfit)
+            if judged is not None and mech.native:
+                fit = fit_fold.procedure(mech, judged, fit)
             # (res.cand_fits, filled below): native ones are refined, look-alikes compared
             kept = fit if (mech.native or mech.lookalikes) else None
             if fit is None or fit.mech is None:
@@ -227,7 +228,7 @@ def refine_candidates(res: FoldResults, records: Sequence[Record], setup: Setup,
     def one(item: tuple[Mechanism, int]) -> np.ndarray | None:
         mech, k = item
         part, masks, fit = parts[k], fold_masks[k], res.cand_fits[mech.name][k]
-        if fit is not None and fit.contender:  # extends the fold's equation-error contender: as judged
+        if fit is not None and fit.contender:  # fitted by the fold's procedure (refined there): as judged
             return res.cand_sims[mech.name][k] if res.cand_fold[mech.name][k] < NRMSE_CAP else None
         rfit = refined_baseline(fit, records, masks, setup) if fit is not None else None
         return simulate_part(rfit.eom, records[part.record], part) if rfit is not None else None

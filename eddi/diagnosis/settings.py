@@ -89,13 +89,14 @@ REFINE_FOLDS: dict = {"warm": False, "min_gain": 1.0}
 #: ``k[x]`` and 4-7x the pipeline's held-out error). A switch for same-run comparisons.
 SLOW_ERRORS = {"on": True}
 #: Where a fold is judged with its equation-error contender (the pipeline's rule kept it over
-#: EDDI's fit and its refinement: :meth:`eddi.diagnosis.fitter.FoldFitter.refined`), the
-#: EDDI-fitted (native) candidates of that fold extend the contender, fitted the same way on the
-#: same rows (:meth:`~eddi.diagnosis.fitter.FoldFitter.extend_contender`), and are measured against
-#: it (session 16: extending EDDI's per-fold fit there cost the held-out ladder three names).
-#: A switch for same-run comparisons (``{"on": False}``: the session-15 rule), not a user option.
-#: Off by default (lead, session 16): on, the held-out ladder gained (seeds 10-12 78/13/17/0 ->
-#: 82/7/19/0 found / unexplained / none / wrong) but s16ee's held-out family ownC lost five names,
-#: four of them to ``none (uncertain)`` at 1.2-2.9x the floor (13/5/0/0 -> 8/3/7/0): the
-#: equation-error extension cut less than EDDI + mechanism refined; docs/diagnosis.md "Session 16".
-EXTEND_JUDGED = {"on": False}
+#: EDDI's fit and its refinement: :meth:`eddi.diagnosis.fitter.FoldFitter.refined`), an
+#: EDDI-fitted (native) candidate of that fold is fitted by the fold's procedure
+#: (:meth:`~eddi.diagnosis.fitter.FoldFitter.procedure`): EDDI + mechanism refined as the fold
+#: refines, or the contender + mechanism fitted by equation error on the contender's rows, the one
+#: the fold's other training records reproduce better; it is measured against the judged baseline.
+#: A switch for same-run comparisons (``{"on": False}``: the session-15 rule, candidates extend
+#: EDDI's per-fold fit and are measured against it), not a user option. Session 16 had the
+#: contender + mechanism alone (off by default: s16ee's held-out family ownC lost five names to
+#: ``none (uncertain)`` / ``unexplained``); session 17 (s17ee) the procedure, on:
+#: docs/diagnosis.md "Session 17".
+EXTEND_JUDGED = {"on": True}

@@ -4,8 +4,9 @@ Since session 15 each fold judges the equation-error fit of the baseline's terms
 beside EDDI's fit (and its refinement) and keeps the one that predicts the fold's other training
 records best, as the pipeline does. The candidates still extended EDDI's per-fold fit, so where
 the contender won, a mechanism's gain was measured from a worse fit than the one judged (the
-held-out ladder lost three names). Now a native candidate of such a fold is the contender plus
-the mechanism, fitted on the same rows (:meth:`FoldFitter.extend_contender`), and the fold's
+held-out ladder lost three names). Session 16 made a native candidate of such a fold the contender
+plus the mechanism, fitted on the same rows (:meth:`FoldFitter.extend_contender`; since session 17
+one of the two the fold's procedure chooses from, tests/eddi/test_procedure_candidates.py), and the fold's
 equation-error fit is the pipeline's own (:mod:`eddi.equation_error`: one owner of the rows and
 the solve).
 """
