@@ -286,13 +286,23 @@ def timed(self, fn, items):
     sides.append(side)
     return out
 fm.ForkMap.__call__ = timed
+def dump():
+    if not os.path.exists(sys.argv[1]):
+        c2 = time.process_time()
+        with open(sys.argv[1], "w") as f:
+            json.dump({"total": c2 - c0, "maps": calls, "spans": spans, "sides": sides}, f)
+import station.process as sp
+if hasattr(sp, "end_now"):  # a whole process may end without the teardown (written first)
+    real_end = sp.end_now
+    sp.end_now = lambda code: (dump(), real_end(code))
 from station.cli import main
 try:
-    main(sys.argv[2:])
+    try:  # as the station executable runs it (station.cli.run)
+        main(sys.argv[2:], whole_process=True)
+    except TypeError:  # an older tree
+        main(sys.argv[2:])
 finally:
-    c2 = time.process_time()
-    with open(sys.argv[1], "w") as f:
-        json.dump({"total": c2 - c0, "maps": calls, "spans": spans, "sides": sides}, f)
+    dump()
 """
 
 
@@ -306,9 +316,17 @@ def _estimate_once(tree: Path, args: list[str], tmp: str, jobs: int) -> tuple[di
            "STATION_JOBS": str(jobs), "BENCH_DIR": str(Path(__file__).resolve().parent)}
     env.pop("STATION_SERIAL", None)
     out = Path(tmp) / "estimate.json"
+    out.unlink(missing_ok=True)
+    import resource
+
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     got = subprocess.run([sys.executable, "-c", _ESTIMATE_CHILD, str(out), *args], env=env, cwd=tmp,
                          stdout=subprocess.PIPE, check=False).stdout
-    return json.loads(out.read_text()), got
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    figures = json.loads(out.read_text())
+    # the whole process's CPU (Python's start-up, imports, the interpreter's teardown if it runs)
+    figures["process"] = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+    return figures, got
 
 
 def _modelled(got: dict, jobs: int) -> tuple[float, float, float, float]:
@@ -319,6 +337,15 @@ def _modelled(got: dict, jobs: int) -> tuple[float, float, float, float]:
     spans = got.get("spans") or [_makespan(m, jobs) for m in maps]
     return (outside + sum(spans),
             outside + sum(_makespan(m + b, jobs, dealt=True) for m, b in zip(maps, sides)), outside, inside)
+
+
+def _modelled_process(got: dict, jobs: int) -> float:
+    """The modelled wall of the whole process: :func:`_modelled`'s plus Python's start-up and
+    the interpreter's teardown (the process's CPU not inside a map, serial)."""
+    maps, sides = got["maps"], got.get("sides") or [[] for _ in got["maps"]]
+    inside = sum(sum(m) + sum(b) for m, b in zip(maps, sides))
+    spans = got.get("spans") or [_makespan(m, jobs) for m in maps]
+    return got["process"] - inside + sum(spans)
 
 
 def run_estimate(jobs: int, detail: bool = False, runs: int = 1, before: str | None = None) -> None:
@@ -340,6 +367,7 @@ def run_estimate(jobs: int, detail: bool = False, runs: int = 1, before: str | N
                  "beam": ["diagnose", *_beam_files(), "--mass", "1", "--json"]}
         for case, args in cases.items():
             walls: dict[str, list[float]] = {name: [] for name, _ in trees}
+            whole: dict[str, list[float]] = {name: [] for name, _ in trees}
             outs: dict[str, bytes] = {}
             load0 = os.getloadavg()[0]
             for rnd in range(runs):
@@ -347,6 +375,7 @@ def run_estimate(jobs: int, detail: bool = False, runs: int = 1, before: str | N
                     got, outs[name] = _estimate_once(tree, args, tmp, jobs)
                     wall, dealt, outside, inside = _modelled(got, jobs)
                     walls[name].append(wall)
+                    whole[name].append(_modelled_process(got, jobs))
                     maps = got["maps"]
                     target = {"three": 3.0, "beam": 8.0}[case]
                     label = f"{case}" + (f" ({name})" if before else "")
@@ -355,6 +384,8 @@ def run_estimate(jobs: int, detail: bool = False, runs: int = 1, before: str | N
                           f"idle cores: {wall:.2f} s wall ({dealt:.2f} s with the items dealt round robin); "
                           f"target {target:g} s: {'met' if wall <= target else 'NOT met'}; load "
                           f"{os.getloadavg()[0]:.2f} (CPU inflates with the load)", flush=True)
+                    print(f"estimate: {label}: the whole process (start-up and end included): CPU "
+                          f"{got['process']:.2f} s, on {jobs} idle cores {whole[name][-1]:.2f} s wall", flush=True)
                     if detail:
                         sides = got.get("sides") or [[] for _ in maps]
                         spans = got.get("spans") or [_makespan(m, jobs) for m in maps]
@@ -368,6 +399,9 @@ def run_estimate(jobs: int, detail: bool = False, runs: int = 1, before: str | N
                 print(f"estimate: {case}: median modelled wall tree {a:.2f} s, before {b:.2f} s: ratio "
                       f"{a / b:.3f} ({runs} interleaved rounds; load {load0:.2f} -> {os.getloadavg()[0]:.2f}); "
                       f"JSON {'identical' if outs['tree'] == outs['before'] else 'DIFFERENT'}", flush=True)
+                a, b = statistics.median(whole["tree"]), statistics.median(whole["before"])
+                print(f"estimate: {case}: whole process, median modelled wall tree {a:.2f} s, before {b:.2f} s: "
+                      f"ratio {a / b:.3f}", flush=True)
 
 
 def main() -> None:

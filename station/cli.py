@@ -110,7 +110,13 @@ def flagged(command: str, why: str) -> int:
 QUICK_EXIT: dict[str, tuple[str, ...]] = {
     "identify": ("station.readers", "station.session", "station.coupling", "eddi.diagnosis.chain"),
     "validate": ("station.session", "eddi.multimode"),
+    # its forked workers (station.forkmap) have all ended when it prints; with a file to write
+    # (QUICK_EXIT_UNLESS) it ends the ordinary way
+    "diagnose": ("station.readers", "station.session", "eddi.diagnosis.loop"),
 }
+#: Options that write files: a command given one ends the ordinary way (its engine still loads
+#: with the collector paused).
+QUICK_EXIT_UNLESS = ("save_model", "report")
 
 #: Commands that draw their own live status (the others get :class:`station.progress.Working`).
 OWN_PROGRESS = frozenset({"acquire", "demo", "rig", "campaign"})
@@ -228,7 +234,7 @@ def main(argv: Sequence[str] | None = None, whole_process: bool = False) -> int:
         quiet = bool(getattr(args, "json", False)) or args.command in OWN_PROGRESS
         with Working(f"station {args.command}", enabled=not quiet):
             code = int(args.func(args) or 0)
-        if quick:
+        if quick and not any(getattr(args, name, None) for name in QUICK_EXIT_UNLESS):
             from station.process import end_now
 
             end_now(code)

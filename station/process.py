@@ -16,7 +16,11 @@ Two costs of a short command that are not the command's work (issue 13, item 1; 
   (:data:`QUICK_EXIT` in :mod:`station.cli`) has nothing to tear down once its output is
   flushed: :func:`end_now` flushes stdout and stderr and ends the process with its exit code
   (:func:`os._exit`). A command that writes files, runs workers or holds devices ends the
-  ordinary way (context managers close them, atexit handlers run).
+  ordinary way (context managers close them, atexit handlers run); ``station diagnose``
+  ends quickly unless given a file to write (its forked workers, :mod:`station.forkmap`,
+  have all been joined when it prints: ~0.24 s of CPU at load 25 on the double beam).
+* **scipy's docstrings.** scipy 1.15-1.17 parse ~650 docstrings at import to append a note
+  (:func:`plain_scipy_docs`); :func:`load_quietly` keeps them as written.
 
 Both apply only to a whole ``station`` process (:func:`station.cli.run`), never to
 :func:`station.cli.main` called in a caller's interpreter (tests, notebooks).
@@ -32,7 +36,8 @@ from typing import Iterable, NoReturn
 
 
 def load_quietly(modules: Iterable[str]) -> None:
-    """Import ``modules`` with the cyclic garbage collector paused, then freeze what exists.
+    """Import ``modules`` with the cyclic garbage collector paused, then freeze what exists;
+    scipy's docstring notes are not written first (:func:`plain_scipy_docs`).
 
     Parameters
     ----------
@@ -47,12 +52,53 @@ def load_quietly(modules: Iterable[str]) -> None:
     was_enabled = gc.isenabled()
     gc.disable()
     try:
+        plain_scipy_docs()
         for name in modules:
             importlib.import_module(name)
     finally:
         gc.freeze()  # the imported modules' objects: alive until the process ends, never walked again
         if was_enabled:
             gc.enable()
+
+
+class _Unparsed:
+    """Stands for scipy's ``FunctionDoc`` in :func:`plain_scipy_docs`: the note is dropped and
+    the docstring given back as it is (``str`` starts with the signature line the decorator cuts)."""
+
+    __slots__ = ("_doc",)
+
+    def __init__(self, func: object) -> None:
+        self._doc = getattr(func, "__doc__", None) or ""
+
+    def __getitem__(self, section: str) -> list:
+        return []  # the decorator appends its note here: dropped
+
+    def __str__(self) -> str:
+        return "\n" + self._doc
+
+
+def plain_scipy_docs() -> bool:
+    """Keep scipy from parsing and rewriting docstrings while its subpackages import.
+
+    scipy 1.15-1.17 decorate ~650 public functions with ``xp_capabilities``, which parses each
+    one's docstring (``scipy._lib._docscrape.FunctionDoc``) to append a table of the array
+    libraries it supports: ~0.16 s of CPU (load 24) of the ~1.0 s a ``station diagnose`` spends
+    before its first computation (scipy.linalg, optimize, interpolate, signal, stats), ~0.05 s of
+    ``station identify``'s. A whole ``station`` process never shows a scipy docstring, so the
+    decorator's parser is replaced by :class:`_Unparsed` (the function, its registration and
+    its docstring as written; only the note is not added; functions decorated before the call
+    keep theirs). Nothing is done when scipy has no such decorator; returns whether the parser
+    is replaced. Only for the ``station`` executable
+    (:func:`load_quietly`), never in a caller's interpreter.
+    """
+    try:
+        api = importlib.import_module("scipy._lib._array_api")
+    except ImportError:
+        return False
+    if not (callable(getattr(api, "xp_capabilities", None)) and isinstance(getattr(api, "FunctionDoc", None), type)):
+        return False
+    api.FunctionDoc = _Unparsed
+    return True
 
 
 def end_now(code: int) -> NoReturn:
