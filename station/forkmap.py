@@ -46,6 +46,13 @@ def usable_cores() -> int:
         return os.cpu_count() or 1
 
 
+def _unsafe_threads() -> bool:
+    """Another thread runs that a fork could catch holding a lock (the progress line's thread is
+    fork-safe: :mod:`station.progress`)."""
+    me = threading.current_thread()
+    return any(t is not me and not getattr(t, "fork_safe", False) for t in threading.enumerate())
+
+
 def jobs_wanted(environ: dict[str, str] | None = None, load: float | None = None) -> int:
     """Processes to run the folds in (this one included; 1: no fork).
 
@@ -61,7 +68,7 @@ def jobs_wanted(environ: dict[str, str] | None = None, load: float | None = None
     env = os.environ if environ is None else environ
     if env.get("STATION_SERIAL", "") not in ("", "0"):
         return 1
-    if "fork" not in multiprocessing.get_all_start_methods() or threading.active_count() > 1:
+    if "fork" not in multiprocessing.get_all_start_methods() or _unsafe_threads():
         return 1
     forced = env.get("STATION_JOBS", "").strip()
     if forced:

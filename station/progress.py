@@ -4,10 +4,16 @@ Shown only to a person: when stderr is a terminal and the command was not asked 
 (piped or machine output stays quiet). Drawn with tqdm: the command's name and the elapsed
 time, refreshed from a daemon thread and cleared when the command ends. Commands with a
 progress of their own (``acquire``, ``demo`` with their live trigger status) do not use it.
+
+The thread draws only under :data:`DRAW_LOCK`, which a fork takes first (``os.register_at_fork``):
+a forked worker (:class:`station.forkmap.ForkMap`) never inherits a lock held mid-draw, so the
+thread is marked ``fork_safe`` and does not keep a diagnosis at a terminal in one process (it did
+until session 17: the beam's 2-job 8.4 s ran 14.5 s at a terminal).
 """
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
 from types import TracebackType
@@ -17,6 +23,16 @@ from typing import TextIO
 DELAY_S = 1.0
 #: Seconds between refreshes.
 REFRESH_S = 0.25
+#: Held while the line is drawn, and by the forking thread across a fork (module notes).
+DRAW_LOCK = threading.Lock()
+
+
+def _release_after_fork() -> None:
+    DRAW_LOCK.release()
+
+
+os.register_at_fork(before=DRAW_LOCK.acquire, after_in_parent=_release_after_fork,
+                    after_in_child=_release_after_fork)
 
 
 class Working:
@@ -42,6 +58,7 @@ class Working:
     def __enter__(self) -> "Working":
         if self.enabled:
             self._thread = threading.Thread(target=self._run, name="progress", daemon=True)
+            self._thread.fork_safe = True  # type: ignore[attr-defined]  # module notes
             self._thread.start()
         return self
 
@@ -55,10 +72,16 @@ class Working:
             return
         from tqdm import tqdm
 
-        bar = tqdm(total=None, desc=self.label, file=self.stream, leave=False, dynamic_ncols=True,
-                   bar_format="{desc}: running {elapsed}")
+        class Bar(tqdm):  # no monitor thread of tqdm's own (it would not be fork-safe)
+            monitor_interval = 0
+
+        with DRAW_LOCK:
+            bar = Bar(total=None, desc=self.label, file=self.stream, leave=False, dynamic_ncols=True,
+                      bar_format="{desc}: running {elapsed}")
         try:
             while not self._stop.wait(REFRESH_S):
-                bar.refresh()
+                with DRAW_LOCK:
+                    bar.refresh()
         finally:
-            bar.close()
+            with DRAW_LOCK:
+                bar.close()

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
+import io
 import threading
 from pathlib import Path
 
@@ -149,8 +150,9 @@ def test_queued_jobs_wait_for_a_map_that_forks() -> None:
 def _ignore_leftover_threads(monkeypatch: pytest.MonkeyPatch) -> None:
     """Threads other tests of the session left running (idle pools) are not this process's
     work: count only the threads started after this point, as a fresh ``station`` has none."""
-    real, before = threading.active_count, threading.active_count()
-    monkeypatch.setattr(forkmap.threading, "active_count", lambda: real() - before + 1)
+    real, me = threading.enumerate, threading.current_thread()
+    before = {t for t in real() if t is not me}
+    monkeypatch.setattr(forkmap.threading, "enumerate", lambda: [t for t in real() if t not in before])
 
 
 def test_jobs_wanted_environment_load_and_threads(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -174,6 +176,27 @@ def test_jobs_wanted_environment_load_and_threads(monkeypatch: pytest.MonkeyPatc
     finally:
         stop.set()
         t.join()
+
+
+def test_the_progress_line_does_not_keep_a_terminal_run_in_one_process(monkeypatch: pytest.MonkeyPatch) -> None:
+    # s17beam found `station diagnose` at a terminal in one process whatever STATION_JOBS said:
+    # the progress line's thread counted as a thread a fork could catch holding a lock
+    from station import progress
+
+    _ignore_leftover_threads(monkeypatch)
+    monkeypatch.setattr(progress, "DELAY_S", 0.0)
+    monkeypatch.setattr(forkmap, "usable_cores", lambda: 2)
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    term = Terminal()
+    with progress.Working("station diagnose", stream=term):
+        assert jobs_wanted({"STATION_JOBS": "2"}, load=0.0) == 2
+        # forked while the line is drawn: the workers run and answer (no lock copied mid-draw)
+        assert ForkMap(2)(lambda i: i * i, list(range(40))) == [i * i for i in range(40)]
+    assert "station diagnose: running" in term.getvalue()
 
 
 SYSTEM = EquationOfMotion.create(mass=0.1, damping={"v": 0.06}, stiffness={"x": 600.0, "x^3": 2e7})
