@@ -58,16 +58,22 @@ def add_floors(obj: dict[str, Any], model: Any, records: Sequence[Any]) -> None:
 
 def folds_in_modes(fits: Sequence[dict[str, tuple]], records: Sequence[Any]) -> list[Any]:
     """Per held-out fold (``fits[k][kind] = (validation, identification, training)``, capture ``k``
-    held out), both models' errors and the floor per mode in the basis of the fold's tail modes
-    (:func:`eddi.mdof.modefloor.fold_in_modes`); None for a fold whose basis does not fit."""
-    from eddi.mdof.modefloor import fold_in_modes
+    held out), both models' errors, the coupled model's without its coupling terms and the floor per
+    mode in the basis of the fold's tail modes (:func:`eddi.mdof.modefloor.fold_in_modes`); None for a
+    fold whose basis does not fit."""
+    from eddi.mdof.modefloor import fold_in_modes, without_coupling
+    from eddi.mdof.validate import validate_mdof
 
     out = []
     for k, fit in enumerate(fits):
         modes = fit["coupled"][1].modes
+        try:  # the coupled model without its coupling terms, on the same held-out capture
+            ablated = validate_mdof(without_coupling(fit["coupled"][1].model), records[k])
+        except (ValueError, FloatingPointError, np.linalg.LinAlgError):
+            ablated = None
         try:
             out.append(fold_in_modes(modes.shapes, modes.frequencies_hz, records[k], fit["baseline"][0],
-                                     fit["coupled"][0]))
+                                     fit["coupled"][0], ablated))
         except (ValueError, np.linalg.LinAlgError):
             out.append(None)
     return out
@@ -101,6 +107,6 @@ def mode_lines(obj: dict[str, Any]) -> list[str]:
     if not m:
         return []
     keys = ("frequencies_hz", "floor", "noise_m", "baseline", "coupled", "excess_gain", "better_folds")
-    j = ModeJudgement(*(tuple(m[k]) for k in keys), m["folds"], m["mode"])
+    j = ModeJudgement(*(tuple(m[k]) for k in keys), m["folds"], m["mode"], tuple(m.get("coupling_gain", ())))
     return ["Per mode, held out (the tail's linear modes; nrmse of the modal displacement, floor = the channels' "
             "noise through the inverse mode shapes, noise in m RMS at the shape's largest entry):"] + j.lines()

@@ -8,8 +8,11 @@ from eddi.mdof.records import ChannelRecord
 from eddi.mdof.validate import noise_floor
 
 
-def _fold(b, c, fl=(0.012, 0.02, 0.02)):
-    return ModeFold(tuple(b), tuple(c), tuple(fl), (1e-7,) * len(fl), (10.0, 30.0, 60.0)[:len(fl)])
+def _fold(b, c, fl=(0.012, 0.02, 0.02), ablated=None):
+    """One fold; ``ablated`` (the coupled model without its coupling terms) as bad as the baseline
+    unless given."""
+    return ModeFold(tuple(b), tuple(c), tuple(fl), (1e-7,) * len(fl), (10.0, 30.0, 60.0)[:len(fl)],
+                    tuple(b if ablated is None else ablated))
 
 
 def _m2_like(q3c=(0.040, 0.036, 0.038)):
@@ -41,6 +44,11 @@ def test_each_cut_alone_refuses():
     # another mode made worse (excess gain below -margin)
     worse = [_fold((0.014, 0.06, 0.105), (0.05, 0.036, 0.038)) for _ in range(3)]
     assert not judge_modes(worse, 0.5).earned
+    # the gain is not the coupling's: without its coupling terms the coupled model does as well on mode 3
+    # (a better linear part than the baseline's, as the tuning null t2-nulln of bench_mdof_nulls.py)
+    lin = [_fold(f.baseline, f.coupled, ablated=(f.coupled[0], f.coupled[1], 1.1 * f.coupled[2])) for f in _m2_like()]
+    assert not judge_modes(lin, 0.5).earned
+    assert judge_modes(lin, 0.5).coupling_gain[2] < 0.5
     # a fold whose prediction diverged
     div = _m2_like()
     div[1] = _fold((0.015, 0.062, 0.112), (np.inf, np.inf, np.inf))
@@ -76,3 +84,17 @@ def test_mode_errors_in_one_basis():
     e = mode_errors(meas, sim, projector(psi))
     assert np.allclose(e, [0.0, 0.1], atol=1e-12)
     assert np.all(np.isinf(mode_errors(meas, sim, projector(psi), diverged=True)))
+
+
+def test_without_coupling_drops_the_nonlinear_terms_between_coordinates_only():
+    from eddi.mdof.model import MdofModel
+    from eddi.mdof.modefloor import without_coupling
+
+    m = MdofModel(coordinates="physical", mass=(1.0, 0.2), input=(1.0, 0.0),
+                  damping=({"v1": 0.5, "v2": -0.1}, {"v2": 0.2, "v1": -0.1}),
+                  stiffness=({"x1": 4e4, "x2": -1e4, "x1^3": 1e9, "x1^2*x2": -3e9},
+                             {"x2": 5e4, "x1": -5e4, "x1*x2^2": 1.5e10, "x2^3": -5e9}),
+                  channels=("acc1", "acc2"), shapes=((1.0, 0.0), (0.0, 1.0)), driving_point="acc1")
+    w = without_coupling(m)
+    assert w.stiffness == ({"x1": 4e4, "x2": -1e4, "x1^3": 1e9}, {"x2": 5e4, "x1": -5e4, "x2^3": -5e9})
+    assert w.damping == m.damping and w.stiffness_ci95 == ()
