@@ -8,11 +8,11 @@ ground - m1 - m2 (- m3) whose last mass is light on a stiff spring, so in mode 1
 neighbour and the spring between them stretches in the upper modes only; the blows are at m1 or m2.
 Kinds (each seed draws one chain; its kinds share it):
 
-- ``up2`` / ``up3``: a cubic spring between the last two masses (3-15 % of that spring's linear force
+- ``up2`` / ``up3``: a cubic spring between the last two masses (3-10 % of that spring's linear force
   at the largest blow): must be named (``modal_coupling``);
 - ``lin2`` / ``lin3``: the same chain, linear: ``modal_coupling`` is a false claim;
 - ``gnd2`` / ``gnd3``: the same chain with the cubic on the ground spring of m1 instead (the mode-1
-  nonlinearity, 3-15 %): nonlinear but not a coupling between masses: ``modal_coupling`` is a false claim.
+  nonlinearity, 3-10 %): nonlinear but not a coupling between masses: ``modal_coupling`` is a false claim.
 
 Masses 0.1-30 kg, lowest mode 5-40 Hz, stiffness-proportional damping 0.2-1 % on mode 1, 35-55 dB per
 channel, velocity channels (m/s or mm/s by capture: the rig's true velocity plus white noise) or the
@@ -78,7 +78,7 @@ def draw(kind: str, seed: int, which: str) -> tuple[MdofSystem, float, str, dict
     peak = max(2.0, masses[drive - 1] * (2 * np.pi * f1) ** 2 * 1e-3 * _log(g, 0.5, 2))
     levels = [float(g.uniform(0.6, 0.8)), float(g.uniform(0.8, 0.95)), 1.0]
     blows = tuple(float(f"{peak * levels[k]:.3g}") for k in g.permutation(3))
-    share = _log(g, 0.03, 0.15)
+    share = _log(g, 0.03, 0.10)
     els = [Element(between=(i, i + 1), k=ks[i], c=beta * ks[i]) for i in range(n)]
     system = MdofSystem(name=f"{which[0]}{seed}-{kind}", masses_kg=tuple(masses), elements=tuple(els),
                         driving_point=drive, rate_hz=rate, pretrigger_s=0.05, record_s=record_s, impacts_n=blows,
