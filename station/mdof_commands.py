@@ -39,7 +39,7 @@ from eddi.mdof.verdict import held_out_gain
 from station.errors import InputFileError
 from station.mdof_data import condition_all, driving_point_how, reduce_rate
 from station.mdof_fitcheck import fit_warnings
-from station.mdof_floor import add_floors
+from station.mdof_floor import add_floors, folds_in_modes, mode_lines, modes_judged
 from station.mdof_mechanism import add_mechanisms, mechanism_lines
 from station.mdof_polish import polish_folds, polish_tag
 
@@ -121,11 +121,16 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
               file=sys.stderr, flush=True)
     polished = folds.pop("polished")
     fold_terms = folds.pop("coupling_terms")
+    mode_folds = folds.pop("modes")
     computed = folds.pop("ahead")
     base = float(np.mean(folds["baseline"]))
     cpl = float(np.mean(folds["coupled"]))
     raw_gain = held_out_gain(folds["baseline"], folds["coupled"])  # per fold (eddi.mdof.verdict)
     wins, gain, allowance = _coupling_earned(folds, per_channel, records, names, margin)
+    by_mode = modes_judged(mode_folds, folds["baseline"], folds["coupled"], margin)
+    in_mode = bool(not wins and by_mode is not None and by_mode.earned)  # a coupling that lives in a weak mode
+    if in_mode:
+        wins, gain = True, by_mode.excess_gain[by_mode.mode]
     stalled = _baseline_stalled(folds["baseline"], records)
     if wins:
         final, model = computed if computed is not None else _final_coupled(records, names, dp, refine)
@@ -140,6 +145,8 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     notes = list(final.notes) + ([rate_note] if rate_note else []) + ([stalled] if stalled else [])
     if allowance is not None and allowance.earned:
         notes.append(allowance.note(raw_gain, margin))
+    elif in_mode:
+        notes.append(by_mode.note(raw_gain, margin))
     elif wins and raw_gain <= margin:
         notes.append(f"the coupled model removes {100 * gain:.0f} % of the baseline's error above the noise floor "
                      f"held out (better on every fold; raw gain {100 * raw_gain:.0f} %, margin {100 * margin:.0f} %), "
@@ -167,6 +174,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
                     "mode_nrmse": fold_mean_per_mode(per_mode["coupled"])},
         "gain": gain, "raw_gain": raw_gain, "margin": margin, "cause": cause, "coordinates": final.coordinates,
         "allowance": allowance.as_dict() if allowance is not None else None,
+        "modes": dict(by_mode.as_dict(), decided=in_mode) if by_mode is not None else None,
         "noise_floor": verdict.noise_floor, "symptoms": symptoms,
         "amplitude": {"span": amp_span.as_dict(), "backbones": backbone_json(modes)},
         "span_residual": final.span_residual,
@@ -296,13 +304,19 @@ def _coupling_determined(obj: dict[str, Any]) -> None:
     from eddi.mdof.allowance import undetermined_weak
     from eddi.mdof.verdict import undetermined_coupling
 
-    weak = (obj.get("allowance") or {}).get("earned")  # named within the allowance: a stronger cut
+    # named within the allowance, or in one mode: a stronger cut
+    weak = (obj.get("allowance") or {}).get("earned") or _earned_in_mode(obj)
     why = None if obj["cause"] != "modal_coupling" else (
         undetermined_weak(obj["coupling_coefficients"], obj["gain"]) if weak
         else undetermined_coupling(obj["coupling_coefficients"], obj["gain"]))
     if why is not None:
         obj["cause"] = "unexplained"
         obj["notes"].append(why)
+
+
+def _earned_in_mode(obj: dict[str, Any]) -> bool:
+    """Whether the coupling was earned by the per-mode rule alone (:mod:`eddi.mdof.modefloor`)."""
+    return bool((obj.get("modes") or {}).get("decided"))
 
 
 def _model_flags(model: Any, folds: Sequence[float]) -> list[str]:
@@ -463,6 +477,7 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, ref
     folds["polished"] = polished
     # per fold: whether the coupled model that was judged holds a nonlinear term between coordinates
     folds["coupling_terms"] = [bool(nonlinear_coupling_terms(fit["coupled"][1].model)) for fit in fits]
+    folds["modes"] = folds_in_modes(fits, records)  # per mode, in the tail's basis (station.mdof_floor)
     folds["ahead"] = first
     return folds, per_channel, per_mode, span
 
@@ -618,6 +633,7 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
                  for i, eq in enumerate(obj["coupling_coefficients"])),
              f"Model: {obj['model']}"]
     lines.append("Noise floor per channel (nrmse): " + "  ".join(f"{c} {v:.3g}" for c, v in obj["noise_floor"].items()))
+    lines += mode_lines(obj)
     lines += [f"Symptom: {s['text']}." for s in obj["symptoms"]]
     lines += [f"Note: {n}." for n in obj["notes"]]
     if "saved_model" in obj:
