@@ -5,7 +5,9 @@ own stiffness ``x_i, x_i^3``, coupling stiffness ``x_j`` and every cubic monomia
 (:func:`default_library`). Phase one balances the energy of each half cycle of ``q_i`` between
 its zero crossings, phase two fits the conservative force sample by sample, a sequential
 threshold prunes terms, and the impact gives the force per unit mass (:func:`fit_equation`;
-the method in :mod:`eddi.mdof.identify`).
+the method in :mod:`eddi.mdof.identify`). Each equation is fitted where its coordinate's own
+motion lives (:func:`own_span`); a modal fit whose small-amplitude frequency departs from the
+tail's takes the tail's linear stiffness (:func:`era_stiffness`).
 
 No I/O.
 """
@@ -34,6 +36,16 @@ from eddi.phase_one import scaled_lstsq
 #: modal ones from 12 to 36 %; ``coordinates="auto"`` fits both and keeps the better predictor.
 PREFILTER_PASSES = 1
 FILTERED_NOTE = "phase two on drift-filtered equations (columns and force through the drift high-pass)"
+
+#: :func:`own_span`: blocks per free window, the rise over the tail's floor that counts as the
+#: coordinate's own motion [dB], the least share of the window kept.
+SPAN_BLOCKS = 50
+SPAN_DB = 20.0
+SPAN_MIN = 0.1
+#: :func:`era_stiffness`: the departure of a fit's small-amplitude frequency from the tail's that
+#: hands its linear stiffness to the tail (a fixed figure: ERA's own uncertainty is not computed).
+ERA_TOLERANCE = 0.03
+
 
 @dataclass(frozen=True)
 class Library:
@@ -152,7 +164,8 @@ def _design(i: int, data: list[tuple], full: list[tuple] | None, d_terms: list[M
 
 
 def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, noise: float,
-                 prune: float = 3e-3, max_exchange: float = 1.0, full: list[tuple] | None = None) -> EquationFit:
+                 prune: float = 3e-3, max_exchange: float = 1.0, full: list[tuple] | None = None,
+                 k_lin: float | None = None) -> EquationFit:
     """EDDI phases one and two for coordinate ``i`` with coupling terms, then the input gain.
 
     ``data``: per record ``(t, q, qd, qdd)`` over the free window; ``impacts``: per record
@@ -191,15 +204,23 @@ def fit_equation(i: int, data: list[tuple], impacts: list[tuple], lib: Library, 
         dmat, smat, target, fcol = _design(i, data, full, d_terms, s_terms)
         nf = fcol.shape[1]
         k_force = target - dmat @ b
-        k = scaled_lstsq(np.hstack([smat, fcol]), k_force)[0][: smat.shape[1]]
+        if k_lin is None:
+            k = scaled_lstsq(np.hstack([smat, fcol]), k_force)[0][: smat.shape[1]]
+        else:  # own linear stiffness given (:func:`fit_all`'s ``k_lin``): the other terms on the rest
+            k = np.concatenate([[k_lin], scaled_lstsq(np.hstack([smat[:, 1:], fcol]), k_force - k_lin * smat[:, 0])[0]
+                                [: smat.shape[1] - 1]])
         exchanged = float(np.sum(np.abs(dq[:, len(d_terms):] @ theta))) if theta.size else 0.0
         joint = few or exchanged > max_exchange * float(np.sum(np.abs(dq[:, : len(d_terms)] @ b)))
         if joint:
             # the coordinate's energy is mostly exchanged, not dissipated (physical coordinates
             # joined by springs): the half-cycle balance cannot resolve the damping; fit damping
             # and stiffness together on the force balance instead
-            both, _ = scaled_lstsq(np.hstack([dmat, smat, fcol]), target)
-            b, k = both[: len(d_terms)], both[len(d_terms): len(both) - nf]
+            if k_lin is None:
+                both, _ = scaled_lstsq(np.hstack([dmat, smat, fcol]), target)
+                b, k = both[: len(d_terms)], both[len(d_terms): len(both) - nf]
+            else:
+                both, _ = scaled_lstsq(np.hstack([dmat, smat[:, 1:], fcol]), target - k_lin * smat[:, 0])
+                b, k = both[: len(d_terms)], np.concatenate([[k_lin], both[len(d_terms): len(both) - nf]])
         scale = float(np.sqrt(np.mean(target ** 2))) or 1.0
         small_d = [t for t, c, col in zip(damp, b, dmat.T) if t != monomial({i: 1}, n, True)
                    and np.sqrt(np.mean((c * col) ** 2)) < prune * scale]
@@ -247,8 +268,9 @@ def _input_gain(i: int, impacts: list[tuple], d_terms: list[MultiTerm], s_terms:
 
 
 def fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool | str, prune: float,
-             prefilter: bool = False) -> tuple[EquationFit, ...]:
-    """EDDI per coordinate ``q = pinv(T) y`` over every record."""
+             prefilter: bool = False, k_lin: Sequence[float | None] | None = None) -> tuple[EquationFit, ...]:
+    """EDDI per coordinate ``q = pinv(T) y`` over every record (``k_lin``: per coordinate, its own
+    linear stiffness per unit mass when given, :func:`fit_equation`)."""
     proj = np.linalg.pinv(tmat)
     n = tmat.shape[1]
     data, impacts = [], []
@@ -263,5 +285,50 @@ def fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool |
     if prefilter:
         full = [(proj @ r.x, proj @ r.v, proj @ r.a, r.force, r.window, 1.0 / float(r.t[1] - r.t[0]),
                  r.highpass_hz) for r in records]
-    return tuple(fit_equation(i, data, impacts, default_library(i, n, coupling), float(noise[i]), prune,
-                              full=full) for i in range(n))
+    return tuple(fit_equation(i, data if full is not None else own_span(i, data), impacts,
+                              default_library(i, n, coupling), float(noise[i]), prune, full=full,
+                              k_lin=None if k_lin is None else k_lin[i])
+                 for i in range(n))
+
+
+def era_stiffness(fits: Sequence[EquationFit], frequencies_hz: np.ndarray, damping_ratios: np.ndarray,
+                  tolerance: float | None = None) -> list[float | None]:
+    """Per modal coordinate, the tail's linear stiffness ``w_r^2`` (per unit mass) where the fit's own
+    ``sqrt(k)`` departs from it by more than ``tolerance`` (:data:`ERA_TOLERANCE`), else None."""
+    tol = ERA_TOLERANCE if tolerance is None else tolerance
+    n = len(fits)
+    out: list[float | None] = []
+    for i, f in enumerate(fits):
+        if i >= len(frequencies_hz):
+            out.append(None)
+            continue
+        zeta = float(np.clip(damping_ratios[i], 0.0, 0.9))
+        w2 = (2 * np.pi * float(frequencies_hz[i])) ** 2 / (1 - zeta ** 2)
+        k = f.stiffness.get(monomial({i: 1}, n), 0.0)
+        out.append(w2 if not (k > 0 and abs(np.sqrt(k / w2) - 1) <= tol) else None)
+    return out
+
+
+def own_span(i: int, data: list[tuple]) -> list[tuple]:
+    """Each record's free window cut where coordinate ``i``'s own motion has died (:data:`SPAN_DB`).
+
+    A heavily damped mode rings down in a few periods while a light, low one fills the window:
+    past its ring-down the coordinate holds only the noise and what small errors of the mode
+    shapes leak into it from the others (a 2.5 Hz mode has ~80x the displacement of a 22 Hz one
+    at equal acceleration), and phase two's ``k q_i ~ -q_i'' - B`` over those samples pulls the
+    stiffness toward theirs. The acceleration ``q_i''``, where the coordinate's own mode
+    dominates its leaks, is cut in :data:`SPAN_BLOCKS` blocks; the floor is the median RMS of the
+    last fifth; the span ends after the last block above ``SPAN_DB`` over it (never before
+    :data:`SPAN_MIN` of the window)."""
+    out = []
+    for t, q, qd, qdd in data:
+        a = qdd[i]
+        m = a.size
+        edges = np.linspace(0, m, SPAN_BLOCKS + 1).astype(int)
+        rms = np.array([np.sqrt(np.mean(a[s:e] ** 2)) if e > s else 0.0 for s, e in zip(edges[:-1], edges[1:])])
+        floor = float(np.median(rms[-max(SPAN_BLOCKS // 5, 1):]))
+        above = np.flatnonzero(rms > floor * 10 ** (SPAN_DB / 20))
+        stop = int(edges[above[-1] + 1]) if above.size else m
+        stop = max(stop, int(SPAN_MIN * m))
+        out.append((t[:stop], q[:, :stop], qd[:, :stop], qdd[:, :stop]))
+    return out

@@ -63,8 +63,8 @@ from eddi.errors import IdentificationError
 from eddi.mdof.candidates import choose_candidate
 from eddi.mdof.coordinates import (EXTRA_MODE_SHARE, RESIDUE_SPREAD_MAX, UNEXPLAINED_TAIL, choose_coordinates,
                                    linear_modes, modal_evidence, residue_masses)
-from eddi.mdof.equations import (FILTERED_NOTE, PREFILTER_PASSES, EquationFit, Library, default_library,
-                                 fit_all, fit_equation)
+from eddi.mdof.equations import (ERA_TOLERANCE, FILTERED_NOTE, PREFILTER_PASSES, EquationFit, Library,
+                                 default_library, era_stiffness, fit_all, fit_equation)
 from eddi.mdof.linear import linear_growth_rate, receptance, restore_quasi_static
 from eddi.mdof.masses import masses_and_inputs
 from eddi.mdof.modal import LinearModes
@@ -325,6 +325,13 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
             notes_pre.append(f"modal equations close to {100 * r_modal:.2g} %, physical ones to "
                              f"{100 * r_phys:.2g} %: physical coordinates kept")
             kind, tmat, fits = "physical", np.eye(tmat.shape[0]), phys
+    if kind == "modal" and tmat.shape[1] == modes.frequencies_hz.size:
+        pins = era_stiffness(fits, modes.frequencies_hz, modes.damping_ratios)
+        if any(p is not None for p in pins):  # a fit's small-amplitude frequency off the tail's
+            fits = fit_all(records, tmat, coupling, prune, prefilter, k_lin=pins)
+            notes_pre.append("linear stiffness from the tail's modes (ERA) for mode(s) "
+                             + ", ".join(str(i + 1) for i, p in enumerate(pins) if p is not None)
+                             + f": their fits' own departed by more than {100 * ERA_TOLERANCE:g} %")
     n = tmat.shape[1]
     proj = np.linalg.pinv(tmat)
     amp = np.sqrt(np.mean(np.hstack([proj @ r.x[:, r.window[0]:r.window[1]] for r in records]) ** 2, axis=1))
