@@ -92,7 +92,8 @@ def _residual_function(records: Sequence[ChannelRecord], build, horizon: float =
             memo[key] = memo.pop(key)  # most recently used last
             return memo[key]
         m = build(p[:n_model] if impulses is not None else p)
-        scaled = [r for r, _y, _n in prepared] if impulses is None else impulses.records(p, [r for r, _y, _n in prepared])
+        plain = [r for r, _y, _n in prepared]
+        scaled = plain if impulses is None else impulses.records(p, plain)
         sims = [predict_channels(m, r)[::3] for r in scaled]
         if memo is not None:
             memo[key] = sims
@@ -144,7 +145,8 @@ def _jacobian_function(records: Sequence[ChannelRecord], build, horizon: float =
             cols.append((theta(build(q + e)) - theta(build(q - e))) / (2 * step))
         model = build(q)
         dtheta = np.column_stack(cols) if cols else np.zeros((theta(model).size, 0))  # (n_theta, n_par)
-        scaled = [r for r, _k, _n in prepared] if impulses is None else impulses.records(p, [r for r, _k, _n in prepared])
+        plain = [r for r, _k, _n in prepared]
+        scaled = plain if impulses is None else impulses.records(p, plain)
         blocks = []
         for j, ((_r, keep, norm), r) in enumerate(zip(prepared, scaled)):
             own = None if impulses is None else impulses.direction(model, p, j)
@@ -307,7 +309,8 @@ def refine_lumped(fit, channels: tuple[str, ...], driving_point: str, records: S
         return fit, build(np.zeros(n_par)), before, before
     if final_jac is None:  # the whole window's Jacobian at the result (the stop left none there)
         final_jac = _jacobian_at(jac, records, build, p, fun, imp)
-    half = _ci95_scales(final_jac, fun, sizes)  # the last horizon is the whole window
+    n_data = sum(sizes)  # the intervals given the forces (the scales' columns and prior rows left out)
+    half = _ci95_scales(np.asarray(final_jac)[:n_data, :n_par], fun[:n_data], sizes)  # the whole window
     out = make(p[:n_par])
     out = LumpedFit(out.masses, out.constants,
                     {e: float(abs(c) * h) for (e, c), h in zip(out.constants.items(), half[n_m:n_par])}, out.residual)
@@ -441,8 +444,9 @@ def refine_mdof(model: MdofModel, records: Sequence[ChannelRecord], *, max_nfev:
     if not intervals:
         return out, before, after
     if n_par == n_all:
-        half = _ci95_scales(sol.jac if stop.exact and settled is sol.x else
-                            _jacobian_at(jac, records, build, x, fun, imp), fun, sizes)[:n_par]
+        full_jac = sol.jac if stop.exact and settled is sol.x else _jacobian_at(jac, records, build, x, fun, imp)
+        n_data = sum(sizes)  # the intervals given the forces (as :func:`refine_lumped`)
+        half = _ci95_scales(np.asarray(full_jac)[:n_data, :n_par], fun[:n_data], sizes)
     else:  # the intervals of every coefficient, as the polish of all gives them
         every = _jac(jac, records, lambda p: _with(model, p))
         data = fun[:sum(sizes)]
