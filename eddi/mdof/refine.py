@@ -340,8 +340,11 @@ NOISE_STOP = True
 #: often), 20.3 against 20.9 s CPU in all, and a different end (training cost 19.60 against 19.30,
 #: the middle mode 186.6 against 195.2 Hz, held out 0.3618 against 0.3612): no gain, not taken.
 BROYDEN_RUN = 0
-#: The polishes fit one force scale per training capture (:class:`ImpulseScales`).
-IMPULSE_SCALES = True
+#: The polishes fit one force scale per training capture (:class:`ImpulseScales`). Off by default:
+#: measured (session 17, ``bench_mdof_target.py --snr 45``) nes-5-1 held out 0.0244 / 0.0781 -> 0.0161 /
+#: 0.0624 (coefficients 2.3 -> 0.0 %) but nes-5-11 0.0512 / 0.1574 -> 0.0635 / 0.2175, and the
+#: MDOF null h1-ground (``bench_mdof_nulls.py --set heldout --seeds 1 --refine``) ``none`` -> ``unexplained``.
+IMPULSE_SCALES = False
 #: An impulse scale stays within this many of its capture's impulse uncertainties.
 IMPULSE_BOUND = 4.0
 #: Parameter vectors whose simulations a polish keeps (:func:`_residual_function`).

@@ -54,8 +54,7 @@ def test_the_polish_does_not_fit_the_blows_impulse_errors():
     truth = next(e.k3 for e in s.elements if e.k3)
     start = ident.lumped.constants[k3]
     assert abs(start / truth - 1) < 0.005
-    model, before, after = refine_lumped(ident.lumped, tuple(ident.model.channels), ident.model.driving_point,
-                                         records, impulse_scales=False)[1:]
+    model, before, after = refine_identified(ident, records)  # the default: no impulse scales
     # within what the noise explains on every span of the continuation: no step taken
     m = ident.model
     build = lambda p: lumped_model(ident.lumped, tuple(m.channels), m.driving_point, 0, len(records))  # noqa: E731
@@ -67,10 +66,10 @@ def test_the_polish_does_not_fit_the_blows_impulse_errors():
     assert after == before
     got = np.array([model.stiffness[0]["x1^3"], model.stiffness[1]["x2^3"]])
     assert np.allclose(got, [m.stiffness[0]["x1^3"], m.stiffness[1]["x2^3"]], rtol=0, atol=0)
-    # with the blows' impulses fitted (session 17, the default) the noise left is the
+    # with the blows' impulses fitted (session 17, ``impulse_scales=True``) the noise left is the
     # acceleration's and the polish takes a short step (settled at a tenth of it): the lumped cubic
     # 0.22 -> 0.45 % off (the old polish without the stop: 3.1 %)
-    fit = refine_lumped(ident.lumped, tuple(m.channels), m.driving_point, records)[0]
+    fit = refine_lumped(ident.lumped, tuple(m.channels), m.driving_point, records, impulse_scales=True)[0]
     assert abs(fit.constants[k3] / truth - 1) < 0.006
 
 
