@@ -343,7 +343,8 @@ BROYDEN_RUN = 0
 #: The polishes fit one force scale per training capture (:class:`ImpulseScales`). Off by default:
 #: measured (session 17, ``bench_mdof_target.py --snr 45``) nes-5-1 held out 0.0244 / 0.0781 -> 0.0161 /
 #: 0.0624 (coefficients 2.3 -> 0.0 %), nes-7-11 FAIL -> PASS (2.1 -> 0.0 %, sink 0.062 -> 0.037), but
-#: nes-5-11 0.0512 / 0.1574 -> 0.0635 / 0.2175, nes-7-1's sink 0.055 -> 0.060, and the MDOF null h1-ground (``bench_mdof_nulls.py --set heldout --seeds 1 --refine``) ``none`` -> ``unexplained``.
+#: nes-5-11 0.0512 / 0.1574 -> 0.0635 / 0.2175, nes-7-1's sink 0.055 -> 0.060, and the MDOF null
+#: h1-ground (``bench_mdof_nulls.py --set heldout --seeds 1 --refine``) ``none`` -> ``unexplained``.
 IMPULSE_SCALES = False
 #: An impulse scale stays within this many of its capture's impulse uncertainties.
 IMPULSE_BOUND = 4.0
