@@ -16,7 +16,7 @@ from scipy import optimize
 from eddi.mdof.identify import identify_mdof  # noqa: E402
 from eddi.mdof.lumped import Element  # noqa: E402
 from eddi.mdof.records import ChannelRecord  # noqa: E402
-from eddi.mdof.refine import FLOOR_MIN, _residual_function, _weights, refine_identified  # noqa: E402
+from eddi.mdof.refine import FLOOR_MIN, _residual_function, _weights, refine_identified, refine_lumped  # noqa: E402
 from eddi.mdof.physical import lumped_model  # noqa: E402
 from eddi.mdof.steering import Steering, noise_cost  # noqa: E402
 from eddi.mdof.validate import impulse_floor, noise_floor  # noqa: E402
@@ -54,7 +54,7 @@ def test_the_polish_does_not_fit_the_blows_impulse_errors():
     truth = next(e.k3 for e in s.elements if e.k3)
     start = ident.lumped.constants[k3]
     assert abs(start / truth - 1) < 0.005
-    model, before, after = refine_identified(ident, records)
+    model, before, after = refine_identified(ident, records)  # the default: no impulse scales
     # within what the noise explains on every span of the continuation: no step taken
     m = ident.model
     build = lambda p: lumped_model(ident.lumped, tuple(m.channels), m.driving_point, 0, len(records))  # noqa: E731
@@ -66,6 +66,11 @@ def test_the_polish_does_not_fit_the_blows_impulse_errors():
     assert after == before
     got = np.array([model.stiffness[0]["x1^3"], model.stiffness[1]["x2^3"]])
     assert np.allclose(got, [m.stiffness[0]["x1^3"], m.stiffness[1]["x2^3"]], rtol=0, atol=0)
+    # with the blows' impulses fitted (session 17, ``impulse_scales=True``) the noise left is the
+    # acceleration's and the polish takes a short step (settled at a tenth of it): the lumped cubic
+    # 0.22 -> 0.45 % off (the old polish without the stop: 3.1 %)
+    fit = refine_lumped(ident.lumped, tuple(m.channels), m.driving_point, records, impulse_scales=True)[0]
+    assert abs(fit.constants[k3] / truth - 1) < 0.006
 
 
 def _toy(p):
