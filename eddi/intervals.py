@@ -341,8 +341,11 @@ def through_sampling(y: np.ndarray, curvature: float, quartic: float) -> np.ndar
     blocks of ``omega H = 0.2``), where the free response is largest; a 1 t, 1.4 Hz record at
     20 kHz (blocks of 443 samples) had ``x^3`` 4e-5 off, noise-free."""
     fast = through_sampling_pass(y, curvature, quartic)  # a Jacobian: one compiled pass, the same floats
-    if fast is not None:
-        return fast
+    return fast if fast is not None else through_sampling_numpy(y, curvature, quartic)
+
+
+def through_sampling_numpy(y: np.ndarray, curvature: float, quartic: float) -> np.ndarray:
+    """:func:`through_sampling` in numpy's passes (what the compiled pass must equal)."""
     out = np.array(y, dtype=float, copy=True)
     n = out.shape[0]
     if curvature and n >= 3:

@@ -9,24 +9,7 @@ import pytest
 import eddi.intervals as intervals
 
 
-def _numpy_passes(y: np.ndarray, curvature: float, quartic: float) -> np.ndarray:
-    """through_sampling as it was before session 17 (numpy's passes), the reference."""
-    out = np.array(y, dtype=float, copy=True)
-    n = out.shape[0]
-    if curvature and n >= 3:
-        d2 = np.empty_like(out)
-        d2[1:-1] = out[2:] - 2.0 * out[1:-1] + out[:-2]
-        if n >= 4:
-            d2[0], d2[-1] = 2.0 * d2[1] - d2[2], 2.0 * d2[-2] - d2[-3]
-        else:
-            d2[0], d2[-1] = d2[1], d2[-2]
-        if quartic and n >= 6:
-            d4 = np.empty_like(out)
-            d4[2:-2] = out[4:] - 4.0 * out[3:-1] + 6.0 * out[2:-2] - 4.0 * out[1:-3] + out[:-4]
-            d4[:2], d4[-2:] = d4[2], d4[-3]
-            out += quartic * d4
-        out += curvature * d2
-    return out
+_numpy_passes = intervals.through_sampling_numpy  # the reference: numpy's passes
 
 
 def _cases():
