@@ -66,9 +66,11 @@ def _capture(path: Path, force_n: float, seed: int) -> Path:
 
 
 def _station(argv: list[str], tmp: Path, **env: str) -> subprocess.CompletedProcess[str]:
-    e = {**os.environ, "PYTHONPATH": str(REPO), **env}
+    e = {**os.environ, "PYTHONPATH": str(REPO)}
     e.pop("PYTHONUNBUFFERED", None)  # stdout block-buffered, as a pipe is: it must be flushed
-    e.pop("STATION_SERIAL", None)
+    e.pop("STATION_SERIAL", None)  # the caller's environment's; the test's own (below) is kept
+    e.pop("STATION_JOBS", None)
+    e.update(env)
     return subprocess.run([sys.executable, "-c", PROBE, *argv], capture_output=True, text=True, env=e,
                           timeout=600, cwd=tmp)
 
