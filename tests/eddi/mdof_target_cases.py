@@ -1,5 +1,5 @@
-"""The captures of a ``benchmarks/bench_mdof_target.py`` case as the multi-DOF tests read them
-(one rig capture per blow of the case's system, 45 dB, seeds 100, 101, ...)."""
+"""The captures of a ``benchmarks/bench_mdof_target.py`` case (or of any rig system) as the
+multi-DOF tests read them: one rig capture per blow of the system (45 dB, seeds 100, 101, ...)."""
 
 from __future__ import annotations
 
@@ -17,9 +17,14 @@ def target_measurements(index: int, seed: int, name: str | None = None, snr_db: 
     """``(case, measurements)`` of case ``index`` of the draw ``seed`` (``name``: asserted)."""
     case = draw(index, seed)
     assert name is None or case.name == name
+    return case, system_measurements(case.system, snr_db=snr_db)
+
+
+def system_measurements(system, snr_db: float = 45.0, seed: int = 100) -> list:
+    """One :class:`Measurement` per blow of ``system`` (no mass), seeds ``seed``, ``seed + 1``, ..."""
     meas = []
-    for k, peak in enumerate(case.system.impacts_n):
-        r = mdof_impact_test(case.system, peak, snr_db=snr_db, seed=100 + k)
+    for k, peak in enumerate(system.impacts_n):
+        r = mdof_impact_test(system, peak, snr_db=snr_db, seed=seed + k)
         meas.append(Measurement(t=r.t, channels=r.columns(), rate_hz=r.rate_hz,
                                 pretrigger_samples=r.pretrigger_samples, mass=None, source=f"{peak} N", metadata={}))
-    return case, meas
+    return meas

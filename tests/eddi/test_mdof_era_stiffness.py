@@ -13,9 +13,9 @@ from __future__ import annotations
 import numpy as np
 
 from eddi.mdof.identify import identify_mdof
-from simulated_rig.mdof_systems import Element, MdofSystem, mdof_impact_test
+from simulated_rig.mdof_systems import Element, MdofSystem
 from station.mdof_data import condition_multichannel
-from station.readers import Measurement
+from tests.eddi.mdof_target_cases import system_measurements
 
 
 def _system() -> MdofSystem:
@@ -28,12 +28,7 @@ def _system() -> MdofSystem:
 
 def test_uncoupled_modes_take_the_tails_stiffness_when_theirs_departs():
     system = _system()
-    recs = []
-    for k, p in enumerate(system.impacts_n):
-        rec = mdof_impact_test(system, p, seed=700 + k, snr_db=45.0)
-        recs.append(condition_multichannel(Measurement(t=rec.t, channels=rec.columns(), rate_hz=rec.rate_hz,
-                                                       pretrigger_samples=rec.pretrigger_samples, mass=None,
-                                                       source="rig", metadata={})))
+    recs = [condition_multichannel(m) for m in system_measurements(system, seed=700)]
     ident = identify_mdof(recs, system.channels, "acc2", coordinates="modal", coupling=False, highpass_hz=None)
     assert ident.coordinates == "modal"
     truth = np.sort(system.model().natural_frequencies_hz())

@@ -16,9 +16,9 @@ import numpy as np
 from eddi.mdof.coordinates import choose_coordinates, linear_modes
 from eddi.mdof.equations import fit_all, own_span
 from eddi.mdof.terms import monomial
-from simulated_rig.mdof_systems import Element, MdofSystem, mdof_impact_test
+from simulated_rig.mdof_systems import Element, MdofSystem
 from station.mdof_data import condition_multichannel
-from station.readers import Measurement
+from tests.eddi.mdof_target_cases import system_measurements
 
 
 def _system() -> MdofSystem:
@@ -30,13 +30,7 @@ def _system() -> MdofSystem:
 
 
 def _records(system: MdofSystem) -> list:
-    out = []
-    for k, p in enumerate(system.impacts_n):
-        rec = mdof_impact_test(system, p, seed=700 + k, snr_db=45.0)
-        out.append(condition_multichannel(Measurement(t=rec.t, channels=rec.columns(), rate_hz=rec.rate_hz,
-                                                      pretrigger_samples=rec.pretrigger_samples, mass=None,
-                                                      source="rig", metadata={})))
-    return out
+    return [condition_multichannel(m) for m in system_measurements(system, seed=700)]
 
 
 def test_heavily_damped_modes_keep_their_frequency_under_a_low_large_mode():
