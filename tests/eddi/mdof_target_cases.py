@@ -8,6 +8,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 
+from bench_mdof_leak import TUNE as LEAK_TUNE  # noqa: E402
 from bench_mdof_target import draw  # noqa: E402
 from simulated_rig.mdof_systems import mdof_impact_test  # noqa: E402
 from station.readers import Measurement  # noqa: E402
@@ -18,6 +19,12 @@ def target_measurements(index: int, seed: int, name: str | None = None, snr_db: 
     case = draw(index, seed)
     assert name is None or case.name == name
     return case, system_measurements(case.system, snr_db=snr_db)
+
+
+def leak_system(name: str):
+    """A tuning system of ``benchmarks/bench_mdof_leak.py`` (``t3c``, ``t3d``, ...): a low, large
+    mode beside heavily damped upper ones."""
+    return LEAK_TUNE[name]()
 
 
 def system_measurements(system, snr_db: float = 45.0, seed: int = 100) -> list:

@@ -13,17 +13,13 @@ from __future__ import annotations
 import numpy as np
 
 from eddi.mdof.identify import identify_mdof
-from simulated_rig.mdof_systems import Element, MdofSystem
+from simulated_rig.mdof_systems import MdofSystem
 from station.mdof_data import condition_multichannel
-from tests.eddi.mdof_target_cases import system_measurements
+from tests.eddi.mdof_target_cases import leak_system, system_measurements
 
 
 def _system() -> MdofSystem:
-    ks, beta = (415.5, 4763.7, 2060.2, 2486.8), 1e-3
-    els = tuple(Element(between=(j, j + 1) if j < 3 else (0, 3), k=k, c=beta * k, k3=1e5 if j == 0 else 0.0)
-                for j, k in enumerate(ks))
-    return MdofSystem(name="t3c", masses_kg=(5.0, 0.5, 0.3), elements=els, driving_point=2, rate_hz=1024.0,
-                      record_s=6.0, impacts_n=(40.0, 80.0, 120.0), pretrigger_s=0.05)
+    return leak_system("t3c")  # benchmarks/bench_mdof_leak.py's case
 
 
 def test_uncoupled_modes_take_the_tails_stiffness_when_theirs_departs():

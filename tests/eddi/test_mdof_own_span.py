@@ -16,17 +16,13 @@ import numpy as np
 from eddi.mdof.coordinates import choose_coordinates, linear_modes
 from eddi.mdof.equations import fit_all, own_span
 from eddi.mdof.terms import monomial
-from simulated_rig.mdof_systems import Element, MdofSystem
+from simulated_rig.mdof_systems import MdofSystem
 from station.mdof_data import condition_multichannel
-from tests.eddi.mdof_target_cases import system_measurements
+from tests.eddi.mdof_target_cases import leak_system, system_measurements
 
 
 def _system() -> MdofSystem:
-    ks, beta = (964.8, 9830.8, 4736.7, 6761.8), 1.4e-3
-    els = tuple(Element(between=(j, j + 1) if j < 3 else (0, 3), k=k, c=beta * k, k3=3e5 if j == 0 else 0.0)
-                for j, k in enumerate(ks))
-    return MdofSystem(name="t3d", masses_kg=(12.0, 1.0, 0.8), elements=els, driving_point=2, rate_hz=2048.0,
-                      record_s=6.0, impacts_n=(40.0, 80.0, 120.0), pretrigger_s=0.05)
+    return leak_system("t3d")  # benchmarks/bench_mdof_leak.py's case
 
 
 def _records(system: MdofSystem) -> list:
