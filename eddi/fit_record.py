@@ -54,6 +54,7 @@ from eddi.errors import IdentificationError, SignalError, TooShortToRefine
 from eddi.identify import IdentifiedModel, identify
 from eddi.intervals import (loose_coefficient_warnings, sampling_kernel_margin, sampling_kernel_warning,
                             selection_warning)
+from eddi.memory import keep_freed_memory
 from eddi.model import EquationOfMotion
 from eddi.pipeline_result import REFINE_CHANNEL, SIGNAL_NAME, PipelineChoices, PipelineResult, units_of
 from eddi.refinement_choice import judge_refinement
@@ -155,6 +156,7 @@ class Pipeline:
         ``R = adc_osr`` modulator samples per output sample; ``K / 12`` when not given, the
         limit of a large ``R``: the ADS131M04's is 128-16256).
         """
+        keep_freed_memory()  # the next call's arrays reuse this one's pages (eddi.memory)
         cond = condition(t, acc=acc, vel=vel, disp=disp, force=force, pretrigger_samples=pretrigger_samples,
                          ac_coupling_s=ac_coupling_s)
         if adc_sinc_order is not None:  # stated: 0 point samples (or a flat passband), K a sinc^K decimator
@@ -284,6 +286,7 @@ class Pipeline:
         ModelError, TermError, SignalError, IdentificationError
             As :func:`eddi.identify.identify`.
         """
+        keep_freed_memory()  # (eddi.memory)
         if self.route == "auto" and self.refine and FIRST_ROUTE and not held_out:
             # one route on a coarse grid seeds the refinement (from either route, on either grid, it
             # reaches the same optimum: <= 2.5e-4 of its ci95 on 55 records, docs/speed.md). The
