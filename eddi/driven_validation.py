@@ -47,13 +47,20 @@ def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal,
     force = cond.impact_force
     if force is not None and cond.impact_start > 0:
         s, e = cond.impact_start, cond.free_stop
-        drive = fused_impact_force(cond, eom) if (cond.acc_measured and fused) else force
-        if cond.sample_kernel_var > 0:
-            drive = unsharpened(drive, cond.sample_kernel_var)
+        kv = cond.sample_kernel_var
+        if kv > 0:
             s = max(0, s - 1)  # the correction spills one sample before the impact: keep its impulse
+        # the drive over [s, e) alone (the simulated span; the whole record's array cost two passes
+        # of its 883k samples a validation): the same numbers as the whole drive's [s:e]; with the
+        # kernel's correction formed over one sample more each side (its second difference reads them)
+        lo, hi = (max(0, s - 1), min(force.size, e + 1)) if kv > 0 else (s, e)
+        drive = fused_impact_force(cond, eom, span=(lo, hi)) if (cond.acc_measured and fused) else force[lo:hi]
+        if kv > 0:
+            drive = unsharpened(drive, kv)
+        drive = drive[s - lo: e - lo]
         if drive_scale != 1.0:
             drive = drive * drive_scale
-        val = validate(eom, cond.t[s:e], cond.x[s:e], v=cond.v[s:e], force=drive[s:e],
+        val = validate(eom, cond.t[s:e], cond.x[s:e], v=cond.v[s:e], force=drive,
                        window=(cond.free_start - s, cond.free_stop - s), every=every)
         return _shift(val, s), True
     if force is not None or fitted_free_state:
@@ -88,7 +95,8 @@ def unsharpened(drive: np.ndarray, kernel_var: float) -> np.ndarray:
     return drive - 0.5 * kernel_var * d2
 
 
-def fused_impact_force(cond: ConditionedSignal, eom: EquationOfMotion) -> np.ndarray:
+def fused_impact_force(cond: ConditionedSignal, eom: EquationOfMotion,
+                       span: tuple[int, int] | None = None) -> np.ndarray:
     """Impact force from the force sensor and the accelerometer, inverse-variance weighted.
 
     Parameters
@@ -97,21 +105,27 @@ def fused_impact_force(cond: ConditionedSignal, eom: EquationOfMotion) -> np.nda
         With a force channel and a measured acceleration.
     eom : EquationOfMotion
         Gives ``F_acc = m a + restoring_force(x, v)`` during the impact.
+    span : tuple of int, optional
+        ``[lo, hi)``: the samples returned (default: all); the same numbers as the whole
+        array's ``[lo:hi]``.
 
     Returns
     -------
-    ndarray, shape (n,), [N]
+    ndarray, shape (n,) (``span``: (hi - lo,)), [N]
         Zero outside ``[impact_start, impact_end)``.
     """
     f = cond.impact_force
     assert f is not None
+    lo, hi = (0, f.size) if span is None else span
     s0, s1 = cond.impact_start, cond.impact_end
     f_acc = eom.mass * cond.a[s0:s1] + eom.restoring_force(cond.x[s0:s1], cond.v[s0:s1])
     var_f = cond.force_noise_rms**2
     var_a = (eom.mass * cond.noise_rms) ** 2
     w = var_a / (var_f + var_a) if var_f + var_a > 0 else 0.5
-    out = np.zeros_like(f)
-    out[s0:s1] = w * f[s0:s1] + (1.0 - w) * f_acc
+    out = np.zeros(hi - lo, dtype=f.dtype)
+    a, b = max(s0, lo), min(s1, hi)  # the impact within the span
+    if a < b:
+        out[a - lo: b - lo] = (w * f[s0:s1] + (1.0 - w) * f_acc)[a - s0: b - s0]
     return out
 
 

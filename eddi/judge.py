@@ -113,10 +113,10 @@ def impulse_uncertainty(cond: "ConditionedSignal", eom: EquationOfMotion) -> flo
     if cond.acc_measured:
         var_a = (eom.mass * cond.noise_rms) ** 2
         var = var_f * var_a / (var_f + var_a) if var_f + var_a > 0 else 0.0
-        drive = fused_impact_force(cond, eom)
+        drive = fused_impact_force(cond, eom, span=(s0, s1))  # the impact's samples alone
     else:
-        var, drive = var_f, cond.impact_force
-    impulse = abs(float(np.sum(drive[s0:s1])))
+        var, drive = var_f, cond.impact_force[s0:s1]
+    impulse = abs(float(np.sum(drive)))
     return math.sqrt(var * (s1 - s0)) / impulse if impulse > 0 else 0.0
 
 

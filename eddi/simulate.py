@@ -391,24 +391,45 @@ def _hermite_fill(xc, vc, ac, q, h, x, v, a):  # pragma: no cover - compiled
 
     A sample on the grid takes the grid's value: it reads no point after it (the last
     sample of a segment ending on the grid has none; reading past the end gave a NaN
-    on some machines)."""
-    for j in range(x.shape[0]):
-        k = j // q
-        s = (j - k * q) / q
-        if s == 0.0:  # on the grid: the last sample may have no grid point after it
-            x[j] = xc[k]
-            v[j] = vc[k]
-            a[j] = ac[k]
-            continue
+    on some machines). The basis at the ``q`` offsets ``s = i / q`` is formed once (the same
+    floats as per sample: ``h10 * h`` is the product the formula forms first), then each grid
+    interval is filled from it: no division per sample (0.5 against 1.6 ms on 460k samples,
+    the same numbers bit for bit; ``tests/eddi/test_dense_segments.py``)."""
+    n = x.shape[0]
+    c00 = np.empty(q)
+    c10 = np.empty(q)
+    c01 = np.empty(q)
+    c11 = np.empty(q)
+    sa = np.empty(q)
+    sb = np.empty(q)
+    for i in range(q):
+        s = i / q
         s2 = s * s
         s3 = s2 * s
-        h00 = 2.0 * s3 - 3.0 * s2 + 1.0
-        h10 = s3 - 2.0 * s2 + s
-        h01 = -2.0 * s3 + 3.0 * s2
-        h11 = s3 - s2
-        x[j] = h00 * xc[k] + h10 * h * vc[k] + h01 * xc[k + 1] + h11 * h * vc[k + 1]
-        v[j] = h00 * vc[k] + h10 * h * ac[k] + h01 * vc[k + 1] + h11 * h * ac[k + 1]
-        a[j] = (1.0 - s) * ac[k] + s * ac[k + 1]  # for plots; not compared
+        c00[i] = 2.0 * s3 - 3.0 * s2 + 1.0
+        c10[i] = (s3 - 2.0 * s2 + s) * h
+        c01[i] = -2.0 * s3 + 3.0 * s2
+        c11[i] = (s3 - s2) * h
+        sa[i] = 1.0 - s
+        sb[i] = s
+    k = 0
+    for j in range(0, n, q):
+        x0 = xc[k]
+        v0 = vc[k]
+        a0 = ac[k]
+        x[j] = x0  # on the grid
+        v[j] = v0
+        a[j] = a0
+        m = min(q, n - j)
+        if m > 1:
+            x1 = xc[k + 1]
+            v1 = vc[k + 1]
+            a1 = ac[k + 1]
+            for i in range(1, m):
+                x[j + i] = c00[i] * x0 + c10[i] * v0 + c01[i] * x1 + c11[i] * v1
+                v[j + i] = c00[i] * v0 + c10[i] * a0 + c01[i] * v1 + c11[i] * a1
+                a[j + i] = sa[i] * a0 + sb[i] * a1  # for plots; not compared
+        k += 1
 
 
 def simulate_dense(eom: EquationOfMotion, t: np.ndarray, *, force: np.ndarray | None = None, x0: float = 0.0,
@@ -450,8 +471,7 @@ def simulate_dense(eom: EquationOfMotion, t: np.ndarray, *, force: np.ndarray | 
     omega = local_angular_frequency(eom, x_scale, v_scale)
     q = int(DENSE_H_OMEGA / (omega * dt)) if omega > 0 and math.isfinite(omega) else 1
     f = np.zeros(0) if force is None else np.asarray(force, dtype=float)
-    nz = np.flatnonzero(f[-1::-1] != 0.0) if f.size else f
-    last = f.size - int(nz[0]) if nz.size else 0  # one past the last non-zero force sample
+    last = _end_of_force(f)  # one past the last non-zero force sample
     sharp = bool(eom.effects) or any(tm.exponents[4] % 2 or tm.exponents[5] % 2
                                      for tm in eom.damping_terms() + eom.stiffness_terms())
     if sharp or q < 4 or n - last < 4 * q:
@@ -477,6 +497,17 @@ def simulate_dense(eom: EquationOfMotion, t: np.ndarray, *, force: np.ndarray | 
     diverged = bool(diverged or not np.all(np.isfinite(x)))
     return SimulationResult(t=t if at is None else t[at], x=x, v=v, a=a, y=None, diverged=diverged,
                             substeps=sub or steps0)
+
+
+def _end_of_force(f: np.ndarray) -> int:
+    """One past the last non-zero sample of ``f`` (0 when there is none): a blow's end in a
+    validation's drive (zero after it; ``np.argmax`` stops at the first hit of the reversed mask,
+    where ``np.flatnonzero`` listed every one: 0.25 ms on 460k samples)."""
+    if not f.size:
+        return 0
+    nz = f[::-1] != 0.0
+    k = int(np.argmax(nz))
+    return f.size - k if nz[k] else 0
 
 
 def _at(sim: SimulationResult, at: np.ndarray | None) -> SimulationResult:

@@ -38,10 +38,10 @@ POOR_FIT_NRMSE = 0.1
 
 def envelope_ratio(y: np.ndarray) -> float:
     """Peak ``|y|`` over the last fifth of ``y`` over that of the first fifth (inf for 0 start)."""
-    y = np.abs(np.asarray(y, dtype=float))
+    y = np.asarray(y, dtype=float)
     k = max(1, y.size // 5)
-    early = float(np.max(y[:k]))
-    late = float(np.max(y[-k:]))
+    early = float(np.max(np.abs(y[:k])))  # the two fifths only (not |y| of all of it)
+    late = float(np.max(np.abs(y[-k:])))
     return late / early if early > 0 else (np.inf if late > 0 else 1.0)
 
 

@@ -242,6 +242,38 @@ def test_hermite_fill_reads_no_grid_point_past_the_last_sample() -> None:
     assert x[4] == 1.0 and np.allclose(x, np.arange(n) / 4.0)  # linear data: Hermite is exact
 
 
+def _hermite_per_sample(xc, vc, ac, q, h, x, v, a):
+    """The fill as it was before session 18 (each sample's offset divided out): the reference."""
+    for j in range(x.shape[0]):
+        k = j // q
+        s = (j - k * q) / q
+        if s == 0.0:
+            x[j], v[j], a[j] = xc[k], vc[k], ac[k]
+            continue
+        s2 = s * s
+        s3 = s2 * s
+        h00, h10, h01, h11 = 2.0 * s3 - 3.0 * s2 + 1.0, s3 - 2.0 * s2 + s, -2.0 * s3 + 3.0 * s2, s3 - s2
+        x[j] = h00 * xc[k] + h10 * h * vc[k] + h01 * xc[k + 1] + h11 * h * vc[k + 1]
+        v[j] = h00 * vc[k] + h10 * h * ac[k] + h01 * vc[k + 1] + h11 * h * ac[k + 1]
+        a[j] = (1.0 - s) * ac[k] + s * ac[k + 1]
+
+
+@pytest.mark.parametrize("q, n", [(4, 9), (4, 10), (7, 700), (23, 1000), (23, 1013), (1, 5), (40, 40)])
+def test_hermite_fill_is_the_per_sample_formula_bit_for_bit(q: int, n: int) -> None:
+    # session 18 forms the basis once per offset instead of per sample: the same floats
+    rng = np.random.default_rng(q * 1000 + n)
+    nk = -(-n // q) + 1
+    xc, vc, ac = rng.standard_normal((3, nk))
+    h = 1.3e-3 * q
+    want = [np.empty(n) for _ in range(3)]
+    _hermite_per_sample(xc, vc, ac, q, h, *want)
+    for fill in (simulate_mod._hermite_fill, simulate_mod._KERNELS._hermite_fill):  # the source, compiled
+        got = [np.full(n, np.nan) for _ in range(3)]
+        fill(xc, vc, ac, q, h, *got)
+        for g, w in zip(got, want):
+            assert np.array_equal(g, w)
+
+
 def test_if_stale_keeps_a_current_module_and_finds_none_where_there_is_none(aot_dir: Path,
                                                                            tmp_path: Path) -> None:
     # the editable installation's step (setup.py) runs `python -m eddi.kernels --if-stale`: a
