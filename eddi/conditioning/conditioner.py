@@ -186,7 +186,8 @@ def _onset_and_rest(w: _Work, pretrigger_samples: int | None) -> None:
         # another noise estimate and window than read as CSV (None), and another verdict
         pretrigger_samples = None
     head = max(8, min(pretrigger_samples or n // 20, n // 5))
-    if w.force is not None and np.ptp(w.force) > 0:
+    struck = w.force is not None and np.ptp(w.force) > 0  # a force channel that shows a blow
+    if struck:
         onset, _ = _onset(w.force - np.median(w.force[:head]), head)
     else:
         onset, _ = _onset(resp - np.median(resp[:head]), head)
@@ -199,7 +200,7 @@ def _onset_and_rest(w: _Work, pretrigger_samples: int | None) -> None:
     # is the blow's, so 8 quiet samples are enough (a lab's export with 23 samples before the
     # blow, 256 Hz, went to the equilibrium integration, which a friction ring-down that sticks
     # after a few cycles cannot feed: refused "no spectral peak with 8 cycles")
-    least = MIN_REST_WITH_FORCE if (w.force is not None and np.ptp(w.force) > 0) else 32
+    least = MIN_REST_WITH_FORCE if struck else 32
     rest = start >= least if pretrigger_samples is None else (pretrigger_samples > 0 and start > 0)
     if rest and pretrigger_samples is None:
         # rest means quiet: the head must be small compared with the response
