@@ -203,7 +203,7 @@ def _damping_force(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> np.nd
     kernel (``eddi.simulate.internal_force``) took ~9 ms on 460k samples for three monomials and
     numpy's ``v**3`` (``pow``) ~19 ms; products take ~1 ms. The same sums to a few ulps.
     """
-    out = np.zeros_like(v)
+    out = None
     ax, av = None, None
     for text, c in eom.damping.items():
         px, pv, pax, pav, sx, sv = _term(text).exponents
@@ -211,16 +211,27 @@ def _damping_force(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> np.nd
             ax = np.abs(x)
         if pav and av is None:
             av = np.abs(v)
-        f = np.full_like(v, c)
+        # c times each factor in turn (the first product formed from c directly: c * base is the
+        # product a filled array times base gave); the first term starts the sum
+        f = None
         for base, p in ((x, px), (v, pv), (ax, pax), (av, pav)):
             for _ in range(p):
-                f *= base
+                if f is None:
+                    f = np.multiply(base, c, dtype=float)
+                else:
+                    f *= base
+        if f is None:
+            f = np.full_like(v, c)
         if sx % 2:
             f *= np.sign(x)
         if sv % 2:
             f *= np.sign(v)
-        out += f
-    return out
+        if out is None:
+            out = f
+            out += 0.0  # 0 + f, as the sum from zeros formed it (-0.0 becomes 0.0)
+        else:
+            out += f
+    return np.zeros_like(v) if out is None else out
 
 
 def _term(text: str):  # local import keeps this module light

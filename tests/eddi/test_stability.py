@@ -153,3 +153,38 @@ def test_damping_power_by_products_matches_the_kernel_and_skips_it(monkeypatch) 
     (msg,) = model_warnings(bad, x, v)
     assert msg.startswith("negative damping: the model feeds energy in over ")
     assert model_warnings(eom.model_copy(update={"damping": {"v": 0.2}}), x, v) == ()
+
+
+def _damping_force_filled(eom, x, v):
+    """eddi.stability._damping_force as it was before session 18 (filled arrays, a sum from zeros)."""
+    from eddi.terms import parse_term
+
+    out = np.zeros_like(v)
+    ax, av = np.abs(x), np.abs(v)
+    for text, c in eom.damping.items():
+        px, pv, pax, pav, sx, sv = parse_term(text).exponents
+        f = np.full_like(v, c)
+        for base, p in ((x, px), (v, pv), (ax, pax), (av, pav)):
+            for _ in range(p):
+                f *= base
+        if sx % 2:
+            f *= np.sign(x)
+        if sv % 2:
+            f *= np.sign(v)
+        out += f
+    return out
+
+
+@pytest.mark.parametrize("damping", [{"v": 0.196, "x^2*v": -20441.0, "v^3": 9.96}, {"v": 0.1}, {"v": -0.2},
+                                     {"sign(v)": 0.3, "v": 0.1, "abs(x)*v": 2.0}, {"abs(v)*v": 1.0, "x^2*v": 2.0}])
+def test_damping_force_is_the_filled_products_bit_for_bit(damping):
+    # session 18 forms c * base directly and starts the sum with the first term (+ 0.0): the same
+    # bytes, signed zeros included (x, v hold 0.0 and -0.0 samples)
+    from eddi.model import EquationOfMotion
+    from eddi.stability import _damping_force
+
+    rng = np.random.default_rng(5)
+    x, v = rng.standard_normal(5000) * 0.01, rng.standard_normal(5000) * 0.4
+    x[::50], v[::37], v[::91] = 0.0, -0.0, 0.0
+    eom = EquationOfMotion.create(mass=1.0, damping=damping, stiffness={"x": 100.0})
+    assert _damping_force(eom, x, v).tobytes() == _damping_force_filled(eom, x, v).tobytes()
