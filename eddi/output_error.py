@@ -21,7 +21,6 @@ from eddi.model import EquationOfMotion
 from eddi.refine_grid import block_means, block_size, local_substeps, smooth_model
 from eddi.secant_jacobian import secant_jacobian, switching_model
 from eddi.simulate import MAX_SUBSTEPS, local_angular_frequency, simulate
-from eddi.terms import evaluate
 
 #: Parameters after the coefficients: x0, v0 and the measured signal's offset.
 NUISANCE = 3
@@ -67,10 +66,13 @@ class OutputErrorProblem:
         c0 = np.array([eom.damping[tm.text] for tm in d_terms] + [eom.stiffness[tm.text] for tm in k_terms])
         # parameter scales: the coefficient itself, or (for ~0 coefficients) the value whose term
         # would reach 1e-3 of the peak inertial force
-        f_scale = eom.mass * float(np.max(np.abs(y if channel == "a" else np.gradient(v, t))))
+        y_amp = float(np.max(np.abs(y)))
+        f_scale = eom.mass * (y_amp if channel == "a" else float(np.max(np.abs(np.gradient(v, t)))))
         step = max(1, t.size // 20000)  # the peak of each term: every sample is not needed
-        peak = (np.max(np.abs(evaluate(d_terms + k_terms, x[::step], v[::step])), axis=0) if self.names
-                else np.zeros(0))
+        xs, vs = np.ascontiguousarray(x[::step]), np.ascontiguousarray(v[::step])
+        # term by term (the same maxima as of evaluate()'s columns: no (n, terms) table and its
+        # strided column reductions)
+        peak = np.array([float(np.max(np.abs(tm(xs, vs)))) for tm in d_terms + k_terms], dtype=float)
         floor = 1e-3 * f_scale / np.where(peak > 0, peak, 1.0)
         self.floor = floor
         # nuisance parameters after the coefficients: the initial state (x0, v0) and a constant
@@ -78,7 +80,7 @@ class OutputErrorProblem:
         # mean was removed: unmodelled, it biases every coefficient a little, all the same way)
         self.scale = np.concatenate((np.maximum(np.abs(c0), floor),
                                      [max(x_amp, 1e-300), max(v_amp, 1e-300),
-                                      max(1e-3 * float(np.max(np.abs(y))), 1e-300)]))
+                                      max(1e-3 * y_amp, 1e-300)]))
         self.p0 = np.concatenate((c0, [x[half], v[half], 0.0])) / self.scale
         self.active = list(range(len(self.names)))
         # RK4 steps of omega h <= 0.1 on the blocks' grid (the simulator's own rule): at the
