@@ -9,9 +9,10 @@ of that record (``run_identify``, session 18): ~5,000 page faults a call, 8-12 m
 of ~80 ms; with the freed memory kept (below), none, and the user CPU the same.
 
 :func:`keep_freed_memory` sets glibc's ``mmap`` threshold to its largest (32 MiB: every array of a
-record up to ~4 M samples comes from the heap) and its trim threshold to 1 GiB (freed heap memory
-stays with the process for its next arrays). The process then holds the largest memory it used
-(an identification of that record: ~200 MB) instead of giving it back between calls. It is a
+record up to ~4 M samples comes from the heap) and its trim threshold to 256 MiB (up to that much
+freed memory at the heap's top stays with the process for its next arrays; the 45 s record needs
+128 MiB for no faults, 64 MiB still faulted every call). The process then holds up to that much
+more than it uses between calls instead of giving it back. It is a
 process-wide setting, made once, by the engine's entry points (:class:`eddi.fit_record.Pipeline`'s
 ``condition`` and ``fit``); ``EDDI_KEEP_FREED_MEMORY=0`` in the environment leaves the allocator
 alone (a host that wants the memory back: a Dask worker near its limit). Not glibc (macOS,
@@ -28,7 +29,7 @@ _M_MMAP_THRESHOLD = -3
 #: Blocks below this come from the heap (glibc's largest allowed value on 64-bit: 32 MiB).
 MMAP_THRESHOLD = 32 * 1024 * 1024
 #: Free memory at the heap's top kept before any is given back.
-TRIM_THRESHOLD = 1024 * 1024 * 1024
+TRIM_THRESHOLD = 256 * 1024 * 1024
 
 #: Whether :func:`keep_freed_memory` was called (it acts once), and what it did.
 _STATE: list = [None]
