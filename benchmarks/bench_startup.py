@@ -73,8 +73,8 @@ LINES = [
 
 
 #: Libraries ``station identify FILE.csv`` must not import (it draws nothing, fits no SINDy, runs
-#: no campaign, reads no HDF5; scipy.signal is for modal sums only).
-NOT_FOR_IDENTIFY = ("matplotlib", "pysindy", "dask", "distributed", "pyarrow", "h5py", "scipy.signal")
+#: no campaign, reads no HDF5; scipy.signal is for modal sums only; since session 18 no scipy at all).
+NOT_FOR_IDENTIFY = ("matplotlib", "pysindy", "dask", "distributed", "pyarrow", "h5py", "scipy")
 IDENTIFY_ARGS = ["--mass", "0.815", "--damping", "v,x^2*v,v^3", "--stiffness", "x,x^2,x^3,x^4,x^5", "--json"]
 
 
@@ -230,17 +230,20 @@ def identify_whole_process(repeats: int, extra: list[str]) -> None:
 
 #: The libraries every `station identify FILE.csv` pays before its own work, one line adding to
 #: the last (``--libraries``). Since session 17 (s17import) the identify path imports no
-#: scipy.linalg / optimize / interpolate (eddi.lsq, eddi.bspline); scipy.sparse is left (EDDI's
-#: drift basis and normal equations). The session-16 chain (scipy.linalg, least_squares, interpolate)
-#: is the last line, for comparison.
+#: scipy.linalg / optimize / interpolate (eddi.lsq, eddi.bspline), since session 18 (s18import) no
+#: scipy at all (EDDI's drift basis and normal equations: eddi.bspline.BandedRows). The chains of
+#: sessions 17 (+ scipy.sparse) and 16 (+ scipy.linalg, least_squares, interpolate) are the last
+#: lines, for comparison.
 LIBRARY_LINES = (
     ("python -c pass", "pass"),
     ("+ numpy", "import numpy"),
-    ("+ scipy.sparse (EDDI's drift basis)", "import numpy, scipy.sparse"),
-    ("+ pydantic.BaseModel", "import numpy, scipy.sparse; from pydantic import BaseModel"),
-    ("+ eddi.model (the schema's two models)", "import numpy, scipy.sparse; import eddi.model"),
-    ("+ np.loadtxt of the 33 MB CSV", "import numpy as np, scipy.sparse; import eddi.model; np.loadtxt({csv!r}, "
+    ("+ pydantic.BaseModel", "import numpy; from pydantic import BaseModel"),
+    ("+ eddi.model (the schema's two models)", "import numpy; import eddi.model"),
+    ("+ np.loadtxt of the 33 MB CSV", "import numpy as np; import eddi.model; np.loadtxt({csv!r}, "
                                       "delimiter=',', skiprows=1, ndmin=2, quotechar='\"', encoding='utf-8')"),
+    ("  (session 17's chain: + scipy.sparse)",
+     "import numpy as np, scipy.sparse; import eddi.model; np.loadtxt({csv!r}, delimiter=',', skiprows=1, "
+     "ndmin=2, quotechar='\"', encoding='utf-8')"),
     ("  (session 16's chain: + scipy.linalg, least_squares, interpolate)",
      "import numpy as np, scipy.sparse, scipy.linalg, scipy.interpolate; from scipy.optimize import least_squares; "
      "import eddi.model; np.loadtxt({csv!r}, delimiter=',', skiprows=1, ndmin=2, quotechar='\"', encoding='utf-8')"),

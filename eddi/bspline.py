@@ -15,6 +15,14 @@ The interpolation's collocation system is banded (at most ``k`` sub- and super-d
 it is solved by a compiled banded elimination without pivoting (:func:`_banded_solve`, as de
 Boor's ``banfac``: the collocation matrix is totally positive; :mod:`eddi.kernels`) instead of
 LAPACK's pivoted banded LU (scipy's ``gbsv``).
+
+The design matrix is a :class:`BandedRows` (each row's ``k + 1`` values in one window of
+columns), with the products the engine's least squares need (Gram matrix, transposed
+products, scaling, sums): the drift splines' and EDDI's nuisance columns
+(:mod:`eddi.slow_errors`) without ``scipy.sparse``, whose import alone cost ~0.09 s of each
+``station identify`` process on a quiet machine (scipy's array-API layer: numpy.f2py,
+numpy.testing, charset_normalizer). The compiled products sum row by row as scipy's sparse
+kernels do (``csr_matmat``, ``csr_matvec(s)``): the same numbers bit for bit.
 """
 
 from __future__ import annotations
@@ -74,31 +82,225 @@ def _interval(t: np.ndarray, k: int, x: np.ndarray) -> np.ndarray:
 
 def basis_values(t: np.ndarray, k: int, x: np.ndarray, ell: np.ndarray) -> np.ndarray:
     """The ``k + 1`` B-splines non-zero in interval ``ell`` at ``x`` (Cox-de Boor): ``(points, k + 1)``,
-    column ``j`` being ``B_{ell - k + j}``."""
-    x = np.asarray(x, dtype=float)
-    b = np.zeros((x.size, k + 1))
-    b[:, 0] = 1.0
-    for j in range(1, k + 1):
-        saved = np.zeros(x.size)
-        for r in range(j):
-            lo, hi = t[ell + 1 - j + r], t[ell + 1 + r]
-            den = hi - lo
-            term = np.divide(b[:, r], den, out=np.zeros(x.size), where=den != 0)
-            b[:, r] = saved + (hi - x) * term
-            saved = (x - lo) * term
-        b[:, j] = saved
+    column ``j`` being ``B_{ell - k + j}`` (a compiled pass, :func:`_basis_values`)."""
+    x = np.ascontiguousarray(x, dtype=float).ravel()
+    b = np.empty((x.size, k + 1))
+    _KERNELS._basis_values(np.ascontiguousarray(t, dtype=float), int(k), x,
+                           np.ascontiguousarray(ell, dtype=np.int64).ravel(), b)
     return b
 
 
-def design_matrix_parts(x: np.ndarray, t: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """``BSpline.design_matrix(x, t, k)`` as CSR parts: (data, indices, indptr, columns); ``x``
-    inside ``[t[k], t[n]]`` (checked by the caller), ``k + 1`` entries a row."""
-    x = np.asarray(x, dtype=float)
+def _basis_values(t, k, x, ell, b):  # pragma: no cover - compiled
+    """:func:`basis_values` into ``b`` (points, k + 1): per point the recurrence's steps in the
+    order numpy's column passes took them (a zero knot span contributes 0), so the same numbers."""
+    for p in range(x.shape[0]):
+        xp = x[p]
+        e = ell[p]
+        b[p, 0] = 1.0
+        for j in range(1, k + 1):
+            saved = 0.0
+            for r in range(j):
+                lo = t[e + 1 - j + r]
+                hi = t[e + 1 + r]
+                den = hi - lo
+                term = b[p, r] / den if den != 0 else 0.0
+                b[p, r] = saved + (hi - xp) * term
+                saved = (xp - lo) * term
+            b[p, j] = saved
+
+
+def design_rows(x: np.ndarray, t: np.ndarray, k: int = 3) -> BandedRows:
+    """``scipy.interpolate.BSpline.design_matrix(x, t, k)`` as :class:`BandedRows` (the same values bit
+    for bit: row ``r`` holds ``B_{ell - k} .. B_ell`` at ``x[r]``, ``ell`` its knot interval).
+
+    numpy checks the bounds (and finiteness): scipy (1.17) checked them with Python's ``min(x)`` and
+    ``max(x)``, one interpreted comparison per sample (4.4 of 7.3 ms on the 45 s record, session 12).
+
+    Raises
+    ------
+    ValueError
+        On a point outside the base interval ``[t[k], t[n]]`` or not finite, as scipy does.
+    """
+    x = np.ascontiguousarray(x, dtype=float)
+    t = np.ascontiguousarray(t, dtype=float)
+    if x.ndim != 1 or t.ndim != 1 or t.size < 2 * k + 2 or np.any(np.diff(t) < 0):
+        raise ValueError(f"B-spline design matrix: points and knots must be 1-D, the knots non-decreasing and "
+                         f"at least {2 * k + 2}")
+    if x.size and not (float(np.min(x)) >= t[k] and float(np.max(x)) <= t[t.size - k - 1]):
+        raise ValueError(f"B-spline design matrix: points outside [{t[k]:g}, {t[t.size - k - 1]:g}]"
+                         " or not finite")
     ell = _interval(t, k, x)
-    data = basis_values(t, k, x, ell).ravel()
-    indices = (ell[:, None] - k + np.arange(k + 1)).ravel().astype(np.int32)
-    indptr = np.arange(0, (k + 1) * x.size + 1, k + 1, dtype=np.int32)
-    return data, indices, indptr, t.size - k - 1
+    return BandedRows(ell - k, basis_values(t, k, x, ell), t.size - k - 1)
+
+
+@dataclass(frozen=True, eq=False)
+class BandedRows:
+    """A matrix of ``n`` rows whose non-zeros lie in one window of columns a row: row ``r`` holds
+    ``values[r, j]`` at column ``start[r] + j`` (``j < w = values.shape[1]``), zero elsewhere;
+    ``0 <= start[r] <= ncols - w``.
+
+    A B-spline design matrix (:func:`design_rows`: ``w = k + 1``) and what the engine's least squares
+    make of it (scaled rows and columns, rows taken, sums and differences, whose windows are the
+    union of the operands'). The products (:meth:`__matmul__`, :meth:`tmul`, :meth:`gram`) are
+    compiled passes that sum in the order of scipy's CSR kernels (a matrix-vector product: each
+    row's terms in column order; the transposed products and the Gram matrix: over rows in row
+    order), so they give scipy.sparse's numbers bit for bit (a stored zero of a window adds
+    nothing).
+    """
+
+    start: np.ndarray
+    values: np.ndarray
+    ncols: int
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "start", np.ascontiguousarray(self.start, dtype=np.int64))
+        object.__setattr__(self, "values", np.ascontiguousarray(self.values, dtype=float))
+        if (self.values.ndim != 2 or self.start.shape != self.values.shape[:1]
+                or (self.start.size and not (int(self.start.min()) >= 0
+                                             and int(self.start.max()) + self.values.shape[1] <= self.ncols))):
+            raise ValueError(f"banded rows: {self.values.shape} values, {self.start.shape} starts and "
+                             f"{self.ncols} columns do not fit")
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.values.shape[0], int(self.ncols)
+
+    def _columns(self) -> np.ndarray:
+        return self.start[:, None] + np.arange(self.values.shape[1])
+
+    def scale_rows(self, s) -> BandedRows:
+        """``diag(s) @ self`` (each stored value times its row's ``s``)."""
+        return BandedRows(self.start, self.values * np.asarray(s, dtype=float)[:, None], self.ncols)
+
+    def scale_cols(self, s) -> BandedRows:
+        """``self @ diag(s)`` (each stored value times its column's ``s``)."""
+        return BandedRows(self.start, self.values * np.asarray(s, dtype=float)[self._columns()], self.ncols)
+
+    def take(self, rows) -> BandedRows:
+        """The rows ``rows`` (an index array or a slice), in that order."""
+        return BandedRows(self.start[rows], self.values[rows], self.ncols)
+
+    def __add__(self, other: BandedRows) -> BandedRows:
+        return self._combine(other, 1.0)
+
+    def __sub__(self, other: BandedRows) -> BandedRows:
+        return self._combine(other, -1.0)
+
+    def _combine(self, other: BandedRows, sign: float) -> BandedRows:
+        """``self + sign * other`` entry by entry (``a + b``, ``a - b``; ``a`` or ``+-b`` alone), on the
+        union of the two windows of each row, widened to the widest row's."""
+        if self.shape != other.shape:
+            raise ValueError(f"banded rows: shapes {self.shape} and {other.shape} differ")
+        wa, wb = self.values.shape[1], other.values.shape[1]
+        lo = np.minimum(self.start, other.start)
+        width = int(np.max(np.maximum(self.start + wa, other.start + wb) - lo, initial=max(wa, wb)))
+        lo = np.minimum(lo, self.ncols - width)
+        out = np.zeros((lo.size, width))
+        rows = np.arange(lo.size)[:, None]
+        out[rows, (self.start - lo)[:, None] + np.arange(wa)] = self.values
+        if sign > 0:
+            out[rows, (other.start - lo)[:, None] + np.arange(wb)] += other.values
+        else:
+            out[rows, (other.start - lo)[:, None] + np.arange(wb)] -= other.values
+        return BandedRows(lo, out, self.ncols)
+
+    def __matmul__(self, x) -> np.ndarray:
+        """``self @ x`` for a vector ``x`` (ncols,): (n,)."""
+        x = np.ascontiguousarray(x, dtype=float)
+        if x.shape != (self.ncols,):
+            raise ValueError(f"banded rows: {self.shape} @ {x.shape}")
+        out = np.zeros(self.values.shape[0])
+        _KERNELS._banded_matvec(self.start, self.values, x, out)
+        return out
+
+    def add_product(self, x, out: np.ndarray) -> np.ndarray:
+        """``out += self @ x`` row by row, each row's sum continuing from ``out``'s value: the product of
+        columns stacked after another block's (scipy's product of the stacked matrix)."""
+        x = np.ascontiguousarray(x, dtype=float)
+        if x.shape != (self.ncols,) or out.shape != (self.values.shape[0],) or not out.flags.c_contiguous:
+            raise ValueError(f"banded rows: {self.shape} @ {x.shape} into {out.shape}")
+        _KERNELS._banded_matvec(self.start, self.values, x, out)
+        return out
+
+    def tmul(self, y) -> np.ndarray:
+        """``self.T @ y`` for ``y`` (n,) or (n, m): (ncols,) or (ncols, m), summed over rows in row order."""
+        y = np.asarray(y, dtype=float)
+        if y.ndim not in (1, 2) or y.shape[0] != self.values.shape[0]:
+            raise ValueError(f"banded rows: {self.shape}.T @ {y.shape}")
+        y2 = np.ascontiguousarray(y.reshape(y.shape[0], -1))
+        out = np.zeros((self.ncols, y2.shape[1]))
+        _KERNELS._banded_tmul(self.start, self.values, y2, out)
+        return out.ravel() if y.ndim == 1 else out
+
+    def gram(self, other: BandedRows | None = None) -> np.ndarray:
+        """``self.T @ other`` (dense, ncols x other.ncols; ``other`` default ``self``), summed over rows in row order."""
+        other = self if other is None else other
+        if other.values.shape[0] != self.values.shape[0]:
+            raise ValueError(f"banded rows: {self.shape}.T @ {other.shape}")
+        out = np.zeros((self.ncols, other.ncols))
+        _KERNELS._banded_gram(self.start, self.values, other.start, other.values, out)
+        return out
+
+    def column_sumsq(self) -> np.ndarray:
+        """Each column's sum of squares (over rows in row order)."""
+        return np.bincount(self._columns().ravel(), weights=(self.values * self.values).ravel(),
+                           minlength=self.ncols)
+
+    def toarray(self) -> np.ndarray:
+        out = np.zeros(self.shape)
+        out[np.arange(self.values.shape[0])[:, None], self._columns()] = self.values
+        return out
+
+    def csr_parts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(data, indices, indptr) of the CSR form (every stored value: ``w`` a row)."""
+        n, w = self.values.shape
+        return (self.values.ravel(), self._columns().ravel().astype(np.int32),
+                np.arange(0, w * n + 1, w, dtype=np.int32))
+
+    def tocsr(self):
+        """A ``scipy.sparse.csr_matrix`` of the same entries (imports scipy.sparse: not for ``station identify``)."""
+        from scipy import sparse
+
+        return sparse.csr_matrix(self.csr_parts(), shape=self.shape)
+
+
+def _banded_matvec(start, values, x, out):  # pragma: no cover - compiled
+    """``out[r] += sum_j values[r, j] x[start[r] + j]``, each row's sum from ``out[r]`` in column order
+    (scipy's ``csr_matvec``)."""
+    w = values.shape[1]
+    for r in range(values.shape[0]):
+        s = out[r]
+        c = start[r]
+        for j in range(w):
+            s += values[r, j] * x[c + j]
+        out[r] = s
+
+
+def _banded_tmul(start, values, y, out):  # pragma: no cover - compiled
+    """``out[start[r] + j, :] += values[r, j] y[r, :]`` over rows in order (scipy's ``csr_matvecs`` of the
+    transpose)."""
+    w = values.shape[1]
+    m = y.shape[1]
+    for r in range(values.shape[0]):
+        c = start[r]
+        for j in range(w):
+            a = values[r, j]
+            for q in range(m):
+                out[c + j, q] += a * y[r, q]
+
+
+def _banded_gram(sa, va, sb, vb, out):  # pragma: no cover - compiled
+    """``out[sa[r] + i, sb[r] + j] += va[r, i] vb[r, j]`` over rows in order (scipy's ``csr_matmat`` of
+    the transpose and the matrix)."""
+    wa = va.shape[1]
+    wb = vb.shape[1]
+    for r in range(va.shape[0]):
+        ca = sa[r]
+        cb = sb[r]
+        for i in range(wa):
+            a = va[r, i]
+            for j in range(wb):
+                out[ca + i, cb + j] += a * vb[r, j]
 
 
 def not_a_knot_knots(x: np.ndarray, k: int) -> np.ndarray:
@@ -210,4 +412,8 @@ def hermite(x, y, dydx) -> CubicHermite:
 #: The compiled kernel (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
 _KERNELS = Kernels(globals(), {
     "_banded_solve": ["void(f8[:, ::1], i8, i8, f8[:, ::1])"],
+    "_basis_values": ["void(f8[::1], i8, f8[::1], i8[::1], f8[:, ::1])"],
+    "_banded_matvec": ["void(i8[::1], f8[:, ::1], f8[::1], f8[::1])"],
+    "_banded_tmul": ["void(i8[::1], f8[:, ::1], f8[:, ::1], f8[:, ::1])"],
+    "_banded_gram": ["void(i8[::1], f8[:, ::1], i8[::1], f8[:, ::1], f8[:, ::1])"],
 })

@@ -29,8 +29,9 @@ One module owns these so that conditioning (:mod:`eddi.conditioning`), the modal
 * :func:`samples_per_cycle_note`: what accuracy to expect from a given sampling;
 * :func:`decimation_factor`, :func:`decimate_centred`: a record sampled far faster than it
   moves (19.2 kHz for a 4 Hz oscillator) onto a coarser grid for the regression;
-* :func:`bspline_design_matrix`: scipy's B-spline design matrix (the drift splines of the
-  conditioning and of the slow errors), the same entries, without its per-sample Python check.
+* :func:`bspline_design_matrix`: scipy's B-spline design matrix as a ``scipy.sparse`` array (the
+  equilibrium's spline), the same entries, without its per-sample Python check (the drift
+  splines of the conditioning and of the slow errors use :func:`eddi.bspline.design_rows`).
 """
 
 from __future__ import annotations
@@ -417,12 +418,11 @@ def decimate_centred(t: np.ndarray, x: np.ndarray, v: np.ndarray, a: np.ndarray 
 
 
 def bspline_design_matrix(x: np.ndarray, knots: np.ndarray, k: int = 3):
-    """``scipy.interpolate.BSpline.design_matrix(x, knots, k)``: the same CSR array, to rounding.
+    """``scipy.interpolate.BSpline.design_matrix(x, knots, k)``: the same CSR array, bit for bit.
 
-    Built by :func:`eddi.bspline.design_matrix_parts` (numpy; ``scipy.interpolate`` imports
-    ``scipy.optimize``, ~0.13 s a process) as a ``scipy.sparse.csr_array``. numpy checks the
-    bounds (and finiteness): scipy (1.17) checked them with Python's ``min(x)`` and ``max(x)``,
-    one interpreted comparison per sample (4.4 of 7.3 ms on the 45 s record, session 12).
+    :func:`eddi.bspline.design_rows` (numpy and a compiled pass; ``scipy.interpolate`` imports
+    ``scipy.optimize``, ~0.13 s a process) as a ``scipy.sparse.csr_array``. The engine's own least
+    squares use :func:`eddi.bspline.design_rows` directly (no ``scipy.sparse``).
 
     Raises
     ------
@@ -431,18 +431,10 @@ def bspline_design_matrix(x: np.ndarray, knots: np.ndarray, k: int = 3):
     """
     from scipy import sparse  # local: keeps `import eddi` light
 
-    from eddi.bspline import design_matrix_parts
+    from eddi.bspline import design_rows
 
-    x = np.ascontiguousarray(x, dtype=float)
-    knots = np.asarray(knots, dtype=float)
-    if x.ndim != 1 or knots.ndim != 1 or knots.size < 2 * k + 2 or np.any(np.diff(knots) < 0):
-        raise ValueError(f"B-spline design matrix: points and knots must be 1-D, the knots non-decreasing and "
-                         f"at least {2 * k + 2}")
-    if x.size and not (float(np.min(x)) >= knots[k] and float(np.max(x)) <= knots[knots.size - k - 1]):
-        raise ValueError(f"B-spline design matrix: points outside [{knots[k]:g}, {knots[knots.size - k - 1]:g}]"
-                         " or not finite")
-    data, indices, indptr, cols = design_matrix_parts(x, knots, k)
-    return sparse.csr_array((data, indices, indptr), shape=(x.size, cols))
+    rows = design_rows(x, knots, k)
+    return sparse.csr_array(rows.csr_parts(), shape=rows.shape)
 
 
 def _integrate_sum(y, dt, k, out):  # pragma: no cover - compiled

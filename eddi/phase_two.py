@@ -126,7 +126,7 @@ def _dk_dx(terms: tuple[Term, ...], x: np.ndarray) -> np.ndarray:
     return (term_matrix(terms, x + h, zero) - term_matrix(terms, x - h, zero)) / (2.0 * h)
 
 
-def _nuisance_basis(p1: PhaseOneResult, n_terms: int, basis=None):  # -> scipy.sparse.csr_matrix | None
+def _nuisance_basis(p1: PhaseOneResult, n_terms: int, basis=None):  # -> eddi.bspline.BandedRows | None
     """:func:`eddi.slow_errors.drift_basis` over phase one's samples, or None when too few rows.
 
     The nuisance columns (two per basis function) must leave at least ten rows per unknown.
@@ -186,7 +186,7 @@ def potential_route(
         Fit, with the stiffness, a slow offset of ``x`` and a slow error of ``v`` (and of
         the energy anchored on it) in the conditioner's drift-spline space, and discard
         them (:mod:`eddi.slow_errors`; default). Needs ``v`` for the rate part.
-    drift : scipy.sparse matrix, optional
+    drift : eddi.bspline.BandedRows, optional
         :func:`eddi.slow_errors.drift_basis` ``(p1.t, p1.gamma)`` when the caller already built
         it (:func:`eddi.identify.identify` builds it once for both routes).
 
@@ -278,7 +278,7 @@ def lagrangian_route(
     slow_errors : bool
         Fit a slow offset of ``x`` with the stiffness and discard it
         (:mod:`eddi.slow_errors`; default).
-    drift : scipy.sparse matrix, optional
+    drift : eddi.bspline.BandedRows, optional
         :func:`eddi.slow_errors.drift_basis` ``(p1.t, p1.gamma)`` when the caller already built
         it (:func:`eddi.identify.identify` builds it once for both routes).
 
@@ -310,7 +310,7 @@ def lagrangian_route(
     if basis is not None:
         xk = x[keep]
         dmat = _dk_dx(terms, xk)
-        coef = refit_with_offset(cols, fc[keep], w, coef, basis[np.flatnonzero(keep)], lambda c: dmat @ c,
+        coef = refit_with_offset(cols, fc[keep], w, coef, basis.take(np.flatnonzero(keep)), lambda c: dmat @ c,
                                  None, normal_lstsq, xk)
     fit = cols @ coef
     rms = float(np.sqrt(np.mean((fc[keep] * w) ** 2))) or 1.0

@@ -25,12 +25,19 @@ Phase two therefore treats the offset ``delta(t)`` of ``x`` and the slow error `
 ``delta, dv`` are B-spline series; their coefficients are fitted and discarded. The part of
 the error faster than the knots (the integrated noise between knots) is not removed; it is
 what limits the routes at low SNR.
+
+The basis and the columns built on it are :class:`eddi.bspline.BandedRows` (each row's few
+values in one window of columns), whose compiled products give ``scipy.sparse``'s numbers bit
+for bit without importing it (~0.09 s of each ``station identify`` process).
 """
 
 from __future__ import annotations
 
+from typing import Sequence
+
 import numpy as np
-from scipy import sparse
+
+from eddi.bspline import BandedRows, design_rows
 
 #: Knot spacing of the nuisance splines, in periods of the response: that of the
 #: conditioner's drift spline (``eddi.conditioning.conditioner.KNOT_PERIODS``).
@@ -51,7 +58,7 @@ PASSES = 2
 
 
 def drift_basis(t: np.ndarray, gamma: np.ndarray, knot_periods: float = DRIFT_KNOT_PERIODS,
-                span: tuple[float, float] | None = None) -> np.ndarray:
+                span: tuple[float, float] | None = None) -> BandedRows:
     """Cubic B-spline basis over ``t`` with knots every ``knot_periods`` periods.
 
     Parameters
@@ -68,20 +75,18 @@ def drift_basis(t: np.ndarray, gamma: np.ndarray, knot_periods: float = DRIFT_KN
 
     Returns
     -------
-    scipy.sparse.csr_matrix, shape (k, p)
-        Basis functions at ``t`` (``p >= 4``; four non-zeros a row).
+    BandedRows, shape (k, p)
+        Basis functions at ``t`` (``p >= 4``; four values a row; ``.tocsr()`` for scipy.sparse).
     """
-    from eddi.calculus import bspline_design_matrix
-
     t = np.asarray(t, dtype=float)
     t0, t1 = (float(np.min(t)), float(np.max(t))) if span is None else (float(span[0]), float(span[1]))
     knots = _drift_knots(t0, t1, gamma, knot_periods)
-    return sparse.csr_matrix(bspline_design_matrix(np.clip(t, t0, t1), knots, 3))
+    return design_rows(np.clip(t, t0, t1), knots, 3)
 
 
 def rate_error_columns(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.ndarray, v: np.ndarray,
-                       mass: float, basis: np.ndarray,
-                       knot_periods: float = DRIFT_KNOT_PERIODS, rows: slice | None = None) -> np.ndarray:
+                       mass: float, basis: BandedRows,
+                       knot_periods: float = DRIFT_KNOT_PERIODS, rows: slice | None = None) -> BandedRows:
     """Columns of ``E - T`` for a slow rate error ``dv = basis @ c`` (potential route).
 
     ``T`` at the samples is off by ``m v dv``; the energy anchored on ``T(gamma_i)``
@@ -95,7 +100,7 @@ def rate_error_columns(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.nd
     kinetic_at_gamma : ndarray, shape (N+1,), [J]
     v : ndarray, shape (k,), [m/s]
     mass : float, [kg]
-    basis : scipy.sparse matrix, shape (k, p)
+    basis : BandedRows, shape (k, p)
         :func:`drift_basis` at ``t`` (at ``t[rows]`` when ``rows`` is given).
     knot_periods : float
         As for ``basis``.
@@ -105,7 +110,8 @@ def rate_error_columns(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.nd
 
     Returns
     -------
-    scipy.sparse.csr_matrix, shape (k, p) or (len(t[rows]), p), [J per m/s]
+    BandedRows, shape (k, p) or (len(t[rows]), p), [J per m/s]
+        Each row's window the union of its three terms' (4-8 values).
     """
     v = np.asarray(v, dtype=float)
     # the basis at the crossings, on the knots of ``basis`` (the same t[0], t[-1] and period;
@@ -119,9 +125,9 @@ def rate_error_columns(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.nd
         t, v = t[rows], v[rows]
     i = np.clip(np.searchsorted(gamma, t, side="right") - 1, 0, gamma.size - 2)
     lam = np.clip((t - gamma[i]) / np.maximum(gamma[i + 1] - gamma[i], 1e-300), 0.0, 1.0)
-    eg = scale_rows(bg, mass * vg)
-    blend = scale_rows(eg[i], 1.0 - lam) + scale_rows(eg[i + 1], lam)
-    return sparse.csr_matrix(blend - scale_rows(basis, mass * v))
+    eg = bg.scale_rows(mass * vg)
+    blend = eg.take(i).scale_rows(1.0 - lam) + eg.take(i + 1).scale_rows(lam)
+    return blend - basis.scale_rows(mass * v)
 
 
 def nuisance_values(t: np.ndarray, gamma: np.ndarray, kinetic_at_gamma: np.ndarray, v: np.ndarray,
@@ -169,23 +175,8 @@ def _drift_knots(t0: float, t1: float, gamma: np.ndarray, knot_periods: float) -
     return np.concatenate(([t0] * 3, np.linspace(t0, t1, n_int + 1), [t1] * 3))
 
 
-def scale_rows(a: sparse.spmatrix, s: np.ndarray) -> sparse.csr_matrix:
-    """``diag(s) @ a`` as CSR, by scaling the stored values (each entry is the same single product
-    ``s_i a_ij`` the sparse product forms; no sparse-sparse product: ~5x faster on 30k rows)."""
-    out = sparse.csr_matrix(a, copy=True)
-    out.data *= np.repeat(np.asarray(s, dtype=float), np.diff(out.indptr))
-    return out
-
-
-def scale_cols(a: sparse.spmatrix, s: np.ndarray) -> sparse.csr_matrix:
-    """``a @ diag(s)`` as CSR, by scaling the stored values (as :func:`scale_rows`)."""
-    out = sparse.csr_matrix(a, copy=True)
-    out.data *= np.asarray(s, dtype=float)[out.indices]
-    return out
-
-
-def refit_with_offset(cols: np.ndarray, rhs: np.ndarray, w: np.ndarray, coef: np.ndarray, basis: np.ndarray,
-                      offset_gain, extra: np.ndarray | None, solve, x: np.ndarray) -> np.ndarray:
+def refit_with_offset(cols: np.ndarray, rhs: np.ndarray, w: np.ndarray, coef: np.ndarray, basis: BandedRows,
+                      offset_gain, extra: BandedRows | None, solve, x: np.ndarray) -> np.ndarray:
     """Weighted least squares of ``rhs`` on ``cols`` plus the nuisance columns, :data:`PASSES` times.
 
     The first-order correction holds while the fitted offset is small against ``x``; when
@@ -201,15 +192,16 @@ def refit_with_offset(cols: np.ndarray, rhs: np.ndarray, w: np.ndarray, coef: np
         Row weights.
     coef : ndarray, shape (m,)
         First estimate (without nuisance columns).
-    basis : scipy.sparse matrix, shape (k, p)
+    basis : BandedRows, shape (k, p)
         :func:`drift_basis`.
     offset_gain : callable
         ``coef -> ndarray (k,)``: how the row responds to a unit offset of ``x`` for the
         stiffness ``coef`` (potential: ``-K(x)``; Lagrangian: ``K'(x)``).
-    extra : scipy.sparse matrix, shape (k, q), or None
+    extra : BandedRows, shape (k, q), or None
         Further nuisance columns that do not depend on ``coef``.
     solve : callable
-        ``(a, b) -> (coef, cond)``, e.g. :func:`normal_lstsq`.
+        ``(a, b) -> (coef, cond)``, e.g. :func:`normal_lstsq` (run by blocks,
+        :func:`normal_lstsq_split`; another solver is given the stacked matrix as ``scipy.sparse``).
     x : ndarray, shape (k,)
         The coordinate at the rows.
 
@@ -223,12 +215,15 @@ def refit_with_offset(cols: np.ndarray, rhs: np.ndarray, w: np.ndarray, coef: np
     offset = np.zeros(basis.shape[0])
     dense = cols * w[:, None]
     for _ in range(PASSES):
-        nuisance = [scale_rows(basis, offset_gain(coef))] + ([extra] if extra is not None else [])
+        nuisance = [basis.scale_rows(offset_gain(coef))] + ([extra] if extra is not None else [])
         if solve is normal_lstsq:
-            # the dense route columns and the sparse nuisance ones kept apart (normal_lstsq_split)
-            sol, _cond = normal_lstsq_split(dense, scale_rows(sparse.hstack(nuisance, format="csr"), w), rhs * w)
+            # the dense route columns and the banded nuisance ones kept apart (normal_lstsq_split)
+            sol, _cond = normal_lstsq_split(dense, [b.scale_rows(w) for b in nuisance], rhs * w)
         else:
-            full = sparse.diags(w) @ sparse.hstack([sparse.csr_matrix(cols), *nuisance], format="csr")
+            from scipy import sparse  # another solver takes the stacked matrix as scipy.sparse
+
+            full = sparse.diags(w) @ sparse.hstack([sparse.csr_matrix(cols), *(b.tocsr() for b in nuisance)],
+                                                   format="csr")
             sol, _cond = solve(full, rhs * w)
         coef = sol[:m]
         offset = basis @ sol[m:m + p]
@@ -252,6 +247,7 @@ def normal_lstsq(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
     Parameters
     ----------
     a : ndarray or scipy.sparse matrix, shape (n, m)
+        (a sparse matrix: scipy.sparse is imported; :func:`normal_lstsq_split` needs none)
     b : ndarray, shape (n,)
 
     Returns
@@ -261,7 +257,9 @@ def normal_lstsq(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
         A cheap lower bound of the condition number of the scaled matrix (ratio of the
         extreme diagonal entries of the Cholesky factor).
     """
-    if sparse.issparse(a):
+    if not isinstance(a, np.ndarray):
+        from scipy import sparse
+
         norms = np.sqrt(np.asarray(a.multiply(a).sum(axis=0)).ravel())
         norms = np.where(norms > 0, norms, 1.0)
         a_s = a @ sparse.diags(1.0 / norms)
@@ -285,11 +283,12 @@ def normal_lstsq(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
     return sol / norms, cond
 
 
-def normal_lstsq_split(dense: np.ndarray, nuisance: sparse.spmatrix, b: np.ndarray) -> tuple[np.ndarray, float]:
+def normal_lstsq_split(dense: np.ndarray, nuisance: BandedRows | Sequence[BandedRows],
+                       b: np.ndarray) -> tuple[np.ndarray, float]:
     """:func:`normal_lstsq` of ``[dense | nuisance]``, its Gram matrix formed by blocks.
 
     The matrix of :func:`refit_with_offset` is a few dense route columns beside hundreds of
-    sparse nuisance columns (four to eight non-zeros a row). Stacked into one sparse matrix,
+    banded nuisance columns (four to eight non-zeros a row). Stacked into one sparse matrix,
     every row's dense entries joined the sparse Gram product (``rows x (m + 8)^2`` products
     through scipy's sparse kernels: 45 of the 77 ms the two routes' refits took on the 45 s
     record, session 9). By blocks, ``D^T D`` is a BLAS product, ``S^T D`` a sparse-dense
@@ -302,7 +301,8 @@ def normal_lstsq_split(dense: np.ndarray, nuisance: sparse.spmatrix, b: np.ndarr
     Parameters
     ----------
     dense : ndarray, shape (n, m)
-    nuisance : scipy.sparse matrix, shape (n, q)
+    nuisance : BandedRows or sequence of BandedRows, shape (n, q) together
+        Blocks of columns, side by side.
     b : ndarray, shape (n,)
 
     Returns
@@ -312,25 +312,33 @@ def normal_lstsq_split(dense: np.ndarray, nuisance: sparse.spmatrix, b: np.ndarr
         As :func:`normal_lstsq`.
     """
     m = dense.shape[1]
-    sp = sparse.csr_matrix(nuisance)
+    blocks = [nuisance] if isinstance(nuisance, BandedRows) else list(nuisance)
+    edges = np.cumsum([m] + [blk.shape[1] for blk in blocks])
     nd = np.linalg.norm(dense, axis=0)
-    # column sums of squares in row order, as the sparse column sum forms them
-    ns = np.sqrt(np.bincount(sp.indices, weights=sp.data * sp.data, minlength=sp.shape[1]))
-    norms = np.where(np.concatenate([nd, ns]) > 0, np.concatenate([nd, ns]), 1.0)
+    # column sums of squares in row order, as scipy's sparse column sum formed them
+    ns = [np.sqrt(blk.column_sumsq()) for blk in blocks]
+    norms = np.concatenate([nd, *ns])
+    norms = np.where(norms > 0, norms, 1.0)
     d_s = dense / norms[:m]
-    s_s = scale_cols(sp, 1.0 / norms[m:])
-    s_t = s_s.T.tocsr()
-    sd = np.asarray(s_t @ d_s)
-    gram = np.block([[d_s.T @ d_s, sd.T], [sd, (s_t @ s_s).toarray()]])
+    s_s = [blk.scale_cols(1.0 / norms[lo:hi]) for blk, lo, hi in zip(blocks, edges[:-1], edges[1:])]
+    # the Gram matrix by blocks, each entry summed over the rows in row order (as scipy's
+    # product of the stacked sparse matrix's transpose and itself: the same numbers)
+    sd = np.vstack([blk.tmul(d_s) for blk in s_s])
+    ss = np.block([[a.gram(b) for b in s_s] for a in s_s])
+    gram = np.block([[d_s.T @ d_s, sd.T], [sd, ss]])
     low = _cholesky(gram)
     diag = np.abs(np.diag(low))
     cond = float(np.max(diag) / max(float(np.min(diag)), 1e-300))
 
     def normal_solve(rhs: np.ndarray) -> np.ndarray:
-        return _cholesky_solve(low, np.concatenate([d_s.T @ rhs, np.asarray(s_t @ rhs).ravel()]))
+        return _cholesky_solve(low, np.concatenate([d_s.T @ rhs, *(blk.tmul(rhs) for blk in s_s)]))
 
     def times(sol: np.ndarray) -> np.ndarray:
-        return d_s @ sol[:m] + np.asarray(s_s @ sol[m:]).ravel()
+        # each row's sum over the blocks' columns in order, continued from block to block
+        acc = np.zeros(dense.shape[0])
+        for blk, lo, hi in zip(s_s, edges[:-1], edges[1:]):
+            blk.add_product(sol[lo:hi], acc)
+        return d_s @ sol[:m] + acc
 
     sol = normal_solve(b)
     for _ in range(2):

@@ -126,8 +126,9 @@ def _fit(e: SegmentEnergy, damping: list[Basis], stiffness: list[Basis]
     # the nuisance columns at the fitted rows only (each row of them depends only on its own
     # sample and the crossings: the rows of the full matrices, bit for bit)
     sel = slice(None, None, step)
-    bs = drift_basis(ts[sel], e.gamma, span=span)
-    rs = rate_error_columns(ts, e.gamma, e.t_gamma, vs, e.mass, bs, rows=sel)
+    banded = drift_basis(ts[sel], e.gamma, span=span)
+    rs = rate_error_columns(ts, e.gamma, e.t_gamma, vs, e.mass, banded, rows=sel).tocsr()
+    bs = banded.tocsr()
     c, _ = phase_two_many(rows, stiffness)
     pot = np.column_stack([s.potential(rows.x) for s in stiffness])
     kmat = np.column_stack([s.force(rows.x, np.zeros_like(rows.x)) for s in stiffness])

@@ -6,9 +6,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from eddi.bspline import Spline, piecewise
-
-from eddi.calculus import bspline_design_matrix, cumulative_trapezoid
+from eddi.bspline import Spline, design_rows, piecewise
+from eddi.calculus import cumulative_trapezoid
 from eddi.conditioning.checks import check_time
 from eddi.conditioning.equilibrium import _spectral_peaks
 from eddi.conditioning.levels import _at, crossings, noise_rms
@@ -108,16 +107,17 @@ def _drift_spline(
     n_int = max(1, int(math.ceil((t1 - t0) / knot_s)))
     inner = np.linspace(t0, t1, n_int + 1)
     knots = np.concatenate(([t0] * 3, inner, [t1] * 3))
-    basis = bspline_design_matrix(t_pts, knots, 3)
+    basis = design_rows(t_pts, knots, 3)
     first = (1 if free_slope else 2) if clamped else 0
-    # the B-spline block stays sparse (4 non-zeros a row): the normal equations are built
+    # the B-spline block stays banded (4 values a row): the normal equations are built
     # block by block, never as a dense (rows x knots) product (a dense one took 2 s of
-    # multi-threaded BLAS on a 45 s record; this takes a few ms)
-    b = basis.tocsc()[:, first:]
-    m = b.shape[1]
+    # multi-threaded BLAS on a 45 s record; this takes a few ms). The first ``first`` columns
+    # (held at 0) are left out of the products' results: each entry of a Gram matrix or a
+    # transposed product involves its own columns only (scipy.sparse's numbers, bit for bit)
+    m = basis.shape[1] - first
     # a light second-difference penalty keeps intervals without samples well posed
     d2 = np.diff(np.eye(m), 2, axis=0)
-    btb = (b.T @ b).toarray()
+    btb = basis.gram()[first:, first:]
     lam = 1e-3 * float(np.mean(np.diag(btb)))
     scale = np.max(np.abs(local), axis=0)
     scale[scale == 0] = 1.0
@@ -125,10 +125,10 @@ def _drift_spline(
     k = m + loc.shape[1]
     normal = np.empty((k, k))
     normal[:m, :m] = btb + lam * d2.T @ d2
-    normal[:m, m:] = np.asarray(b.T @ loc)
+    normal[:m, m:] = basis.tmul(loc)[first:]
     normal[m:, :m] = normal[:m, m:].T
     normal[m:, m:] = loc.T @ loc
-    rhs = np.concatenate((np.asarray(b.T @ y).ravel(), loc.T @ y))
+    rhs = np.concatenate((basis.tmul(y)[first:], loc.T @ y))
     sol = np.linalg.solve(normal + 1e-12 * np.eye(k), rhs)
     coef = np.zeros(basis.shape[1])
     coef[first:] = sol[:m]

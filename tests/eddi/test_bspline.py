@@ -96,3 +96,65 @@ def test_bad_points_are_value_errors():
         B.interpolate(np.arange(8.0), np.zeros(8), 4)
     with pytest.raises(ValueError, match="strictly increasing"):
         B.hermite(np.array([1.0, 0.0]), np.zeros(2), np.zeros(2))
+
+
+def _basis_values_numpy(t, k, x, ell):
+    """basis_values as numpy column passes (sessions 17): the reference of the compiled pass."""
+    b = np.zeros((x.size, k + 1))
+    b[:, 0] = 1.0
+    for j in range(1, k + 1):
+        saved = np.zeros(x.size)
+        for r in range(j):
+            lo, hi = t[ell + 1 - j + r], t[ell + 1 + r]
+            den = hi - lo
+            term = np.divide(b[:, r], den, out=np.zeros(x.size), where=den != 0)
+            b[:, r] = saved + (hi - x) * term
+            saved = (x - lo) * term
+        b[:, j] = saved
+    return b
+
+
+@pytest.mark.parametrize("k", [1, 3, 5])
+def test_the_compiled_basis_values_are_the_numpy_passes_bit_for_bit(k):
+    """Session 18: the Cox-de Boor recurrence as one compiled pass; repeated knots (zero spans) included."""
+    rng = np.random.default_rng(9 + k)
+    inner = np.sort(np.concatenate((rng.uniform(0.0, 3.0, 30), [1.0, 1.0, 2.0])))
+    t = np.concatenate(([0.0] * (k + 1), inner, [3.0] * (k + 1)))
+    x = np.concatenate((rng.uniform(0.0, 3.0, 4000), [0.0, 1.0, 2.0, 3.0]))
+    ell = B._interval(t, k, x)
+    np.testing.assert_array_equal(B.basis_values(t, k, x, ell), _basis_values_numpy(t, k, x, ell))
+    # the design matrix holds them, as scipy's does (a partition of unity)
+    rows = B.design_rows(x, t, k)
+    np.testing.assert_allclose(rows.toarray().sum(axis=1), 1.0, rtol=1e-14)
+
+
+def _random_rows(rng, n, q, w):
+    return B.BandedRows(np.sort(rng.integers(0, q - w + 1, n)), rng.normal(size=(n, w)), q)
+
+
+def test_banded_products_are_scipy_sparse_bit_for_bit():
+    """BandedRows' products sum as scipy's CSR kernels do (row order), so every one is scipy.sparse's
+    number exactly: A @ x, A.T @ y (vector and matrix), A.T @ A, A.T @ B, column sums of squares,
+    sums and differences (windows joined), rows taken, blocks side by side."""
+    from scipy import sparse
+
+    rng = np.random.default_rng(21)
+    n, q = 5000, 40
+    a, b = _random_rows(rng, n, q, 4), _random_rows(rng, n, q, 6)
+    sa, sb = a.tocsr(), b.tocsr()
+    x, y, ym = rng.normal(size=q), rng.normal(size=n), rng.normal(size=(n, 3))
+    assert np.array_equal(a @ x, sa @ x)
+    assert np.array_equal(a.tmul(y), sa.T.tocsr() @ y)
+    assert np.array_equal(a.tmul(ym), sa.T.tocsr() @ ym)
+    assert np.array_equal(a.gram(), (sa.T.tocsr() @ sa).toarray())
+    assert np.array_equal(a.gram(b), (sa.T.tocsr() @ sb).toarray())
+    assert np.array_equal(a.column_sumsq(), np.asarray(sa.multiply(sa).sum(axis=0)).ravel())
+    for got, ref in ((a + b, sa + sb), (a - b, sa - sb), (a.take(np.arange(n)[::-3]), sa[np.arange(n)[::-3]])):
+        assert got.shape == ref.shape and np.array_equal(got.toarray(), ref.toarray())
+        assert got.values.shape[1] < got.shape[1]  # still a window a row, not dense
+    both = sparse.hstack([sa, sb], format="csr")
+    z = rng.normal(size=2 * q)
+    acc = a @ z[:q]
+    assert np.array_equal(b.add_product(z[q:], acc), both @ z)
+    with pytest.raises(ValueError):
+        B.BandedRows(np.array([0, q - 3]), np.ones((2, 4)), q)  # a window past the last column

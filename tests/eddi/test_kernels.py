@@ -107,6 +107,42 @@ def test_kernels_edited_since_the_build_are_compiled_by_numba(aot_dir: Path) -> 
         sys.modules.pop("eddi._aot_kernels", None)
 
 
+def test_the_fingerprint_follows_the_kernels_code_not_its_lines() -> None:
+    """Session 18: the fingerprint hashes the kernels' bytecode, names and constants (no tokenizing of
+    the source at every start): an edited operator or constant changes it, the same kernel moved
+    down the file (other line numbers, a comment) does not, and it is cheap."""
+    import time
+
+    mod = importlib.import_module("eddi.bspline")
+
+    def variant(body: str) -> int:
+        ns = dict(mod.__dict__)
+        exec(compile(body, mod.__file__, "exec"), ns)  # noqa: S102 - a kernel's variant, for its hash
+        return Kernels(ns, mod._KERNELS._signatures, mod._KERNELS._callees).fingerprint()
+
+    src = """def _banded_matvec(start, values, x, out):
+    w = values.shape[1]
+    for r in range(values.shape[0]):
+        s = out[r]
+        c = start[r]
+        for j in range(w):
+            s += values[r, j] * x[c + j]
+        out[r] = s
+"""
+    same = variant(src)
+    assert variant("\n\n# moved\n\n" + src) == same  # lines and comments do not count
+    assert variant(src.replace("s += values[r, j] * x[c + j]", "s -= values[r, j] * x[c + j]")) != same
+    assert variant(src.replace("s = out[r]", "s = out[r] * 1.0000001")) != same
+    assert variant(src.replace("s = out[r]", "s = out[r] * 1.0000002")) != variant(
+        src.replace("s = out[r]", "s = out[r] * 1.0000001"))
+    kernels = [importlib.import_module(name)._KERNELS
+               for name in ("eddi.simulate", "eddi.calculus", "eddi.bspline", "eddi.conditioning.kinematics")]
+    t0 = time.process_time()
+    for k in kernels:
+        k.fingerprint()
+    assert time.process_time() - t0 < 0.005  # (the source's tokenizing took 7-15 ms for all modules)
+
+
 def test_arguments_outside_the_built_signatures_fall_back_to_the_jit(aot_dir: Path) -> None:
     k = _fresh("eddi.simulate", aot_dir)
     assert k.source == "ahead of time"

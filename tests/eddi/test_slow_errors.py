@@ -98,45 +98,121 @@ def test_basis_at_the_crossings_equals_those_rows_of_the_basis_over_samples_and_
         t = np.sort(rng.uniform(0.0, 10.0, n)) if trial % 2 else np.linspace(0.3, 7.1, n)
         gamma = np.sort(rng.uniform(t[0] - 0.5, t[-1] + 0.5, int(rng.integers(3, 40))))
         gc = np.clip(gamma, t[0], t[-1])
-        together = drift_basis(np.concatenate((t, gc)), gamma)[t.size:]
+        together = drift_basis(np.concatenate((t, gc)), gamma).take(slice(t.size, None))
         alone = drift_basis(gc, gamma, span=(float(t[0]), float(t[-1])))
         assert together.shape == alone.shape
-        assert np.array_equal(together.indices, alone.indices) and np.array_equal(together.indptr, alone.indptr)
-        assert np.array_equal(together.data, alone.data)
+        assert np.array_equal(together.start, alone.start)
+        assert np.array_equal(together.values, alone.values)
         # without the span, the crossings' own extremes would set other knots
         if gc.min() > t[0] or gc.max() < t[-1]:
             assert not (drift_basis(gc, gamma).shape == alone.shape
-                        and np.array_equal(drift_basis(gc, gamma).data, alone.data))
+                        and np.array_equal(drift_basis(gc, gamma).values, alone.values))
+
+
+def _banded(rng, n, q, width):
+    from eddi.bspline import BandedRows
+
+    start = np.sort(rng.integers(0, q - width + 1, n))
+    return BandedRows(start, rng.normal(size=(n, width)), q)
+
+
+def _split_with_scipy(dense, nuisance, b):
+    """normal_lstsq_split as it was (session 10-17: scipy.sparse's stacked nuisance matrix), for the
+    bit-for-bit comparison."""
+    from scipy import sparse
+
+    from eddi.slow_errors import _cholesky, _cholesky_solve
+
+    m = dense.shape[1]
+    sp = sparse.csr_matrix(nuisance)
+    nd = np.linalg.norm(dense, axis=0)
+    ns = np.sqrt(np.bincount(sp.indices, weights=sp.data * sp.data, minlength=sp.shape[1]))
+    norms = np.where(np.concatenate([nd, ns]) > 0, np.concatenate([nd, ns]), 1.0)
+    d_s = dense / norms[:m]
+    s_s = sparse.csr_matrix(sp, copy=True)
+    s_s.data *= (1.0 / norms[m:])[s_s.indices]
+    s_t = s_s.T.tocsr()
+    sd = np.asarray(s_t @ d_s)
+    gram = np.block([[d_s.T @ d_s, sd.T], [sd, (s_t @ s_s).toarray()]])
+    low = _cholesky(gram)
+    diag = np.abs(np.diag(low))
+    cond = float(np.max(diag) / max(float(np.min(diag)), 1e-300))
+
+    def normal_solve(rhs):
+        return _cholesky_solve(low, np.concatenate([d_s.T @ rhs, np.asarray(s_t @ rhs).ravel()]))
+
+    sol = normal_solve(b)
+    for _ in range(2):
+        sol = sol + normal_solve(b - (d_s @ sol[:m] + np.asarray(s_s @ sol[m:]).ravel()))
+    return sol / norms, cond
 
 
 def test_split_normal_equations_solve_the_stacked_system() -> None:
-    """normal_lstsq_split (dense route columns beside sparse nuisance ones, Gram by blocks) gives
-    normal_lstsq's solution of the stacked matrix to rounding, and the exact one when consistent."""
+    """normal_lstsq_split (dense route columns beside banded nuisance blocks, Gram by blocks) gives
+    normal_lstsq's solution of the stacked matrix to rounding, the exact one when consistent, and
+    bit for bit what it gave with scipy.sparse's stacked matrix (session 18: no scipy.sparse)."""
     from scipy import sparse
 
     from eddi.slow_errors import normal_lstsq, normal_lstsq_split
 
     rng = np.random.default_rng(11)
-    for n, m, q in ((4000, 5, 60), (900, 1, 7), (20000, 8, 150)):
+    for n, m, q, widths in ((4000, 5, 60, (4, 6)), (900, 1, 7, (4,)), (20000, 8, 150, (4, 8))):
+        blocks = [_banded(rng, n, q // len(widths), w) for w in widths]
+        nuis = sparse.hstack([blk.tocsr() for blk in blocks], format="csr")
         dense = rng.normal(size=(n, m)) * rng.uniform(0.01, 100.0, size=m)
-        nuis = sparse.random(n, q, density=min(1.0, 6.0 / q), random_state=int(rng.integers(1 << 30)), format="csr")
-        truth = rng.normal(size=m + q)
+        truth = rng.normal(size=m + nuis.shape[1])
         b = dense @ truth[:m] + nuis @ truth[m:]
-        got, cond = normal_lstsq_split(dense, nuis, b)
+        got, cond = normal_lstsq_split(dense, blocks, b)
         assert np.allclose(got, truth, rtol=1e-9, atol=1e-9 * np.max(np.abs(truth)))
         noisy = b + 1e-2 * rng.normal(size=n)
         ref, cref = normal_lstsq(sparse.hstack([sparse.csr_matrix(dense), nuis], format="csr"), noisy)
-        got, cond = normal_lstsq_split(dense, nuis, noisy)
+        got, cond = normal_lstsq_split(dense, blocks, noisy)
         assert np.max(np.abs(got - ref)) <= 1e-10 * np.max(np.abs(ref))
         assert cond == pytest.approx(cref, rel=1e-9)
+        old, cold = _split_with_scipy(dense, nuis, noisy)
+        assert np.array_equal(got, old) and cond == cold
+
+
+def test_rate_error_columns_are_the_sparse_sums_bit_for_bit() -> None:
+    """rate_error_columns (banded rows: the union of each row's three windows) holds the values
+    scipy.sparse's sums of the scaled rows gave, and the refit of the potential route with them
+    (normal_lstsq_split of two blocks) the solution of the stacked sparse matrix, bit for bit."""
+    from scipy import sparse
+
+    from eddi.slow_errors import drift_basis, normal_lstsq_split, rate_error_columns
+
+    rng = np.random.default_rng(5)
+    t = np.linspace(0.0, 6.0, 6001)
+    gamma = np.cumsum(rng.uniform(0.22, 0.28, 26)) - 0.1
+    v = np.cos(2 * np.pi * t) * (1.0 + 0.1 * rng.normal(size=t.size))
+    kin = rng.uniform(0.0, 1.0, gamma.size)
+    basis = drift_basis(t, gamma)
+    cols = rate_error_columns(t, gamma, kin, v, 0.5, basis)
+    assert cols.values.shape[1] > 4  # the crossings' rows reach into the next window
+    # the same sums through scipy.sparse (the code before session 18)
+    gc = np.clip(gamma, t[0], t[-1])
+    bg = drift_basis(gc, gamma, span=(t[0], t[-1])).tocsr()
+    vg = np.sign(np.interp(gamma, t, v)) * np.sqrt(2.0 * np.maximum(kin, 0.0) / 0.5)
+    i = np.clip(np.searchsorted(gamma, t, side="right") - 1, 0, gamma.size - 2)
+    lam = np.clip((t - gamma[i]) / np.maximum(gamma[i + 1] - gamma[i], 1e-300), 0.0, 1.0)
+    eg = sparse.diags(0.5 * vg) @ bg
+    ref = (sparse.diags(1.0 - lam) @ eg[i] + sparse.diags(lam) @ eg[i + 1]) - sparse.diags(0.5 * v) @ basis.tocsr()
+    assert np.array_equal(cols.toarray(), ref.toarray())
+    dense = rng.normal(size=(t.size, 3))
+    g = rng.normal(size=t.size)
+    blocks = [basis.scale_rows(g), cols]
+    b = rng.normal(size=t.size)
+    got = normal_lstsq_split(dense, blocks, b)
+    old = _split_with_scipy(dense, sparse.hstack([blk.tocsr() for blk in blocks], format="csr"), b)
+    assert np.array_equal(got[0], old[0]) and got[1] == old[1]
 
 
 def test_scale_rows_and_cols_are_the_diagonal_products_bit_for_bit():
-    """scale_rows / scale_cols (session 11: stored values scaled, no sparse-sparse product)
-    give diag(s) @ a and a @ diag(s) exactly, explicit zeros aside."""
+    """BandedRows.scale_rows / scale_cols (stored values scaled) give diag(s) @ a and a @ diag(s)
+    exactly, as scipy.sparse's products."""
     from scipy import sparse
 
-    from eddi.slow_errors import drift_basis, scale_cols, scale_rows
+    from eddi.slow_errors import drift_basis
 
     rng = np.random.default_rng(4)
     t = np.linspace(0.0, 3.0, 4001)
@@ -144,8 +220,8 @@ def test_scale_rows_and_cols_are_the_diagonal_products_bit_for_bit():
     a = drift_basis(t, gamma)
     s_r = rng.normal(size=a.shape[0]) * 10.0 ** rng.uniform(-3, 3, a.shape[0])
     s_c = rng.normal(size=a.shape[1])
-    assert np.array_equal(scale_rows(a, s_r).toarray(), (sparse.diags(s_r) @ a).toarray())
-    assert np.array_equal(scale_cols(a, s_c).toarray(), (a @ sparse.diags(s_c)).toarray())
+    assert np.array_equal(a.scale_rows(s_r).toarray(), (sparse.diags(s_r) @ a.tocsr()).toarray())
+    assert np.array_equal(a.scale_cols(s_c).toarray(), (a.tocsr() @ sparse.diags(s_c)).toarray())
     # the input is not modified
     assert np.array_equal(a.toarray(), drift_basis(t, gamma).toarray())
 
@@ -168,8 +244,8 @@ def test_nuisance_rows_and_values_without_the_full_matrices():
     sel = slice(None, None, 7)
     b7 = drift_basis(t[sel], gamma, span=(t[0], t[-1]))
     r7 = rate_error_columns(t, gamma, kin, v, 0.3, b7, rows=sel)
-    assert np.array_equal(b7.toarray(), full_b[sel].toarray())
-    assert np.array_equal(r7.toarray(), full_r[sel].toarray())
+    assert np.array_equal(b7.toarray(), full_b.take(sel).toarray())
+    assert np.array_equal(r7.toarray(), full_r.take(sel).toarray())
     z1, z2 = rng.normal(size=full_b.shape[1]), rng.normal(size=full_b.shape[1])
     offset, rate_terms = nuisance_values(t, gamma, kin, v, 0.3, z1, z2)
     ref1, ref2 = full_b @ z1, full_r @ z2

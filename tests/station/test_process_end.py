@@ -42,11 +42,15 @@ run()
 #: multi-DOF and .mat records only), nor threadpoolctl (the CLI starts BLAS with one thread,
 #: eddi.threads: ~7 ms of look-up). Session 17: nor scipy.optimize and scipy.interpolate (the
 #: refinement's Levenberg-Marquardt is eddi.lsq, the splines eddi.bspline: ~0.13 s of imports),
-#: nor scipy.linalg (eddi.slow_errors' Cholesky is numpy's); scipy.sparse stays (EDDI's drift basis).
+#: nor scipy.linalg (eddi.slow_errors' Cholesky is numpy's). Session 18: nor scipy.sparse (EDDI's drift
+#: basis and its normal equations are eddi.bspline.BandedRows), nor scipy itself: its array-API layer
+#: (numpy.f2py, numpy.testing, charset_normalizer; station.process no longer imports it for its
+#: docstring patch) ~0.09 s quiet.
 NOT_FOR_IDENTIFY = ("matplotlib", "pysindy", "dask", "distributed", "pyarrow", "h5py", "scipy.signal",
                     "eddi.diagnosis.loop", "eddi.diagnosis.catalogue", "scipy.stats", "scipy.integrate",
                     "scipy.ndimage", "scipy.io", "threadpoolctl", "scipy.optimize", "scipy.interpolate",
-                    "scipy.linalg")
+                    "scipy.linalg", "scipy.sparse", "scipy._lib._array_api", "scipy", "numpy.f2py",
+                    "numpy.testing")
 PROBE = PROBE.replace("{not_for_identify!r}", repr(NOT_FOR_IDENTIFY))
 
 #: The same through main() alone (the ordinary end), for the reference output.
