@@ -11,7 +11,8 @@ them):
   the captures (the mount warming between blows, constant inside each record), a charge amplifier overdriven by
   the blow that settles back with a time constant of a few periods, a whipping cable's triboelectric glitches
   on the response channel, an accelerometer replaced mid-test with the old sensitivity kept, a hammer that
-  rebounds in two of the four blows (both pulses in the force channel);
+  rebounds in two of the four blows (both pulses in the force channel), a 12-bit DAQ ranged for a blow 3-6 x
+  larger on a heavy machine, a fixture that is not rigid (a second mode of the structure on it);
 - identify + validate at those scales and noise and on non-polynomial terms the libraries hold (``abs(v)*v``,
   ``abs(x)*x``), alone and combined with the extreme scales;
 - growth: self-excited records (Rayleigh ``v^3`` and van der Pol ``x^2*v`` with a negative linear damping) at
@@ -217,6 +218,39 @@ def chain_doublehit(rng, cid, out):
     return _entry(files, sysd, meta, "double_hit", ["unexplained"])
 
 
+def chain_adc12(rng, cid, out):
+    """A 12-bit DAQ whose response range was set for a blow 3-6 times larger (9-10 effective bits on the ring-down,
+    the tail a few quanta), 45-56 dB analogue noise; a 250-900 kg machine at 1-1.024 kHz, softening or hardening."""
+    sysd = system(rng, **TONNE, z_rng=(0.01, 0.03), kind=_kind(rng, ["softening", "hardening"]), scale="tonne")
+    files, meta = _captures(rng, cid, out, sysd, 4, fs=_rate(rng, *SLOW), snr=(45.0, 56.0),
+                            chain={"bits": 12, "range_x": (3.0, 6.0)}, fmt=_kind(rng, ["csv-si", "csv-export"]))
+    return _entry(files, sysd, meta, "adc12_quantisation", ["unexplained"])
+
+
+def chain_fixture(rng, cid, out):
+    """The structure sits on a fixture that is not rigid: a fixture of 0.5-1.5 x the structure's mass on its own
+    spring, the system's second mode 3-6 x the first; the lab gives the structure's mass and measures on it.
+    The measured signal holds two modes, so ``second_mode`` is the documented name."""
+    for _ in range(200):
+        sysd = system(rng, **dict(MIDDLE, f_rng=(8.0, 40.0)), z_rng=(0.004, 0.015),
+                      kind=_kind(rng, ["linear", "hardening"]))
+        m, k = sysd["mass"], sysd["laws"][0]["k"][1]
+        mf = m * float(rng.uniform(0.5, 1.5))
+        kf = mf * (2 * np.pi * sysd["fn_hz"] * float(rng.uniform(3.0, 6.0))) ** 2
+        K = np.array([[k, -k], [-k, k + kf]])
+        fr = physics.linear_freqs([m, mf], K)
+        if 3.0 <= fr[1] / fr[0] <= 6.5 and all(abs(fr[1] / fr[0] - q) > 0.15 for q in (3.0, 4.0, 5.0, 6.0)):
+            break
+    zf = float(draw.loguni(rng, 0.01, 0.03))
+    laws = [dict(sysd["laws"][0], j=1), {"law": "poly", "i": 1, "j": -1, "k": {1: kf},
+                                         "c": {1: 2 * zf * np.sqrt(kf * mf)}}]
+    sysd.update(fixture_mass=mf, fixture_k=kf, modes_hz=fr, f_top=fr[1])
+    fs = draw.pick_rate(rng, fr[1])
+    files, meta = _captures(rng, cid, out, sysd, 4, fs=fs,
+                            system_fn=lambda c, pre, post: physics.System([m, mf], laws))
+    return _entry(files, sysd, meta, "fixture_mode", ["second_mode", "unexplained"])
+
+
 def cat_absxtonne(rng, cid, out):
     """A smooth stiffening ``abs(x)*x`` (10-30 % of the stiffness at the reference amplitude) on a 250-900 kg
     machine at 2-6 Hz, sampled at 1-1.024 kHz, the blows at 35-100 %."""
@@ -404,6 +438,8 @@ CASES = [
     ("chain-gainstep", "diagnose", chain_gainstep, True),
     ("chain-doublehit", "diagnose", chain_doublehit, True),
     ("cat-absxtonne", "diagnose", cat_absxtonne, True),
+    ("chain-adc12", "diagnose", chain_adc12, True),
+    ("chain-fixture", "diagnose", chain_fixture, True),
     ("id-micro", "ident", ident_case("micro"), True),
     ("id-tonne", "ident", ident_case("tonne"), True),
     ("id-noisy", "ident", ident_case("noisy"), True),
