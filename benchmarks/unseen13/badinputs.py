@@ -6,7 +6,8 @@ and give the SI file's stiffness within the tolerance. Entries as unseen11's (``
 ``setup`` and ``truncate``). The kinds are new against unseen2-12: a run of NaN in the response (a cable
 unplugged for a moment), a response channel missing, a header with no rows, an HDF5 session cut short, another
 tool's HDF5 layout with groups per channel, an output path onto an input (import, diagnose --save-model, export
---uff onto its session, --sep005 onto a CSV capture), a comma delimiter with decimal commas, and two layouts
+--uff onto its session, --sep005 onto a CSV capture), a multi-channel capture missing one accelerometer
+validated against the model of all its channels, a comma delimiter with decimal commas, and two layouts
 the docs say are read: a semicolon / decimal-comma export in ms, kN and g (units in brackets) and a binary UFF58
 with the response in g.
 
@@ -52,7 +53,7 @@ def _csv(path, header, rows, fmt="{:.9g}", delim=",", comma=False):
             fh.write("\n")
 
 
-def make(rng, out, quick):
+def make(rng, out, quick, mdof=()):
     t, f, a, m, fs, k = _good(rng)
     rows = np.column_stack([t, f, a])
     mass = f"{m:.6g}"
@@ -127,6 +128,12 @@ def make(rng, out, quick):
         setup=[["import", "bad-good.csv", "--out", "bad-sess.h5", *M]])
     add("sep005-onto-csv", ["export", "bad-sess2.h5", "--sep005", "bad-good.csv"], ["bad-good.csv"],
         setup=[["import", "bad-good.csv", "--out", "bad-sess2.h5", *M]])
+    # a multi-channel capture with one accelerometer missing, validated against the model of all channels
+    src = next((c for c in mdof if c.get("missing_copy")), None)
+    if src:
+        add("mdof-channel-missing", ["validate", "bad-mdof-model.json", src["missing_copy"]], [src["missing_copy"]],
+            setup=[["diagnose", *src["files"]["train"], "--save-model", "bad-mdof-model.json", "--driving-point",
+                    src["driving_point"]]], setup_rc=[0, 1], setup_limit=600)
     # a CSV cut in the middle of a row (the logger's disk filled up)
     blob = open(P("bad-good.csv")).read()
     with open(P("bad-cutrow.csv"), "w") as fh:

@@ -12,7 +12,8 @@ them):
   the blow that settles back with a time constant of a few periods, a whipping cable's triboelectric glitches
   on the response channel, an accelerometer replaced mid-test with the old sensitivity kept, a hammer that
   rebounds in two of the four blows (both pulses in the force channel), a 12-bit DAQ ranged for a blow 3-6 x
-  larger on a heavy machine, a fixture that is not rigid (a second mode of the structure on it);
+  larger on a heavy machine, a fixture that is not rigid (a second mode of the structure on it), free decays
+  without a force channel;
 - identify + validate at those scales and noise and on non-polynomial terms the libraries hold (``abs(v)*v``,
   ``abs(x)*x``), alone and combined with the extreme scales;
 - growth: self-excited records (Rayleigh ``v^3`` and van der Pol ``x^2*v`` with a negative linear damping) at
@@ -81,7 +82,7 @@ def _rate(rng, lo, hi):
 
 
 def _captures(rng, cid, out, sysd, n, chain=None, fmt=None, levels=None, system_fn=None, snr=(36.0, 56.0),
-              max_samples=60000, chain_fn=None, fs=None, two=True):
+              max_samples=60000, chain_fn=None, fs=None, two=True, post_fn=None):
     """n captures of one single-DOF system over two sessions; returns (files, meta). ``system_fn(c, pre,
     post)``: capture c's system; ``chain_fn(c, fs, pre, post)``: capture c's chain options on top of ``chain``."""
     fs = fs or draw.pick_rate(rng, sysd["fn_hz"])
@@ -96,6 +97,8 @@ def _captures(rng, cid, out, sysd, n, chain=None, fmt=None, levels=None, system_
         sysm = system_fn(c, pre, post) if system_fn else physics.System([sysd["mass"]], sysd["laws"])
         p, tip = draw.hammer(rng, sysd, sysd["fn_hz"], levels[c], tip=tip, fs=fs)
         t, ch = draw.record(rng, sysm, [p], fs, pre, post, s)
+        if post_fn:
+            t, ch = post_fn(t, ch, p)
         files.append(os.path.basename(formats.write(os.path.join(out, f"{cid}-{c}"), fmt, t, ch, rng)))
         meta.append({"level": float(levels[c]), "session": s})
     return files, {"fs": fs, "pre_s": pre, "post_s": post, "fmt": fmt, "tip": tip, "sensor": "acc",
@@ -251,6 +254,23 @@ def chain_fixture(rng, cid, out):
     return _entry(files, sysd, meta, "fixture_mode", ["second_mode", "unexplained"])
 
 
+def null_noforce(rng, cid, out):
+    """Free decays without a force channel (the hammer's cable not plugged in, or a release test): ``t,acc``
+    only, each record starting 2-20 ms after the blow; a hardening or softening 0.3-20 kg structure, 20-2500 Hz
+    rates. docs/diagnosis.md: captures are diagnosed with or without a force channel."""
+    sysd = system(rng, **MIDDLE, z_rng=(0.004, 0.02), kind=_kind(rng, ["hardening", "softening"]))
+    files, meta = _captures(rng, cid, out, sysd, 4, fmt="csv-si", levels=list(rng.uniform(0.5, 1.0, 4)),
+                            post_fn=lambda t, ch, p: _cut_after_blow(rng, t, ch, p))
+    return _entry(files, sysd, meta, None, ["none"])
+
+
+def _cut_after_blow(rng, t, ch, p):
+    """The record from 2-20 ms after the blow's end, without the force channel."""
+    start = p[0] + p[1] + float(rng.uniform(0.002, 0.02))
+    keep = t >= start
+    return t[keep], {k: v[keep] for k, v in ch.items() if k != "force"}
+
+
 def cat_absxtonne(rng, cid, out):
     """A smooth stiffening ``abs(x)*x`` (10-30 % of the stiffness at the reference amplitude) on a 250-900 kg
     machine at 2-6 Hz, sampled at 1-1.024 kHz, the blows at 35-100 %."""
@@ -358,10 +378,12 @@ MDOF_SCALES = {  # mass [kg], first mode [Hz], reference displacement [m], DAQ r
 }
 
 
-def mdof_case(n_mass, coupling=None, scale="kilo", fmt=None, snr=(40.0, 55.0)):
+def mdof_case(n_mass, coupling=None, scale="kilo", fmt=None, snr=(40.0, 55.0), missing_copy=False):
     """A chain of ``n_mass`` masses to the ground, struck at a mass other than the first, every mass measured with
     an accelerometer, no mass given. ``coupling``: ``"link1"`` a cubic spring on the link between masses 0 and 1
-    (15-40 % of its linear force at the level-1 stretch), None linear."""
+    (15-40 % of its linear force at the level-1 stretch), None linear. ``missing_copy``: the held capture also
+    written as the station's CSV without its last response channel (``bad-mdofmissing.csv``, for badinputs.py;
+    no draw added)."""
     def make(rng, cid, out):
         (m0, m1), (f0, f1), (x0, x1), rates = MDOF_SCALES[scale]
         for _ in range(400):
@@ -414,17 +436,22 @@ def mdof_case(n_mass, coupling=None, scale="kilo", fmt=None, snr=(40.0, 55.0)):
             t, ch = draw.record(rng, system_, [p], fs, pre, post, s)
             noise.append(s["noise_nrmse_ch"])
             files.append(os.path.basename(formats.write(os.path.join(out, f"{cid}-{c}"), f_, t, ch, rng)))
+        extra = {}
+        if missing_copy:
+            kept = {k: v for k, v in ch.items() if k != names[-1]}
+            extra["missing_copy"] = os.path.basename(formats.write(os.path.join(out, "bad-mdofmissing"), "csv-si", t,
+                                                                   kept, rng))
         effect = _coupling_effect(ms, laws, d, p, fs, post, names) if coupling else {}
         return {"files": {"train": files[:3], "held": files[3]}, "all_files": files, "driving_point": names[d],
                 "columns": names, "coupling_effect_nrmse": effect, "freqs_hz": fr, "masses": ms, "laws": laws,
                 "fs": fs, "coupling": coupling, "gyro": False, "noise_nrmse": noise, "sensor": "acc", "fmt": f_,
-                "scale": scale}
+                "scale": scale, **extra}
     return make
 
 
 CASES = [
     ("mdof-2tonne-lin", "mdof", mdof_case(2, None, scale="tonne", fmt="csv-export"), True),
-    ("mdof-2noisy-link", "mdof", mdof_case(2, "link1", snr=(33.0, 37.0)), True),
+    ("mdof-2noisy-link", "mdof", mdof_case(2, "link1", snr=(33.0, 37.0), missing_copy=True), True),
     ("mdof-3grams-lin", "mdof", mdof_case(3, None, scale="grams"), True),
     ("mdof-2tonne-link", "mdof", mdof_case(2, "link1", scale="tonne"), False),
     ("mdof-2grams-link", "mdof", mdof_case(2, "link1", scale="grams", fmt="csv-export"), True),
@@ -448,6 +475,7 @@ CASES = [
     ("id-dragtonne", "ident", ident_case("dragtonne"), True),
     ("id-absxmicro", "ident", ident_case("absxmicro"), True),
     ("id-noisymicro", "ident", ident_case("noisymicro"), True),
+    ("null-noforce", "diagnose", null_noforce, True),
     ("grow-rayleigh-tonne", "grow", grow_case("rayleigh", TONNE, SLOW), True),
     ("grow-vdp-micro", "grow", grow_case("vdp", MICRO, FAST), True),
     ("grow-linneg-noisy", "grow", grow_case("linneg", MIDDLE, None, snr=(28.0, 33.0)), True),

@@ -62,7 +62,7 @@ def main(argv=None):
         man[kind].append(case)
         print(f"[{time.time() - t0:5.1f} s] {cid}", file=sys.stderr, flush=True)
     if not a.only or "bad" in a.only.split(","):
-        man["robust"] = badinputs.make(rng_for(a.seed, "bad"), a.out, a.quick)
+        man["robust"] = badinputs.make(rng_for(a.seed, "bad"), a.out, a.quick, man["mdof"])
     if not a.only or "first" in a.only.split(","):
         man["first"] = badinputs.first(a.out)
     with open(os.path.join(a.out, "manifest.json"), "w") as fh:

@@ -443,11 +443,12 @@ def _digest(path):
 
 def score_robust(case, run):
     for argv in case.get("setup", []):
-        for path in (argv[argv.index("--out") + 1],) if "--out" in argv else ():
+        outs = [argv[argv.index(o) + 1] for o in ("--out", "--save-model") if o in argv]
+        for path in outs:
             if os.path.exists(os.path.join(run.data, path)):
                 os.remove(os.path.join(run.data, path))
-        rec, out, err = run(argv, 120)
-        if rec["rc"] != 0:
+        rec, out, err = run(argv, case.get("setup_limit", 120))
+        if rec["rc"] not in case.get("setup_rc", [0]):
             return {"id": "bad-" + case["id"], "kind": "robust", "commands": [rec], "stderr": _lines(err),
                     "verdict": "SETUP-" + _failed(rec, err)}
     if case.get("truncate"):
