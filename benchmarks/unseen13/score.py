@@ -121,7 +121,7 @@ def card(results, meta):
         out.append(f"- {c}: {sum(r['verdict'] in PASS for r in rs)}/{len(rs)} passed")
     cov = [c for r in results if r["kind"] in ("ident", "consistency") for c in r.get("covered", [])]
     out += [f"- **total: {sum(r['verdict'] in PASS for r in results)}/{len(results)} passed**",
-            f"- ci95 coverage pooled over identification and consistency: {sum(cov)}/{len(cov)}"
+            f"- ci95 coverage pooled over the identifications: {sum(cov)}/{len(cov)}"
             + (f" = {sum(cov) / len(cov):.2f} (0.95 promised; not scored)" if cov else ""), "",
             "## Cases", "", "| category | case | pass | checked | verdict | key numbers | wall / CPU s |",
             "|---|---|---|---|---|---|---|"]
