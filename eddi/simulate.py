@@ -386,32 +386,30 @@ def internal_force(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> np.nd
     return out
 
 
-def _hermite_fill(xc, vc, ac, q, h, x, v, a):  # pragma: no cover - compiled
+def hermite_weights(q: int, h: float) -> np.ndarray:
+    """The cubic Hermite basis at the ``q`` offsets ``s = i / q`` of a grid interval ``h`` long.
+
+    Rows: ``h00, h10 * h, h01, h11 * h`` (for ``x`` from ``x, v`` and ``v`` from ``v, a``) and
+    ``1 - s, s`` (linear ``a``, for plots). The one place the formulas live: the compiled fill
+    (:func:`_hermite_fill`) and the numpy picker (:func:`_hermite_at`) both read them (the same
+    floats as forming them per sample: ``h10 * h`` is the product the formula forms first)."""
+    s = np.arange(q) / q
+    s2 = s * s
+    s3 = s2 * s
+    return np.array([2.0 * s3 - 3.0 * s2 + 1.0, (s3 - 2.0 * s2 + s) * h, -2.0 * s3 + 3.0 * s2,
+                     (s3 - s2) * h, 1.0 - s, s])
+
+
+def _hermite_fill(xc, vc, ac, w, x, v, a):  # pragma: no cover - compiled
     """Cubic Hermite from every ``q``-th sample (``x, v`` and ``v, a``) onto every sample.
 
-    A sample on the grid takes the grid's value: it reads no point after it (the last
-    sample of a segment ending on the grid has none; reading past the end gave a NaN
-    on some machines). The basis at the ``q`` offsets ``s = i / q`` is formed once (the same
-    floats as per sample: ``h10 * h`` is the product the formula forms first), then each grid
-    interval is filled from it: no division per sample (0.5 against 1.6 ms on 460k samples,
-    the same numbers bit for bit; ``tests/eddi/test_dense_segments.py``)."""
+    ``w``: :func:`hermite_weights` (``q = w.shape[1]``). A sample on the grid takes the grid's
+    value: it reads no point after it (the last sample of a segment ending on the grid has
+    none; reading past the end gave a NaN on some machines). The basis is formed once per
+    offset, then each grid interval is filled from it: no division per sample (0.5 against
+    1.6 ms on 460k samples, the same numbers bit for bit; ``tests/eddi/test_kernels.py``)."""
     n = x.shape[0]
-    c00 = np.empty(q)
-    c10 = np.empty(q)
-    c01 = np.empty(q)
-    c11 = np.empty(q)
-    sa = np.empty(q)
-    sb = np.empty(q)
-    for i in range(q):
-        s = i / q
-        s2 = s * s
-        s3 = s2 * s
-        c00[i] = 2.0 * s3 - 3.0 * s2 + 1.0
-        c10[i] = (s3 - 2.0 * s2 + s) * h
-        c01[i] = -2.0 * s3 + 3.0 * s2
-        c11[i] = (s3 - s2) * h
-        sa[i] = 1.0 - s
-        sb[i] = s
+    q = w.shape[1]
     k = 0
     for j in range(0, n, q):
         x0 = xc[k]
@@ -426,9 +424,9 @@ def _hermite_fill(xc, vc, ac, q, h, x, v, a):  # pragma: no cover - compiled
             v1 = vc[k + 1]
             a1 = ac[k + 1]
             for i in range(1, m):
-                x[j + i] = c00[i] * x0 + c10[i] * v0 + c01[i] * x1 + c11[i] * v1
-                v[j + i] = c00[i] * v0 + c10[i] * a0 + c01[i] * v1 + c11[i] * a1
-                a[j + i] = sa[i] * a0 + sb[i] * a1  # for plots; not compared
+                x[j + i] = w[0, i] * x0 + w[1, i] * v0 + w[2, i] * x1 + w[3, i] * v1
+                v[j + i] = w[0, i] * v0 + w[1, i] * a0 + w[2, i] * v1 + w[3, i] * a1
+                a[j + i] = w[4, i] * a0 + w[5, i] * a1  # for plots; not compared
         k += 1
 
 
@@ -518,23 +516,19 @@ def _at(sim: SimulationResult, at: np.ndarray | None) -> SimulationResult:
                             y=None if sim.y is None else sim.y[at], diverged=sim.diverged, substeps=sim.substeps)
 
 
-def _hermite_at(seg: "SimulationResult | _Segment", q: int, h: float, j: np.ndarray, x: np.ndarray, v: np.ndarray,
+def _hermite_at(seg: "SimulationResult | _Segment", w: np.ndarray, j: np.ndarray, x: np.ndarray, v: np.ndarray,
                 a: np.ndarray) -> None:
-    """``_hermite_fill`` at the segment's samples ``j`` alone (numpy: the same formulas)."""
+    """``_hermite_fill`` at the segment's samples ``j`` alone (numpy, the same weights ``w``)."""
+    q = w.shape[1]
     k = j // q
-    s = (j - k * q) / q
-    on = s == 0.0
+    i = j - k * q
+    on = i == 0
     k1 = np.where(on, k, k + 1)  # a sample on the grid reads no point after it
-    s2 = s * s
-    s3 = s2 * s
-    h00 = 2.0 * s3 - 3.0 * s2 + 1.0
-    h10 = s3 - 2.0 * s2 + s
-    h01 = -2.0 * s3 + 3.0 * s2
-    h11 = s3 - s2
+    c00, c10, c01, c11, sa, sb = w[:, i]
     xc, vc, ac = seg.x, seg.v, seg.a
-    x[:] = h00 * xc[k] + h10 * h * vc[k] + h01 * xc[k1] + h11 * h * vc[k1]
-    v[:] = h00 * vc[k] + h10 * h * ac[k] + h01 * vc[k1] + h11 * h * ac[k1]
-    a[:] = (1.0 - s) * ac[k] + s * ac[k1]
+    x[:] = c00 * xc[k] + c10 * vc[k] + c01 * xc[k1] + c11 * vc[k1]
+    v[:] = c00 * vc[k] + c10 * ac[k] + c01 * vc[k1] + c11 * ac[k1]
+    a[:] = sa * ac[k] + sb * ac[k1]
     x[on], v[on], a[on] = xc[k[on]], vc[k[on]], ac[k[on]]
 
 
@@ -567,10 +561,10 @@ def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: flo
         seg = run(idx.size, float((idx[1] - idx[0]) * dt), xs, vs, steps)
         if at is None:
             hi = stop
-            _KERNELS._hermite_fill(seg.x, seg.v, seg.a, q, q * dt, x[s:stop], v[s:stop], a[s:stop])
+            _KERNELS._hermite_fill(seg.x, seg.v, seg.a, hermite_weights(q, q * dt), x[s:stop], v[s:stop], a[s:stop])
         else:
             lo, hi = np.searchsorted(at, (s, stop))
-            _hermite_at(seg, q, q * dt, at[lo:hi] - s, x[lo:hi], v[lo:hi], a[lo:hi])
+            _hermite_at(seg, hermite_weights(q, q * dt), at[lo:hi] - s, x[lo:hi], v[lo:hi], a[lo:hi])
         if seg.diverged or not (np.isfinite(seg.x[-1]) and np.isfinite(seg.v[-1])):
             x[hi:], v[hi:], a[hi:] = np.nan, np.nan, np.nan
             return True, first
@@ -619,5 +613,5 @@ def _free_runner(eom: EquationOfMotion):
 _KERNELS = Kernels(globals(), {
     "_rk4": ["i8(f8[::1], f8, i8, f8[::1], f8, i8[:, ::1], f8[::1], f8[::1], f8[:, ::1])"],
     "_internal_many": ["void(f8[::1], f8[::1], i8[:, ::1], f8[::1], f8[::1], f8[::1])"],
-    "_hermite_fill": ["void(f8[:], f8[:], f8[:], i8, f8, f8[:], f8[:], f8[:])"],
+    "_hermite_fill": ["void(f8[:], f8[:], f8[:], f8[:, :], f8[:], f8[:], f8[:])"],
 }, callees=("_internal",))

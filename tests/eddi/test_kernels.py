@@ -273,7 +273,7 @@ def test_hermite_fill_reads_no_grid_point_past_the_last_sample() -> None:
     q, n = 4, 9  # samples 0..8, grid 0, 4, 8: the last sample is the last grid point
     xc, vc, ac = np.array([0.0, 1.0, 2.0]), np.array([1.0, 1.0, 1.0]), np.zeros(3)
     x, v, a = np.empty(n), np.empty(n), np.empty(n)
-    fill(xc, vc, ac, q, 1.0, x, v, a)
+    fill(xc, vc, ac, simulate_mod.hermite_weights(q, 1.0), x, v, a)
     assert x[-1] == 2.0 and v[-1] == 1.0 and a[-1] == 0.0
     assert x[4] == 1.0 and np.allclose(x, np.arange(n) / 4.0)  # linear data: Hermite is exact
 
@@ -305,7 +305,7 @@ def test_hermite_fill_is_the_per_sample_formula_bit_for_bit(q: int, n: int) -> N
     _hermite_per_sample(xc, vc, ac, q, h, *want)
     for fill in (simulate_mod._hermite_fill, simulate_mod._KERNELS._hermite_fill):  # the source, compiled
         got = [np.full(n, np.nan) for _ in range(3)]
-        fill(xc, vc, ac, q, h, *got)
+        fill(xc, vc, ac, simulate_mod.hermite_weights(q, h), *got)
         for g, w in zip(got, want):
             assert np.array_equal(g, w)
 
