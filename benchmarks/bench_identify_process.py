@@ -19,8 +19,10 @@ both alike, in three set-ups per tree:
 Beside them the floor: ``python -c`` that ``np.load``s the same three columns and makes one
 pass, timed in every round. Prints min and median per line, each as a ratio to the floor's
 min, after / before, the load average, and whether the trees print the same JSON (byte for
-byte). Bytecode is not cached where ``PYTHONDONTWRITEBYTECODE`` is set (the shared machine):
-both trees pay the same compile of the project's modules. Test-free: it only prints.
+byte). Each tree's bytecode is cached under its own ``PYTHONPYCACHEPREFIX`` (written by a first
+run; ``PYTHONDONTWRITEBYTECODE``, set on the shared machine, is dropped for the children), as an
+installed package has it: neither tree pays a compile of the project's modules at each start,
+and a working tree's stale ``__pycache__`` cannot favour one side. Test-free: it only prints.
 """
 
 from __future__ import annotations
@@ -61,8 +63,9 @@ def main() -> None:
                  "after": extract(args.after, tmp / "after") if args.after else REPO}
         envs: dict[str, dict[str, str]] = {}
         for name, tree in trees.items():
-            base = {**os.environ, **ONE_BLAS, "PYTHONPATH": str(tree)}
+            base = {**os.environ, **ONE_BLAS, "PYTHONPATH": str(tree), "PYTHONPYCACHEPREFIX": str(tmp / f"pyc-{name}")}
             base.pop("EDDI_AOT_DIR", None)
+            base.pop("PYTHONDONTWRITEBYTECODE", None)
             aot = tmp / f"aot-{name}"
             aot.mkdir()
             built = subprocess.run([sys.executable, "-m", "eddi.kernels", "--output-dir", str(aot)],
@@ -73,7 +76,8 @@ def main() -> None:
             envs[f"{name} aot"] = {**base, "EDDI_AOT_DIR": str(aot), "EDDI_JIT": "0",
                                    "NUMBA_CACHE_DIR": str(tmp / f"nc-aot-{name}")}
             envs[f"{name} jit"] = {**base, "EDDI_JIT": "1", "NUMBA_CACHE_DIR": str(tmp / f"nc-{name}")}
-            child([sys.executable, "-m", "station.cli", "identify", str(csv), *ARGS], envs[f"{name} jit"], tree)
+            for how in ("jit", "aot"):  # numba's cache and the bytecode written before any timing
+                child([sys.executable, "-m", "station.cli", "identify", str(csv), *ARGS], envs[f"{name} {how}"], tree)
         cmd = [sys.executable, "-m", "station.cli", "identify", str(csv), *ARGS]
         floor_cmd = [sys.executable, "-c", f"import numpy as np; a = np.load({str(npy)!r}); np.abs(a).sum(axis=0)"]
         runs: dict[str, list[tuple[float, float]]] = {"floor": [], **{k: [] for k in envs}}
