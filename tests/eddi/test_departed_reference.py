@@ -143,6 +143,33 @@ def test_none_above_the_floor_needs_the_chain_tested_against_the_judged_baseline
     # the chain's reference within the factor: the candidates were a test, `none` stands
     dec = decide([drag, chain(0.06)], base, _floor(), 0.5, 3.5, 10.0, strong_margin=0.6, eddi_fold=base)
     assert dec.cause == "none"
+    # no sign of a coupling (the noisy nulls of the suite): ruled out by the records, the coupling
+    # itself no help, or its model worse than the judged baseline: `none` stands
+    c = chain(0.133)
+    for other in (Candidate(**{**c.__dict__, "contradicted": "the damping ratio per cycle grows with the amplitude"}),
+                  Candidate(**{**c.__dict__, "params": {**c.params, COUPLING_CUT: -0.14}}),
+                  Candidate(**{**c.__dict__, "nrmse": 0.0973, "fold_nrmse": (0.09, 0.1, 0.1)})):
+        assert decide([drag, other], base, _floor(), 0.5, 3.5, 10.0, strong_margin=0.6).cause == "none"
     # below the floor of the data nothing is claimed missing: `none`
     low = (0.015, 0.016, 0.014)
     assert decide([drag, chain(0.133)], low, _floor(), 0.5, 3.5, 10.0, strong_margin=0.6).cause == "none"
+
+
+def test_a_motion_below_the_main_frequency_forbids_none_above_the_floor():
+    # the blind set's profile: 1.8x the floor, the error's power at 0.66 f1; before, `residual_peak`
+    # never counted (the noise's own peak on almost every null), so `none (uncertain)` once every
+    # candidate was tested against the judged baseline and none earned its place
+    from eddi.diagnosis.earn import earn
+    from eddi.diagnosis.name import Decision
+    from eddi.diagnosis.results import Symptom
+
+    none = Decision("none", None, None, True, "within the noise floor")
+
+    def peak(lower: float) -> Symptom:
+        return Symptom("residual_peak", "near 35.9 Hz", {"frequency_hz": 35.9, "ratio_to_main": 0.66,
+                                                         "main_frequency_hz": 54.6, "lower_motion": lower})
+
+    dec = earn(none, 1.8, [peak(1.0)])
+    assert dec.cause == "unexplained" and "35.9 Hz" in dec.reason
+    assert earn(none, 1.8, [peak(0.0)]).cause == "none"  # a peak that wanders from part to part
+    assert earn(none, 0.9, [peak(1.0)]).cause == "none"  # at or below the floor `none` stands
