@@ -53,6 +53,9 @@ class Decision:
     partial: Candidate | None
     within_floor: bool
     reason: str
+    #: under ``none``: the best partial explanation had the verdict not been ``none`` (kept for
+    #: :func:`eddi.diagnosis.earn.earn`, which may overturn it on the symptoms; session 18)
+    helpful: Candidate | None = None
 
 
 def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: NoiseFloor,
@@ -144,7 +147,7 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
                         f"within {none_factor:g}x the floor, but {ambiguous.name} cuts the error by the strong "
                         f"margin and passes every test except: " + "; ".join(ambiguous_fails))
     if within:
-        return Decision("none", None, None, True, "within the noise floor")
+        return Decision("none", None, None, True, "within the noise floor", helpful=partial)
     if unsure:  # the floor excused the baseline only by its own refit's spread: say so, and why no name
         return Decision("unexplained", None, partial, False, "; ".join([unsure, *why[:2]]))
     return Decision("unexplained", None, partial, False, departs or "; ".join(why[:2]))

@@ -99,7 +99,7 @@ def earn(dec: Decision, ratio: float, symptoms: Sequence[Symptom]) -> Decision:
     if dec.cause == "none" and ratio > 1.0:
         band = [s for s in symptoms if s.kind in BAND_KINDS and _band_notable(s)]
         if band:
-            return Decision("unexplained", None, dec.partial, dec.within_floor,
+            return Decision("unexplained", None, dec.partial or dec.helpful, dec.within_floor,
                             f"the baseline is {ratio:.1f}x the noise floor (within the factor) and "
                             + "; ".join(s.text for s in band))
     return dec

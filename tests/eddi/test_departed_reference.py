@@ -173,3 +173,8 @@ def test_a_motion_below_the_main_frequency_forbids_none_above_the_floor():
     assert dec.cause == "unexplained" and "35.9 Hz" in dec.reason
     assert earn(none, 1.8, [peak(0.0)]).cause == "none"  # a peak that wanders from part to part
     assert earn(none, 0.9, [peak(1.0)]).cause == "none"  # at or below the floor `none` stands
+    # the best partial explanation decide held under `none` is kept (the catalogue's second mode)
+    mode = Candidate("second_mode", 0.0331, (0.025, 0.03, 0.037), 0.75, True, True, {}, {}, None)
+    held = Decision("none", None, None, True, "within the noise floor", helpful=mode)
+    assert earn(held, 2.5, [peak(1.0)]).partial is mode
+    assert earn(held, 2.5, [peak(0.0)]).partial is None
