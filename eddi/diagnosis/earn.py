@@ -40,7 +40,8 @@ calibration nulls of session 7 (every ratio; benchmarks/bench_diagnose_calibrati
 largest were 0.15 % frequency bias, 0.044 % drift power and growth 1.01, against thresholds of
 0.5 %, 5 % and 1.5 (on the fair test's nulls, 0.065 %, 0.15 % and 0.95): a notable one there
 is a systematic error of the model, and ``none`` would say the model is complete where it
-measurably is not. ``residual_peak`` is not among them: where the error has its power is
+measurably is not. ``residual_peak`` counts only as a motion below the main frequency, at the
+same frequency in every held-out part (``lower_motion``, session 18): where the error has its power is
 notable on almost every null (171 of 180: the noise's own peak), it says where, not how much;
 nor is the energy per cycle (:func:`_band_notable`: noise-bound on lightly damped records). At or below the floor, ``none`` stands (the model reproduces the records as
 well as the noise lets one tell).
@@ -62,7 +63,7 @@ REPORTED_KINDS = ("double_hit",)
 CHAIN_REASON = "the measurement chain cannot be trusted"
 #: Baseline symptoms that forbid ``none`` above the floor (within the none factor) when notable
 #: (not the energy per cycle: :func:`_band_notable`).
-BAND_KINDS: tuple[str, ...] = ("frequency_bias", "low_frequency_drift", "growth")
+BAND_KINDS: tuple[str, ...] = ("frequency_bias", "low_frequency_drift", "growth", "residual_peak")
 
 
 def earn(dec: Decision, ratio: float, symptoms: Sequence[Symptom]) -> Decision:
@@ -98,7 +99,7 @@ def earn(dec: Decision, ratio: float, symptoms: Sequence[Symptom]) -> Decision:
     if dec.cause == "none" and ratio > 1.0:
         band = [s for s in symptoms if s.kind in BAND_KINDS and _band_notable(s)]
         if band:
-            return Decision("unexplained", None, dec.partial, dec.within_floor,
+            return Decision("unexplained", None, dec.partial or dec.helpful, dec.within_floor,
                             f"the baseline is {ratio:.1f}x the noise floor (within the factor) and "
                             + "; ".join(s.text for s in band))
     return dec
@@ -133,4 +134,9 @@ def _band_notable(s: Symptom) -> bool:
     -22 % to -37 % at small amplitude (0.8 kg, 60 Hz, zeta 0.5 %, 3 kHz, 33 dB) and -21 % at
     large amplitude (0.15 kg, 80 Hz, zeta 0.2 %, 2 kHz, 30 dB); each was called
     ``unexplained`` by an earlier form of this rule."""
+    if s.kind == "residual_peak":
+        # where the error has its power is the noise's own peak on almost every null (module notes);
+        # only a peak below the main frequency, at the same frequency in every held-out part, is a
+        # motion the model lacks (eddi.diagnosis.symptoms._lower_motion; session 18)
+        return bool(s.values.get("lower_motion", 0.0))
     return notable(s)

@@ -19,7 +19,7 @@ from eddi.diagnosis.extend import Fit, Setup
 from eddi.diagnosis.fitter import Fitter, FoldFitter, refined_baseline
 from eddi.diagnosis.mapping import Mapper, serial_map
 from eddi.diagnosis.records import Part, Record
-from eddi.diagnosis.settings import EXTEND_JUDGED, NRMSE_CAP
+from eddi.diagnosis.settings import EXTEND_JUDGED, NRMSE_CAP, REFINE_DEPARTED
 from eddi.diagnosis.show import nmte, nrmse, simulate_part, simulate_part_xv
 from eddi.errors import IdentificationError, ModelError, SignalError
 from eddi.model import EquationOfMotion
@@ -213,14 +213,16 @@ def refine_candidates(res: FoldResults, records: Sequence[Record], setup: Setup,
     error) and judged again; its reference becomes the refined baseline. Candidates refitted
     by equation error (hidden second mode, hysteresis) keep their equation-error reference,
     ``sensor_highpass`` its unrefined one (refining it alone named it for a strong drag:
-    docs/diagnosis.md). A candidate that does not help the unrefined fit is not refined (cost).
+    docs/diagnosis.md). A candidate that does not help the unrefined fit is not refined (cost),
+    unless that fit departs from the judged baseline (:func:`departed`): then every native one is.
     """
     chosen = []
+    every = departed(res)
     for mech in cat:
         fits = res.cand_fits.get(mech.name) or []
         folds = res.cand_fold.get(mech.name) or []
         if (not mech.native or len(fits) != len(parts) or len(folds) != len(parts)
-                or not all(c < r for c, r in zip(folds, res.ref_fold))):
+                or not (every or all(c < r for c, r in zip(folds, res.ref_fold)))):
             continue
         chosen.append(mech)
     work = [(mech, k) for mech in chosen for k in range(len(parts))]
@@ -249,6 +251,17 @@ def refine_candidates(res: FoldResults, records: Sequence[Record], setup: Setup,
         res.cand_fold[mech.name] = new_fold
         res.cand_sims[mech.name] = new_sims
         res.cand_refined[mech.name] = True
+
+
+def departed(res: FoldResults) -> bool:
+    """True when the native candidates' unrefined reference (``res.ref_fold``: EDDI's per-fold fit,
+    or the judged contender) is more than ``REFINE_DEPARTED["factor"]`` times the judged baseline's
+    mean held-out nrmse: a cut measured from it, or a loss to it, is then the fit the folds rejected,
+    not the mechanism (settings.REFINE_DEPARTED)."""
+    factor = REFINE_DEPARTED["factor"]
+    if factor is None or not res.ref_fold or len(res.ref_fold) != len(res.base_fold):
+        return False
+    return bool(float(np.mean(res.ref_fold)) > factor * float(np.mean(res.base_fold)))
 
 
 def check_trainable(records: Sequence[Record]) -> None:

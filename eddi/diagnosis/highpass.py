@@ -53,7 +53,7 @@ from eddi.diagnosis.extend import Setup
 from eddi.diagnosis.name import Fitter, spread_of
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.results import Candidate
-from eddi.diagnosis.settings import COUPLING_CUT, NRMSE_CAP
+from eddi.diagnosis.settings import COUPLING_CUT, EDDI_REFERENCE, NRMSE_CAP
 from eddi.diagnosis.show import nrmse, simulate_part, simulate_part_xv
 from eddi.errors import EddiError
 
@@ -286,7 +286,7 @@ def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Par
         plain.append(pl)
         sims.append(xm)
     mean = float(np.mean(folds))
-    ref = float(np.mean(base_fold))
+    ref = eddi_ref = float(np.mean(base_fold))
     wins = all(c < b for c, b in zip(folds, base_fold))
     if len(refined_fold) == n and mean < ref and not wins and fc_all > 0:
         folds, sims, plain, fit_all = _refined(records, setup, parts, fold_masks, search, corners, fits,
@@ -305,6 +305,8 @@ def sensor_highpass(records: Sequence[Record], setup: Setup, parts: Sequence[Par
     # the coupling's own cut (module notes), held to the name's margin by decide
     params[COUPLING_CUT] = coupling_cut(folds, plain)
     params["uncoupled_nrmse"] = float(np.mean(plain))
+    # the fit its corners extend (EDDI's per fold): decide's rule (4) asks whether it departs (session 18)
+    params[EDDI_REFERENCE] = eddi_ref
     contradicted = _contradiction(slope)
     return (Candidate("sensor_highpass", mean, tuple(folds), 1.0 - mean / ref if ref > 0 else 0.0,
                       all(c < b for c, b in zip(folds, base_fold)), consistent, params, spread, model,

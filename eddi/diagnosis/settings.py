@@ -27,6 +27,11 @@ FULL_REFERENCE_MARGIN: tuple[str, ...] = ("hysteresis",)
 #: the cut the name needs (:func:`eddi.diagnosis.decide.decide`; session 11: a clean chain's
 #: refit on re-conditioned records gave -0.94..0.16, true couplings 0.55-0.86).
 COUPLING_CUT = "coupling_cut"
+#: The candidate parameter that holds the mean held-out nrmse of the fit a measurement-chain
+#: candidate's corners extend (``sensor_highpass``: EDDI's per-fold fit, at every corner): when it is
+#: beyond the ``none`` factor the chain was not tested against the judged baseline
+#: (:func:`eddi.diagnosis.decide.decide`, rule (4); session 18).
+EDDI_REFERENCE = "eddi_fold_nrmse"
 #: The winner's strength parameter must agree over the folds: spread < this times its value.
 DEFAULT_CONSISTENCY = 0.5
 #: Held-out nrmse above this counts as "lost" (a diverged or meaningless simulation).
@@ -100,3 +105,12 @@ SLOW_ERRORS = {"on": True}
 #: ``none (uncertain)`` / ``unexplained``); session 17 (s17ee) the procedure, on:
 #: docs/diagnosis.md "Session 17".
 EXTEND_JUDGED = {"on": True}
+#: When EDDI's per-fold fit (the native candidates' unrefined reference) departs from the judged
+#: baseline by more than this factor (mean held-out nrmse over the folds), every EDDI-fitted
+#: candidate is refined per fold as the baseline is and judged against the judged baseline, not only
+#: those that beat the unrefined fit on every part (:func:`eddi.diagnosis.folds.refine_candidates`):
+#: a comparison with a fit the folds rejected says nothing about the mechanism (session 18, s18ee: a
+#: blind four-capture set, EDDI's per-fold fit 0.133 against the judged 0.0571, no candidate refined,
+#: nothing tested against the judged baseline). ``{"factor": None}``: the session-17 rule, for
+#: same-run comparisons.
+REFINE_DEPARTED: dict = {"factor": 1.5}
