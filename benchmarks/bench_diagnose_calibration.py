@@ -183,7 +183,7 @@ def _named_verdicts(d, measured: list | None = None) -> dict[str, str]:
     from eddi.diagnosis.earn import earn
     from eddi.diagnosis.loop import records_share
     from eddi.diagnosis.name import decide
-    from eddi.diagnosis.settings import NONE_FACTOR, STRONG_MARGIN
+    from eddi.diagnosis.settings import NONE_LIMIT as NONE_FACTOR, STRONG_MARGIN  # the loop's default
 
     pipe = d.pipeline
     floor = d.noise_floor.data_nrmse  # as the loop: the floor of the data (session 12)
@@ -465,14 +465,14 @@ def main() -> None:
     ap.add_argument("--rejudge", action="store_true",
                     help="with --summary: apply the current eddi.diagnosis.earn rule to the stored verdicts")
     ap.add_argument("--factor", type=float, default=None,
-                    help="none factor of the ladder table (default: eddi.diagnosis.NONE_FACTOR)")
+                    help="none factor of the ladder table (default: eddi.diagnosis.NONE_LIMIT)")
     ap.add_argument("--strong", default="default",
                     help="strong cut of the ladder table, or None (default: eddi.diagnosis.STRONG_MARGIN)")
     args = ap.parse_args()
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     np.seterr(all="ignore")
     if args.summary:
-        from eddi.diagnosis import NONE_FACTOR
+        from eddi.diagnosis import NONE_LIMIT as NONE_FACTOR
         from eddi.diagnosis.settings import STRONG_MARGIN
 
         strong = STRONG_MARGIN if args.strong == "default" else (None if args.strong == "None" else float(args.strong))

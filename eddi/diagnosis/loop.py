@@ -44,7 +44,7 @@ from eddi.diagnosis.observed import Observed, observed_second_mode
 from eddi.diagnosis.records import Part, Record, split
 from eddi.diagnosis.results import Candidate, Diagnosis, HeldOut, NoiseFloor, PipelineBaseline, Score, Symptom
 from eddi.diagnosis.settings import (
-    DEFAULT_CONSISTENCY, DEFAULT_MARGIN, FITS, MIN_FLOOR, MODAL_DIAGNOSE_STIFFNESS, NAMED_FACTOR, NONE_FACTOR,
+    DEFAULT_CONSISTENCY, DEFAULT_MARGIN, FITS, MIN_FLOOR, MODAL_DIAGNOSE_STIFFNESS, NAMED_FACTOR, NONE_LIMIT,
     PRED_CAP, STRONG_MARGIN,
 )
 from eddi.diagnosis.symptoms import baseline_symptoms, notable
@@ -67,7 +67,7 @@ def diagnose(
     margin: float = DEFAULT_MARGIN, consistency: float = DEFAULT_CONSISTENCY,
     n_bands: int = 3, fit: str = "eddi",
     modal_damping: Sequence[str] = MODAL_DAMPING, modal_stiffness: Sequence[str] = MODAL_DIAGNOSE_STIFFNESS,
-    none_factor: float = NONE_FACTOR, named_factor: float = NAMED_FACTOR,
+    none_factor: float = NONE_LIMIT, named_factor: float = NAMED_FACTOR,
     strong_margin: float | None = STRONG_MARGIN,
     pipeline: PipelineBaseline | None = None,
     mapper: Mapper | None = None,
@@ -100,8 +100,9 @@ def diagnose(
     modal_damping, modal_stiffness : sequence of str
         Per-mode libraries of the observed second mode (free decays, :mod:`eddi.multimode`).
     none_factor, named_factor : float
-        ``none`` needs the baseline within ``none_factor`` of the noise floor; a named
-        mechanism must land within ``named_factor`` of it.
+        ``none`` needs the baseline within ``none_factor`` of the noise floor (default
+        :data:`~eddi.diagnosis.settings.NONE_LIMIT`, what nulls reach); a named mechanism must
+        land within ``named_factor`` of it.
     strong_margin : float or None
         Within ``none_factor`` a mechanism is named only if it cuts the error this much.
     pipeline : PipelineBaseline, optional
