@@ -128,7 +128,7 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
         # baseline (its refinement, the equation-error contender) is within it (session 15: strong
         # drag read `none (uncertain)` at 2.5x, its candidates extending a fit at 0.55). EDDI's fit
         # "beyond the factor" stays at NONE_FACTOR (3.5, as this rule was measured) when the `none`
-        # limit is lower (settings.NONE_LIMIT, session 18): at the limit it called a 20.8 dB null
+        # limit is lower (settings.NONE_LIMIT 2.5, session 18): at 2.5 it called a 20.8 dB null
         # (judged 1.02x the floor, EDDI's per-fold fit 3.3x) unexplained
         return Decision("unexplained", None, partial, True,
                         f"within {none_factor:g}x the floor ({base / floor.data_nrmse:.1f}x), but the candidates extend "

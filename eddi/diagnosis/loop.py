@@ -45,7 +45,7 @@ from eddi.diagnosis.records import Part, Record, split
 from eddi.diagnosis.results import Candidate, Diagnosis, HeldOut, NoiseFloor, PipelineBaseline, Score, Symptom
 from eddi.diagnosis.settings import (
     DEFAULT_CONSISTENCY, DEFAULT_MARGIN, FITS, MIN_FLOOR, MODAL_DIAGNOSE_STIFFNESS, NAMED_FACTOR, NONE_LIMIT,
-    PRED_CAP, STRONG_MARGIN,
+    PIPELINE_NONE_LIMIT, PRED_CAP, STRONG_MARGIN,
 )
 from eddi.diagnosis.symptoms import baseline_symptoms, notable
 from eddi.diagnosis.tolerance import ChainTolerance, chain_floor, chain_text
@@ -295,7 +295,7 @@ def _pipeline_check(pipeline: PipelineBaseline | None, sh: _Shown, none_factor: 
     floors = [f for p, f in zip(sh.parts, records_share(sh.floor) or sh.floor.data_fold_nrmse or sh.floor.fold_nrmse)
               if p.record in pipeline.held_out]
     floor = float(np.mean(floors)) if floors else sh.floor.data_nrmse
-    if pipeline.nrmse <= none_factor * floor:
+    if pipeline.nrmse <= max(none_factor, PIPELINE_NONE_LIMIT) * floor:  # what nulls reach (session 18)
         return ""
     return (f"the pipeline's model (as station identify gives it, fitted on {sh.records[pipeline.fit_record].label or 'one record'}) "
             f"departs from the records it did not fit (held-out nrmse {pipeline.nrmse:.3g}, "
