@@ -155,7 +155,7 @@ def _verdicts(d, factors, measured: list | None = None) -> tuple[dict[str, str],
     from eddi.diagnosis.earn import earn
     from eddi.diagnosis.loop import records_share
     from eddi.diagnosis.name import decide
-    from eddi.diagnosis.settings import NAMED_FACTOR
+    from eddi.diagnosis.settings import NAMED_FACTOR, PIPELINE_NONE_LIMIT
 
     out, raw = {}, {}
     pipe = d.pipeline
@@ -168,7 +168,8 @@ def _verdicts(d, factors, measured: list | None = None) -> tuple[dict[str, str],
     for f in factors:
         for strong in STRONG:
             # the loop's pipeline check: `none` needs the pipeline's model within the factor too
-            departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= f * floor) else ""
+            lim = max(f, PIPELINE_NONE_LIMIT)  # as the loop (session 18)
+            departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= lim * floor) else ""
             dec = decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, f, NAMED_FACTOR,
                          strong_margin=strong, eddi_fold=d.reference_fold or None, departs=departs)
             raw[f"{f:g}|{strong}"] = dec.cause
@@ -183,7 +184,7 @@ def _named_verdicts(d, measured: list | None = None) -> dict[str, str]:
     from eddi.diagnosis.earn import earn
     from eddi.diagnosis.loop import records_share
     from eddi.diagnosis.name import decide
-    from eddi.diagnosis.settings import NONE_FACTOR, STRONG_MARGIN
+    from eddi.diagnosis.settings import NONE_LIMIT as NONE_FACTOR, PIPELINE_NONE_LIMIT, STRONG_MARGIN  # the loop's
 
     pipe = d.pipeline
     floor = d.noise_floor.data_nrmse  # as the loop: the floor of the data (session 12)
@@ -192,7 +193,8 @@ def _named_verdicts(d, measured: list | None = None) -> dict[str, str]:
                                               or d.noise_floor.fold_nrmse)
                   if p.record in pipe.held_out]
         floor = float(np.mean(floors)) if floors else floor
-    departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= NONE_FACTOR * floor) else ""
+    lim = max(NONE_FACTOR, PIPELINE_NONE_LIMIT)
+    departs = "pipeline" if (pipe is not None and pipe.held_out and not pipe.nrmse <= lim * floor) else ""
     out = {}
     for nf in NAMED_FACTORS:
         dec = decide(d.candidates, d.judging.fold_nrmse, d.noise_floor, d.margin, NONE_FACTOR, nf,
@@ -465,14 +467,14 @@ def main() -> None:
     ap.add_argument("--rejudge", action="store_true",
                     help="with --summary: apply the current eddi.diagnosis.earn rule to the stored verdicts")
     ap.add_argument("--factor", type=float, default=None,
-                    help="none factor of the ladder table (default: eddi.diagnosis.NONE_FACTOR)")
+                    help="none factor of the ladder table (default: eddi.diagnosis.NONE_LIMIT)")
     ap.add_argument("--strong", default="default",
                     help="strong cut of the ladder table, or None (default: eddi.diagnosis.STRONG_MARGIN)")
     args = ap.parse_args()
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     np.seterr(all="ignore")
     if args.summary:
-        from eddi.diagnosis import NONE_FACTOR
+        from eddi.diagnosis import NONE_LIMIT as NONE_FACTOR
         from eddi.diagnosis.settings import STRONG_MARGIN
 
         strong = STRONG_MARGIN if args.strong == "default" else (None if args.strong == "None" else float(args.strong))

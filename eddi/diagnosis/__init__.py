@@ -36,14 +36,14 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(("Candidate", "Diagnosis", "HeldOut", "NoiseFloor", "PipelineBaseline", "Score", "Symptom"),
                     "results"),
     **dict.fromkeys(("DEFAULT_CONSISTENCY", "DEFAULT_MARGIN", "FITS", "MODAL_DIAGNOSE_STIFFNESS", "NAMED_FACTOR",
-                     "NONE_FACTOR", "NRMSE_CAP", "REFERENCE_MARGIN"), "settings"),
+                     "NONE_FACTOR", "NONE_LIMIT", "NRMSE_CAP", "REFERENCE_MARGIN"), "settings"),
     **dict.fromkeys(("backbone", "energy_per_cycle", "nmte", "nrmse", "residual_force", "spectrum"), "show"),
 }
 
 __all__ = ["ALL_NAMES", "CHAIN_NAMES", "MECHANISM_NAMES", "diagnose", "Part", "Record", "Candidate",
            "Diagnosis", "HeldOut", "NoiseFloor", "PipelineBaseline", "Score", "Symptom", "DEFAULT_CONSISTENCY",
            "DEFAULT_MARGIN", "FITS", "MODAL_DIAGNOSE_STIFFNESS", "NAMED_FACTOR", "NONE_FACTOR",
-           "NRMSE_CAP", "REFERENCE_MARGIN", "backbone", "energy_per_cycle", "nmte", "nrmse", "residual_force", "spectrum"]
+           "NONE_LIMIT", "NRMSE_CAP", "REFERENCE_MARGIN", "backbone", "energy_per_cycle", "nmte", "nrmse", "residual_force", "spectrum"]
 
 
 def __getattr__(name: str) -> Any:

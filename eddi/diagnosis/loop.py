@@ -44,8 +44,8 @@ from eddi.diagnosis.observed import Observed, observed_second_mode
 from eddi.diagnosis.records import Part, Record, split
 from eddi.diagnosis.results import Candidate, Diagnosis, HeldOut, NoiseFloor, PipelineBaseline, Score, Symptom
 from eddi.diagnosis.settings import (
-    DEFAULT_CONSISTENCY, DEFAULT_MARGIN, FITS, MIN_FLOOR, MODAL_DIAGNOSE_STIFFNESS, NAMED_FACTOR, NONE_FACTOR,
-    PRED_CAP, STRONG_MARGIN,
+    DEFAULT_CONSISTENCY, DEFAULT_MARGIN, FITS, MIN_FLOOR, MODAL_DIAGNOSE_STIFFNESS, NAMED_FACTOR, NONE_LIMIT,
+    PIPELINE_NONE_LIMIT, PRED_CAP, STRONG_MARGIN,
 )
 from eddi.diagnosis.symptoms import baseline_symptoms, notable
 from eddi.diagnosis.tolerance import ChainTolerance, chain_floor, chain_text
@@ -67,7 +67,7 @@ def diagnose(
     margin: float = DEFAULT_MARGIN, consistency: float = DEFAULT_CONSISTENCY,
     n_bands: int = 3, fit: str = "eddi",
     modal_damping: Sequence[str] = MODAL_DAMPING, modal_stiffness: Sequence[str] = MODAL_DIAGNOSE_STIFFNESS,
-    none_factor: float = NONE_FACTOR, named_factor: float = NAMED_FACTOR,
+    none_factor: float = NONE_LIMIT, named_factor: float = NAMED_FACTOR,
     strong_margin: float | None = STRONG_MARGIN,
     pipeline: PipelineBaseline | None = None,
     mapper: Mapper | None = None,
@@ -100,8 +100,9 @@ def diagnose(
     modal_damping, modal_stiffness : sequence of str
         Per-mode libraries of the observed second mode (free decays, :mod:`eddi.multimode`).
     none_factor, named_factor : float
-        ``none`` needs the baseline within ``none_factor`` of the noise floor; a named
-        mechanism must land within ``named_factor`` of it.
+        ``none`` needs the baseline within ``none_factor`` of the noise floor (default
+        :data:`~eddi.diagnosis.settings.NONE_LIMIT`, what nulls reach); a named mechanism must
+        land within ``named_factor`` of it.
     strong_margin : float or None
         Within ``none_factor`` a mechanism is named only if it cuts the error this much.
     pipeline : PipelineBaseline, optional
@@ -294,7 +295,7 @@ def _pipeline_check(pipeline: PipelineBaseline | None, sh: _Shown, none_factor: 
     floors = [f for p, f in zip(sh.parts, records_share(sh.floor) or sh.floor.data_fold_nrmse or sh.floor.fold_nrmse)
               if p.record in pipeline.held_out]
     floor = float(np.mean(floors)) if floors else sh.floor.data_nrmse
-    if pipeline.nrmse <= none_factor * floor:
+    if pipeline.nrmse <= max(none_factor, PIPELINE_NONE_LIMIT) * floor:  # what nulls reach (session 18)
         return ""
     return (f"the pipeline's model (as station identify gives it, fitted on {sh.records[pipeline.fit_record].label or 'one record'}) "
             f"departs from the records it did not fit (held-out nrmse {pipeline.nrmse:.3g}, "
