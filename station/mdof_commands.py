@@ -42,6 +42,7 @@ from station.mdof_fitcheck import fit_warnings
 from station.mdof_floor import add_floors, folds_in_modes, mode_lines, modes_judged
 from station.mdof_mechanism import add_mechanisms, mechanism_lines
 from station.mdof_polish import polish_folds, polish_tag
+from station.mdof_verdict import coupling_short
 
 
 def _read(specs: Sequence[str]):
@@ -190,6 +191,8 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         "model": model.equation_text(), "notes": notes,
     }
     _coupling_determined(obj)
+    # a none above the floor that the coupled model consistently improves (station.mdof_verdict)
+    coupling_short(obj, "coupled" if wins else "baseline", fold_terms)
     _uncertain_none(obj, "coupled" if wins else "baseline")
     add_mechanisms(obj, final)
     obj["warnings"] = _model_flags(model, folds["coupled" if wins else "baseline"])
