@@ -106,3 +106,34 @@ def coupling_short(obj: dict[str, Any], delivered: str = "baseline", fold_terms:
     obj["symptoms"].append({"kind": "coupled_gain_short", "text": "coupled model better above the floor: " + text,
                             **{k: v for k, v in ev.items() if k != "mode_better_folds"}})
     return True
+
+
+def prediction_floor(model: Any, records: Sequence[Any], names: Sequence[str]) -> dict[str, float]:
+    """Per channel, what the true equations are expected to leave held out, the floor a ``none`` is
+    judged against (:func:`station.mdof_commands._uncertain_none`): the acceleration noise through the
+    drift high-pass (:func:`eddi.mdof.validate.noise_floor`) and the measured impulse's uncertainty
+    carried through the delivered model (:func:`eddi.mdof.validate.force_floor`) in quadrature, median
+    over the records, at least :data:`eddi.mdof.verdict.MDOF_MIN_FLOOR` - as ``station validate``
+    counts it (:func:`station.mdof_floor.add_floors`).
+
+    Why (session 18): the verdict's channel floor counts the noise alone. On linear nulls of
+    ``bench_mdof_nulls.py`` (t6, t11, t13-nulln) the true equations left 1.19-1.32x that floor on their
+    own captures, and the same on noise-free ones: the impulse part (0.011-0.028 per capture against a
+    noise part of 0.003-0.005) is what they miss. A ``none`` there was printed "uncertain" for an
+    error no model can remove.
+    """
+    import numpy as np
+
+    from eddi.mdof.validate import force_floor, noise_floor
+    from eddi.mdof.verdict import MDOF_MIN_FLOOR
+
+    per = []
+    for r in records:
+        acc = np.nan_to_num(np.asarray(noise_floor(r), float), nan=0.0)
+        try:
+            frc = np.nan_to_num(np.asarray(force_floor(model, r), float), nan=0.0)
+        except (ValueError, FloatingPointError, np.linalg.LinAlgError):
+            frc = np.zeros_like(acc)
+        per.append(np.hypot(acc, frc))
+    med = np.median(np.array(per), axis=0)
+    return {c: max(MDOF_MIN_FLOOR, float(med[k])) for k, c in enumerate(names)}

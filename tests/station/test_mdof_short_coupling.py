@@ -87,3 +87,17 @@ def test_a_baseline_that_did_not_run_is_not_counted():
     obj["baseline"]["folds"] = [0.075, 0.076, float("inf")]  # the fold the coupled model won: no evidence
     obj["coupled"]["folds"] = [0.0745, 0.0770, 0.049]
     assert coupling_short(obj) is False
+
+
+def test_none_is_judged_against_the_prediction_floor_when_there_is_one():
+    # t11-nulln-like figures: 1.24-1.29x the noise floor (0.01, the clamp), while the true equations leave
+    # 1.27-1.32x it (the measured impulse's uncertainty, 0.011-0.012 per capture): within the prediction floor
+    obj = _obj({"acc1": 0.0124, "acc2": 0.0129}, {"acc1": 0.01, "acc2": 0.01},
+               [0.0118, 0.0130, 0.0125, 0.0127], [0.0150, 0.0121, 0.0160, 0.0120], -0.18, raw=-0.14)
+    obj["prediction_floor"] = {"acc1": 0.0130, "acc2": 0.0131}
+    assert coupling_short(obj) is False
+    _uncertain_none(obj, "baseline")
+    assert obj["cause"] == "none" and obj["uncertain"] is False and obj["notes"] == []
+    obj["prediction_floor"] = {"acc1": 0.0120, "acc2": 0.0121}  # above it: still said
+    _uncertain_none(obj, "baseline")
+    assert obj["uncertain"] is True and "1.1x the prediction floor on channel acc2" in obj["notes"][-1]
