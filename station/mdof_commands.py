@@ -638,6 +638,9 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
                  for i, eq in enumerate(obj["coupling_coefficients"])),
              f"Model: {obj['model']}"]
     lines.append("Noise floor per channel (nrmse): " + "  ".join(f"{c} {v:.3g}" for c, v in obj["noise_floor"].items()))
+    if obj.get("prediction_floor"):  # noise and the impulse's uncertainty: what a none is judged on
+        lines.append("Prediction floor per channel (nrmse; noise and the measured impulse's uncertainty): "
+                     + "  ".join(f"{c} {v:.3g}" for c, v in obj["prediction_floor"].items()))
     lines += mode_lines(obj)
     lines += [f"Symptom: {s['text']}." for s in obj["symptoms"]]
     lines += [f"Note: {n}." for n in obj["notes"]]

@@ -19,7 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 
 from bench_mdof_nulls import draw  # noqa: E402
 from simulated_rig.mdof_systems import mdof_impact_test  # noqa: E402
-from station.mdof_commands import diagnose_mdof_object  # noqa: E402
+from station.mdof_commands import diagnose_mdof_object, diagnose_mdof_text  # noqa: E402
 
 
 @pytest.mark.slow
@@ -35,3 +35,5 @@ def test_a_linear_null_within_its_prediction_floor_is_a_plain_none(tmp_path: Pat
     assert max(base[c] / noise[c] for c in base) > 1.0  # above the noise floor alone
     assert all(pred[c] > 1.5 * noise[c] for c in pred)  # the impulse part counted
     assert all(base[c] < pred[c] for c in base)
+    assert "Prediction floor per channel (nrmse; noise and the measured impulse's uncertainty): acc1 " in \
+        diagnose_mdof_text(obj)
