@@ -183,7 +183,8 @@ def run(job: tuple[str, int, str, bool]) -> dict:
                folds_c=[round(f, 4) for f in obj["coupled"]["folds"]],
                floor={c: round(v, 4) for c, v in obj["noise_floor"].items()},
                coupling_z=round(max((x for e in z for x in e), default=0.0), 2),
-               terms=obj["coupling_terms"], notes=[n[:200] for n in obj["notes"]])
+               terms=obj["coupling_terms"], notes=[n[:200] for n in obj["notes"]],
+               uncertain=obj.get("uncertain"), short_coupling=obj.get("short_coupling"))
     return row
 
 

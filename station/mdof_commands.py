@@ -42,6 +42,7 @@ from station.mdof_fitcheck import fit_warnings
 from station.mdof_floor import add_floors, folds_in_modes, mode_lines, modes_judged
 from station.mdof_mechanism import add_mechanisms, mechanism_lines
 from station.mdof_polish import polish_folds, polish_tag
+from station.mdof_verdict import coupling_short, prediction_floor
 
 
 def _read(specs: Sequence[str]):
@@ -190,6 +191,9 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         "model": model.equation_text(), "notes": notes,
     }
     _coupling_determined(obj)
+    # a none above the floor that the coupled model consistently improves (station.mdof_verdict)
+    coupling_short(obj, "coupled" if wins else "baseline", fold_terms)
+    obj["prediction_floor"] = prediction_floor(model, records, names)  # the floor a none is judged on
     _uncertain_none(obj, "coupled" if wins else "baseline")
     add_mechanisms(obj, final)
     obj["warnings"] = _model_flags(model, folds["coupled" if wins else "baseline"])
@@ -213,7 +217,7 @@ def _uncertain_none(obj: dict[str, Any], delivered: str) -> None:
     obj["uncertain"] = False
     if obj["cause"] != "none":
         return
-    held, floors = obj[delivered]["channel_nrmse"], obj["noise_floor"]
+    held, floors = obj[delivered]["channel_nrmse"], obj.get("prediction_floor") or obj["noise_floor"]
     ratios = {c: held[c] / floors[c] for c in held if c in floors and floors[c] > 0 and math.isfinite(held[c])}
     if not ratios or max(ratios.values()) <= 1.0:
         return
@@ -222,7 +226,8 @@ def _uncertain_none(obj: dict[str, Any], delivered: str) -> None:
     better = sum(float(c) < float(b) for b, c in zip(base, cpl))
     obj["uncertain"] = True
     obj["notes"].append(
-        f"none (uncertain): the delivered model's held-out error is {ratios[worst]:.1f}x the noise floor on channel "
+        f"none (uncertain): the delivered model's held-out error is {ratios[worst]:.1f}x the "
+        f"{'prediction' if obj.get('prediction_floor') else 'noise'} floor on channel "
         f"{worst} (nrmse {held[worst]:.3g}, floor {floors[worst]:.3g}): above the floor, within the allowance, and no "
         f"coupling earns its place (the coupled model is better on {better} of {len(base)} folds, gain "
         f"{100 * obj['gain']:.0f} % against a margin of {100 * obj['margin']:.0f} %)")
@@ -633,6 +638,9 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
                  for i, eq in enumerate(obj["coupling_coefficients"])),
              f"Model: {obj['model']}"]
     lines.append("Noise floor per channel (nrmse): " + "  ".join(f"{c} {v:.3g}" for c, v in obj["noise_floor"].items()))
+    if obj.get("prediction_floor"):  # noise and the impulse's uncertainty: what a none is judged on
+        lines.append("Prediction floor per channel (nrmse; noise and the measured impulse's uncertainty): "
+                     + "  ".join(f"{c} {v:.3g}" for c, v in obj["prediction_floor"].items()))
     lines += mode_lines(obj)
     lines += [f"Symptom: {s['text']}." for s in obj["symptoms"]]
     lines += [f"Note: {n}." for n in obj["notes"]]
