@@ -76,9 +76,11 @@ def test_candidates_are_judged_against_the_judged_baseline_when_eddi_departs(low
     natives = [tried[n] for n in NATIVE if n in tried]
     assert len(natives) >= 5
     assert all(c.reference == "baseline" for c in natives), [(c.name, c.reference) for c in natives]
-    # the mode the model lacks halves the judged baseline on every part: `unexplained`, it the partial
-    assert d.cause == "unexplained"
-    assert d.partial == "second_mode"
+    # the mode the model lacks halves the judged baseline on every part. With the `none` limit at
+    # 3.5x (s18ee's branch) the baseline sat within it and the verdict read `unexplained` with it the
+    # partial; at 2.5x (s18none, merged after) the baseline is beyond the limit and the records name
+    # the mode the system has: `second_mode`, the true cause
+    assert d.cause == "second_mode"
     assert tried["second_mode"].nrmse < 0.5 * d.judged.nrmse
 
 
