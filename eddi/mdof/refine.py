@@ -324,16 +324,12 @@ def refine_lumped(fit, channels: tuple[str, ...], driving_point: str, records: S
 #: 0.07 / 0.34 held out); over the first fifth the responses are still close.
 HORIZONS = (0.2, 0.5, 1.0)
 #: The polish's Jacobian integrates the sensitivities with this many times fewer RK4 sub-steps than
-#: the simulation (``h * omega`` up to 0.2 instead of 0.05; :func:`_jacobian_function`). The
+#: the simulation (``h * omega`` up to 0.1 instead of 0.05; :func:`_jacobian_function`). The
 #: Jacobian only steers the least squares: every step is accepted or refused on the residual,
 #: simulated at full accuracy, so the result is the same minimum. Session 15 (session 13's three-mass
 #: chain, fold 0, 16 Jacobians of 10 directions on 2 records): 35.7 -> 22.4 s CPU, the same steps
-#: (cost 37.623 -> 19.303, held-out 0.3612 both, per channel the same to 4 digits). Session 18 (4, ``h omega``
-#: up to 0.2; ``benchmarks/bench_mdof_three_cost.py --coarsen``): whole diagnoses 83.5 -> 77.7 s CPU (cA-50),
-#: 112.6 -> 100.7 (cA-35), 133.8 -> 121.4 (H3, unseen), 6.5 -> 6.4 and 9.2 -> 8.9 (two-mass w2t1, w2h3): the
-#: same verdicts, folds and channels to 4 digits, every coefficient within 0.0015 of its ci95, the
-#: intervals within 0.01 %.
-JACOBIAN_COARSEN = 4
+#: (cost 37.623 -> 19.303, held-out 0.3612 both, per channel the same to 4 digits).
+JACOBIAN_COARSEN = 2
 #: The polishes stop within the records' noise (:mod:`eddi.mdof.steering`; their ``noise_stop``).
 NOISE_STOP = True
 #: :func:`refine_mdof` takes at most this many Broyden updates of its Jacobian between two computed
