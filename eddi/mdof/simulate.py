@@ -198,6 +198,8 @@ def trajectory_substeps(model: MdofModel, dt: float, states: np.ndarray,
     """
     xs = np.asarray(states, float).reshape(model.n_coords, -1)
     xs = xs[:, np.all(np.isfinite(xs), axis=0)]
+    if _linear_stiffness(model):  # the Jacobian is the same matrix at every state: one is the maximum
+        xs = xs[:, :1]
     m = TRAJECTORY_MARGIN if margin is None else float(margin)
     w2 = 0.0
     for chunk in range(0, max(xs.shape[1], 1), 4096):
@@ -206,6 +208,15 @@ def trajectory_substeps(model: MdofModel, dt: float, states: np.ndarray,
         w2 = max(w2, float(radius))
     w = math.sqrt(w2) if w2 > 0 and math.isfinite(w2) else 0.0
     return int(min(1000, max(1, math.ceil(dt * w / 0.05))))
+
+
+def _linear_stiffness(model: MdofModel) -> bool:
+    """True when every term without a rate is linear in one coordinate (``x_k``, no ``|x|``): then
+    :func:`stiffness_jacobians` is the same matrix at every state, exactly (each entry ``c * 1.0 *
+    1.0``), and :func:`trajectory_substeps` needs one state, not the record's 1e4-1e5 (session 18:
+    the linear lumped baselines' simulations spent ~11 ms each on those eigenvalues)."""
+    return all(term.depends_on_v or (term.degree == 1 and not term.exponents[2].any())
+               for i in range(model.n_coords) for term, _c in model.terms(i))
 
 
 def step_count(model: MdofModel, dt: float, x_scale: float | np.ndarray | None = None,

@@ -61,3 +61,33 @@ def test_cubic_chain_steps_follow_the_tangent_stiffness_along_the_trajectory_and
     # RK4 at h omega <= 0.05 against 200 sub-steps: 2.5e-6 at these 11 (1.3e-6 at the old bound's 13), far
     # below any channel's noise floor (the polish weighs errors by floors >= 1e-3)
     assert err < 5e-6
+
+
+def test_linear_chain_counts_from_one_state_with_the_same_result(monkeypatch):
+    """A model whose stiffness is linear has the same Jacobian at every state: the count is taken from
+    one (session 18: ~11 ms of eigenvalues per simulation of a linear lumped baseline on a 3 s record),
+    and equals the count over every state; a cubic chain still looks at every state."""
+    import eddi.mdof.simulate as sim
+
+    states = 1e-3 * np.random.default_rng(1).standard_normal((3, 9000))  # three chunks of 4096
+    seen = []
+    plain = np.linalg.eigvals
+
+    def counted(a):
+        seen.append(np.asarray(a).shape[0])
+        return plain(a)
+
+    monkeypatch.setattr(sim.np.linalg, "eigvals", counted)
+    linear = _chain(0.0).model()
+    assert sim._linear_stiffness(linear) and not sim._linear_stiffness(_chain(2e12).model())
+    got = trajectory_substeps(linear, DT, states)
+    assert seen == [1]  # one state, one 3 x 3 matrix (the old code: 4096 + 4096 + 808 of them)
+    monkeypatch.setattr(sim, "_linear_stiffness", lambda model: False)
+    seen.clear()
+    assert trajectory_substeps(linear, DT, states) == got == 6  # every state: the same count
+    assert seen == [4096, 4096, 808]
+    monkeypatch.undo()
+    monkeypatch.setattr(sim.np.linalg, "eigvals", counted)
+    seen.clear()
+    trajectory_substeps(_chain(2e12).model(), DT, states)
+    assert seen == [4096, 4096, 808]
