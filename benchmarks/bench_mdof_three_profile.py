@@ -83,6 +83,7 @@ def fold(files: list[str], dp: str, k: int) -> None:
     import eddi.mdof.physical as phys
     import eddi.mdof.validate as val
     import station.mdof_commands as mc
+    import station.mdof_folds as mf
     from station.mdof_data import condition_all, reduce_rate
 
     spent: dict[str, float] = collections.defaultdict(float)
@@ -104,9 +105,9 @@ def fold(files: list[str], dp: str, k: int) -> None:
     timed(ident, "_identify_twice", lambda a, kw: f"per-coordinate fit: {a[4]}, coupling {a[5]}, prune {a[8]:.2g}"
           + (", filtered" if kw.get("prefilter") else ""))
     timed(ident, "choose_candidate", lambda a, kw: f"candidate choice among {len(a[0])}")
-    timed(mc, "identify_mdof", lambda a, kw: f"identify_mdof {kw.get('coordinates', 'auto')}, "
+    timed(mf, "identify_mdof", lambda a, kw: f"identify_mdof {kw.get('coordinates', 'auto')}, "
                                              f"coupling {kw.get('coupling', True)}")
-    timed(mc, "validate_mdof", lambda a, kw: "held-out validations")
+    timed(mf, "validate_mdof", lambda a, kw: "held-out validations")
     for name in ("identify_lumped", "_stages", "_iv_fit", "_slow_fit", "_undetermined_back"):
         timed(phys, name, lambda a, kw, name=name: f"lumped: {name}")
     timed(val, "simulate_mdof", lambda a, kw: "simulations (validate_mdof, all)")
@@ -114,7 +115,7 @@ def fold(files: list[str], dp: str, k: int) -> None:
     meas, _note = reduce_rate(mc._read(files))
     records, names, dpn = condition_all(meas, dp)
     start = time.process_time()
-    out, _span = mc._fold_fits(records, names, dpn, k)
+    out, _span = mf._fold_fits(records, names, dpn, k)
     print(f"fold {k}: {time.process_time() - start:.1f} s CPU; held out "
           + ", ".join(f"{kind} {v[0].nrmse:.4f} ({v[1].coordinates}{', lumped' if v[1].lumped is not None else ''})"
                       for kind, v in out.items()))

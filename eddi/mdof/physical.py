@@ -79,7 +79,7 @@ def identify_lumped(records: Sequence[ChannelRecord], channels: Sequence[str], d
         reproduces the training records better by more than the floor.
     couplings : bool
         False: dashpots and linear springs only (no cubic spring is a candidate, none is put back):
-        the linear lumped baseline of diagnosis (:func:`station.mdof_commands._lumped_baseline`).
+        the linear lumped baseline of diagnosis (:func:`station.mdof_folds._lumped_baseline`).
     mass_prior : bool
         With a force and as many modes as channels, also fit every rows' start with the masses
         regularised by those the driving-point residues expect (:mod:`eddi.mdof.massprior`); the

@@ -60,7 +60,7 @@ def test_energy_sink_is_named_a_nonlinear_coupling_in_physical_coordinates(tmp_p
 
 
 def test_a_diagnosis_over_its_cpu_budget_says_so_with_its_projection():
-    from station.mdof_commands import BUDGET_CPU_S, budget_line
+    from station.mdof_folds import BUDGET_CPU_S, budget_line
 
     # 3 folds plus the final identification: 40 s per fold projects 160 s, over the budget
     line = budget_line(1, 3, 40.0, refine=True, budget_s=120.0)
