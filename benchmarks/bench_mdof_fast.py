@@ -117,9 +117,10 @@ def _records(files: list[str], driving_point: str):
 
 def truth_modes(system: MdofSystem, files: list[str]) -> list[list[float]]:
     """Per held-out fold, the true model's per-mode error in the basis of the fold's training tail
-    (:func:`eddi.mdof.modefloor.mode_errors`), and the fold's mode floors."""
+    (:func:`eddi.mdof.modefloor.mode_errors`; ERA of the conditioned training captures, as the
+    diagnosis' first identification pass)."""
     from eddi.mdof.coordinates import linear_modes
-    from eddi.mdof.modefloor import mode_errors, mode_floor, projector
+    from eddi.mdof.modefloor import mode_errors, projector
     from eddi.mdof.validate import validate_mdof
 
     records, names, dp = _records(files, f"acc{system.driving_point}")
