@@ -112,7 +112,9 @@ def condition_multichannel(meas: Measurement, driving_point: str | None = None) 
         t=np.asarray(meas.t, float), x=np.vstack([p.x for p in parts]), v=np.vstack([p.v for p in parts]),
         a=np.vstack([p.a for p in parts]), force=f, impact=impact, window=(start, stop),
         noise=np.concatenate([p.noise for p in parts]), label=str(meas.source),
-        highpass_hz=cut, force_noise=f_noise)
+        highpass_hz=cut, force_noise=f_noise,
+        acc_noise=np.concatenate([p.measured_noise if qty == "acc" and p.measured_noise is not None else [np.nan]
+                                  for (qty, _y), p in zip(resp.values(), parts)]))
 
 
 def condition_all(measurements: Sequence[Measurement], driving_point: str | None = None,

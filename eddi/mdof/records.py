@@ -36,6 +36,11 @@ class ChannelRecord:
         RMS of the force channel's noise per sample before the trigger [N] (0: unknown); the
         impulse it leaves in the blow sets the input's share of the noise floor
         (:func:`eddi.mdof.validate.impulse_floor`).
+    acc_noise : ndarray, shape (n_channels,), [m/s^2], or None
+        RMS of each accelerometer's noise as measured (before the trigger; NaN for a channel of
+        another quantity; None: not known). :func:`eddi.mdof.validate.noise_floor` starts from it:
+        ``noise`` went to metres through the channel's own window, which on a channel whose fast
+        modes die early is far shorter than the record's (session 18).
     """
 
     t: np.ndarray
@@ -49,4 +54,5 @@ class ChannelRecord:
     label: str = ""
     highpass_hz: float = HIGHPASS_HZ
     force_noise: float = 0.0
+    acc_noise: np.ndarray | None = None
 

@@ -44,7 +44,10 @@ RESOLVE_BINS = 8
 
 @dataclass(frozen=True)
 class Kinematics:
-    """``x, v, a`` of every channel, each (n_channels, n), the record's windows, the cut-off used."""
+    """``x, v, a`` of every channel, each (n_channels, n), the record's windows, the cut-off used;
+    ``noise`` the displacement noise (the measured noise scaled by the channel's own window's RMS ratio
+    of displacement to the measured quantity), ``measured_noise`` the noise RMS of the measured quantity
+    itself (its units, per channel; None when not read)."""
 
     x: np.ndarray
     v: np.ndarray
@@ -53,6 +56,7 @@ class Kinematics:
     window: tuple[int, int]
     noise: np.ndarray
     highpass_hz: float
+    measured_noise: np.ndarray | None = None
 
 
 def lowest_mode_hz(y: np.ndarray, rate_hz: float, quantity: str, rel: float = 0.02) -> float:
@@ -239,7 +243,7 @@ def kinematics(t: np.ndarray, y: np.ndarray, quantity: str, *, force: np.ndarray
     stop = max(min(stop, t.size - int(EDGE_PERIODS * rate / highpass_hz)), min(stop, free0 + 10))
     # noise of the displacement: scale the measured noise by the dominant frequency
     scale = np.sqrt(np.mean(x[:, free0:stop] ** 2, axis=1)) / np.maximum(np.sqrt(np.mean(meas[:, free0:stop] ** 2, axis=1)), 1e-300)
-    return Kinematics(x, v, a, impact, (free0, stop), noise * scale, float(highpass_hz))
+    return Kinematics(x, v, a, impact, (free0, stop), noise * scale, float(highpass_hz), noise)
 
 
 def highpass(y: np.ndarray, rate_hz: float, highpass_hz: float, times: int = 1) -> np.ndarray:

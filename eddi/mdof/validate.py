@@ -183,6 +183,15 @@ def noise_floor(record: ChannelRecord) -> np.ndarray:
     7 Hz 0.005 (measured: the true model's nrmse on the same records 0.048-0.061 and
     0.005-0.010, predicted 0.047-0.052 and 0.005-0.011).
 
+    ``s_a`` is the accelerometer's noise as measured (``record.acc_noise``) where known. Before
+    session 18 it was ``record.noise`` carried back by the window's RMS ratio of acceleration to
+    displacement; but ``noise`` went to metres through the channel's OWN window, and on a channel
+    whose fast, heavily damped modes die early that window is a fraction of the record's, with
+    far more acceleration per metre: on the low-large-mode chains of
+    ``benchmarks/bench_mdof_leak.py`` (t3c, t3d: 2.5 / 15.6 / 22.5 Hz, modes 2-3 5-10 % damped)
+    the floor of the light masses' channels was 1.5-2.3x below what the true model itself left
+    (0.036-0.044 against 0.065-0.092); from the measured noise the ratio is 0.8-1.4.
+
     Returns
     -------
     ndarray, shape (n_channels,)
@@ -192,6 +201,9 @@ def noise_floor(record: ChannelRecord) -> np.ndarray:
     rms_x = np.sqrt(np.mean(record.x[:, w0:w1] ** 2, axis=1))
     rms_a = np.sqrt(np.mean(record.a[:, w0:w1] ** 2, axis=1))
     s_a = record.noise * rms_a / np.maximum(rms_x, 1e-300)
+    acc_noise = getattr(record, "acc_noise", None)  # records built elsewhere (duck-typed) may lack it
+    if acc_noise is not None:
+        s_a = np.where(np.isfinite(acc_noise), np.nan_to_num(acc_noise), s_a)
     fc = record.highpass_hz
     f = np.geomspace(0.05 * fc, rate / 2, 4000)
     gain = (2 * np.pi * f) ** -4 * (1 + (fc / f) ** 8) ** -4
