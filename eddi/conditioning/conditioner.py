@@ -491,9 +491,9 @@ def _integrate_velocity(w: _Work, noise_factor: float) -> None:
     # Not from the start: the drift there also carries the unknown x0 and start slope, and
     # the measured v is kept (d' made a diagnosed ring-down "unexplained").
     w.x, w.v = x_int - d, (v0 - dd if w.rest else vel)
-    w.method = ("vel as measured; disp by integration " + ("from rest" if w.rest else "from the start")
+    w.method = (("vel less its offset and drift; disp by integration from rest" if w.rest
+                 else "vel as measured; disp by integration from the start")
                 + " with drift anchored at acc zero crossings")
-
 
 
 def _integrate_acceleration(w: _Work, eq: EquilibriumIntegral | None, noise_factor: float) -> None:
