@@ -180,3 +180,27 @@ def test_a_motion_below_the_main_frequency_forbids_none_above_the_floor():
     held = Decision("none", None, None, True, "within the noise floor", helpful=mode)
     assert earn(held, 2.5, [peak(1.0)]).partial is mode
     assert earn(held, 2.5, [peak(0.0)]).partial is None
+
+
+def test_the_chain_clause_needs_every_held_out_part_better():
+    # s18noisy: the bench_diagnose_none_limit `noisy` null, seed 10 (20.3 dB, nothing hidden), judged
+    # 1.4x the floor of the data; sensor_highpass extends EDDI's per-fold fit at 10x the floor, its
+    # coupling cuts 14 % and its mean beats the judged baseline, but it loses held-out part 1: a
+    # sensor's coupling is in every capture, the noise's refit is not. `unexplained` before, `none` now
+    floor = NoiseFloor(nrmse=0.0412, fold_nrmse=(0.0412,) * 3, noise_rms=(0.0,) * 3,
+                       conditioning_nrmse=(0.03,) * 3, method="test", prediction_nrmse=(0.01,) * 3,
+                       part_conditioning_nrmse=(0.03,) * 3,
+                       data_fold_nrmse=data_floor([0.0412] * 3, [0.03] * 3, [0.01] * 3, ()))
+    base = (0.033, 0.0446, 0.0967)
+    eom = EquationOfMotion.create(mass=1.0, damping={"v": 1.0}, stiffness={"x": 1e4})
+    native = Candidate("asymmetric_stiffness", 0.0812, (0.0349, 0.0418, 0.1669), -0.398, False, False, {}, {},
+                       eom, reference="baseline")
+    params = {"corner_hz": 0.3, COUPLING_CUT: 0.144, "uncoupled_nrmse": 0.0537, EDDI_REFERENCE: 0.412}
+    noisy = Candidate("sensor_highpass", 0.046, (0.0379, 0.0331, 0.0669), 0.208, False, True, params, {}, eom,
+                      reference="baseline")
+    dec = decide([noisy, native], base, floor, 0.5, 2.5, 10.0, strong_margin=0.6, eddi_fold=(0.034, 0.1547, 1.0472))
+    assert dec.cause == "none" and dec.within_floor
+    # the same candidate better on every part (a coupling's signature): the chain was not tested
+    coupled = Candidate(**{**noisy.__dict__, "fold_nrmse": (0.032, 0.0331, 0.0669)})
+    dec = decide([coupled, native], base, floor, 0.5, 2.5, 10.0, strong_margin=0.6, eddi_fold=(0.034, 0.1547, 1.0472))
+    assert dec.cause == "unexplained" and "the chain was not tested against it" in dec.reason
