@@ -201,9 +201,8 @@ def noise_floor(record: ChannelRecord) -> np.ndarray:
     rms_x = np.sqrt(np.mean(record.x[:, w0:w1] ** 2, axis=1))
     rms_a = np.sqrt(np.mean(record.a[:, w0:w1] ** 2, axis=1))
     s_a = record.noise * rms_a / np.maximum(rms_x, 1e-300)
-    acc_noise = getattr(record, "acc_noise", None)  # records built elsewhere (duck-typed) may lack it
-    if acc_noise is not None:
-        s_a = np.where(np.isfinite(acc_noise), np.nan_to_num(acc_noise), s_a)
+    if record.acc_noise is not None:
+        s_a = np.where(np.isfinite(record.acc_noise), np.nan_to_num(record.acc_noise), s_a)
     fc = record.highpass_hz
     f = np.geomspace(0.05 * fc, rate / 2, 4000)
     gain = (2 * np.pi * f) ** -4 * (1 + (fc / f) ** 8) ** -4

@@ -70,7 +70,7 @@ def test_channel_floor_follows_the_measured_noise():
 
     def rec(scale):
         return SimpleNamespace(t=T, x=x, a=a, window=(0, T.size), highpass_hz=2.0,
-                               noise=np.array([scale * rms, 1e-4 * rms]))
+                               noise=np.array([scale * rms, 1e-4 * rms]), acc_noise=None)
 
     low, high = channel_floor([rec(1.0)] * 2, ("a", "b")), channel_floor([rec(2.0)] * 2, ("a", "b"))
     assert low["a"] == pytest.approx(float(noise_floor(rec(1.0))[0]), rel=1e-12)
@@ -83,7 +83,7 @@ def _quiet_record(rel_noise):
     a = -(2 * np.pi * 10.0) ** 2 * x
     rms = float(np.sqrt(np.mean(x[0] ** 2)))
     return SimpleNamespace(t=T, x=x, a=a, window=(0, T.size), highpass_hz=2.5,
-                           noise=np.array([rel_noise * rms, rel_noise * rms]))
+                           noise=np.array([rel_noise * rms, rel_noise * rms]), acc_noise=None)
 
 
 def test_a_linear_model_at_0_05_on_quiet_records_is_not_called_complete():
