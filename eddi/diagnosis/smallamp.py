@@ -1,0 +1,77 @@
+"""A loss law the model gets wrong with amplitude, the same way in every held-out part (session 19).
+
+Between the noise floor and the ``none`` limit (:data:`eddi.diagnosis.settings.NONE_LIMIT`) the
+ratio of the held-out error to the floor cannot tell a null from a small departure: nulls reach
+1.8x (station path) and 2.4x (library call) the floor of the data (session 18), and one-DOF records
+whose decay at small amplitude loses 10-15 % more energy per cycle than the model (dry friction
+below the viscous loss, a lubricated contact, a coarse converter) land at 1.2-1.8x. The floor is a
+scale of what the noise does to the *comparison*; the energy per cycle measures one physical
+quantity, and its standard error from the cycles' own scatter (:func:`eddi.diagnosis.symptoms.loss_ratio_pct`)
+says how far the noise moves it.
+
+The median over parts of that mismatch is not enough (it is noise-bound on lightly damped records:
+:func:`eddi.diagnosis.earn._band_notable`), and a single part's ``z`` is not either: on nulls one
+part reached ``z = -10`` while another part of the same set read ``+0.6`` (an error of that fold's
+model, or a part whose cycles scatter less than their ends move). A missing mechanism is in every
+record: **every** held-out part must show the small-amplitude mismatch beyond :data:`PART_Z` of its
+own standard error, all of one sign, and the small-less-large difference beyond :data:`PART_Z` as
+well, of the same sign (the loss law's *shape* in amplitude is wrong, not a damping coefficient a
+fold set a little high or low, which moves both bands together), and the median mismatch at least
+:data:`MIN_PCT`. Then, above the floor, the verdict is ``unexplained`` with that symptom
+(:func:`eddi.diagnosis.earn.earn`), never ``none (uncertain)``.
+
+The measured distributions (nulls and hidden small-amplitude losses, ``benchmarks/bench_diagnose_smallamp.py``
+and the calibration's held-out nulls) are in docs/diagnosis.md, "Session 19 (helper s19small)".
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+from eddi.diagnosis.results import Symptom
+
+#: Each held-out part's small-amplitude energy mismatch, and its small-less-large difference, must be
+#: beyond this many of their standard errors, all of one sign.
+PART_Z = 3.0
+#: The median small-amplitude mismatch must be at least this [%] (module notes).
+MIN_PCT = 5.0
+#: Held-out parts that must give a figure (all of them, and at least this many).
+MIN_PARTS = 2
+
+
+def amplitude_signature(symptoms: Sequence[Symptom]) -> Symptom | None:
+    """The energy-mismatch symptom when it shows a loss law wrong in amplitude in every held-out part
+    (module notes), else None."""
+    s = next((x for x in symptoms if x.kind == "energy_mismatch"), None)
+    if s is None:
+        return None
+    v = s.values
+    parts = v.get("parts", 0.0)
+    el = v.get("low_amplitude_pct", math.nan)
+    if not (parts >= MIN_PARTS and v.get("low_parts") == parts and v.get("shape_parts") == parts):
+        return None
+    if not (math.isfinite(el) and abs(el) >= MIN_PCT):
+        return None
+    sign = -1.0 if el < 0 else 1.0
+    lo = min(sign * v.get("low_z_min", math.nan), sign * v.get("low_z_max", math.nan))
+    sh = min(sign * v.get("shape_z_min", math.nan), sign * v.get("shape_z_max", math.nan))
+    return s if (lo >= PART_Z and sh >= PART_Z) else None
+
+
+def signature_text(s: Symptom) -> str:
+    """The reason of an ``unexplained`` the signature made (one clause)."""
+    v = s.values
+    el, eh = v["low_amplitude_pct"], v.get("high_amplitude_pct", math.nan)
+    side = "more" if el < 0 else "less"
+    lo = min(abs(v["low_z_min"]), abs(v["low_z_max"]))
+    hi_txt = (f", against {eh:+.0f} % (+-{v.get('high_amplitude_se_pct', math.nan):.2g} %) at large amplitude"
+              if math.isfinite(eh) else "")
+    return (f"at small amplitude the measured decay loses energy faster than the model in every held-out part"
+            if el < 0 else
+            f"at small amplitude the measured decay loses energy slower than the model in every held-out part") + (
+        f" (the model loses {abs(el):.0f} % {('less' if el < 0 else 'more')} per cycle, +-"
+        f"{v.get('low_amplitude_se_pct', math.nan):.2g} %{hi_txt}; each part beyond {lo:.0f} of its standard "
+        f"errors, all of one sign, and so is the small-less-large difference): the loss law in amplitude is not "
+        f"the model's (measured {side} loss where the motion is small: dry friction, a contact or joint, "
+        "radiation, or the measurement chain), a departure the noise does not make")

@@ -1,0 +1,78 @@
+"""A loss law wrong in amplitude in every held-out part turns ``none (uncertain)`` into ``unexplained``
+(session 19, helper s19small; :mod:`eddi.diagnosis.smallamp`, docs/diagnosis.md "Session 19 (helper
+s19small)").
+
+The unit tests build the energy-mismatch symptom by hand (each rule's clause can fail on its own);
+the end-to-end tests hide dry friction below the viscous loss in a one-DOF impact set
+(``benchmarks/bench_diagnose_smallamp.py``) and require the verdict, and run its null (the same
+draw, nothing hidden) and require silence.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import pytest
+
+from eddi.diagnosis import diagnose
+from eddi.diagnosis.decide import Decision
+from eddi.diagnosis.earn import earn
+from eddi.diagnosis.results import Symptom
+from eddi.diagnosis.smallamp import MIN_PCT, PART_Z, amplitude_signature
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+
+
+def _energy(low=-13.0, low_se=1.0, high=1.0, high_se=0.5, z=(-9.0, -5.0), dz=(-9.0, -5.0), parts=3):
+    return Symptom("energy_mismatch", "the model loses ...", {
+        "high_amplitude_pct": high, "low_amplitude_pct": low, "high_amplitude_se_pct": high_se,
+        "low_amplitude_se_pct": low_se, "low_parts": float(parts), "low_z_min": z[0], "low_z_max": z[1],
+        "shape_parts": float(parts), "shape_z_min": dz[0], "shape_z_max": dz[1], "parts": float(parts)})
+
+
+def test_signature_needs_every_part_one_sign_beyond_its_errors() -> None:
+    assert amplitude_signature([_energy()]) is not None
+    assert amplitude_signature([_energy(low=13.0, z=(5.0, 9.0), dz=(4.0, 6.0))]) is not None  # too much loss, too
+    # one part the other way (a null's lone part at z -10 beside one at +0.6)
+    assert amplitude_signature([_energy(z=(-10.4, 0.6))]) is None
+    # one part within its errors
+    assert amplitude_signature([_energy(z=(-9.0, -0.99 * PART_Z))]) is None
+    # the shape (small less large) within its errors: a damping coefficient set off, both bands moved
+    assert amplitude_signature([_energy(dz=(-9.0, -2.0))]) is None
+    # a part without a figure, or a single part
+    s = _energy()
+    s.values["low_parts"] = 2.0
+    assert amplitude_signature([s]) is None
+    assert amplitude_signature([_energy(parts=1, z=(-9.0, -9.0), dz=(-9.0, -9.0))]) is None
+    # too small a mismatch, however sure
+    assert amplitude_signature([_energy(low=-0.99 * MIN_PCT)]) is None
+    # nothing measured
+    assert amplitude_signature([_energy(low=math.nan)]) is None
+    assert amplitude_signature([]) is None
+
+
+def test_earn_turns_none_above_the_floor_only() -> None:
+    none = Decision("none", None, None, True, "within the noise floor")
+    sig = [_energy()]
+    out = earn(none, 1.8, sig)
+    assert out.cause == "unexplained"
+    assert "1.8x the noise floor" in out.reason
+    assert "at small amplitude the measured decay loses energy faster than the model in every held-out part" \
+        in out.reason
+    assert "13 % less per cycle" in out.reason
+    assert earn(none, 0.9, sig).cause == "none"  # at or below the floor the model is as good as the noise tells
+    assert earn(none, 1.8, [_energy(z=(-10.4, 0.6))]).cause == "none"
+
+
+def _case(seed: int, family: str):
+    from bench_diagnose_smallamp import small_set
+
+    from eddi.diagnosis.pipeline_base import pipeline_baseline
+    from eddi.diagnosis.tolerance import ChainTolerance
+
+    recs, info = small_set(seed, family)
+    m = info["mass_kg"]
+    d = diagnose(recs, m, pipeline=pipeline_baseline(recs, m), chain=ChainTolerance())
+    return d, d.judging.nrmse / d.noise_floor.nrmse
