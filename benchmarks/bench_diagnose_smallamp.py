@@ -14,6 +14,7 @@ of its peak):
   per cycle against ``pi c w A^2``);
 * ``smooth``: twice that force with ``v_s`` the speed at ``A_low`` (viscous below it, dry above: a
   lubricated contact, a Stribeck-like law the catalogue's sharp friction only approximates);
+  ``smooth2`` twice that force again;
 * ``mode2``: a second, lightly damped mode (0.5 %) at 1.3-2.5 f1, coupled by a spring r/4 of k1
   (beating: not a loss, an exchange the one-DOF model reads as one);
 * ``quant``: a 16-bit converter over a range 2^(4 + 4 r / 0.35) times the peak (8-11 effective
@@ -41,7 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_diagnose_calibration as B  # noqa: E402
 
 RATES = (2000.0, 5000.0, 10000.0, 20000.0)
-FAMILIES = ("null", "coulomb", "smooth", "mode2", "quant")
+FAMILIES = ("null", "coulomb", "smooth", "smooth2", "mode2", "quant")
 FACTORS = (2.5,)
 
 
@@ -83,9 +84,10 @@ def small_set(seed: int, family: str) -> tuple[list, dict]:
                                   stiffness={"x": k1, "x^3": 8 * d["shift"] * k1 / (3 * amp ** 2)})
     r = d["strength"]
     sensors, extra = None, {}
-    if family in ("coulomb", "smooth"):
-        # smooth: tanh(1) of the force at A_low's speed, so twice the force for a like loss there
-        force = r * math.pi * c * w * a_low / 4 * (1.0 if family == "coulomb" else 2.0)
+    if family in ("coulomb", "smooth", "smooth2"):
+        # smooth: tanh(1) of the force at A_low's speed, so twice the force for a like loss there;
+        # smooth2 twice that again (r 0.2-0.7)
+        force = r * math.pi * c * w * a_low / 4 * {"coulomb": 1.0, "smooth": 2.0, "smooth2": 4.0}[family]
         vs = 1e-3 * amp * w if family == "coulomb" else a_low * w
         eom = eom.with_effect(Effect(name="coulomb_friction", params={"force_n": force, "velocity_scale": vs}))
         extra = {"friction_n": force, "velocity_scale": vs}

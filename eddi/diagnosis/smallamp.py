@@ -27,8 +27,9 @@ and the calibration's held-out nulls) are in docs/diagnosis.md, "Session 19 (hel
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import Callable, Sequence
 
+from eddi.diagnosis.decide import Decision
 from eddi.diagnosis.results import Symptom
 
 #: Each held-out part's small-amplitude energy mismatch, and its small-less-large difference, must be
@@ -75,3 +76,18 @@ def signature_text(s: Symptom) -> str:
         f"errors, all of one sign, and so is the small-less-large difference): the loss law in amplitude is not "
         f"the model's (measured {side} loss where the motion is small: dry friction, a contact or joint, "
         "radiation, or the measurement chain), a departure the noise does not make")
+
+
+def named(dec: Decision, symptoms: Sequence[Symptom], ratio: float, redecide: Callable[[], Decision]) -> Decision:
+    """``dec``, or a name judged as above the ``none`` limit when the signature holds above the floor.
+
+    Within the limit a name needs the strong cut (``settings.STRONG_MARGIN``, 60 %): there the
+    baseline's error may be the noise's. With the signature the records refuse that excuse, so a
+    mechanism is judged by the ordinary rule (``redecide``: :func:`eddi.diagnosis.decide.decide` with
+    no ``none`` allowance: the margin, every part, consistent strength, look-alikes told apart, within
+    the named factor). Without a winner there ``dec`` stands, and :func:`eddi.diagnosis.earn.earn`
+    turns its ``none`` into ``unexplained`` with the symptom."""
+    if dec.cause != "none" or not ratio > 1.0 or amplitude_signature(symptoms) is None:
+        return dec
+    alt = redecide()
+    return alt if alt.winner is not None else dec

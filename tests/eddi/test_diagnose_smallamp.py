@@ -66,6 +66,18 @@ def test_earn_turns_none_above_the_floor_only() -> None:
     assert earn(none, 1.8, [_energy(z=(-10.4, 0.6))]).cause == "none"
 
 
+def test_names_are_judged_as_past_the_limit_only_with_the_signature() -> None:
+    from eddi.diagnosis.smallamp import named
+
+    none = Decision("none", None, None, True, "within the noise floor")
+    alt = Decision("coulomb_friction", object(), None, False, "")  # type: ignore[arg-type]
+    assert named(none, [_energy()], 1.8, lambda: alt) is alt
+    assert named(none, [_energy(z=(-10.4, 0.6))], 1.8, lambda: alt) is none
+    assert named(none, [_energy()], 0.9, lambda: alt) is none
+    # no winner past the limit either: the `none` stands here, and earn makes it unexplained
+    assert named(none, [_energy()], 1.8, lambda: Decision("unexplained", None, None, False, "x")) is none
+
+
 def _case(seed: int, family: str):
     from bench_diagnose_smallamp import small_set
 
