@@ -141,6 +141,10 @@ def signature(r: dict) -> bool:
     from eddi.diagnosis.smallamp import amplitude_signature
 
     e = {k: float(v) for k, v in _energy(r).items()}
+    for key in ("low", "shape"):  # rows of the first runs hold no sum: the bound the least z gives
+        if f"{key}_z_sum" not in e and f"{key}_z_min" in e:
+            lo, hi = e[f"{key}_z_min"], e[f"{key}_z_max"]
+            e[f"{key}_z_sum"] = e["parts"] * (hi if hi < 0 else lo if lo > 0 else 0.0)
     return bool(e) and amplitude_signature([Symptom("energy_mismatch", "", e)]) is not None
 
 
@@ -155,7 +159,7 @@ def summary(path: str) -> None:
         fam = r.get("family") or r.get("kind", "?")
         full = r["baseline_nrmse"] / r["floor"]
         fams.setdefault(fam, []).append((r["baseline_nrmse"] / r["data_floor"], full, signature(r),
-                                         r["named_causes"].get("10", "?")))
+                                         (r.get("named_causes") or {}).get("10", r["causes"].get("2.5|0.6", "?"))))
     for fam, v in fams.items():
         ratio = np.array([x[0] for x in v])
         above = [x for x in v if x[1] > 1.0]

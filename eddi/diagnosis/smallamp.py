@@ -14,10 +14,10 @@ The median over parts of that mismatch is not enough (it is noise-bound on light
 part reached ``z = -10`` while another part of the same set read ``+0.6`` (an error of that fold's
 model, or a part whose cycles scatter less than their ends move). A missing mechanism is in every
 record: **every** held-out part must show the small-amplitude mismatch beyond :data:`PART_Z` of its
-own standard error, all of one sign, and the small-less-large difference beyond :data:`PART_Z` as
-well, of the same sign (the loss law's *shape* in amplitude is wrong, not a damping coefficient a
-fold set a little high or low, which moves both bands together), and the median mismatch at least
-:data:`MIN_PCT`. Then, above the floor, the verdict is ``unexplained`` with that symptom
+own standard error, all of one sign, and the parts together beyond :data:`POOLED_Z` (the sum of their
+``z`` over the root of their number); the small-less-large difference likewise, of the same sign (the
+loss law's *shape* in amplitude is wrong, not a damping coefficient a fold set a little high or low,
+which moves both bands together); and the median mismatch at least :data:`MIN_PCT`. Then, above the floor, the verdict is ``unexplained`` with that symptom
 (:func:`eddi.diagnosis.earn.earn`), never ``none (uncertain)``.
 
 The measured distributions (nulls and hidden small-amplitude losses, ``benchmarks/bench_diagnose_smallamp.py``
@@ -33,12 +33,21 @@ from eddi.diagnosis.decide import Decision
 from eddi.diagnosis.results import Symptom
 
 #: Each held-out part's small-amplitude energy mismatch, and its small-less-large difference, must be
-#: beyond this many of their standard errors, all of one sign.
-PART_Z = 3.0
+#: beyond this many of their standard errors, all of one sign (module notes).
+PART_Z = 1.0
+#: And over the parts together (the sum of the parts' ``z`` over the root of their number) beyond this.
+POOLED_Z = 4.0
 #: The median small-amplitude mismatch must be at least this [%] (module notes).
 MIN_PCT = 5.0
 #: Held-out parts that must give a figure (all of them, and at least this many).
 MIN_PARTS = 2
+
+
+def _one_sign(v: dict[str, float], key: str, sign: float, parts: float) -> bool:
+    """Every part's ``z`` of ``key`` beyond PART_Z with ``sign``, and their pooled ``z`` beyond POOLED_Z."""
+    least = min(sign * v.get(f"{key}_z_min", math.nan), sign * v.get(f"{key}_z_max", math.nan))
+    pooled = sign * v.get(f"{key}_z_sum", math.nan) / math.sqrt(parts)
+    return bool(least >= PART_Z and pooled >= POOLED_Z)
 
 
 def amplitude_signature(symptoms: Sequence[Symptom]) -> Symptom | None:
@@ -55,27 +64,23 @@ def amplitude_signature(symptoms: Sequence[Symptom]) -> Symptom | None:
     if not (math.isfinite(el) and abs(el) >= MIN_PCT):
         return None
     sign = -1.0 if el < 0 else 1.0
-    lo = min(sign * v.get("low_z_min", math.nan), sign * v.get("low_z_max", math.nan))
-    sh = min(sign * v.get("shape_z_min", math.nan), sign * v.get("shape_z_max", math.nan))
-    return s if (lo >= PART_Z and sh >= PART_Z) else None
+    return s if (_one_sign(v, "low", sign, parts) and _one_sign(v, "shape", sign, parts)) else None
 
 
 def signature_text(s: Symptom) -> str:
     """The reason of an ``unexplained`` the signature made (one clause)."""
     v = s.values
     el, eh = v["low_amplitude_pct"], v.get("high_amplitude_pct", math.nan)
-    side = "more" if el < 0 else "less"
-    lo = min(abs(v["low_z_min"]), abs(v["low_z_max"]))
-    hi_txt = (f", against {eh:+.0f} % (+-{v.get('high_amplitude_se_pct', math.nan):.2g} %) at large amplitude"
-              if math.isfinite(eh) else "")
-    return (f"at small amplitude the measured decay loses energy faster than the model in every held-out part"
-            if el < 0 else
-            f"at small amplitude the measured decay loses energy slower than the model in every held-out part") + (
-        f" (the model loses {abs(el):.0f} % {('less' if el < 0 else 'more')} per cycle, +-"
-        f"{v.get('low_amplitude_se_pct', math.nan):.2g} %{hi_txt}; each part beyond {lo:.0f} of its standard "
-        f"errors, all of one sign, and so is the small-less-large difference): the loss law in amplitude is not "
-        f"the model's (measured {side} loss where the motion is small: dry friction, a contact or joint, "
-        "radiation, or the measurement chain), a departure the noise does not make")
+    pooled = abs(v["low_z_sum"]) / math.sqrt(v["parts"])
+    large = (f", against {eh:+.0f} % (+-{v.get('high_amplitude_se_pct', math.nan):.2g} %) at large amplitude"
+             if math.isfinite(eh) else "")
+    return (f"at small amplitude the measured decay loses energy {'faster' if el < 0 else 'slower'} than the model "
+            f"in every held-out part (the model loses {abs(el):.0f} % {'less' if el < 0 else 'more'} per cycle, "
+            f"+-{v.get('low_amplitude_se_pct', math.nan):.2g} %{large}; every part beyond {PART_Z:g} of its standard "
+            f"errors, all of one sign, {pooled:.1f} of them together, and the small-less-large difference too): the "
+            f"model's loss law in amplitude is not the records' ({'more' if el < 0 else 'less'} loss where the "
+            "motion is small: dry friction, a joint or contact, radiation, or the measurement chain), a departure "
+            "the noise does not make")
 
 
 def named(dec: Decision, symptoms: Sequence[Symptom], ratio: float, redecide: Callable[[], Decision]) -> Decision:

@@ -290,8 +290,8 @@ def baseline_symptoms(records: Sequence[Record], parts: Sequence[Part], sims: Se
 
 def part_energy_z(rows: Sequence[dict[str, float]]) -> dict[str, float]:
     """Per held-out part, the small-amplitude energy mismatch in its own standard errors (``z``) and
-    the small-less-large difference in its standard errors (``shape z``): the least and largest
-    over the parts and how many parts gave one (the median over parts hides whether every part
+    the small-less-large difference in its standard errors (``shape z``): the least, the largest and
+    the sum over the parts and how many parts gave one (the median over parts hides whether every part
     says the same; :mod:`eddi.diagnosis.smallamp`)."""
     z, dz = [], []
     for row in rows:
@@ -303,8 +303,8 @@ def part_energy_z(rows: Sequence[dict[str, float]]) -> dict[str, float]:
                 dz.append((el - eh) / float(np.hypot(sl, sh)))
     nan = float("nan")
     return {"low_parts": float(len(z)), "low_z_min": min(z, default=nan), "low_z_max": max(z, default=nan),
-            "shape_parts": float(len(dz)), "shape_z_min": min(dz, default=nan), "shape_z_max": max(dz, default=nan),
-            "parts": float(len(rows))}
+            "low_z_sum": float(sum(z)), "shape_parts": float(len(dz)), "shape_z_min": min(dz, default=nan),
+            "shape_z_max": max(dz, default=nan), "shape_z_sum": float(sum(dz)), "parts": float(len(rows))}
 
 
 #: The band of residual-peak ratios (to the main frequency) read as a motion below the main mode
