@@ -69,7 +69,7 @@ CHAIN_REASON = "the measurement chain cannot be trusted"
 BAND_KINDS: tuple[str, ...] = ("frequency_bias", "low_frequency_drift", "growth", "residual_peak")
 
 
-def earn(dec: Decision, ratio: float, symptoms: Sequence[Symptom]) -> Decision:
+def earn(dec: Decision, ratio: float, symptoms: Sequence[Symptom], data_ratio: float | None = None) -> Decision:
     """The verdict once the measurement chain and the symptoms have been heard.
 
     Parameters
@@ -78,6 +78,10 @@ def earn(dec: Decision, ratio: float, symptoms: Sequence[Symptom]) -> Decision:
         :func:`eddi.diagnosis.name.decide`'s verdict.
     ratio : float
         The baseline's held-out nrmse over the noise floor (both means over the parts).
+    data_ratio : float, optional
+        The same over the floor of the data (what ``none`` is judged and printed against); the
+        small-amplitude signature (:mod:`eddi.diagnosis.smallamp`) applies above it (``ratio`` when
+        not given).
     symptoms : sequence of Symptom
         The baseline's symptoms and the chain's findings.
 
@@ -105,11 +109,12 @@ def earn(dec: Decision, ratio: float, symptoms: Sequence[Symptom]) -> Decision:
             return Decision("unexplained", None, dec.partial or dec.helpful, dec.within_floor,
                             f"the baseline is {ratio:.1f}x the noise floor (within the factor) and "
                             + "; ".join(s.text for s in band))
-        sig = amplitude_signature(symptoms)
-        if sig is not None:  # the loss law wrong in amplitude in every part (session 19, eddi.diagnosis.smallamp)
-            return Decision("unexplained", None, dec.partial or dec.helpful, dec.within_floor,
-                            f"the baseline is {ratio:.1f}x the noise floor (within the factor, where nulls land "
-                            f"too, so the ratio alone cannot tell) and {signature_text(sig)}")
+    above = ratio if data_ratio is None else data_ratio
+    sig = amplitude_signature(symptoms) if dec.cause == "none" and above > 1.0 else None
+    if sig is not None:  # the loss law wrong in amplitude in every part (session 19, eddi.diagnosis.smallamp)
+        return Decision("unexplained", None, dec.partial or dec.helpful, dec.within_floor,
+                        f"the baseline is {above:.1f}x the noise floor (within the factor, where nulls land too, "
+                        f"so the ratio alone cannot tell) and {signature_text(sig)}")
     return dec
 
 
