@@ -168,7 +168,7 @@ def summary(path: str) -> None:
               f"{sum(x[2] for x in v)}; verdicts " + ", ".join(f"{c} {sum(x[3] == c for x in v)}"
                                                              for c in sorted({x[3] for x in v})))
     for r in rows:
-        if "family" not in r:
+        if "strength" not in r:
             continue
         if "error" in r:
             print(f"{r['family']:9s} {r['seed']:4d} ERROR {r['error'][:80]}")

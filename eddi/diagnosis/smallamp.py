@@ -34,9 +34,9 @@ from eddi.diagnosis.results import Symptom
 
 #: Each held-out part's small-amplitude energy mismatch, and its small-less-large difference, must be
 #: beyond this many of their standard errors, all of one sign (module notes).
-PART_Z = 1.0
+PART_Z = 2.0
 #: And over the parts together (the sum of the parts' ``z`` over the root of their number) beyond this.
-POOLED_Z = 4.0
+POOLED_Z = 5.0
 #: The median small-amplitude mismatch must be at least this [%] (module notes).
 MIN_PCT = 5.0
 #: Held-out parts that must give a figure (all of them, and at least this many).

@@ -46,10 +46,10 @@ def test_signature_needs_every_part_one_sign_beyond_its_errors() -> None:
     # one part within its errors
     assert amplitude_signature([_energy(z=(-9.0, -0.99 * PART_Z), zsum=-15.0)]) is None
     # every part one sign, but together short of POOLED_Z
-    assert amplitude_signature([_energy(z=(-2.0, -1.5), zsum=-0.99 * POOLED_Z * 3 ** 0.5)]) is None
+    assert amplitude_signature([_energy(z=(-3.0, -2.0), zsum=-0.99 * POOLED_Z * 3 ** 0.5)]) is None
     # the shape (small less large) within its errors: a damping coefficient set off, both bands moved
     assert amplitude_signature([_energy(dz=(-9.0, 0.5), dzsum=-12.0)]) is None
-    assert amplitude_signature([_energy(dz=(-2.0, -1.5), dzsum=-6.0)]) is None
+    assert amplitude_signature([_energy(dz=(-3.0, -2.0), dzsum=-8.0)]) is None
     # a part without a figure, or a single part
     s = _energy()
     s.values["low_parts"] = 2.0
