@@ -132,7 +132,9 @@ def case(args: tuple[int, str]) -> dict:
 
 
 def _energy(r: dict) -> dict:
-    return next((v for k, v, _n in r.get("symptoms", []) if k == "energy_mismatch"), {})
+    """The row's energy-mismatch values as floats (JSON keeps infinities as text)."""
+    e = next((v for k, v, _n in r.get("symptoms", []) if k == "energy_mismatch"), {})
+    return {k: float(v) for k, v in e.items()}
 
 
 def signature(r: dict) -> bool:
