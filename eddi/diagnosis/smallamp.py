@@ -81,7 +81,7 @@ def signature_text(s: Symptom) -> str:
     return (f"at small amplitude the measured decay loses energy {'faster' if el < 0 else 'slower'} than the model "
             f"in every held-out part (the model loses {abs(el):.0f} % {'less' if el < 0 else 'more'} per cycle, "
             f"+-{v.get('low_amplitude_se_pct', math.nan):.2g} %{large}; every part beyond {PART_Z:g} of its standard "
-            f"errors, all of one sign, {pooled:.1f} of them together, and the small-less-large difference too): the "
+            f"errors and of one sign, {pooled:.0f} pooled over the parts, and the small-less-large difference too): the "
             f"model's loss law in amplitude is not the records' ({'more' if el < 0 else 'less'} loss where the "
             "motion is small: dry friction, a joint or contact, radiation, or the measurement chain), a departure "
             "the noise does not make")
