@@ -43,8 +43,10 @@ is a systematic error of the model, and ``none`` would say the model is complete
 measurably is not. ``residual_peak`` counts only as a motion below the main frequency, at the
 same frequency in every held-out part (``lower_motion``, session 18): where the error has its power is
 notable on almost every null (171 of 180: the noise's own peak), it says where, not how much;
-nor is the energy per cycle (:func:`_band_notable`: noise-bound on lightly damped records). At or below the floor, ``none`` stands (the model reproduces the records as
-well as the noise lets one tell).
+nor is the energy per cycle (:func:`_band_notable`: noise-bound on lightly damped records), except
+as a loss law wrong in amplitude in every held-out part, each beyond its own standard errors
+(:func:`eddi.diagnosis.smallamp.amplitude_signature`, session 19). At or below the floor, ``none``
+stands (the model reproduces the records as well as the noise lets one tell).
 """
 
 from __future__ import annotations
@@ -53,6 +55,7 @@ from typing import Sequence
 
 from eddi.diagnosis.name import Decision
 from eddi.diagnosis.results import Symptom
+from eddi.diagnosis.smallamp import amplitude_signature, signature_text
 from eddi.diagnosis.symptoms import notable
 
 #: Measurement-chain findings that forbid ``none`` and a name (module notes).
@@ -66,7 +69,7 @@ CHAIN_REASON = "the measurement chain cannot be trusted"
 BAND_KINDS: tuple[str, ...] = ("frequency_bias", "low_frequency_drift", "growth", "residual_peak")
 
 
-def earn(dec: Decision, ratio: float, symptoms: Sequence[Symptom]) -> Decision:
+def earn(dec: Decision, ratio: float, symptoms: Sequence[Symptom], data_ratio: float | None = None) -> Decision:
     """The verdict once the measurement chain and the symptoms have been heard.
 
     Parameters
@@ -75,6 +78,10 @@ def earn(dec: Decision, ratio: float, symptoms: Sequence[Symptom]) -> Decision:
         :func:`eddi.diagnosis.name.decide`'s verdict.
     ratio : float
         The baseline's held-out nrmse over the noise floor (both means over the parts).
+    data_ratio : float, optional
+        The same over the floor of the data (what ``none`` is judged and printed against); the
+        small-amplitude signature (:mod:`eddi.diagnosis.smallamp`) applies above it (``ratio`` when
+        not given).
     symptoms : sequence of Symptom
         The baseline's symptoms and the chain's findings.
 
@@ -102,6 +109,12 @@ def earn(dec: Decision, ratio: float, symptoms: Sequence[Symptom]) -> Decision:
             return Decision("unexplained", None, dec.partial or dec.helpful, dec.within_floor,
                             f"the baseline is {ratio:.1f}x the noise floor (within the factor) and "
                             + "; ".join(s.text for s in band))
+    above = ratio if data_ratio is None else data_ratio
+    sig = amplitude_signature(symptoms) if dec.cause == "none" and above > 1.0 else None
+    if sig is not None:  # the loss law wrong in amplitude in every part (session 19, eddi.diagnosis.smallamp)
+        return Decision("unexplained", None, dec.partial or dec.helpful, dec.within_floor,
+                        f"the baseline is {above:.1f}x the noise floor (within the factor, where nulls land too, "
+                        f"so the ratio alone cannot tell) and {signature_text(sig)}")
     return dec
 
 

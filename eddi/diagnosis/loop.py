@@ -22,7 +22,7 @@ from typing import Sequence
 import numpy as np
 
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
-from eddi.diagnosis import chainfix
+from eddi.diagnosis import chainfix, smallamp
 from eddi.diagnosis.align import NAME as LAG_NAME
 from eddi.diagnosis.lowpass import NAME as LOWPASS_NAME
 from eddi.diagnosis.chain import inspect, measured_frequency
@@ -350,9 +350,14 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     margin, none_factor, named_factor, strong_margin = rules
     records, res, baseline, floor = sh.records, sh.res, sh.baseline, sh.floor
     f1 = _frequency(sh.bfit_all.eom)
+    departs = _pipeline_check(pipeline, sh, none_factor)
     dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor, strong_margin=strong_margin,
-                 eddi_fold=res.ref_fold, departs=_pipeline_check(pipeline, sh, none_factor))
+                 eddi_fold=res.ref_fold, departs=departs)
     dec = chainfix.named(dec, candidates, res.base_fold, floor, rules, res.ref_fold)
+    # a loss law wrong in amplitude in every part: no `none` allowance for the names (session 19)
+    dec = smallamp.named(dec, symptoms, baseline.nrmse / floor.data_nrmse if floor.data_nrmse > 0 else math.inf,
+                         lambda: decide(candidates, res.base_fold, floor, margin, 0.0, named_factor,
+                                        strong_margin=strong_margin, eddi_fold=res.ref_fold, departs=departs))
     if dec.winner is not None and dec.winner.form != "observed" and dec.winner.name in res.cand_sims:
         natives = {m.name: m.native for m in catalogue()}
         dec = stiffness_over_damping(dec, symptoms, natives.get(dec.winner.name, ""), records, sh.parts,
@@ -367,7 +372,8 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     # of the data (decide), which says `none (uncertain)` there with the symptoms
     lag_ok = chainfix.immaterial(dec, candidates, floor, none_factor)
     dec = earn(dec, baseline.nrmse / floor.nrmse if floor.nrmse > 0 else math.inf,
-               [s for s in symptoms if not chainfix.lifts(dec, s, lag_ok is not None)])
+               [s for s in symptoms if not chainfix.lifts(dec, s, lag_ok is not None)],
+               baseline.nrmse / floor.data_nrmse if floor.data_nrmse > 0 else math.inf)
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
     verdict += reported_text(symptoms)

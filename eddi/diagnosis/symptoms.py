@@ -259,7 +259,8 @@ def baseline_symptoms(records: Sequence[Record], parts: Sequence[Part], sims: Se
     if np.isfinite(eh) or np.isfinite(el):
         out.append(Symptom("energy_mismatch", _energy_words(eh, seh, el, sel_),
                            {"high_amplitude_pct": eh, "low_amplitude_pct": el,
-                            "high_amplitude_se_pct": seh, "low_amplitude_se_pct": sel_}))
+                            "high_amplitude_se_pct": seh, "low_amplitude_se_pct": sel_,
+                            **part_energy_z(rows)}))
     fr, ratio, f1 = med("residual_peak_hz"), med("residual_peak_ratio"), med("main_frequency_hz")
     if np.isfinite(fr):
         where = ("at the main frequency (a frequency or decay-rate error)" if abs(ratio - 1) < 0.05
@@ -285,6 +286,25 @@ def baseline_symptoms(records: Sequence[Record], parts: Sequence[Part], sims: Se
             words += " (it decays too slowly or grows)"
         out.append(Symptom("growth", words, {"ratio": g}))
     return out
+
+
+def part_energy_z(rows: Sequence[dict[str, float]]) -> dict[str, float]:
+    """Per held-out part, the small-amplitude energy mismatch in its own standard errors (``z``) and
+    the small-less-large difference in its standard errors (``shape z``): the least, the largest and
+    the sum over the parts and how many parts gave one (the median over parts hides whether every part
+    says the same; :mod:`eddi.diagnosis.smallamp`)."""
+    z, dz = [], []
+    for row in rows:
+        el, sl = row.get("energy_mismatch_low_pct", np.nan), row.get("energy_mismatch_low_se_pct", np.nan)
+        eh, sh = row.get("energy_mismatch_high_pct", np.nan), row.get("energy_mismatch_high_se_pct", np.nan)
+        if np.isfinite(el) and np.isfinite(sl) and sl > 0:
+            z.append(el / sl)
+            if np.isfinite(eh) and np.isfinite(sh):
+                dz.append((el - eh) / float(np.hypot(sl, sh)))
+    nan = float("nan")
+    return {"low_parts": float(len(z)), "low_z_min": min(z, default=nan), "low_z_max": max(z, default=nan),
+            "low_z_sum": float(sum(z)), "shape_parts": float(len(dz)), "shape_z_min": min(dz, default=nan),
+            "shape_z_max": max(dz, default=nan), "shape_z_sum": float(sum(dz)), "parts": float(len(rows))}
 
 
 #: The band of residual-peak ratios (to the main frequency) read as a motion below the main mode
