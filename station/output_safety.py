@@ -11,6 +11,10 @@ Every option that names a file or folder to write (``export --uff/--sep005``, ``
 - a file output whose folder does not exist.
 
 Replacing a file of the same kind (re-exporting a UFF file) is allowed: that is what was asked.
+JSON files are told apart by their first bytes: a station model (``--save-model``: an object
+with ``schema_version``), a SEP-005 export (``--sep005``: a list of channel objects with
+``data``) and any other JSON; ``export --sep005`` onto a saved model (or ``--save-model`` onto
+an export) is refused (session 19: it replaced the model).
 """
 
 from __future__ import annotations
@@ -26,6 +30,8 @@ KINDS = {
     "hdf5": "an HDF5 file",
     "uff": "a UFF file",
     "json": "a JSON file",
+    "model": "a station model file (JSON)",
+    "sep005": "a SEP-005 JSON file",
     "csv": "a CSV file",
     "html": "an HTML file",
     "png": "a PNG image",
@@ -55,7 +61,7 @@ def sniff(path: Path) -> str | None:
         return "png"
     text = head.lstrip()
     if text[:1] in (b"{", b"["):
-        return "json"
+        return _json_kind(text)
     if text.startswith(b"-1") and head[:6].strip() == b"-1":
         return "uff"
     low = text[:64].lower()
@@ -65,6 +71,18 @@ def sniff(path: Path) -> str | None:
     if b"," in first and first.replace(b",", b"").replace(b"_", b"").strip().isalnum():
         return "csv"
     return None
+
+
+def _json_kind(text: bytes) -> str:
+    """``"model"`` (a station model: an object whose first key is ``schema_version`` or
+    ``kind``, as :meth:`EquationOfMotion.to_dict` and the modal-sum model write),
+    ``"sep005"`` (a list of objects, as ``station export --sep005`` writes) or ``"json"``."""
+    body = text[1:].lstrip()
+    if text[:1] == b"{" and (body.startswith(b'"schema_version"') or body.startswith(b'"kind"')):
+        return "model"
+    if text[:1] == b"[" and body.startswith(b"{") and b'"data"' in text:
+        return "sep005"
+    return "json"
 
 
 def _file_of(spec: str | os.PathLike[str]) -> Path:

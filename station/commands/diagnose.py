@@ -224,7 +224,7 @@ def handle(args: argparse.Namespace) -> int:
 
     inputs = [*args.captures, *([args.model] if args.model else [])]
     if args.save_model:
-        check_output(args.save_model, "json", inputs, option="--save-model")
+        check_output(args.save_model, "model", inputs, option="--save-model")
     if args.report:
         check_output(args.report, "dir", inputs, option="--report")
     if _multichannel(list(args.captures)):
