@@ -24,7 +24,6 @@ import math
 import sys
 import time
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -37,6 +36,7 @@ from eddi.mdof.model import MdofModel
 from eddi.mdof.validate import validate_mdof
 from eddi.mdof.verdict import held_out_gain
 from station.errors import InputFileError
+from station.output_safety import write_text_atomic
 from station.mdof_data import condition_all, driving_point_how, reduce_rate
 from station.mdof_fitcheck import fit_warnings
 from station.mdof_floor import add_floors, mode_lines, modes_judged
@@ -204,7 +204,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     obj["warnings"] += check_driving_point(final.modes, records, names, dp,
                                            driving_point_how(raw[0], driving_point))
     if save_model:
-        Path(save_model).write_text(model.to_json() + "\n")
+        write_text_atomic(save_model, model.to_json() + "\n")
         obj["saved_model"] = save_model
     return obj
 

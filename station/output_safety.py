@@ -155,4 +155,31 @@ def check_output(out: str | os.PathLike[str], kind: str, inputs: Iterable[str | 
     return p
 
 
-__all__ = ["KINDS", "OutputRefused", "check_output", "sniff"]
+def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
+    """Write ``text`` to ``path`` whole or not at all: into a temporary file beside it, then
+    renamed over it. A full disk, a file-size limit or Ctrl-C while writing leaves the file that
+    was there (a model saved before) as it was, and no temporary file (``--save-model`` onto an
+    existing model truncated it first and then failed, session 19).
+
+    Raises
+    ------
+    OSError
+        Naming ``path`` (not the temporary file).
+    """
+    dest = Path(path)
+    tmp = dest.with_name(f".{dest.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, dest)
+    except BaseException as exc:
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:  # a read-only folder refuses even this
+            pass
+        if isinstance(exc, OSError):
+            raise OSError(exc.errno, exc.strerror or str(exc), str(dest)) from None
+        raise
+
+
+__all__ = ["KINDS", "OutputRefused", "check_output", "sniff", "write_text_atomic"]
