@@ -8,7 +8,8 @@ Every option that names a file or folder to write (``export --uff/--sep005``, ``
   link);
 - an existing file of another kind (an HDF5 session file where a UFF, JSON or report is to be
   written, a folder where a file is to be written, ...), recognised by its first bytes;
-- a file output whose folder does not exist.
+- a file output whose folder does not exist, or cannot be written (a read-only mount), before any
+  work is done.
 
 Replacing a file of the same kind (re-exporting a UFF file) is allowed: that is what was asked.
 JSON files are told apart by their first bytes: a station model (``--save-model``: an object
@@ -147,6 +148,11 @@ def check_output(out: str | os.PathLike[str], kind: str, inputs: Iterable[str | 
         raise OutputRefused(f"{option} {p}: the folder {p.parent} does not exist; create it first")
     elif kind == "dir" and p.parent != p and not p.parent.is_dir():
         raise OutputRefused(f"{option} {p}: the folder {p.parent} does not exist; create it first")
+    if not append:  # refused now, not after the work (a diagnosis took 37 s to fail on a read-only folder)
+        folder = p if kind == "dir" and p.is_dir() else p.parent
+        if folder.is_dir() and not os.access(folder, os.W_OK):
+            raise OutputRefused(f"{option} {p}: the folder {folder} cannot be written (read-only or not "
+                                f"permitted); choose another folder")
     if append and p.exists():
         if found is None:  # created since the first look (another writer): look again
             found = sniff(p)

@@ -66,3 +66,37 @@ def test_json_outputs_are_told_apart(tmp_path: Path) -> None:
     assert {n: sniff(tmp_path / n) for n in cases} == {"model.json": "model", "modal.json": "model",
                                                        "sep.json": "sep005", "other.json": "json",
                                                        "list.json": "json"}
+
+
+@pytest.fixture
+def read_only_folder(tmp_path: Path) -> Path:
+    d = tmp_path / "ro"
+    d.mkdir()
+    d.chmod(0o500)
+    if os.access(d, os.W_OK):  # root: permissions do not bind, a read-only mount does
+        r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k,ro", "tmpfs", str(d)], capture_output=True)
+        if r.returncode != 0:
+            pytest.skip("no read-only folder can be made here (root without mount)")
+        yield d
+        subprocess.run(["umount", str(d)], capture_output=True)
+        return
+    yield d
+    d.chmod(0o700)
+
+
+def test_an_output_in_a_read_only_folder_is_refused_before_the_work(read_only_folder: Path,
+                                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    # diagnose --save-model / --report on a read-only folder failed only after the whole diagnosis
+    # (37 s at load 18); now at once, as a missing folder is
+    from station.cli import main
+    from tests.station.test_demo import demo_run
+
+    demo, _ = demo_run()
+    cap = f"{demo / 'session.h5'}:1"
+    for argv in (["diagnose", cap, "--save-model", str(read_only_folder / "m.json")],
+                 ["diagnose", cap, "--report", str(read_only_folder / "rep")],
+                 ["report", cap, "--out", str(read_only_folder / "rep")],
+                 ["export", cap, "--sep005", str(read_only_folder / "s.json")]):
+        assert main(argv) == 2
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert len(lines) == 1 and "cannot be written (read-only or not permitted)" in lines[0], (argv, lines)
