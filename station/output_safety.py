@@ -173,6 +173,8 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
         Naming ``path`` (not the temporary file).
     """
     dest = Path(path)
+    if dest.is_symlink():  # written through the link, as an in-place write was (the link stays)
+        dest = dest.resolve()
     tmp = dest.with_name(f".{dest.name}.{os.getpid()}.tmp")
     try:
         with open(tmp, "w", encoding="utf-8") as fh:

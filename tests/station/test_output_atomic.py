@@ -100,3 +100,12 @@ def test_an_output_in_a_read_only_folder_is_refused_before_the_work(read_only_fo
         assert main(argv) == 2
         lines = capsys.readouterr().err.strip().splitlines()
         assert len(lines) == 1 and "cannot be written (read-only or not permitted)" in lines[0], (argv, lines)
+
+
+def test_a_model_behind_a_symbolic_link_is_written_through_it(tmp_path: Path) -> None:
+    (tmp_path / "models").mkdir()
+    target = tmp_path / "models" / "v3.json"
+    target.write_text(OLD)
+    (tmp_path / "m.json").symlink_to(target)
+    write_text_atomic(tmp_path / "m.json", '{"schema_version": 1}')
+    assert (tmp_path / "m.json").is_symlink() and target.read_text() == '{"schema_version": 1}'
