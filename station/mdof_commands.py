@@ -36,7 +36,6 @@ from eddi.mdof.model import MdofModel
 from eddi.mdof.validate import validate_mdof
 from eddi.mdof.verdict import held_out_gain
 from station.errors import InputFileError
-from station.output_safety import write_text_atomic
 from station.mdof_data import condition_all, driving_point_how, reduce_rate
 from station.mdof_fitcheck import fit_warnings
 from station.mdof_floor import add_floors, mode_lines, modes_judged
@@ -44,6 +43,7 @@ from station.mdof_folds import PROGRESS_S, _final_baseline, _held_out_folds, non
 from station.mdof_mechanism import add_mechanisms, mechanism_lines
 from station.mdof_polish import polish_tag
 from station.mdof_verdict import coupling_short, prediction_floor
+from station.output_safety import write_text_atomic
 
 
 def _read(specs: Sequence[str]):

@@ -8,7 +8,6 @@ applies to its model).
 
 from __future__ import annotations
 
-
 from eddi.diagnosis.results import Diagnosis
 from eddi.diagnosis.settings import NRMSE_CAP
 from eddi.model import EquationOfMotion
