@@ -73,6 +73,9 @@ def test_one_capture_read_every_way_gives_the_same_model(tmp_path: Path) -> None
         path = tmp_path / f"c{k}.csv"
         np.savetxt(path, np.column_stack(cols), delimiter=",", header=header, comments="", fmt="%.17g")
         assert _answer(_json(["identify", str(path), "--mass", str(MASS)])) == _answer(ref), header
+    bom = tmp_path / "bom.csv"  # Excel's "CSV UTF-8" opens with a byte-order mark: "unknown column '\ufefft'" before
+    bom.write_bytes(b"\xef\xbb\xbf" + (tmp_path / "c0.csv").read_bytes().replace(b"\n", b"\r\n"))
+    assert _answer(_json(["identify", str(bom), "--mass", str(MASS)])) == _answer(ref)
     tsv = tmp_path / "c.tsv"
     np.savetxt(tsv, np.column_stack((t, f, a)), delimiter="\t", header="t\tforce\tacc", comments="", fmt="%.17g")
     assert _answer(_json(["identify", str(tsv), "--mass", str(MASS)])) == _answer(ref)
