@@ -92,6 +92,43 @@ def bad_files(d: Path, fx: dict[str, Path]) -> dict[str, Path]:
     acc = np.where(np.arange(m1.t.size) == 900, np.nan, m1.channels["acc"])
     scipy.io.savemat(d / "mat_nan.mat", {"t": m1.t, "force": m1.channels["force"], "acc": acc})
     files["mat_nan"] = d / "mat_nan.mat"
+    files.update(_session19_files(d, fx))
+    return files
+
+
+def _session19_files(d: Path, fx: dict[str, Path]) -> dict[str, Path]:
+    """Session 19's additions: a session of float channels (``station import``) holding a NaN, an
+    inf or 1e300 with its checksum redone (only the value check can catch it), a capture whose
+    force channel is gone, a valid HDF5 file that is not a session, UTF-16 and BOM-only CSVs."""
+    import h5py
+
+    files: dict[str, Path] = {}
+    imp = d / "imported.h5"
+    assert main(["import", str(fx["csv"]), "--out", str(imp), "--mass", "0.815"]) == 0
+    for name, value in (("h5f_nan", np.nan), ("h5f_inf", np.inf), ("h5f_huge", 1e300)):
+        q = d / f"{name}.h5"
+        shutil.copy(imp, q)
+        with h5py.File(q, "a") as f:
+            ds = f["captures/0000/channels/acc"]
+            a = ds[...]
+            a[5000] = value
+            ds[...] = a
+            ds.attrs["sha256"] = hashlib.sha256(np.ascontiguousarray(a).tobytes()).hexdigest()
+        files[name] = q
+    q = d / "h5_no_force.h5"
+    shutil.copy(fx["demo"], q)
+    with h5py.File(q, "a") as f:
+        for k in f["captures"]:
+            del f[f"captures/{k}/channels/force"]
+    files["h5_no_force"] = q
+    with h5py.File(d / "h5_plain.h5", "w"):
+        pass
+    files["h5_plain"] = d / "h5_plain.h5"
+    (d / "utf16.csv").write_bytes(fx["csv"].read_text()[:20000].encode("utf-16"))
+    files["csv_utf16"] = d / "utf16.csv"
+    (d / "bom_only.csv").write_bytes(b"\xef\xbb\xbf")
+    files["csv_bom_only"] = d / "bom_only.csv"
+    imp.unlink()
     return files
 
 
@@ -185,6 +222,34 @@ class Env:
             print("    " + err[-1500:].replace("\n", "\n    "), flush=True)
 
 
+def _session19_env(e: Env, work: Path, S: Path, M: Path, inputs: tuple[Path, ...], tiny: Path | None) -> None:
+    """Session 19's additions: a saved model not replaced by an export; a model re-saved onto a
+    full disk kept whole; a diverging --model flagged (exit 1) in one line; Ctrl-C on identify of
+    a CSV and on diagnose --save-model."""
+    (work / "kept.json").write_bytes(M.read_bytes())
+    e.run("existing: export --sep005 onto a saved model", ["export", S, "--sep005", work / "kept.json"],
+          keep=(work / "kept.json",))
+    (work / "diverging.json").write_text(json.dumps({"schema_version": 1, "mass": 0.815, "damping": {"v": 0.2},
+                                                     "stiffness": {"x": 1e300}}))
+    e.run("diverging --model: diagnose (flagged, exit 1)", ["diagnose", f"{S}:0", "--model", work / "diverging.json",
+                                                           "--mechanisms", "coulomb_friction"], expect=(1,),
+          keep=inputs)
+    if tiny is not None:
+        fill(tiny, 8)
+        (tiny / "m.json").write_text(json.dumps({"schema_version": 1, "mass": 0.815, "damping": {"v": 0.2},
+                                                 "stiffness": {"x": 390.0}}))  # a saved model, then the disk is full
+        (tiny / "pad2").write_bytes(b"\0" * max(0, shutil.disk_usage(tiny).free - 1024))
+        before = (tiny / "m.json").read_bytes()
+        e.run("full disk: diagnose --save-model over a saved model", ["diagnose", f"{S}:1", "--save-model",
+                                                                       tiny / "m.json"], keep=(tiny / "m.json",))
+        if (tiny / "m.json").read_bytes() != before:
+            print("    the model saved before was changed", flush=True)
+    e.run("Ctrl-C: identify a CSV", ["identify", work / "cap1.csv", "--mass", "0.815"], sigint_once=2.5,
+          expect=(130, 0), keep=inputs)
+    e.run("Ctrl-C: diagnose --save-model", ["diagnose", S, "--save-model", work / "int.json"], sigint_once=6.0,
+          expect=(130, 0), keep=inputs)
+
+
 def full_folder(base: Path) -> Path | None:
     """A 300 kB tmpfs (needs root), or None."""
     d = base / "tiny"
@@ -250,6 +315,7 @@ def sweep_env(out: Path, fx: dict[str, Path], only: str) -> tuple[int, int]:
                                ("diagnose --save-model", ["diagnose", f"{S}:1", "--save-model", ro / "m.json"]),
                                ("diagnose --report", ["diagnose", f"{S}:1", "--report", ro / "drep"])]:
                 e.run(f"read-only folder: {name}", argv, keep=inputs)
+        _session19_env(e, work, S, M, inputs, tiny)
         e.run("onto input: diagnose --save-model = --model", ["diagnose", f"{S}:1", "--model", M, "--save-model", M],
               keep=inputs)
         e.run("onto input: diagnose --report = capture", ["diagnose", f"{S}:1", "--report", S], keep=inputs)

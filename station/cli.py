@@ -232,7 +232,7 @@ def main(argv: Sequence[str] | None = None, whole_process: bool = False) -> int:
 
             load_quietly(QUICK_EXIT[args.command])
         quiet = bool(getattr(args, "json", False)) or args.command in OWN_PROGRESS
-        with Working(f"station {args.command}", enabled=not quiet):
+        with Working(f"station {args.command}", enabled=not quiet), _quiet_numeric_warnings():
             code = int(args.func(args) or 0)
         if quick and not any(getattr(args, name, None) for name in QUICK_EXIT_UNLESS):
             from station.process import end_now
@@ -256,6 +256,24 @@ def main(argv: Sequence[str] | None = None, whole_process: bool = False) -> int:
             print(f"station: error: {what}{where}", file=sys.stderr)
             return EXIT_USER_ERROR
         return _internal_error(args.command, exc)
+
+
+class _quiet_numeric_warnings:
+    """numpy's ``RuntimeWarning`` (an overflow in a trial simulation of a diverging model, a mean
+    of an empty slice...) kept off stderr while a command runs: it printed two lines of its own
+    under the command's one (``station diagnose --model`` with a diverging model, session 19);
+    the results carry their own warnings. ``STATION_DEBUG=1`` lets them through."""
+
+    def __enter__(self) -> None:
+        import warnings
+
+        self._saved = warnings.catch_warnings()
+        self._saved.__enter__()
+        if os.environ.get("STATION_DEBUG", "") in ("", "0"):
+            warnings.simplefilter("ignore", RuntimeWarning)
+
+    def __exit__(self, *exc: object) -> None:
+        self._saved.__exit__(*exc)
 
 
 def _internal_error(command: str, exc: Exception) -> int:

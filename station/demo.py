@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
 from station.errors import ConfigError, StationError
+from station.output_safety import write_text_atomic
 
 if TYPE_CHECKING:  # imported when used: `station demo --help` stays light; the engine and
     # the report are imported while the rig powers on (warm_up_engine)
@@ -238,7 +239,7 @@ def run_demo(
                           refine=refine)
     model_file = out / "model.json"
     try:
-        model_file.write_text(session.fit.model.eom.to_json(), encoding="utf-8")
+        write_text_atomic(model_file, session.fit.model.eom.to_json())
     except OSError as exc:
         raise StorageError(f"{model_file}: cannot write ({exc.strerror or exc})") from None
     elapsed["identify_validate"] = time.perf_counter() - t1

@@ -24,7 +24,6 @@ import math
 import sys
 import time
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -44,6 +43,7 @@ from station.mdof_folds import PROGRESS_S, _final_baseline, _held_out_folds, non
 from station.mdof_mechanism import add_mechanisms, mechanism_lines
 from station.mdof_polish import polish_tag
 from station.mdof_verdict import coupling_short, prediction_floor
+from station.output_safety import write_text_atomic
 
 
 def _read(specs: Sequence[str]):
@@ -204,7 +204,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     obj["warnings"] += check_driving_point(final.modes, records, names, dp,
                                            driving_point_how(raw[0], driving_point))
     if save_model:
-        Path(save_model).write_text(model.to_json() + "\n")
+        write_text_atomic(save_model, model.to_json() + "\n")
         obj["saved_model"] = save_model
     return obj
 

@@ -8,9 +8,14 @@ Every option that names a file or folder to write (``export --uff/--sep005``, ``
   link);
 - an existing file of another kind (an HDF5 session file where a UFF, JSON or report is to be
   written, a folder where a file is to be written, ...), recognised by its first bytes;
-- a file output whose folder does not exist.
+- a file output whose folder does not exist, or cannot be written (a read-only mount), before any
+  work is done.
 
 Replacing a file of the same kind (re-exporting a UFF file) is allowed: that is what was asked.
+JSON files are told apart by their first bytes: a station model (``--save-model``: an object
+with ``schema_version``), a SEP-005 export (``--sep005``: a list of channel objects with
+``data``) and any other JSON; ``export --sep005`` onto a saved model (or ``--save-model`` onto
+an export) is refused (session 19: it replaced the model).
 """
 
 from __future__ import annotations
@@ -26,6 +31,8 @@ KINDS = {
     "hdf5": "an HDF5 file",
     "uff": "a UFF file",
     "json": "a JSON file",
+    "model": "a station model file (JSON)",
+    "sep005": "a SEP-005 JSON file",
     "csv": "a CSV file",
     "html": "an HTML file",
     "png": "a PNG image",
@@ -55,7 +62,7 @@ def sniff(path: Path) -> str | None:
         return "png"
     text = head.lstrip()
     if text[:1] in (b"{", b"["):
-        return "json"
+        return _json_kind(text)
     if text.startswith(b"-1") and head[:6].strip() == b"-1":
         return "uff"
     low = text[:64].lower()
@@ -65,6 +72,18 @@ def sniff(path: Path) -> str | None:
     if b"," in first and first.replace(b",", b"").replace(b"_", b"").strip().isalnum():
         return "csv"
     return None
+
+
+def _json_kind(text: bytes) -> str:
+    """``"model"`` (a station model: an object whose first key is ``schema_version`` or
+    ``kind``, as :meth:`EquationOfMotion.to_dict` and the modal-sum model write),
+    ``"sep005"`` (a list of objects, as ``station export --sep005`` writes) or ``"json"``."""
+    body = text[1:].lstrip()
+    if text[:1] == b"{" and (body.startswith(b'"schema_version"') or body.startswith(b'"kind"')):
+        return "model"
+    if text[:1] == b"[" and body.startswith(b"{") and b'"data"' in text:
+        return "sep005"
+    return "json"
 
 
 def _file_of(spec: str | os.PathLike[str]) -> Path:
@@ -129,6 +148,11 @@ def check_output(out: str | os.PathLike[str], kind: str, inputs: Iterable[str | 
         raise OutputRefused(f"{option} {p}: the folder {p.parent} does not exist; create it first")
     elif kind == "dir" and p.parent != p and not p.parent.is_dir():
         raise OutputRefused(f"{option} {p}: the folder {p.parent} does not exist; create it first")
+    if not append:  # refused now, not after the work (a diagnosis took 37 s to fail on a read-only folder)
+        folder = p if kind == "dir" and p.is_dir() else p.parent
+        if folder.is_dir() and not os.access(folder, os.W_OK):
+            raise OutputRefused(f"{option} {p}: the folder {folder} cannot be written (read-only or not "
+                                f"permitted); choose another folder")
     if append and p.exists():
         if found is None:  # created since the first look (another writer): look again
             found = sniff(p)
@@ -137,4 +161,33 @@ def check_output(out: str | os.PathLike[str], kind: str, inputs: Iterable[str | 
     return p
 
 
-__all__ = ["KINDS", "OutputRefused", "check_output", "sniff"]
+def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
+    """Write ``text`` to ``path`` whole or not at all: into a temporary file beside it, then
+    renamed over it. A full disk, a file-size limit or Ctrl-C while writing leaves the file that
+    was there (a model saved before) as it was, and no temporary file (``--save-model`` onto an
+    existing model truncated it first and then failed, session 19).
+
+    Raises
+    ------
+    OSError
+        Naming ``path`` (not the temporary file).
+    """
+    dest = Path(path)
+    if dest.is_symlink():  # written through the link, as an in-place write was (the link stays)
+        dest = dest.resolve()
+    tmp = dest.with_name(f".{dest.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, dest)
+    except BaseException as exc:
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:  # a read-only folder refuses even this
+            pass
+        if isinstance(exc, OSError):
+            raise OSError(exc.errno, exc.strerror or str(exc), str(dest)) from None
+        raise
+
+
+__all__ = ["KINDS", "OutputRefused", "check_output", "sniff", "write_text_atomic"]

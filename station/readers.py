@@ -196,7 +196,7 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
     if capture is not None:
         raise InputFileError(f"{path}: a CSV file holds one record; got capture {capture!r}")
     try:
-        with open(path, encoding="utf-8") as fh:
+        with open(path, encoding="utf-8-sig") as fh:
             head = [fh.readline() for _ in range(HEADER_LINES)]
         hdr = parse_header(head, str(path))
         names = list(hdr.names)
@@ -208,9 +208,9 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
                 warnings.simplefilter("ignore", UserWarning)
                 source: Any = path
                 if hdr.decimal_comma:  # rare: a spreadsheet export; one copy of the text
-                    source = io.StringIO(path.read_text(encoding="utf-8").replace(",", "."))
+                    source = io.StringIO(path.read_text(encoding="utf-8-sig").replace(",", "."))
                 data = np.loadtxt(source, delimiter=hdr.delimiter, ndmin=2, dtype=float, skiprows=hdr.skiprows,
-                                  encoding="utf-8", quotechar='"', usecols=hdr.usecols if hdr.ignored else None)
+                                  encoding="utf-8-sig", quotechar='"', usecols=hdr.usecols if hdr.ignored else None)
         except ValueError as exc:
             raise InputFileError(f"{path}: {_row_problem(path, len(hdr.cells), exc, hdr)}") from None
     except UnicodeDecodeError:
@@ -512,7 +512,7 @@ def _check_header(path: Path, names: list[str], ignored: Sequence[str] = ()) -> 
 
 def _row_problem(path: Path, n_cols: int, exc: ValueError, hdr: Header) -> str:
     """Find the first bad data row (slow path, only on error)."""
-    with open(path, encoding="utf-8") as fh:
+    with open(path, encoding="utf-8-sig") as fh:
         for _ in range(hdr.skiprows):
             fh.readline()
         for line_no, line in enumerate(fh, start=hdr.skiprows + 1):

@@ -26,6 +26,7 @@ from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
 from station.argtypes import damping_terms, finite_positive, fraction, stiffness_terms
 from station.errors import InputFileError, StationError
 from station.output import emit
+from station.output_safety import write_text_atomic
 
 if TYPE_CHECKING:  # the engine is imported when captures are diagnosed, not for --help
     from eddi.diagnosis import Diagnosis, PipelineBaseline, Record
@@ -224,7 +225,7 @@ def handle(args: argparse.Namespace) -> int:
 
     inputs = [*args.captures, *([args.model] if args.model else [])]
     if args.save_model:
-        check_output(args.save_model, "json", inputs, option="--save-model")
+        check_output(args.save_model, "model", inputs, option="--save-model")
     if args.report:
         check_output(args.report, "dir", inputs, option="--report")
     if _multichannel(list(args.captures)):
@@ -245,7 +246,7 @@ def handle(args: argparse.Namespace) -> int:
             for spec in expand_specs(list(args.captures))]
     diag, obj, records = diagnosis_object(read, args)
     if args.save_model:
-        Path(args.save_model).write_text(diag.extended.model.to_json() + "\n")
+        write_text_atomic(args.save_model, diag.extended.model.to_json() + "\n")
         obj["saved_model"] = args.save_model
     if args.report:
         from station.diagnosis_report import write_report

@@ -65,7 +65,7 @@ def handle_export(args: argparse.Namespace) -> int:
     if args.uff:
         check_output(args.uff, "uff", [args.source], option="--uff")
     if args.sep005:
-        check_output(args.sep005, "json", [args.source], option="--sep005")
+        check_output(args.sep005, "sep005", [args.source], option="--sep005")
     path, cap = split_spec(args.source)
     n = len(list_captures(path))
     if cap is None:

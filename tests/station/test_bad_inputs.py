@@ -176,6 +176,10 @@ def build_files(d: Path) -> dict[str, Path]:
     text("model_not_json", "{ not json", suffix=".json")
     text("model_wrong_schema", json.dumps({"hello": 1}), suffix=".json")
     text("model_list", "[1, 2, 3]", suffix=".json")
+    # a saved model and a SEP-005 export: JSON files of two kinds, neither replaces the other
+    text("model_saved", json.dumps({"schema_version": 1, "mass": 1.0, "damping": {"v": 0.1},
+                                    "stiffness": {"x": 100.0}}, indent=2), suffix=".json")
+    text("model_sep005", json.dumps([{"name": "force", "data": [0.0, 1.0], "fs": 100.0}]), suffix=".json")
     configs = {
         "cfg_good": "[trigger]\nrecord_s = 2.0\n",
         "cfg_record_1e9": "[trigger]\nrecord_s = 1e9\n",
@@ -291,6 +295,7 @@ CASES: list[tuple[str, list[str]]] = [
     ("out-export-uff-onto-folder", ["export", S, "--uff", "{tmp}"]),
     ("out-export-uff-onto-csv", ["export", S, "--uff", G]),
     ("out-export-sep005-onto-input", ["export", S, "--sep005", S]),
+    ("out-export-sep005-onto-model", ["export", S, "--sep005", _f("model_saved")]),
     ("out-export-sep005-missing-folder", ["export", S, "--sep005", "{missing_dir}/o.json"]),
     ("out-export-nothing", ["export", S]),
     ("out-export-same-file-twice", ["export", S, "--uff", "{tmp}/x.out", "--sep005", "{tmp}/x.out"]),
@@ -308,6 +313,7 @@ CASES: list[tuple[str, list[str]]] = [
     ("out-import-rate-disagrees", ["import", G, "--out", S]),
     ("out-diagnose-save-model-onto-input", ["diagnose", S, "--mass", "1", "--save-model", S]),
     ("out-diagnose-save-model-onto-csv", ["diagnose", G, "--mass", "1", "--save-model", G]),
+    ("out-diagnose-save-model-onto-sep005", ["diagnose", G, "--mass", "1", "--save-model", _f("model_sep005")]),
     ("out-diagnose-save-model-missing-folder", ["diagnose", G, "--mass", "1", "--save-model",
                                                 "{missing_dir}/m.json"]),
     ("out-diagnose-report-onto-file", ["diagnose", G, "--mass", "1", "--report", G]),

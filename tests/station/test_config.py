@@ -23,8 +23,8 @@ def test_example_loads_and_converts_to_samples() -> None:
     assert parse_sim_url(cfg.device.url).system == "duffing-smooth"  # a system the rig has (issue 11)
     assert cfg.specimen.mass_kg == 0.815  # paper: 0.815 kg
     s = cfg.trigger_settings((FORCE, ACC), 19200.0)
-    # pre-trigger 1 s (paper), record 15 s (the rig rings ~10 s at these forces), hold-off 3 s at 19200 Hz
-    assert (s.channel, s.level, s.pretrigger_samples, s.posttrigger_samples, s.holdoff_samples) == (0, 5.0, 19200, 288000, 57600)
+    # pre-trigger 1 s (paper), record 15 s, hold-off 25 s (the rig at rest before the next blow) at 19200 Hz
+    assert (s.channel, s.level, s.pretrigger_samples, s.posttrigger_samples, s.holdoff_samples) == (0, 5.0, 19200, 288000, 480000)
 
 
 def test_defaults_and_level_from_range() -> None:
