@@ -220,10 +220,11 @@ def main() -> None:
                 for name in trees for k, chunk in enumerate(chunks)}
         for (name, k), f in futs.items():
             results.setdefault(name, {}).update(zip(chunks[k], f.result()))
-    worst_z, worst_n, differ, errors, figures = (0.0, None), (0.0, None), [], 0, 0
+    worst_z, worst_n, differ, errors, figures, same = (0.0, None), (0.0, None), [], 0, 0, 0
     for i, p in enumerate(paths):
         a, b = results["before"][p], results["after"][p]
         errors += "error" in a
+        same += json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
         c = compare(a, b)
         label = f"rec{i:03d} {specs[i]['system']} {specs[i]['rate']:.0f} Hz {specs[i]['snr']:.0f} dB"
         if not c["same_decisions"]:
@@ -239,6 +240,7 @@ def main() -> None:
             print(f"  {label}: max |change| / ci95 {c['max_z']:.3g} ({c['term']}), nrmse {c['nrmse_rel']:+.2%}")
     print(f"{len(paths)} records ({errors} refused alike or not), before = {args.before}, after = "
           f"{args.after or 'this working tree'}; load average {os.getloadavg()[0]:.1f}")
+    print(f"  outputs identical in every field: {same}/{len(paths)}")
     print(f"  largest coefficient change: {worst_z[0]:.3g} of its ci95 ({worst_z[1]})")
     print(f"  largest nrmse change: {worst_n[0]:.3%} relative ({worst_n[1]})")
     print(f"  decisions and warnings identical: {len(paths) - len(differ)}/{len(paths)} (of them {figures} with a "

@@ -484,6 +484,40 @@ def _abs_diff3(y, out):  # pragma: no cover - compiled
         out[i] = abs((d2 - d1) - (d1 - d0))
 
 
+#: Below this many samples :func:`peak_abs` leaves it to numpy (the compiled call's overhead).
+PEAK_ABS_MIN = 4096
+
+
+def peak_abs(y: np.ndarray) -> float:
+    """``float(numpy.max(numpy.abs(y)))``, the same double, in one pass without a temporary.
+
+    The largest ``|y|`` is one of the values whatever the order it is looked for in; the pass
+    (:func:`_peak_abs`) reads it as the largest bit pattern with the sign cleared (a non-negative
+    double orders as its bits), which vectorises where a float ``max`` does not; NaN when ``y``
+    holds one, as numpy. On the 883k samples of a 45 s record at 19.2 kHz: ~0.24 ms against
+    ~0.87 ms for numpy's ``abs`` into a new array and ``max`` (session 19, a machine whose
+    caches do not hold the 7 MB temporary). Other layouts, dtypes and short arrays: numpy.
+    """
+    if not (isinstance(y, np.ndarray) and y.ndim == 1 and y.dtype == np.float64 and y.flags.c_contiguous
+            and y.size >= PEAK_ABS_MIN):
+        return float(np.max(np.abs(y)))
+    return float(_KERNELS._peak_abs(y))
+
+
+def _peak_abs(y):  # pragma: no cover - compiled
+    """:func:`peak_abs`: the largest ``|y|`` as the largest sign-cleared bit pattern."""
+    b = y.view(np.int64)
+    m = np.int64(0)
+    for i in range(b.shape[0]):
+        m = max(m, b[i] & 0x7FFFFFFFFFFFFFFF)
+    if m > 0x7FF0000000000000:  # a NaN's bits: above +inf's
+        return np.nan
+    buf = np.empty(1, dtype=np.float64)
+    buf.view(np.int64)[0] = m
+    return buf[0]
+
+
 #: The compiled kernels (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
 _KERNELS = Kernels(globals(), {"_integrate_sum": ["void(f8[::1], f8, i8, f8[::1])"],
-                               "_abs_diff3": ["void(f8[::1], f8[::1])"]})
+                               "_abs_diff3": ["void(f8[::1], f8[::1])"],
+                               "_peak_abs": ["f8(f8[::1])"]})

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from eddi.calculus import peak_abs
 from eddi.errors import ModelError, SignalError
 from eddi.kernels import Kernels
 from eddi.model import EquationOfMotion
@@ -301,7 +302,7 @@ def _prepared(eom: EquationOfMotion, t: np.ndarray | None, rate_hz: float | None
         k1 = abs(eom.linear_stiffness()) or 1.0
         omega1 = math.sqrt(k1 / eom.mass)
         # an impulse I gives a rate of about I/m; its largest peak bounds the rate reached
-        v_force = float(np.max(np.abs(np.cumsum(f)))) * dt / eom.mass if f.size else 0.0
+        v_force = peak_abs(np.cumsum(f)) * dt / eom.mass if f.size else 0.0
         vs = v_scale if v_scale is not None else max(abs(v0) + v_force, abs(x0) * omega1)
         xs = x_scale if x_scale is not None else max(abs(x0), vs / omega1)
         substeps = auto_substeps(eom, dt, xs, vs)
@@ -570,8 +571,8 @@ def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: flo
             return True, first
         if stop < n:  # the next segment: from the exact RK4 state at its first sample
             xs, vs = float(seg.x[-1]), float(seg.v[-1])
-            om = local_angular_frequency(eom, DENSE_AMPLITUDE_MARGIN * float(np.max(np.abs(seg.x))),
-                                         DENSE_AMPLITUDE_MARGIN * float(np.max(np.abs(seg.v))))
+            om = local_angular_frequency(eom, DENSE_AMPLITUDE_MARGIN * peak_abs(seg.x),
+                                         DENSE_AMPLITUDE_MARGIN * peak_abs(seg.v))
             if om > 0 and math.isfinite(om):
                 omega = min(omega, om)
                 q = max(q, int(DENSE_H_OMEGA / (omega * dt)))

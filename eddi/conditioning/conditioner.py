@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eddi.calculus import cumulative_trapezoid, integrate, spline_cumulative_integral
+from eddi.calculus import cumulative_trapezoid, integrate, peak_abs, spline_cumulative_integral
 from eddi.conditioning.checks import check_channel, check_time
 from eddi.conditioning.conditioned import ConditionedSignal
 from eddi.conditioning.equilibrium import EquilibriumIntegral, _equilibrium_note, integrate_about_equilibrium
@@ -325,7 +325,7 @@ def _cut_at_second_blow(w: _Work, peak: float) -> None:
     below = np.flatnonzero(np.abs(f[w.impact_end:onset]) > max(5.0 * w.f_sigma, 0.01 * peak))
     onset = w.impact_end + int(below[-1]) + 1 if below.size else onset  # the pulse's foot
     cut = max(w.impact_end + 2, onset - w.margin)
-    t_blow, f_blow = float(w.t[onset]), float(np.max(np.abs(f[onset:onset + int(0.1 * w.rate) + 1])))
+    t_blow, f_blow = float(w.t[onset]), peak_abs(f[onset:onset + int(0.1 * w.rate) + 1])
     for name in ("t", "acc", "vel", "disp", "force", "resp"):
         arr = getattr(w, name)
         if arr is not None:
@@ -339,7 +339,7 @@ def _cut_at_second_blow(w: _Work, peak: float) -> None:
 def _period(w: _Work) -> None:
     """Longest period of the response, from its zero crossings."""
     resp = w.resp
-    hyst = max(3.0 * w.sigma, 1e-9 * float(np.max(np.abs(resp))))
+    hyst = max(3.0 * w.sigma, 1e-9 * peak_abs(resp))
     base = resp if w.resp_name == "acc" else resp - np.median(resp[w.start:])
     crs = crossings(base, hyst, start=max(w.start, w.impact_end))
     if crs.size < MIN_CROSSINGS:
@@ -376,7 +376,7 @@ def _anchored_drift(w: _Work, x_int: np.ndarray, v_int: np.ndarray, a_for_anchor
     (``subtract``: ``x_int - d, v_int - d'``, in place)."""
     first = max(w.start, w.impact_end)
     a_sigma = noise_rms(a_for_anchor, w.noise_stop)
-    h = max(3.0 * a_sigma, 1e-9 * float(np.max(np.abs(a_for_anchor))))
+    h = max(3.0 * a_sigma, 1e-9 * peak_abs(a_for_anchor))
     anc = crossings(a_for_anchor, h, start=first)
     if w.impact_end < 0 and anc.size:
         anc = anc[1:]  # no force: the first crossing is at the end of the impact
@@ -531,7 +531,7 @@ def _free_window(w: _Work, noise_factor: float) -> ConditionedSignal:
     if impact_end < 0:
         # without force: from the first extremum of x after the motion starts (the first
         # crossing of v after v has left its rest: at the onset v is still ~0)
-        moving = np.nonzero(np.abs(v[start:]) >= 0.3 * float(np.max(np.abs(v[start:]))))[0]
+        moving = np.nonzero(np.abs(v[start:]) >= 0.3 * peak_abs(v[start:]))[0]
         first_move = start + (int(moving[0]) if moving.size else 0)
         vx = crossings(v, max(3.0 * noise_rms(v, w.noise_stop), 1e-12), start=first_move)
         impact_end = int(math.ceil(vx[0])) if (w.rest and vx.size) else start

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 from eddi.bspline import Spline, design_rows, piecewise
-from eddi.calculus import cumulative_trapezoid
+from eddi.calculus import cumulative_trapezoid, peak_abs
 from eddi.conditioning.checks import check_time
 from eddi.conditioning.equilibrium import _spectral_peaks
 from eddi.conditioning.levels import _at, crossings, noise_rms
@@ -233,7 +233,7 @@ def anchor_residual(x: np.ndarray, v: np.ndarray, a: np.ndarray) -> float:
     float
         RMS of the regression residual over the RMS of ``x`` (inf with fewer than 8 crossings).
     """
-    hyst = max(3.0 * noise_rms(a, 0), 1e-3 * float(np.max(np.abs(a))))
+    hyst = max(3.0 * noise_rms(a, 0), 1e-3 * peak_abs(a))
     anc = crossings(a, hyst)
     if anc.size < 8:
         return math.inf
