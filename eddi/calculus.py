@@ -517,7 +517,51 @@ def _peak_abs(y):  # pragma: no cover - compiled
     return buf[0]
 
 
+def peak_abs_at(y: np.ndarray, offset: float = 0.0) -> tuple[int, float]:
+    """``i = argmax(|y - offset|)`` and ``|y[i] - offset|`` (numpy's first index of the largest),
+    in compiled passes without the two temporaries (``y - offset`` and its ``abs``).
+
+    The largest ``|y - offset|`` as in :func:`peak_abs` (the differences formed as numpy forms
+    them, a block at a time), then the first sample where it occurs; a NaN anywhere (numpy: the
+    first NaN), another layout, dtype or a short array: numpy's passes.
+    """
+    if (isinstance(y, np.ndarray) and y.ndim == 1 and y.dtype == np.float64 and y.flags.c_contiguous
+            and y.size >= PEAK_ABS_MIN):
+        i = int(_KERNELS._peak_abs_at(y, float(offset)))
+        if i >= 0:
+            return i, abs(float(y[i] - offset))
+    r = np.abs(y - offset)
+    i = int(np.argmax(r))
+    return i, float(r[i])
+
+
+#: Samples a block of :func:`_peak_abs_at` (its differences' buffer: in L1).
+_PEAK_BLOCK = 2048
+
+
+def _peak_abs_at(y, c):  # pragma: no cover - compiled
+    """:func:`peak_abs_at`: the index of the first largest ``|y - c|``, -1 for a NaN."""
+    n = y.shape[0]
+    buf = np.empty(_PEAK_BLOCK, dtype=np.float64)
+    bb = buf.view(np.int64)
+    m = np.int64(0)
+    for s in range(0, n, _PEAK_BLOCK):
+        e = min(s + _PEAK_BLOCK, n)
+        for i in range(s, e):
+            buf[i - s] = y[i] - c
+        for k in range(e - s):
+            m = max(m, bb[k] & 0x7FFFFFFFFFFFFFFF)
+    if m > 0x7FF0000000000000:
+        return -1
+    bb[0] = m
+    peak = buf[0]
+    for i in range(n):
+        if abs(y[i] - c) == peak:
+            return i
+    return -1
+
+
 #: The compiled kernels (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
 _KERNELS = Kernels(globals(), {"_integrate_sum": ["void(f8[::1], f8, i8, f8[::1])"],
                                "_abs_diff3": ["void(f8[::1], f8[::1])"],
-                               "_peak_abs": ["f8(f8[::1])"]})
+                               "_peak_abs": ["f8(f8[::1])"], "_peak_abs_at": ["i8(f8[::1], f8)"]})

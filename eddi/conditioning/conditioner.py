@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eddi.calculus import cumulative_trapezoid, integrate, peak_abs, spline_cumulative_integral
+from eddi.calculus import cumulative_trapezoid, integrate, peak_abs, peak_abs_at, spline_cumulative_integral
 from eddi.conditioning.checks import check_channel, check_time
 from eddi.conditioning.conditioned import ConditionedSignal
 from eddi.conditioning.equilibrium import EquilibriumIntegral, _equilibrium_note, integrate_about_equilibrium
@@ -188,9 +188,9 @@ def _onset_and_rest(w: _Work, pretrigger_samples: int | None) -> None:
     head = max(8, min(pretrigger_samples or n // 20, n // 5))
     struck = w.force is not None and np.ptp(w.force) > 0  # a force channel that shows a blow
     if struck:
-        onset, _ = _onset(w.force - np.median(w.force[:head]), head)
+        onset, _ = _onset(w.force, head, float(np.median(w.force[:head])))
     else:
-        onset, _ = _onset(resp - np.median(resp[:head]), head)
+        onset, _ = _onset(resp, head, float(np.median(resp[:head])))
     if pretrigger_samples is not None:
         if not 0 <= pretrigger_samples < n:
             raise SignalError(f"pretrigger_samples must be in 0..{n - 1}, got {pretrigger_samples}")
@@ -205,7 +205,7 @@ def _onset_and_rest(w: _Work, pretrigger_samples: int | None) -> None:
     if rest and pretrigger_samples is None:
         # rest means quiet: the head must be small compared with the response
         quiet = resp[:start]
-        if np.std(quiet) > 0.02 * np.max(np.abs(resp - np.mean(quiet))):
+        if np.std(quiet) > 0.02 * peak_abs_at(resp, float(np.mean(quiet)))[1]:
             rest = False
     w.start = start if rest else 0
     w.rest = rest
