@@ -535,6 +535,35 @@ def peak_abs_at(y: np.ndarray, offset: float = 0.0) -> tuple[int, float]:
     return i, float(r[i])
 
 
+#: Samples a chunk of :func:`first_abs_above` / :func:`last_nonzero` (its masks: in L2).
+SCAN_CHUNK = 16384
+
+
+def first_abs_above(y: np.ndarray, level: float, strict: bool = True) -> int:
+    """The first ``i`` with ``|y[i]| > level`` (``>=`` when not ``strict``), -1 for none.
+
+    ``np.flatnonzero(np.abs(y) > level)[0]`` without the record-length temporaries: numpy's
+    same comparisons a chunk at a time, stopping at the first chunk with a hit (a blow, which
+    these look for, is near the start of what they scan)."""
+    y = np.asarray(y)
+    for s in range(0, y.size, SCAN_CHUNK):
+        a = np.abs(y[s:s + SCAN_CHUNK])
+        hit = np.flatnonzero(a > level if strict else a >= level)
+        if hit.size:
+            return s + int(hit[0])
+    return -1
+
+
+def last_nonzero(y: np.ndarray) -> int:
+    """The last ``i`` with ``y[i] != 0`` (a NaN counts), -1 for none; chunks from the end."""
+    y = np.asarray(y)
+    for e in range(y.size, 0, -SCAN_CHUNK):
+        hit = np.flatnonzero(y[max(0, e - SCAN_CHUNK):e] != 0.0)
+        if hit.size:
+            return max(0, e - SCAN_CHUNK) + int(hit[-1])
+    return -1
+
+
 #: Samples a block of :func:`_peak_abs_at` (its differences' buffer: in L1).
 _PEAK_BLOCK = 2048
 

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eddi.calculus import cumulative_trapezoid, integrate, peak_abs, peak_abs_at, spline_cumulative_integral
+from eddi.calculus import (cumulative_trapezoid, first_abs_above, integrate, peak_abs, peak_abs_at,
+                           spline_cumulative_integral)
 from eddi.conditioning.checks import check_channel, check_time
 from eddi.conditioning.conditioned import ConditionedSignal
 from eddi.conditioning.equilibrium import EquilibriumIntegral, _equilibrium_note, integrate_about_equilibrium
@@ -300,10 +301,9 @@ SECOND_BLOW_FRACTION = 0.05
 def _first_blow_peak(f: np.ndarray, rate: float) -> int:
     """The first blow's peak: the largest ``|f|`` within 0.1 s of the first sample at half the
     record's largest force (a second, larger blow later in the record is not the impact)."""
-    mag = np.abs(f)
-    first = int(np.argmax(mag >= 0.5 * float(mag.max())))
-    stop = min(mag.size, first + max(1, int(0.1 * rate)))
-    return first + int(np.argmax(mag[first:stop]))
+    first = max(0, first_abs_above(f, 0.5 * peak_abs(f), strict=False))  # none: 0, as argmax
+    stop = min(f.size, first + max(1, int(0.1 * rate)))
+    return first + peak_abs_at(f[first:stop])[0]
 
 
 def _cut_at_second_blow(w: _Work, peak: float) -> None:
@@ -318,10 +318,10 @@ def _cut_at_second_blow(w: _Work, peak: float) -> None:
     f = w.force
     assert f is not None
     thr = max(10.0 * w.f_sigma, SECOND_BLOW_FRACTION * peak)
-    after = np.flatnonzero(np.abs(f[w.impact_end:]) > thr)
-    if after.size == 0 or after[0] < int(0.05 * w.rate):
+    after = first_abs_above(f[w.impact_end:], thr)
+    if after < 0 or after < int(0.05 * w.rate):
         return
-    onset = w.impact_end + int(after[0])
+    onset = w.impact_end + after
     below = np.flatnonzero(np.abs(f[w.impact_end:onset]) > max(5.0 * w.f_sigma, 0.01 * peak))
     onset = w.impact_end + int(below[-1]) + 1 if below.size else onset  # the pulse's foot
     cut = max(w.impact_end + 2, onset - w.margin)

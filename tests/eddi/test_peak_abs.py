@@ -53,3 +53,23 @@ def test_peak_abs_at_as_numpy(seed):
                 i = int(np.argmax(r))
                 got = peak_abs_at(y, c)
             assert got[0] == i and _same(got[1], float(r[i])), (y.size, c)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_chunked_scans_as_numpy(seed):
+    from eddi.calculus import SCAN_CHUNK, first_abs_above, last_nonzero
+
+    rng = np.random.default_rng(seed)
+    for n in (0, 1, SCAN_CHUNK - 1, SCAN_CHUNK, SCAN_CHUNK + 1, 3 * SCAN_CHUNK + 7):
+        for k in range(12):
+            y = np.zeros(n)
+            for _ in range(int(rng.integers(0, 4))):
+                if n:
+                    y[rng.integers(n)] = rng.choice([1.0, -2.0, 0.5, -0.0, np.nan])
+            level = float(rng.choice([0.0, 0.5, 1.0, 2.0]))
+            for strict in (True, False):
+                with np.errstate(invalid="ignore"):
+                    hits = np.flatnonzero(np.abs(y) > level if strict else np.abs(y) >= level)
+                assert first_abs_above(y, level, strict) == (int(hits[0]) if hits.size else -1)
+            nz = np.flatnonzero(y != 0.0)
+            assert last_nonzero(y) == (int(nz[-1]) if nz.size else -1)
