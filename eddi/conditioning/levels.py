@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from eddi.calculus import peak_abs_at
+from eddi.calculus import block_peaks, peak_abs, peak_abs_at
 from eddi.kernels import Kernels
 
 
@@ -128,15 +128,15 @@ def _envelope_stop(y: np.ndarray, first: int, sigma: float, factor: float, perio
     Without noise (``sigma == 0``) the floor is 1e-4 of the peak after ``first``.
     """
     n = y.size
-    seg = np.abs(y[first:])
+    seg = y[first:]
     if seg.size == 0:
         return n
-    floor = max(factor * sigma, 1e-4 * float(np.max(seg)))
+    floor = max(factor * sigma, 1e-4 * peak_abs(seg))
     block = max(4, int(round(period_s * rate)))
     nb = seg.size // block
     if nb == 0:
         return n
-    peaks = seg[: nb * block].reshape(nb, block).max(axis=1)
+    peaks = block_peaks(seg, block)  # |seg|'s block maxima without the |seg| temporary
     above = np.nonzero(peaks > floor)[0]
     if above.size == 0:
         return min(n, first + block)

@@ -73,3 +73,17 @@ def test_chunked_scans_as_numpy(seed):
                 assert first_abs_above(y, level, strict) == (int(hits[0]) if hits.size else -1)
             nz = np.flatnonzero(y != 0.0)
             assert last_nonzero(y) == (int(nz[-1]) if nz.size else -1)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_block_peaks_as_numpy(seed):
+    from eddi.calculus import block_peaks
+
+    rng = np.random.default_rng(seed)
+    for y in _arrays(seed):
+        for block in (4, 7, int(rng.integers(8, 3000))):
+            nb = y.size // block
+            want = np.abs(y[: nb * block]).reshape(nb, block).max(axis=1)
+            got = block_peaks(y, block)
+            assert got.shape == want.shape
+            assert all(_same(a, b) for a, b in zip(got, want))
