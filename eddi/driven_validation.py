@@ -17,10 +17,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from eddi.calculus import peak_abs
 from eddi.conditioning import ConditionedSignal
 from eddi.initial_state import fitted_state
 from eddi.model import EquationOfMotion
+from eddi.peaks import peak_abs
 from eddi.validate import Validation, validate
 
 

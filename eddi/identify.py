@@ -16,10 +16,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from eddi.calculus import peak_abs
 from eddi.energy import check_series, noise_level, sample_window
 from eddi.errors import ModelError, SignalError, TermError
 from eddi.model import EquationOfMotion
+from eddi.peaks import peak_abs
 from eddi.phase_one import PhaseOneResult, phase_one
 from eddi.phase_two import ROUTES, PhaseTwoResult, lagrangian_route, potential_route
 from eddi.slow_errors import drift_basis

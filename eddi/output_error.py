@@ -16,9 +16,9 @@ import math
 
 import numpy as np
 
-from eddi.calculus import peak_abs
 from eddi.intervals import noise_covariance_of_fit, normal_pinv, sampling_curvature, sampling_quartic, through_sampling
 from eddi.model import EquationOfMotion
+from eddi.peaks import peak_abs
 from eddi.refine_grid import block_means, block_size, local_substeps, smooth_model
 from eddi.secant_jacobian import secant_jacobian, switching_model
 from eddi.simulate import MAX_SUBSTEPS, local_angular_frequency, simulate

@@ -19,13 +19,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eddi.calculus import last_nonzero, peak_abs
 from eddi.errors import ModelError, SignalError
 from eddi.kernels import Kernels
 from eddi.model import EquationOfMotion
 from eddi.local_frequency import _polynomial_force as _polynomial_force  # re-exported (tests)
 from eddi.local_frequency import local_angular_frequencies as local_angular_frequencies  # re-exported
 from eddi.local_frequency import local_angular_frequency, max_angular_frequency
+from eddi.peaks import last_nonzero, peak_abs
 from eddi.terms import exponent_table
 
 # Layout of the effect parameter vector handed to the kernel.

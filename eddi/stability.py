@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from eddi.calculus import peak_abs
 from eddi.model import EquationOfMotion
+from eddi.peaks import peak_abs
 
 #: A simulation whose peak exceeds the measured peak by this factor has diverged.
 PEAK_RATIO = 2.0

@@ -20,10 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eddi.calculus import peak_abs
 from eddi.energy import check_series, sample_window
 from eddi.errors import SignalError
 from eddi.model import EquationOfMotion
+from eddi.peaks import peak_abs
 from eddi.simulate import simulate, simulate_dense
 from eddi.stability import response_warnings
 

@@ -10,8 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eddi.calculus import (cumulative_trapezoid, first_abs_above, integrate, peak_abs, peak_abs_at,
-                           spline_cumulative_integral)
+from eddi.calculus import cumulative_trapezoid, integrate, spline_cumulative_integral
 from eddi.conditioning.checks import check_channel, check_time
 from eddi.conditioning.conditioned import ConditionedSignal
 from eddi.conditioning.equilibrium import EquilibriumIntegral, _equilibrium_note, integrate_about_equilibrium
@@ -20,6 +19,7 @@ from eddi.conditioning.kinematics import (
 )
 from eddi.conditioning.levels import _envelope_stop, _onset, _pulse_end, crossings, noise_rms
 from eddi.errors import SignalError
+from eddi.peaks import first_abs_above, peak_abs, peak_abs_at
 
 
 #: e.g. dry friction that sticks after a cycle, is data; fewer hold nothing to anchor the drift).

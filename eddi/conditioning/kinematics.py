@@ -7,11 +7,12 @@ import math
 
 import numpy as np
 from eddi.bspline import Spline, design_rows, piecewise
-from eddi.calculus import cumulative_trapezoid, peak_abs
+from eddi.calculus import cumulative_trapezoid
 from eddi.conditioning.checks import check_time
 from eddi.conditioning.equilibrium import _spectral_peaks
 from eddi.conditioning.levels import _at, crossings, noise_rms
 from eddi.kernels import Kernels
+from eddi.peaks import peak_abs
 
 
 

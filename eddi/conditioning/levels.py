@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from eddi.calculus import block_peaks, peak_abs, peak_abs_at
 from eddi.kernels import Kernels
+from eddi.peaks import block_peaks, peak_abs, peak_abs_at
 
 
 
@@ -99,7 +99,7 @@ def _onset(y: np.ndarray, head: int, offset: float = 0.0) -> tuple[int, float]:
     """Start of the run of ``|r|`` above the noise that leads to its peak, and the peak.
 
     ``r = y - offset`` is ``y`` with its rest offset removed (formed only where read: the
-    peak's search is one compiled pass, :func:`eddi.calculus.peak_abs_at`); ``head`` samples
+    peak's search is one compiled pass, :func:`eddi.peaks.peak_abs_at`); ``head`` samples
     at the start give a (robust) noise scale. The level is the larger of 5 % of the peak and 6
     noise RMS.
     """

@@ -1,7 +1,7 @@
 """Session 19 (s19ident): ``max |y|`` and ``argmax |y - c|`` in one compiled pass.
 
-:func:`eddi.calculus.peak_abs` replaces ``float(np.max(np.abs(y)))`` and
-:func:`eddi.calculus.peak_abs_at` ``np.argmax(np.abs(y - c))`` (with the value) on the identify
+:func:`eddi.peaks.peak_abs` replaces ``float(np.max(np.abs(y)))`` and
+:func:`eddi.peaks.peak_abs_at` ``np.argmax(np.abs(y - c))`` (with the value) on the identify
 path: numpy forms one or two temporaries of the record's length first (7 MB on the 45 s
 record, which this session's machine's caches did not hold). Here: the same doubles and indices
 as numpy, ties (numpy's first index), NaN and infinities, signed zeros, every length around the
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eddi.calculus import _PEAK_BLOCK, PEAK_ABS_MIN, peak_abs, peak_abs_at
+from eddi.peaks import _PEAK_BLOCK, PEAK_ABS_MIN, peak_abs, peak_abs_at
 
 
 def _same(a: float, b: float) -> bool:
@@ -57,7 +57,7 @@ def test_peak_abs_at_as_numpy(seed):
 
 @pytest.mark.parametrize("seed", [1, 2])
 def test_chunked_scans_as_numpy(seed):
-    from eddi.calculus import SCAN_CHUNK, first_abs_above, last_nonzero
+    from eddi.peaks import SCAN_CHUNK, first_abs_above, last_nonzero
 
     rng = np.random.default_rng(seed)
     for n in (0, 1, SCAN_CHUNK - 1, SCAN_CHUNK, SCAN_CHUNK + 1, 3 * SCAN_CHUNK + 7):
@@ -77,7 +77,7 @@ def test_chunked_scans_as_numpy(seed):
 
 @pytest.mark.parametrize("seed", [1, 2])
 def test_block_peaks_as_numpy(seed):
-    from eddi.calculus import block_peaks
+    from eddi.peaks import block_peaks
 
     rng = np.random.default_rng(seed)
     for y in _arrays(seed):
