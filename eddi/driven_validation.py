@@ -20,6 +20,7 @@ import numpy as np
 from eddi.conditioning import ConditionedSignal
 from eddi.initial_state import fitted_state
 from eddi.model import EquationOfMotion
+from eddi.peaks import peak_abs
 from eddi.validate import Validation, validate
 
 
@@ -70,8 +71,8 @@ def validate_conditioned(eom: EquationOfMotion, cond: ConditionedSignal,
         # force) when asked (the refinement's judge, eddi.judge): its first sample's state is an
         # integration constant and one noisy sample
         w0, w1 = cond.window
-        xs = float(np.max(np.abs(cond.x[w0:w1]))) or None
-        vs = float(np.max(np.abs(cond.v[w0:w1]))) or None
+        xs = peak_abs(cond.x[w0:w1]) or None
+        vs = peak_abs(cond.v[w0:w1]) or None
         x0, v0 = fitted_state(eom, cond.t, cond.x, cond.v, None, w0, w1, xs, vs)
         return validate(eom, cond.t, cond.x, v=cond.v, window=cond.window, x0=x0, v0=v0), False
     return validate(eom, cond.t, cond.x, v=cond.v, window=cond.window), False

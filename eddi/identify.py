@@ -19,6 +19,7 @@ import numpy as np
 from eddi.energy import check_series, noise_level, sample_window
 from eddi.errors import ModelError, SignalError, TermError
 from eddi.model import EquationOfMotion
+from eddi.peaks import peak_abs
 from eddi.phase_one import PhaseOneResult, phase_one
 from eddi.phase_two import ROUTES, PhaseTwoResult, lagrangian_route, potential_route
 from eddi.slow_errors import drift_basis
@@ -300,7 +301,7 @@ def _free_response_score(eom: EquationOfMotion, t: np.ndarray, x: np.ndarray,
     from eddi.validate import validate
 
     dt = float(t[1] - t[0])
-    omega = max_angular_frequency(eom, float(np.max(np.abs(x))), float(np.max(np.abs(v))))
+    omega = max_angular_frequency(eom, peak_abs(x), peak_abs(v))
     k = max(1, int(SCORE_H_OMEGA / (dt * omega))) if omega > 0 else 1
     k = min(k, max(1, t.size // 64))
     return validate(eom, t[::k], x[::k], v=v[::k]).nrmse

@@ -43,7 +43,7 @@ AOT_NAME = "_aot_kernels"
 #: The modules whose kernels go into the built module.
 KERNEL_MODULES = ("eddi.simulate", "eddi.local_frequency", "eddi.sensitivity", "eddi.iir", "eddi.hysteresis",
                   "eddi.median", "eddi.refine_grid",
-                  "eddi.calculus", "eddi.conditioning.levels", "eddi.conditioning.checks",
+                  "eddi.calculus", "eddi.peaks", "eddi.conditioning.levels", "eddi.conditioning.checks",
                   "eddi.conditioning.kinematics", "eddi.bspline")
 
 

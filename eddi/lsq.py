@@ -112,8 +112,10 @@ def _lmder(fun, jacobian, x: np.ndarray, x_scale, maxfev: int, ftol: float, xtol
         jac = jacobian(x, f)
         njev += 1
         acnorm = np.linalg.norm(jac, axis=0)
-        q, r = np.linalg.qr(jac)
-        qtf = q.T @ f
+        # R and Q'f from one factorisation of [J f] without forming Q (13k x 11 on the 45 s
+        # record: ~0.5 ms against ~3 ms for the reduced Q and q.T @ f; equal to rounding)
+        raug = np.linalg.qr(np.column_stack((jac, f)), mode="r")
+        r, qtf = raug[:n, :n], raug[:n, n].copy()
         if first:
             if scaled:
                 diag = np.where(acnorm == 0, 1.0, acnorm)

@@ -18,6 +18,7 @@ import numpy as np
 
 from eddi.intervals import noise_covariance_of_fit, normal_pinv, sampling_curvature, sampling_quartic, through_sampling
 from eddi.model import EquationOfMotion
+from eddi.peaks import peak_abs
 from eddi.refine_grid import block_means, block_size, local_substeps, smooth_model
 from eddi.secant_jacobian import secant_jacobian, switching_model
 from eddi.simulate import MAX_SUBSTEPS, local_angular_frequency, simulate
@@ -50,7 +51,7 @@ class OutputErrorProblem:
         self.eom, self.channel = eom, channel
         self.n_samples = t.size
         dt = float(t[1] - t[0])
-        x_amp, v_amp = float(np.max(np.abs(x))), float(np.max(np.abs(v)))
+        x_amp, v_amp = peak_abs(x), peak_abs(v)
         self.block = block_size(eom, dt, x_amp, v_amp, t.size)
         half = (self.block - 1) // 2
         self.y = block_means(y, self.block)
@@ -66,13 +67,13 @@ class OutputErrorProblem:
         c0 = np.array([eom.damping[tm.text] for tm in d_terms] + [eom.stiffness[tm.text] for tm in k_terms])
         # parameter scales: the coefficient itself, or (for ~0 coefficients) the value whose term
         # would reach 1e-3 of the peak inertial force
-        y_amp = float(np.max(np.abs(y)))
-        f_scale = eom.mass * (y_amp if channel == "a" else float(np.max(np.abs(np.gradient(v, t)))))
+        y_amp = peak_abs(y)
+        f_scale = eom.mass * (y_amp if channel == "a" else peak_abs(np.gradient(v, t)))
         step = max(1, t.size // 20000)  # the peak of each term: every sample is not needed
         xs, vs = np.ascontiguousarray(x[::step]), np.ascontiguousarray(v[::step])
         # term by term (the same maxima as of evaluate()'s columns: no (n, terms) table and its
         # strided column reductions)
-        peak = np.array([float(np.max(np.abs(tm(xs, vs)))) for tm in d_terms + k_terms], dtype=float)
+        peak = np.array([peak_abs(tm(xs, vs)) for tm in d_terms + k_terms], dtype=float)
         floor = 1e-3 * f_scale / np.where(peak > 0, peak, 1.0)
         self.floor = floor
         # nuisance parameters after the coefficients: the initial state (x0, v0) and a constant
@@ -181,7 +182,7 @@ class OutputErrorProblem:
         """The compared values from the simulated signal at the blocks' centres, and whether it diverged."""
         diverged = bool(diverged or not np.all(np.isfinite(out)))
         if diverged:
-            return np.full(stop, 1e6 * float(np.max(np.abs(self.y)))), True
+            return np.full(stop, 1e6 * peak_abs(self.y)), True
         # the block mean of a smooth signal: centre + curvature (+ the fourth difference's term)
         out = through_sampling(out, self.curvature, self.quartic)
         return out + float(p[-1] * self.scale[-1]), False

@@ -25,6 +25,7 @@ from eddi.model import EquationOfMotion
 from eddi.local_frequency import _polynomial_force as _polynomial_force  # re-exported (tests)
 from eddi.local_frequency import local_angular_frequencies as local_angular_frequencies  # re-exported
 from eddi.local_frequency import local_angular_frequency, max_angular_frequency
+from eddi.peaks import last_nonzero, peak_abs
 from eddi.terms import exponent_table
 
 # Layout of the effect parameter vector handed to the kernel.
@@ -301,7 +302,7 @@ def _prepared(eom: EquationOfMotion, t: np.ndarray | None, rate_hz: float | None
         k1 = abs(eom.linear_stiffness()) or 1.0
         omega1 = math.sqrt(k1 / eom.mass)
         # an impulse I gives a rate of about I/m; its largest peak bounds the rate reached
-        v_force = float(np.max(np.abs(np.cumsum(f)))) * dt / eom.mass if f.size else 0.0
+        v_force = peak_abs(np.cumsum(f)) * dt / eom.mass if f.size else 0.0
         vs = v_scale if v_scale is not None else max(abs(v0) + v_force, abs(x0) * omega1)
         xs = x_scale if x_scale is not None else max(abs(x0), vs / omega1)
         substeps = auto_substeps(eom, dt, xs, vs)
@@ -501,11 +502,7 @@ def _end_of_force(f: np.ndarray) -> int:
     """One past the last non-zero sample of ``f`` (0 when there is none): a blow's end in a
     validation's drive (zero after it; ``np.argmax`` stops at the first hit of the reversed mask,
     where ``np.flatnonzero`` listed every one: 0.25 ms on 460k samples)."""
-    if not f.size:
-        return 0
-    nz = f[::-1] != 0.0
-    k = int(np.argmax(nz))
-    return f.size - k if nz[k] else 0
+    return last_nonzero(f) + 1  # chunks from the end (the blow is at the start: ~all of it read once)
 
 
 def _at(sim: SimulationResult, at: np.ndarray | None) -> SimulationResult:
@@ -570,8 +567,8 @@ def _dense_tail(eom: EquationOfMotion, dt: float, start: int, q: int, omega: flo
             return True, first
         if stop < n:  # the next segment: from the exact RK4 state at its first sample
             xs, vs = float(seg.x[-1]), float(seg.v[-1])
-            om = local_angular_frequency(eom, DENSE_AMPLITUDE_MARGIN * float(np.max(np.abs(seg.x))),
-                                         DENSE_AMPLITUDE_MARGIN * float(np.max(np.abs(seg.v))))
+            om = local_angular_frequency(eom, DENSE_AMPLITUDE_MARGIN * peak_abs(seg.x),
+                                         DENSE_AMPLITUDE_MARGIN * peak_abs(seg.v))
             if om > 0 and math.isfinite(om):
                 omega = min(omega, om)
                 q = max(q, int(DENSE_H_OMEGA / (omega * dt)))

@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from eddi.model import EquationOfMotion
+from eddi.peaks import peak_abs
 
 #: A simulation whose peak exceeds the measured peak by this factor has diverged.
 PEAK_RATIO = 2.0
@@ -40,8 +41,8 @@ def envelope_ratio(y: np.ndarray) -> float:
     """Peak ``|y|`` over the last fifth of ``y`` over that of the first fifth (inf for 0 start)."""
     y = np.asarray(y, dtype=float)
     k = max(1, y.size // 5)
-    early = float(np.max(np.abs(y[:k])))  # the two fifths only (not |y| of all of it)
-    late = float(np.max(np.abs(y[-k:])))
+    early = peak_abs(y[:k])  # the two fifths only (not |y| of all of it)
+    late = peak_abs(y[-k:])
     return late / early if early > 0 else (np.inf if late > 0 else 1.0)
 
 
@@ -64,8 +65,8 @@ def response_warnings(x_measured: np.ndarray, x_simulated: np.ndarray, blew_up: 
     if blew_up or not np.all(np.isfinite(xs)):
         return ("the simulated response blows up (non-finite or runaway)",)
     out: list[str] = []
-    peak_m = float(np.max(np.abs(xm))) if xm.size else 0.0
-    peak_s = float(np.max(np.abs(xs))) if xs.size else 0.0
+    peak_m = peak_abs(xm) if xm.size else 0.0
+    peak_s = peak_abs(xs) if xs.size else 0.0
     if peak_m > 0 and peak_s > PEAK_RATIO * peak_m:
         out.append(f"the simulated response reaches {peak_s / peak_m:.3g}x the measured peak")
     rm, rs = envelope_ratio(xm), envelope_ratio(xs)
@@ -148,16 +149,16 @@ def model_warnings(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> tuple
     starts = np.concatenate(([0], edges))
     sizes = np.diff(np.concatenate((starts, [x.size])))
     sums = np.add.reduceat(power, starts)[sizes > 1]
-    scale = float(np.max(np.abs(sums))) if sums.size else 0.0
+    scale = peak_abs(sums) if sums.size else 0.0
     if scale > 0 and np.any(sums < -1e-6 * scale):
         out.append(f"negative damping: the model feeds energy in over {int(np.sum(sums < -1e-6 * scale))} of "
                    f"{sums.size} half cycles of the record (b[v] = {eom.damping.get('v', 0.0):.4g} N s/m)")
     elif k1 > 0:
-        cycle = self_excited_amplitude(eom, float(np.max(np.abs(x))))
+        cycle = self_excited_amplitude(eom, peak_abs(x))
         if cycle is not None:
             unit = "rad" if "rad" in eom.coordinate else "m"
             out.append(f"negative damping at small amplitude: below about {cycle:.3g} {unit} (the record reaches "
-                       f"{float(np.max(np.abs(x))):.3g} {unit}) the model feeds energy in over every cycle (b[v] = "
+                       f"{peak_abs(x):.3g} {unit}) the model feeds energy in over every cycle (b[v] = "
                        f"{eom.damping.get('v', 0.0):.4g} N s/m), so its rest is unstable: it does not ring down "
                        f"to rest but grows to a limit cycle (a damping term of the wrong sign the fit needed "
                        f"for the record's amplitudes?)")
@@ -189,7 +190,7 @@ def self_excited_amplitude(eom: EquationOfMotion, x_max: float) -> float | None:
     xs = np.outer(amps, np.sin(th)).ravel()
     vs = np.outer(amps * w, np.cos(th)).ravel()
     work = (_damping_force(eom, xs, vs) * vs).reshape(n_amp, n_ph).sum(axis=1)
-    scale = float(np.max(np.abs(work))) or 1.0
+    scale = peak_abs(work) or 1.0
     gains = work < -1e-9 * scale * (amps / x_max) ** 2  # the work of a linear dashpot scales with A^2
     if not gains[0]:
         return None

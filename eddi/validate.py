@@ -23,6 +23,7 @@ import numpy as np
 from eddi.energy import check_series, sample_window
 from eddi.errors import SignalError
 from eddi.model import EquationOfMotion
+from eddi.peaks import peak_abs
 from eddi.simulate import simulate, simulate_dense
 from eddi.stability import response_warnings
 
@@ -120,8 +121,8 @@ def validate(
     n = t.size
     w0, w1 = sample_window(window, n, 2)
     if f is not None:
-        x_amp = float(np.max(np.abs(x)))
-        v_amp = float(np.max(np.abs(v))) if v is not None else 0.0
+        x_amp = peak_abs(x)
+        v_amp = peak_abs(v) if v is not None else 0.0
         x0f, v0f = 0.0 if x0 is None else float(x0), 0.0 if v0 is None else float(v0)
         every = max(1, int(every))
         if x_amp > 0 and v_amp > 0:
@@ -140,9 +141,9 @@ def validate(
         x0 = float(x[w0]) if x0 is None else float(x0)
         tw = t[w0:w1]
         xw = x[w0:w1]
-        x_amp = max(float(np.max(np.abs(xw))), abs(x0))
+        x_amp = max(peak_abs(xw), abs(x0))
         if v is not None and x_amp > 0:
-            v_amp = max(float(np.max(np.abs(v[w0:w1]))), abs(float(v0)))
+            v_amp = max(peak_abs(v[w0:w1]), abs(float(v0)))
             sim = simulate_dense(eom, tw - tw[0], x0=x0, v0=float(v0), x_scale=x_amp, v_scale=v_amp)
         else:
             sim = simulate(eom, tw - tw[0], x0=x0, v0=float(v0), x_scale=x_amp, v_scale=None)
@@ -158,7 +159,7 @@ def validate(
         nrmse = float(np.linalg.norm(xs - xm) / denom)
         nmte = None
         if vm is not None:
-            vmax = float(np.max(np.abs(vm))) or 1.0
+            vmax = peak_abs(vm) or 1.0
             nmte = float(np.mean(np.abs(vs - vm)) / vmax)
     return Validation(
         nrmse=nrmse, nmte=nmte, t=t[w0:w1:every], x_measured=xm, x_simulated=xs,

@@ -233,42 +233,76 @@ def _finite(y):  # pragma: no cover - compiled
     return True
 
 
+#: Samples a block of the compiled checks below: the per-sample work of a block is a loop
+#: without exits (vectorised); the verdict is read once a block. 2048 doubles: in L1.
+_BLOCK = 2048
+#: A double's exponent bits: all set for an infinity or a NaN.
+_EXP = 0x7FF0000000000000
+
+
 def _steps(t, out):  # pragma: no cover - compiled
-    """Whether ``t`` is finite and strictly increasing; ``out``: the smallest and largest step."""
-    if not np.isfinite(t[0]):
+    """Whether ``t`` is finite and strictly increasing; ``out``: the smallest and largest step.
+
+    In blocks: the steps of a block into a buffer with the finite / increasing verdict, then
+    their extremes as integers (a positive finite double orders as its bits, so the smallest
+    and largest steps are the same doubles as ``min`` / ``max`` give; the integer extremes
+    vectorise, the float ones do not without fast-math)."""
+    n = t.shape[0]
+    b = t.view(np.int64)
+    if (b[0] & _EXP) == _EXP:
         return False
-    lo = np.inf
-    hi = -np.inf
-    for i in range(1, t.shape[0]):
-        if not np.isfinite(t[i]):
+    buf = np.empty(_BLOCK, dtype=np.float64)
+    bb = buf.view(np.int64)
+    lo = np.int64(0x7FF0000000000000)  # +inf
+    hi = np.int64(-0x0010000000000000)  # -inf's bits as a signed integer: below every positive double
+    for s in range(1, n, _BLOCK):
+        e = min(s + _BLOCK, n)
+        bad = 0
+        for i in range(s, e):
+            d = t[i] - t[i - 1]
+            bad |= ((b[i] & _EXP) == _EXP) | (not d > 0.0)
+            buf[i - s] = d
+        if bad:
             return False
-        d = t[i] - t[i - 1]
-        if not d > 0.0:
-            return False
-        lo = min(lo, d)
-        hi = max(hi, d)
-    out[0] = lo
-    out[1] = hi
+        for k in range(e - s):
+            lo = min(lo, bb[k])
+            hi = max(hi, bb[k])
+    bb[0] = lo
+    out[0] = buf[0]
+    bb[0] = hi
+    out[1] = buf[0]
     return True
 
 
 def _time_on_grid(t, step):  # pragma: no cover - compiled
     """:func:`check_time`'s checks in one pass: finite, increasing, and every sample within 1 %
-    of a step of ``t[0] + step i`` (its deviation formed as the numpy passes form it)."""
+    of a step of ``t[0] + step i`` (its deviation formed as the numpy passes form it).
+
+    In blocks as :func:`_steps`: the deviations of a block into a buffer, the verdict once a
+    block, the largest deviation as an integer (``abs`` of a finite or infinite double: a
+    non-negative double, ordered as its bits; never a NaN once ``t`` is finite)."""
+    n = t.shape[0]
+    b = t.view(np.int64)
     t0 = t[0]
-    if not np.isfinite(t0):
+    if (b[0] & _EXP) == _EXP:
         return False
-    worst = 0.0
-    for i in range(t.shape[0]):
-        ti = t[i]
-        if not np.isfinite(ti):
+    buf = np.empty(_BLOCK, dtype=np.float64)
+    bb = buf.view(np.int64)
+    worst = np.int64(0)
+    for s in range(0, n, _BLOCK):
+        e = min(s + _BLOCK, n)
+        bad = 0
+        for i in range(s, e):
+            bad |= (b[i] & _EXP) == _EXP
+            buf[i - s] = abs((float(i) * step + t0) - t[i])
+        for i in range(max(s, 1), e):
+            bad |= not (t[i] - t[i - 1]) > 0.0
+        if bad:
             return False
-        if i > 0 and not (ti - t[i - 1]) > 0.0:
-            return False
-        dev = abs((float(i) * step + t0) - ti)
-        if dev > worst:
-            worst = dev
-    return not worst > 0.01 * step
+        for k in range(e - s):
+            worst = max(worst, bb[k])
+    bb[0] = worst
+    return not buf[0] > 0.01 * step
 
 
 #: The compiled kernels (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).

@@ -19,6 +19,7 @@ from eddi.conditioning.kinematics import (
 )
 from eddi.conditioning.levels import _envelope_stop, _onset, _pulse_end, crossings, noise_rms
 from eddi.errors import SignalError
+from eddi.peaks import first_abs_above, peak_abs, peak_abs_at
 
 
 #: e.g. dry friction that sticks after a cycle, is data; fewer hold nothing to anchor the drift).
@@ -188,9 +189,9 @@ def _onset_and_rest(w: _Work, pretrigger_samples: int | None) -> None:
     head = max(8, min(pretrigger_samples or n // 20, n // 5))
     struck = w.force is not None and np.ptp(w.force) > 0  # a force channel that shows a blow
     if struck:
-        onset, _ = _onset(w.force - np.median(w.force[:head]), head)
+        onset, _ = _onset(w.force, head, float(np.median(w.force[:head])))
     else:
-        onset, _ = _onset(resp - np.median(resp[:head]), head)
+        onset, _ = _onset(resp, head, float(np.median(resp[:head])))
     if pretrigger_samples is not None:
         if not 0 <= pretrigger_samples < n:
             raise SignalError(f"pretrigger_samples must be in 0..{n - 1}, got {pretrigger_samples}")
@@ -205,7 +206,7 @@ def _onset_and_rest(w: _Work, pretrigger_samples: int | None) -> None:
     if rest and pretrigger_samples is None:
         # rest means quiet: the head must be small compared with the response
         quiet = resp[:start]
-        if np.std(quiet) > 0.02 * np.max(np.abs(resp - np.mean(quiet))):
+        if np.std(quiet) > 0.02 * peak_abs_at(resp, float(np.mean(quiet)))[1]:
             rest = False
     w.start = start if rest else 0
     w.rest = rest
@@ -300,10 +301,9 @@ SECOND_BLOW_FRACTION = 0.05
 def _first_blow_peak(f: np.ndarray, rate: float) -> int:
     """The first blow's peak: the largest ``|f|`` within 0.1 s of the first sample at half the
     record's largest force (a second, larger blow later in the record is not the impact)."""
-    mag = np.abs(f)
-    first = int(np.argmax(mag >= 0.5 * float(mag.max())))
-    stop = min(mag.size, first + max(1, int(0.1 * rate)))
-    return first + int(np.argmax(mag[first:stop]))
+    first = max(0, first_abs_above(f, 0.5 * peak_abs(f), strict=False))  # none: 0, as argmax
+    stop = min(f.size, first + max(1, int(0.1 * rate)))
+    return first + peak_abs_at(f[first:stop])[0]
 
 
 def _cut_at_second_blow(w: _Work, peak: float) -> None:
@@ -318,14 +318,14 @@ def _cut_at_second_blow(w: _Work, peak: float) -> None:
     f = w.force
     assert f is not None
     thr = max(10.0 * w.f_sigma, SECOND_BLOW_FRACTION * peak)
-    after = np.flatnonzero(np.abs(f[w.impact_end:]) > thr)
-    if after.size == 0 or after[0] < int(0.05 * w.rate):
+    after = first_abs_above(f[w.impact_end:], thr)
+    if after < 0 or after < int(0.05 * w.rate):
         return
-    onset = w.impact_end + int(after[0])
+    onset = w.impact_end + after
     below = np.flatnonzero(np.abs(f[w.impact_end:onset]) > max(5.0 * w.f_sigma, 0.01 * peak))
     onset = w.impact_end + int(below[-1]) + 1 if below.size else onset  # the pulse's foot
     cut = max(w.impact_end + 2, onset - w.margin)
-    t_blow, f_blow = float(w.t[onset]), float(np.max(np.abs(f[onset:onset + int(0.1 * w.rate) + 1])))
+    t_blow, f_blow = float(w.t[onset]), peak_abs(f[onset:onset + int(0.1 * w.rate) + 1])
     for name in ("t", "acc", "vel", "disp", "force", "resp"):
         arr = getattr(w, name)
         if arr is not None:
@@ -339,7 +339,7 @@ def _cut_at_second_blow(w: _Work, peak: float) -> None:
 def _period(w: _Work) -> None:
     """Longest period of the response, from its zero crossings."""
     resp = w.resp
-    hyst = max(3.0 * w.sigma, 1e-9 * float(np.max(np.abs(resp))))
+    hyst = max(3.0 * w.sigma, 1e-9 * peak_abs(resp))
     base = resp if w.resp_name == "acc" else resp - np.median(resp[w.start:])
     crs = crossings(base, hyst, start=max(w.start, w.impact_end))
     if crs.size < MIN_CROSSINGS:
@@ -376,7 +376,7 @@ def _anchored_drift(w: _Work, x_int: np.ndarray, v_int: np.ndarray, a_for_anchor
     (``subtract``: ``x_int - d, v_int - d'``, in place)."""
     first = max(w.start, w.impact_end)
     a_sigma = noise_rms(a_for_anchor, w.noise_stop)
-    h = max(3.0 * a_sigma, 1e-9 * float(np.max(np.abs(a_for_anchor))))
+    h = max(3.0 * a_sigma, 1e-9 * peak_abs(a_for_anchor))
     anc = crossings(a_for_anchor, h, start=first)
     if w.impact_end < 0 and anc.size:
         anc = anc[1:]  # no force: the first crossing is at the end of the impact
@@ -531,7 +531,7 @@ def _free_window(w: _Work, noise_factor: float) -> ConditionedSignal:
     if impact_end < 0:
         # without force: from the first extremum of x after the motion starts (the first
         # crossing of v after v has left its rest: at the onset v is still ~0)
-        moving = np.nonzero(np.abs(v[start:]) >= 0.3 * float(np.max(np.abs(v[start:]))))[0]
+        moving = np.nonzero(np.abs(v[start:]) >= 0.3 * peak_abs(v[start:]))[0]
         first_move = start + (int(moving[0]) if moving.size else 0)
         vx = crossings(v, max(3.0 * noise_rms(v, w.noise_stop), 1e-12), start=first_move)
         impact_end = int(math.ceil(vx[0])) if (w.rest and vx.size) else start

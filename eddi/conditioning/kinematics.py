@@ -12,6 +12,7 @@ from eddi.conditioning.checks import check_time
 from eddi.conditioning.equilibrium import _spectral_peaks
 from eddi.conditioning.levels import _at, crossings, noise_rms
 from eddi.kernels import Kernels
+from eddi.peaks import peak_abs
 
 
 
@@ -233,7 +234,7 @@ def anchor_residual(x: np.ndarray, v: np.ndarray, a: np.ndarray) -> float:
     float
         RMS of the regression residual over the RMS of ``x`` (inf with fewer than 8 crossings).
     """
-    hyst = max(3.0 * noise_rms(a, 0), 1e-3 * float(np.max(np.abs(a))))
+    hyst = max(3.0 * noise_rms(a, 0), 1e-3 * peak_abs(a))
     anc = crossings(a, hyst)
     if anc.size < 8:
         return math.inf

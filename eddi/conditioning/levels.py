@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from eddi.kernels import Kernels
+from eddi.peaks import block_peaks, peak_abs, peak_abs_at
 
 
 
@@ -94,18 +95,19 @@ def _nth_true(mask: np.ndarray, k: np.ndarray) -> np.ndarray:
 
 
 
-def _onset(r: np.ndarray, head: int) -> tuple[int, float]:
+def _onset(y: np.ndarray, head: int, offset: float = 0.0) -> tuple[int, float]:
     """Start of the run of ``|r|`` above the noise that leads to its peak, and the peak.
 
-    ``r`` has its rest offset removed; ``head`` samples at the start give a (robust) noise
-    scale. The level is the larger of 5 % of the peak and 6 noise RMS.
+    ``r = y - offset`` is ``y`` with its rest offset removed (formed only where read: the
+    peak's search is one compiled pass, :func:`eddi.peaks.peak_abs_at`); ``head`` samples
+    at the start give a (robust) noise scale. The level is the larger of 5 % of the peak and 6
+    noise RMS.
     """
-    peak_i = int(np.argmax(np.abs(r)))
-    peak = abs(float(r[peak_i]))
-    h = r[: max(8, head)]
+    peak_i, peak = peak_abs_at(y, offset)
+    h = y[: max(8, head)] - offset
     sigma = 1.4826 * float(np.median(np.abs(h - np.median(h))))
     level = max(0.05 * peak, 6.0 * sigma)
-    below = np.nonzero(np.abs(r[: peak_i + 1]) <= level)[0]
+    below = np.nonzero(np.abs(y[: peak_i + 1] - offset) <= level)[0]
     return (int(below[-1]) + 1 if below.size else 0), peak
 
 
@@ -126,15 +128,15 @@ def _envelope_stop(y: np.ndarray, first: int, sigma: float, factor: float, perio
     Without noise (``sigma == 0``) the floor is 1e-4 of the peak after ``first``.
     """
     n = y.size
-    seg = np.abs(y[first:])
+    seg = y[first:]
     if seg.size == 0:
         return n
-    floor = max(factor * sigma, 1e-4 * float(np.max(seg)))
+    floor = max(factor * sigma, 1e-4 * peak_abs(seg))
     block = max(4, int(round(period_s * rate)))
     nb = seg.size // block
     if nb == 0:
         return n
-    peaks = seg[: nb * block].reshape(nb, block).max(axis=1)
+    peaks = block_peaks(seg, block)  # |seg|'s block maxima without the |seg| temporary
     above = np.nonzero(peaks > floor)[0]
     if above.size == 0:
         return min(n, first + block)
