@@ -268,9 +268,11 @@ def _input_gain(i: int, impacts: list[tuple], d_terms: list[MultiTerm], s_terms:
 
 
 def fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool | str, prune: float,
-             prefilter: bool = False, k_lin: Sequence[float | None] | None = None) -> tuple[EquationFit, ...]:
+             prefilter: bool = False, k_lin: Sequence[float | None] | None = None,
+             bands: Sequence[float] | None = None) -> tuple[EquationFit, ...]:
     """EDDI per coordinate ``q = pinv(T) y`` over every record (``k_lin``: per coordinate, its own
-    linear stiffness per unit mass when given, :func:`fit_equation`)."""
+    linear stiffness per unit mass when given, :func:`fit_equation`; ``bands``: per coordinate, the
+    cut-off [Hz] of its own band, :func:`own_band`, when not ``prefilter``)."""
     proj = np.linalg.pinv(tmat)
     n = tmat.shape[1]
     data, impacts = [], []
@@ -285,10 +287,41 @@ def fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool |
     if prefilter:
         full = [(proj @ r.x, proj @ r.v, proj @ r.a, r.force, r.window, 1.0 / float(r.t[1] - r.t[0]),
                  r.highpass_hz) for r in records]
-    return tuple(fit_equation(i, data if full is not None else own_span(i, data), impacts,
-                              default_library(i, n, coupling), float(noise[i]), prune, full=full,
-                              k_lin=None if k_lin is None else k_lin[i])
-                 for i in range(n))
+    out = []
+    for i in range(n):
+        span = data if full is not None else own_span(i, data)
+        band = full
+        if full is None and bands is not None and bands[i] > 0:
+            band = own_band(records, proj, span, float(bands[i]))
+        out.append(fit_equation(i, span, impacts, default_library(i, n, coupling), float(noise[i]), prune,
+                                full=band, k_lin=None if k_lin is None else k_lin[i]))
+    return tuple(out)
+
+
+#: :func:`own_band`: a modal equation's phase two keeps the band above this fraction of its mode's
+#: frequency (0.3 and 0.5 gave the same frequencies within 0.05 %, session 19).
+BAND_FRACTION = 0.3
+
+
+def own_band(records: Sequence[ChannelRecord], proj: np.ndarray, span: list[tuple], cutoff_hz: float) -> list[tuple]:
+    """Phase two's records for one modal equation (:func:`_design`'s ``full``): the whole records in
+    modal coordinates, the columns and the force through a high-pass at ``cutoff_hz`` (a fraction
+    :data:`BAND_FRACTION` of the mode's frequency), the rows over the equation's own span.
+
+    Why (session 19, helper s19weak): a fast, weak mode's coordinate ``q_i = P y`` carries, over
+    its short span, slow content far below its mode (the first mode leaking through the shapes, the
+    drift band's doubly integrated noise): 20-38 % of its RMS on own three-mass chains. The sample
+    balance ``k q_i = -q_i'' - B`` reads it as stiffness with almost no acceleration (``(f_1/f_i)^2``
+    of it) and pulled ``k`` low: modes 2-3 0.1-4 % low where ERA had 0.05-0.3 %. A zero-phase
+    high-pass is linear and time-invariant, so every column filtered alike (the monomials after
+    they are formed) keeps the equation exact above the cut-off; the filtered force is a nuisance
+    column (inside the window it is the filter's tail of the blow)."""
+    out = []
+    for r, (t, q, _qd, _qdd) in zip(records, span):
+        s = r.window[0]
+        out.append((proj @ r.x, proj @ r.v, proj @ r.a, r.force, (s, s + q.shape[1]),
+                    1.0 / float(r.t[1] - r.t[0]), cutoff_hz))
+    return out
 
 
 def era_stiffness(fits: Sequence[EquationFit], frequencies_hz: np.ndarray, damping_ratios: np.ndarray,
