@@ -153,7 +153,11 @@ def _design(i: int, data: list[tuple], full: list[tuple] | None, d_terms: list[M
         qdd = np.hstack([r[3] for r in data])
         return _matrix(d_terms, q, qd), _matrix(s_terms, q, qd), -qdd[i], np.zeros((qdd.shape[1], 0))
     parts = []
-    for q, qd, qdd, force, (s, e), rate, fc in full:
+    for rec in full:
+        q, qd, qdd, force, (s, e), rate, fc = rec[:7]
+        if len(rec) > 7:  # :func:`own_band`: each column filtered once, kept for the prune's later rounds
+            parts.append(_banded_columns(rec[7], i, d_terms + s_terms, q, qd, qdd, force, rate, fc)[s:e])
+            continue
         cols = [_matrix(d_terms, q, qd), _matrix(s_terms, q, qd), -qdd[i][:, None],
                 (force if force is not None else np.zeros(q.shape[1]))[:, None]]
         big = highpass(np.hstack(cols).T, rate, fc, PREFILTER_PASSES).T[s:e]
@@ -298,6 +302,28 @@ def fit_all(records: Sequence[ChannelRecord], tmat: np.ndarray, coupling: bool |
     return tuple(out)
 
 
+def _banded_columns(cache: dict, i: int, terms: list[MultiTerm], q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                    force: np.ndarray | None, rate: float, fc: float) -> np.ndarray:
+    """``[terms..., -q_i'', F]`` over the whole record through the high-pass at ``fc``; each column
+    filtered once per record (``cache``, keyed by the term's text) and kept for the prune's later
+    rounds (the filter acts on each row alone; the rows filtered together decide together whether
+    they start at rest, :func:`eddi.mdof.signals.highpass`). Cost: the modal identification of a
+    three-mass chain +22 % CPU (t3c with coupling 0.87 -> 1.06 s; without the cache 1.32 s)."""
+    missing = [t for t in terms if t.text not in cache]
+    if "-qdd" not in cache:
+        extra = [-qdd[i], force if force is not None else np.zeros(q.shape[1])]
+    else:
+        extra = []
+    if missing or extra:
+        rows = [t(q, qd) for t in missing] + extra
+        out = highpass(np.vstack(rows), rate, fc, PREFILTER_PASSES)
+        for t, row in zip(missing, out):
+            cache[t.text] = row
+        if extra:
+            cache["-qdd"], cache["force"] = out[-2], out[-1]
+    return np.column_stack([cache[t.text] for t in terms] + [cache["-qdd"], cache["force"]])
+
+
 #: :func:`own_band`: a modal equation's phase two keeps the band above this fraction of its mode's
 #: frequency (0.3 and 0.5 gave the same frequencies within 0.05 %, session 19).
 BAND_FRACTION = 0.3
@@ -320,7 +346,7 @@ def own_band(records: Sequence[ChannelRecord], proj: np.ndarray, span: list[tupl
     for r, (t, q, _qd, _qdd) in zip(records, span):
         s = r.window[0]
         out.append((proj @ r.x, proj @ r.v, proj @ r.a, r.force, (s, s + q.shape[1]),
-                    1.0 / float(r.t[1] - r.t[0]), cutoff_hz))
+                    1.0 / float(r.t[1] - r.t[0]), cutoff_hz, {}))
     return out
 
 
