@@ -7,7 +7,8 @@ its zero crossings, phase two fits the conservative force sample by sample, a se
 threshold prunes terms, and the impact gives the force per unit mass (:func:`fit_equation`;
 the method in :mod:`eddi.mdof.identify`). Each equation is fitted where its coordinate's own
 motion lives (:func:`own_span`); a modal fit whose small-amplitude frequency departs from the
-tail's takes the tail's linear stiffness (:func:`era_stiffness`).
+tail's takes the tail's linear stiffness (:func:`era_stiffness`); a modal equation's phase two
+runs on its own band, above a fraction of its mode's frequency (:func:`own_band`).
 
 No I/O.
 """

@@ -63,8 +63,8 @@ from eddi.errors import IdentificationError
 from eddi.mdof.candidates import choose_candidate
 from eddi.mdof.coordinates import (EXTRA_MODE_SHARE, RESIDUE_SPREAD_MAX, UNEXPLAINED_TAIL, choose_coordinates,
                                    linear_modes, modal_evidence, residue_masses)
-from eddi.mdof.equations import (BAND_FRACTION, ERA_TOLERANCE, FILTERED_NOTE, PREFILTER_PASSES, EquationFit, Library,
-                                 default_library, era_stiffness, fit_all, fit_equation)
+from eddi.mdof.equations import (BAND_FRACTION, ERA_TOLERANCE, FILTERED_NOTE, PREFILTER_PASSES, EquationFit,
+                                 Library, default_library, era_stiffness, fit_all, fit_equation)
 from eddi.mdof.linear import linear_growth_rate, receptance, restore_quasi_static
 from eddi.mdof.masses import masses_and_inputs
 from eddi.mdof.modal import LinearModes
