@@ -302,8 +302,8 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
                    prune: float, *, prefilter: bool = False) -> MdofIdentification:
     modes = linear_modes(records, tail_fraction=tail_fraction, max_freq_hz=max_freq_hz, driving_point=d)
     kind, tmat, span = choose_coordinates(records, modes, coordinates=coordinates)
-    bands = (BAND_FRACTION * modes.frequencies_hz if kind == "modal" and tmat.shape[1] == modes.frequencies_hz.size
-             else None)  # each modal equation on its own band (:func:`eddi.mdof.equations.own_band`)
+    bands = (BAND_FRACTION * modes.frequencies_hz if BAND_FRACTION > 0 and kind == "modal"
+             and tmat.shape[1] == modes.frequencies_hz.size else None)  # :func:`eddi.mdof.equations.own_band`
     fits = fit_all(records, tmat, coupling, prune, prefilter, bands=bands)
     notes_pre: list[str] = list(_era_note(modes, channels))
     evidence = modal_evidence(modes, tmat.shape[0])

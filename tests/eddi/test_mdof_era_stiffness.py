@@ -9,7 +9,7 @@ Fails on the old code (14.4 % off on main, 4.1 % with the own span alone; no not
 
 Session 19 (helper s19weak): each modal equation's phase two now runs on its own band
 (:func:`eddi.mdof.equations.own_band`) and mode 3's own fit lands at 22.496 Hz (-0.02 %), so the
-pin is no longer needed there; the pin's path is tested with the bands off.
+pin is no longer needed there (bands on; they are off by default); the pin's path with the bands off.
 """
 
 from __future__ import annotations
@@ -40,7 +40,10 @@ def test_uncoupled_modes_take_the_tails_stiffness_when_theirs_departs(monkeypatc
     assert any("linear stiffness from the tail's modes (ERA) for mode(s) 3" in n for n in ident.notes), ident.notes
 
 
-def test_on_its_own_band_the_fit_needs_no_pin():
+def test_on_its_own_band_the_fit_needs_no_pin(monkeypatch):
+    import eddi.mdof.identify as ident_mod
+
+    monkeypatch.setattr(ident_mod, "BAND_FRACTION", 0.3)  # off by default (eddi.mdof.equations.BAND_FRACTION)
     system = _system()
     recs = [condition_multichannel(m) for m in system_measurements(system, seed=700)]
     ident = identify_mdof(recs, system.channels, "acc2", coordinates="modal", coupling=False, highpass_hz=None)

@@ -24,8 +24,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 from bench_mdof_leak import chain, records  # noqa: E402
 
 
-def test_a_weak_fast_mode_keeps_its_frequency_on_its_own_band():
+def test_a_weak_fast_mode_keeps_its_frequency_on_its_own_band(monkeypatch):
+    import eddi.mdof.identify as ident_mod
     from eddi.mdof.identify import identify_mdof
+
+    monkeypatch.setattr(ident_mod, "BAND_FRACTION", 0.3)  # off by default (eddi.mdof.equations.BAND_FRACTION)
 
     system = chain("own-band", (2.0, 0.15), (400.0, 2500.0), 1.5e-3, 0.0, rate=2048.0, record_s=5.0, drive=2,
                    impacts=(30.0, 60.0, 90.0))
