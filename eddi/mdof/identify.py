@@ -63,8 +63,8 @@ from eddi.errors import IdentificationError
 from eddi.mdof.candidates import choose_candidate
 from eddi.mdof.coordinates import (EXTRA_MODE_SHARE, RESIDUE_SPREAD_MAX, UNEXPLAINED_TAIL, choose_coordinates,
                                    linear_modes, modal_evidence, residue_masses)
-from eddi.mdof.equations import (ERA_TOLERANCE, FILTERED_NOTE, PREFILTER_PASSES, EquationFit, Library,
-                                 default_library, era_stiffness, fit_all, fit_equation)
+from eddi.mdof.equations import (BAND_FRACTION, ERA_TOLERANCE, FILTERED_NOTE, PREFILTER_PASSES, EquationFit,
+                                 Library, default_library, era_stiffness, fit_all, fit_equation)
 from eddi.mdof.linear import linear_growth_rate, receptance, restore_quasi_static
 from eddi.mdof.masses import masses_and_inputs
 from eddi.mdof.modal import LinearModes
@@ -302,7 +302,9 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
                    prune: float, *, prefilter: bool = False) -> MdofIdentification:
     modes = linear_modes(records, tail_fraction=tail_fraction, max_freq_hz=max_freq_hz, driving_point=d)
     kind, tmat, span = choose_coordinates(records, modes, coordinates=coordinates)
-    fits = fit_all(records, tmat, coupling, prune, prefilter)
+    bands = (BAND_FRACTION * modes.frequencies_hz if BAND_FRACTION > 0 and kind == "modal"
+             and tmat.shape[1] == modes.frequencies_hz.size else None)  # :func:`eddi.mdof.equations.own_band`
+    fits = fit_all(records, tmat, coupling, prune, prefilter, bands=bands)
     notes_pre: list[str] = list(_era_note(modes, channels))
     evidence = modal_evidence(modes, tmat.shape[0])
     basis = not (coordinates == "auto" and kind == "physical" and evidence == "missing_mode")
@@ -328,7 +330,7 @@ def _identify_once(records: Sequence[ChannelRecord], channels: tuple[str, ...], 
     if kind == "modal" and tmat.shape[1] == modes.frequencies_hz.size:
         pins = era_stiffness(fits, modes.frequencies_hz, modes.damping_ratios)
         if any(p is not None for p in pins):  # a fit's small-amplitude frequency off the tail's
-            fits = fit_all(records, tmat, coupling, prune, prefilter, k_lin=pins)
+            fits = fit_all(records, tmat, coupling, prune, prefilter, k_lin=pins, bands=bands)
             notes_pre.append("linear stiffness from the tail's modes (ERA) for mode(s) "
                              + ", ".join(str(i + 1) for i, p in enumerate(pins) if p is not None)
                              + f": their fits' own departed by more than {100 * ERA_TOLERANCE:g} %")
