@@ -9,7 +9,7 @@ mantissa ``m`` and a decimal exponent ``e``, and the value computed as ``m * 10*
 ``m / 10**-e`` with one IEEE operation when ``m <= 2**53`` and ``|e| <= 22`` (Clinger's fast
 path: both operands are exact doubles, so the one rounding gives the correctly rounded value,
 which is what ``float`` returns: the same float64, bit for bit). A field outside that range
-(more than 18 digits, a large exponent) is marked and parsed by ``float`` afterwards.
+(more than 18 significant digits, a mantissa above 2**53, an exponent beyond +-22) is marked and parsed by ``float`` afterwards.
 
 The grammar is deliberately narrow, a strict subset of what ``numpy.loadtxt`` accepts: fields
 ``[+-]digits[.digits][(e|E)[+-]digits]`` (digits on at least one side of the point), separated
@@ -114,12 +114,14 @@ def _parse_columns(buf, start, delim, out, hard):  # pragma: no cover - compiled
         if neg or c == 43:
             i += 1
         m = 0
-        nd = 0
+        nd = 0  # digits
+        sig = 0  # digits from the first non-zero one (m < 10**18 while sig <= 18: no overflow)
         while i < n:
             d = np.int64(buf[i]) - 48
             if d < 0 or d > 9:
                 break
             m = m * 10 + d
+            sig += m != 0
             nd += 1
             i += 1
         e = 0
@@ -131,6 +133,7 @@ def _parse_columns(buf, start, delim, out, hard):  # pragma: no cover - compiled
                 if d < 0 or d > 9:
                     break
                 m = m * 10 + d
+                sig += m != 0
                 nd += 1
                 i += 1
             e = i0 - i
@@ -157,7 +160,7 @@ def _parse_columns(buf, start, delim, out, hard):  # pragma: no cover - compiled
             e = e - x if eneg else e + x
         if row >= nrows:
             return -1 - f0
-        if nd > 18 or m > 9007199254740992 or e < -22 or e > 22:
+        if sig > 18 or m > 9007199254740992 or e < -22 or e > 22:
             if nh >= hard.shape[0]:
                 return -1 - f0
             hard[nh, 0] = col
