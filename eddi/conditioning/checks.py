@@ -206,7 +206,8 @@ def _smallest_step(y: np.ndarray) -> float:
     if s.size and np.isnan(s[-1]):  # NaNs sort last
         levels = np.unique(y)
         return float(np.min(np.diff(levels))) if levels.size > 1 else 0.0
-    d = np.diff(s)
+    with np.errstate(invalid="ignore"):  # inf - inf between repeated infinities: NaN, left out as unique does
+        d = np.diff(s)
     d = d[d > 0]
     return float(np.min(d)) if d.size else 0.0
 
