@@ -31,9 +31,10 @@ CLI sets, CPU of the best of ``--repeats`` after one warm-up call), beside the i
 
 ``--libraries``: what the libraries cost before the command's own work, CPU of ``python -c``
 lines each adding to the last (numpy; scipy.sparse; pydantic's ``BaseModel``; ``eddi.model``;
-``np.loadtxt`` of the 33 MB CSV, and instead the reader's compiled pass (``eddi.decimal_text``, session 19:
-what ``station identify`` runs when the kernels are built); and session 16's chain with scipy.linalg, ``least_squares`` and
-scipy.interpolate, which the identify path no longer imports), with the modules each loaded.
+``np.loadtxt`` of the 33 MB CSV, and instead the reader's compiled pass (``eddi.decimal_text``,
+session 19: what ``station identify`` runs when the kernels are built); and session 16's chain
+with scipy.linalg, ``least_squares`` and scipy.interpolate, which the identify path no longer
+imports), with the modules each loaded.
 
 The kernels (``eddi.kernels``) run two ways, both timed: numba's JIT (``EDDI_JIT=1``; cold: an
 empty ``NUMBA_CACHE_DIR``, every kernel compiled) and built ahead of time (``python -m
