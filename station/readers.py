@@ -58,6 +58,8 @@ MAX_VALUE = 1e12
 MAX_TIME_S = 1e9
 #: Lines read to find the header (notes ``#...``, the header, one data line).
 HEADER_LINES = 64
+#: Largest CSV read by the compiled pass (:func:`_plain_columns`; 1 GiB: ~27 M rows of t,force,acc).
+MAX_PASS_BYTES = 1 << 30
 #: Fewest samples a record may hold.
 MIN_SAMPLES = 16
 #: A response column of a multi-sensor record: a quantity and a suffix (``acc2``, ``vel_tip``).
@@ -224,10 +226,14 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
 def _plain_columns(path: Path, hdr: Header) -> np.ndarray | None:
     """The data rows as an array of shape (columns, rows) by one compiled pass over the file's
     bytes (:func:`eddi.decimal_text.parse_columns`: the same float64 values as ``numpy.loadtxt``,
-    bit for bit, in ~0.4x its time), or None when the file is not plain numbers between one
+    bit for bit, in about half its CPU), or None when the file is not plain numbers between one
     delimiter (blanks, quotes, comments, a decimal comma, columns read past, ``nan``) or the pass
-    is not built ahead of time: :func:`_loadtxt_columns` then reads it, and names any bad row."""
+    is not built ahead of time: :func:`_loadtxt_columns` then reads it, and names any bad row.
+    Files above :data:`MAX_PASS_BYTES` too (the pass holds the whole text in memory beside the
+    array; ``loadtxt`` reads in chunks)."""
     if hdr.delimiter is None or hdr.decimal_comma or hdr.ignored or len(hdr.cells) != len(hdr.names):
+        return None
+    if path.stat().st_size > MAX_PASS_BYTES:
         return None
     from eddi.decimal_text import data_start, parse_columns
 

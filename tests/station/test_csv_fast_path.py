@@ -92,3 +92,18 @@ def test_the_pass_reads_and_refuses_every_record_as_loadtxt_does(tmp_path: Path,
     assert sum(taken) >= 25  # the pass read these (the rest: 17-digit numbers, blanks, ... went to loadtxt)
     kinds = {r[0] for name, r in results["pass"].items() if name.endswith("-9g.csv")}
     assert kinds == {"read", "refused"}  # refusals after the parse (values, time grid, clipping) too
+
+
+def test_a_file_above_the_pass_limit_is_read_by_loadtxt(tmp_path: Path, kernel,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    import station.readers as readers
+
+    p = tmp_path / "plain.csv"
+    p.write_text("t,force,acc\n" + "".join(f"{i / 1000:.9g},{np.exp(-i / 50):.9g},{np.sin(i / 7):.9g}\n"
+                                          for i in range(600)))
+    calls = []
+    monkeypatch.setattr(decimal_text._KERNELS, "built", lambda name: (calls.append(1), kernel)[1])
+    first = _read(str(p))
+    monkeypatch.setattr(readers, "MAX_PASS_BYTES", p.stat().st_size - 1)
+    second = _read(str(p))
+    assert calls == [1] and first[0] == "read" and _same(first, second)
