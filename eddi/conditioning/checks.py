@@ -201,7 +201,7 @@ def _smallest_step(y: np.ndarray) -> float:
     """The smallest step between the distinct values of ``y`` (``min(diff(unique(y)))``, 0 for one
     value): from the sorted values' positive steps, the same float (the distinct values are the
     sorted ones without repeats), without ``numpy.unique``'s compaction and its ``numpy.ma``
-    import (~10-25 ms of a process, session 19); with a NaN, ``numpy.unique`` as before."""
+    import (~9 ms of CPU at load 22, session 19); with a NaN, ``numpy.unique`` as before."""
     s = np.sort(y)
     if s.size and np.isnan(s[-1]):  # NaNs sort last
         levels = np.unique(y)
