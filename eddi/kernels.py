@@ -44,7 +44,7 @@ AOT_NAME = "_aot_kernels"
 KERNEL_MODULES = ("eddi.simulate", "eddi.local_frequency", "eddi.sensitivity", "eddi.iir", "eddi.hysteresis",
                   "eddi.median", "eddi.refine_grid",
                   "eddi.calculus", "eddi.peaks", "eddi.conditioning.levels", "eddi.conditioning.checks",
-                  "eddi.conditioning.kinematics", "eddi.bspline")
+                  "eddi.conditioning.kinematics", "eddi.bspline", "eddi.decimal_text")
 
 
 def _aot_dir() -> Path:
@@ -202,6 +202,17 @@ class Kernels:
                 self._loaded, self.source = dict(self.jit_functions()), "numba JIT"
         return self._loaded
 
+    def built(self, name: str) -> Callable[..., Any] | None:
+        """The kernel ``name`` built ahead of time, or None when the module would run numba's JIT
+        (no built module, another source, ``EDDI_JIT=1``): for a caller with a way of its own that
+        costs less than numba's import and compile (``eddi.decimal_text``)."""
+        if self._loaded is None:
+            aot = self._aot_functions()
+            if aot is None:
+                return None
+            self._loaded, self.source = aot, "ahead of time"
+        return self._loaded[name] if self.source == "ahead of time" else None
+
     def __getattr__(self, name: str) -> Callable[..., Any]:
         if name.startswith("__") or name not in self.__dict__.get("_signatures", {}):
             raise AttributeError(name)
@@ -221,7 +232,7 @@ def _hash_code(h: Any, code: types.CodeType) -> None:
             h.update(f"{type(c).__name__}:{c!r};".encode())
 
 
-_DTYPES = {"f8": "float64", "i8": "int64"}
+_DTYPES = {"f8": "float64", "i8": "int64", "u1": "uint8"}
 
 
 def _signature_check(sig: str) -> Callable[[tuple], bool]:

@@ -42,7 +42,7 @@ def median(a: np.ndarray) -> float:
     a = np.asarray(a, dtype=float)
     n = a.size
     if a.ndim != 1 or n < MIN_SIZE:
-        return float(np.median(a))
+        return _small_median(a)
     ranks = [n // 2 - 1, n // 2] if n % 2 == 0 else [n // 2]
     sample = np.sort(a[:: max(1, n // SAMPLE)])
     m = sample.size
@@ -67,6 +67,19 @@ def median(a: np.ndarray) -> float:
         return float(np.median(a))
     k = [r - below for r in ranks]
     part = np.partition(inside, k)
+    return float(np.mean(part[k[0]:k[-1] + 1]))
+
+
+def _small_median(a: np.ndarray) -> float:
+    """``float(numpy.median(a))`` of a short array: its middle element(s) partitioned (a copy)
+    and averaged by ``numpy.mean``, as ``numpy.median`` does. ``numpy.median`` itself answers for
+    an empty array, one with a NaN, or one of several dimensions; its NaN check otherwise imports
+    ``numpy.ma`` (~9 ms of CPU at load 22, session 19) to find out the array is not masked."""
+    n = a.size
+    if a.ndim != 1 or n == 0 or np.isnan(a).any():
+        return float(np.median(a))
+    k = [n // 2 - 1, n // 2] if n % 2 == 0 else [n // 2]
+    part = np.partition(a, k)
     return float(np.mean(part[k[0]:k[-1] + 1]))
 
 

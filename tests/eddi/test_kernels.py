@@ -404,3 +404,23 @@ def test_the_conditioning_kernels_are_built_and_give_the_jits_numbers(aot_dir: P
         kr._through_sampling(jac, 0.04, -0.0013, 1, out)
         passes.append(out)
     assert np.array_equal(passes[0], passes[1]) and not np.array_equal(passes[0], jac)
+
+
+def test_the_csv_pass_is_built_and_gives_the_jits_numbers(aot_dir: Path) -> None:
+    # session 19: the CSV reader's pass (eddi.decimal_text), used only when built ahead of time
+    from eddi.kernels import KERNEL_MODULES
+
+    assert "eddi.decimal_text" in KERNEL_MODULES
+    rng = np.random.default_rng(4)
+    rows = np.column_stack([np.arange(3000) / 19200.0, rng.normal(size=3000), 1e-4 * rng.normal(size=3000)])
+    rows[5, 1] = 1e-300  # one number for float
+    raw = ("t,force,acc\n" + "".join(",".join(f"{x:.9g}" for x in r) + "\n" for r in rows)).encode()
+    buf = np.frombuffer(raw, dtype=np.uint8)
+    got = []
+    for where in (aot_dir, None):
+        k = _fresh("eddi.decimal_text", where)
+        assert k.source == ("ahead of time" if where else "numba JIT")
+        out, hard = np.zeros((3, 3000)), np.zeros((64, 4), dtype=np.int64)
+        got.append((k._parse_columns(buf, 12, ord(","), out, hard), out, hard.copy()))
+    assert got[0][0] == got[1][0] == 1 and np.array_equal(got[0][1].view(np.int64), got[1][1].view(np.int64))
+    assert np.array_equal(got[0][2][:1], got[1][2][:1]) and tuple(got[0][2][0, :2]) == (1, 5)

@@ -112,3 +112,25 @@ def test_noise_levels_third_difference_is_numpys_bit_for_bit(monkeypatch) -> Non
     monkeypatch.undo()
     assert np.array_equal(abs_third_difference(ys[2][::3]), np.abs(np.diff(ys[2][::3], 3)))  # strided: numpy
     assert abs_third_difference(np.ones(3)).size == 0
+
+
+def test_short_arrays_give_numpys_median_bit_for_bit_without_importing_numpy_ma() -> None:
+    # session 19: numpy.median's NaN check imports numpy.ma (~10-25 ms of a process)
+    import subprocess
+    import sys
+
+    from eddi.median import _small_median, median
+
+    rng = np.random.default_rng(19)
+    for n in [1, 2, 3, 4, 5, 16, 17, 100, 1001, 19_999]:
+        for a in (rng.normal(size=n), np.round(rng.normal(size=n), 1), np.full(n, -0.0), rng.normal(size=n) * 1e300):
+            assert median(a) == np.median(a) and _small_median(a) == np.median(a)
+            assert np.signbit(median(a)) == np.signbit(np.median(a))
+    nan = rng.normal(size=20)
+    nan[7] = np.nan
+    assert np.isnan(median(nan)) and np.isnan(median(np.zeros((3, 3)) * np.nan))
+    assert median(np.arange(9.0).reshape(3, 3)) == 4.0
+    code = ("import sys, numpy as np; from eddi.median import median; median(np.arange(16.0)); "
+            "print('numpy.ma' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"

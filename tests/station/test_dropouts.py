@@ -155,3 +155,18 @@ def test_dropouts_of_a_quantized_rest_among_thousands_of_zero_runs():
     k = 1000 + int(np.argmax(np.abs(coarse[1000:1140])))  # a peak of the ring-down (one cycle)
     lost[k:k + 3] = 0.0
     assert dropout_runs(lost) == [(k, k + 3)]
+
+
+def test_the_smallest_step_is_numpy_uniques_bit_for_bit() -> None:
+    # session 19: from the sorted values (no numpy.unique compaction, no numpy.ma import)
+    from eddi.conditioning.checks import _smallest_step
+
+    rng = np.random.default_rng(7)
+    cases = [np.round(rng.normal(size=5000) * 300) / 300, rng.normal(size=1000), np.zeros(40), np.array([2.5]),
+             np.array([-0.0, 0.0, 1.0]), np.array([1.0, np.inf, np.inf]), np.array([-np.inf, -np.inf, 1.0, 3.0]),
+             np.array([1.0, np.nan, 2.0, 2.0]), np.array([np.nan, np.nan]), np.array([])]
+    for y in cases:
+        levels = np.unique(y)
+        want = float(np.min(np.diff(levels))) if levels.size > 1 else 0.0
+        got = _smallest_step(y)
+        assert got == want or (np.isnan(got) and np.isnan(want))
