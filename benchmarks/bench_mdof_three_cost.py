@@ -17,6 +17,9 @@ Cases (``--cases``, default all):
 - ``H3``: drawn in session 18 and not looked at while anything was tuned: 1.5 / 0.7 / 2.5 kg,
   springs 1.2e6 / 6e5 / 2e6 N/m (52 / 172 / 336 Hz), a 25 % cubic 2-3, 8 kHz, 42 dB, struck at 2,
   seeds 710-712;
+- ``S1`` / ``S2``: drawn in session 19 (helper s19three) as held-out checks of the tail pin: 0.8 / 1.6 / 1.0 kg,
+  springs 1.5e6 / 2.5e6 / 8e5 N/m, a 20 % cubic 1-2, 6 kHz, 45 dB, struck at 1, seeds 900-902; 3 / 1.2 / 0.7 kg,
+  springs 4e6 / 1.5e6 / 1e6 N/m, a 30 % cubic 2-3, 8 kHz, 45 dB, struck at 3, seeds 920-922;
 - ``w2t1`` / ``w2h3``: two-mass chains with a weak cubic coupling (``bench_mdof_nulls.py`` kind
   ``weak2``, tuning seed 1 and held-out seed 3; expected verdict ``modal_coupling``).
 
@@ -55,8 +58,11 @@ CHAINS = {
     "H1": ((2.0, 0.8, 1.2), (8e5, 5e5, 1.5e6), 0.2, 1, 4000.0, 1, (150.0, 100.0, 220.0), 40.0, 500),
     "H2": ((0.6, 1.5, 3.0), (3e5, 1.2e6, 6e5), 0.3, 2, 6000.0, 3, (120.0, 80.0, 180.0), 38.0, 500),
     "H3": ((1.5, 0.7, 2.5), (1.2e6, 6e5, 2e6), 0.25, 2, 8000.0, 2, (140.0, 90.0, 200.0), 42.0, 710),
+    # session 19 (helper s19three), drawn before the tail pin was tried on them and not tuned on
+    "S1": ((0.8, 1.6, 1.0), (1.5e6, 2.5e6, 8e5), 0.2, 1, 6000.0, 1, (180.0, 120.0, 250.0), 45.0, 900),
+    "S2": ((3.0, 1.2, 0.7), (4e6, 1.5e6, 1e6), 0.3, 2, 8000.0, 3, (100.0, 160.0, 220.0), 45.0, 920),
 }
-CASES = ("cA-50", "cA-35", "H1", "H2", "H3", "w2t1", "w2h3")
+CASES = ("cA-50", "cA-35", "H1", "H2", "H3", "S1", "S2", "w2t1", "w2h3")
 
 
 def own_chain(name: str) -> tuple[MdofSystem, float, int, float]:
