@@ -180,8 +180,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         "allowance": allowance.as_dict() if allowance is not None else None,
         "modes": dict(by_mode.as_dict(), decided=in_mode) if by_mode is not None else None,
         "noise_floor": channel_floor(records, names), "prediction_floor": verdict.noise_floor,
-        "floor_parts": fold_floors[delivered].parts(names),
-        "training_floor": fold_floors[delivered].training_floors(names, MDOF_MIN_FLOOR), "symptoms": symptoms,
+        "floor_parts": fold_floors[delivered].parts(names), "symptoms": symptoms,
         "amplitude": {"span": amp_span.as_dict(), "backbones": backbone_json(modes)},
         "span_residual": final.span_residual,
         "linear_modes_hz": final.modes.frequencies_hz.tolist(),
@@ -478,10 +477,11 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
     lines.append("Noise floor per channel (nrmse): " + "  ".join(f"{c} {v:.3g}" for c, v in obj["noise_floor"].items()))
     if obj.get("prediction_floor"):  # what every rule judges on (eddi.mdof.predfloor)
         parts = obj.get("floor_parts") or {}
-        lines.append("Prediction floor per channel (nrmse, what a model of the delivered kind identified from the "
-                     "other captures is expected to leave held out; the floor every verdict rule judges on): "
-                     + "  ".join(f"{c} {v:.3g}" + (f" (noise {parts['noise'][c]:.2g}, impulse {parts['impulse'][c]:.2g},"
-                                                   f" identification {parts['ident'][c]:.2g})" if parts else "")
+        lines.append("Prediction floor per channel (nrmse, what a model identified from the other captures leaves "
+                     "held out by the noise and the blows' impulse errors; the floor every verdict rule judges on): "
+                     + "  ".join(f"{c} {v:.3g}" + (f" (noise {parts['noise'][c]:.2g}, blows' impulses {parts['blow'][c]:.2g};"
+                                                   f" the folds' jackknife spread {parts['ident'][c]:.2g}, not counted)"
+                                                   if parts else "")
                                  for c, v in obj["prediction_floor"].items()))
     lines += mode_lines(obj)
     lines += [f"Symptom: {s['text']}." for s in obj["symptoms"]]

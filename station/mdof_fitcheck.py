@@ -43,10 +43,8 @@ SHORT_FACTOR = 2.0
 
 
 def fit_warnings(obj: dict[str, Any], model: Any, records: Sequence[Any], names: Sequence[str]) -> list[str]:
-    """:func:`fit_check` with the diagnosis's training floors (``obj["training_floor"]``: noise and the
-    blows' impulses, no identification part - the model was fitted on these captures; else
-    ``obj["noise_floor"]``); its figures go into ``obj``."""
-    figures, warnings = fit_check(model, records, names, obj.get("training_floor") or obj["noise_floor"])
+    """:func:`fit_check` with the diagnosis's floors (``obj["noise_floor"]``); its figures go into ``obj``."""
+    figures, warnings = fit_check(model, records, names, obj["noise_floor"])
     obj.update(figures)
     return warnings
 

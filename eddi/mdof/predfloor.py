@@ -4,38 +4,48 @@ other captures, is expected to leave on the held-out one (session 19, issue 14 i
 A multi-channel diagnosis judges each model by its held-out nrmse per channel. Before session 19 the
 verdict compared it with the acceleration noise alone (:func:`eddi.mdof.validate.noise_floor`), and
 session 18 added, for the ``none`` judgement only, the held-out capture's impulse uncertainty
-(:func:`eddi.mdof.validate.force_floor`). Both are what the TRUE equations leave. A held-out fold's
-model is not the truth: it was identified from ``N - 1`` noisy captures, and its own errors reach the
-held-out prediction. The largest, measured on linear nulls of ``benchmarks/bench_mdof_nulls.py``: the
-modal masses come from the training captures' measured impulses (the driving-point residues), so
-each training blow's impulse error (``u_j``, the force noise over the blow) scales the model's
-response; the fold's prediction then misses by the held-out blow's impulse error MINUS the training
-blows' mean one. On t11-nulln (0.45 + 0.11 kg, 36.6 dB, 0.5-1.3 N blows, impulse errors -1.3 /
-+2.4 / +0.1 / +1.2 % drawn from ``u`` = 1.0 / 0.8 / 0.4 / 0.45 %) the fold holding out the first
-blow left 0.029 where the truth leaves 0.018 and the noise 0.0034: -1.3 % - (+1.2 %) = -2.5 %.
-Frequencies, damping ratios and shapes identified from noisy ring-downs add their own scatter.
+(:func:`eddi.mdof.validate.force_floor`, its expected size ``u``). Both are what the TRUE equations
+leave on average. Two things were missing, measured on linear nulls of
+``benchmarks/bench_mdof_nulls.py``:
+
+1. **The training blows' impulses.** A fold's model is identified from ``N - 1`` captures, and its
+   modal masses come from their measured impulses (the driving-point residues): each training blow's
+   impulse error (the force noise over the blow, relative size ``u_j``) scales the model's response.
+   The fold's prediction then misses by the held-out blow's impulse error MINUS the training blows'
+   mean one. On t11-nulln (0.45 + 0.11 kg, 36.6 dB, 0.5-1.3 N blows; impulse errors -1.3 / +2.4 /
+   +0.1 / +1.2 % drawn from ``u`` = 1.0 / 0.8 / 0.4 / 0.45 %) the fold holding out the first blow left
+   0.029 where the noise leaves 0.0034: -1.3 % - (+1.2 %) = -2.5 %.
+2. **The draw, not its expectation.** The truth itself left 0.018-0.021 on t11-nulln's first two
+   captures (their impulse errors 1.4 and 2.9 ``u``), twice the expected 0.0093-0.0105. With four
+   captures such draws are common; an expectation is no floor for the captures at hand.
 
 **The estimate** (:func:`fold_floor`): per held-out capture ``k`` and channel ``c``,
-``P_kc = sqrt(noise_kc^2 + impulse_kc^2 + ident_kc^2)``, with
+``P_kc = sqrt(noise_kc^2 + blow_kc^2)`` with
 
 - ``noise_kc``: :func:`eddi.mdof.validate.noise_floor` of capture ``k``;
-- ``impulse_kc``: :func:`eddi.mdof.validate.force_floor` of fold ``k``'s model on capture ``k``;
-- ``ident_kc``: the identification's own uncertainty carried to capture ``k``, the jackknife over the
-  folds: every fold's model predicts capture ``k``, and ``sqrt(sum_j ||y_j - mean_j y_j||^2) /
-  ||y_k||`` (:func:`jackknife_spread`). The jackknife's ``(N-1)/N sum_j (.)^2`` estimates the variance
-  of a model identified from all ``N`` captures; a fold's model uses ``N - 1``, ``N/(N-1)`` times
-  that variance: the plain sum. It carries the training impulses' errors through whatever weights
-  the identification gives them, and the scatter of frequencies, damping and shapes, with no model of
-  either (on t11-nulln 0.009: the training means' spread of the impulse errors, 0.92 %).
+- ``blow_kc``: the blows' impulse errors as this fold meets them, the larger of
+  (a) the expected one, ``force_floor`` of fold ``k``'s model on capture ``k`` scaled from ``u_k`` to
+  ``sigma_k = sqrt(u_k^2 + sum_{j != k} u_j^2 / (N-1)^2)`` (the held-out blow's and the training mean's,
+  independent), and (b) the realized one: the least-squares scale error of fold ``k``'s prediction over
+  every channel (``measured ~ (1 + s) predicted``, :func:`realized_scale`), at most
+  :data:`IMPULSE_SIGMAS` ``sigma_k``. A scale error within what the force noise leaves undetermined is
+  no evidence against the model; a missing coupling is no pure scale, and what it leaves beyond
+  ``3 sigma_k`` (0.1-3 % on the benches' blows) stays above the floor.
 
 The floor of a channel over the folds is the mean of ``P_kc`` (the held-out figure is the mean of the
-folds' nrmse), at least :data:`eddi.mdof.verdict.MDOF_MIN_FLOOR`.
+folds' nrmse), at least :data:`eddi.mdof.verdict.MDOF_MIN_FLOOR`. Between kinds (baseline, coupled)
+the realized part is the smaller of the two folds' (:func:`joint_floors`): the class that holds the
+truth meets the impulse errors only.
 
-Limits: the jackknife is of the unpolished fold models (with ``--refine`` the polished ones are
-judged: their spread is not measured); a model class that misses a real effect identifies
-differently from different blow sets and its spread grows - the floor of a wrong model is then
-higher than a right one's (measured in docs/multi-dof.md, session 19: the hidden-coupling tests still
-name). A fold model that diverges on another capture is left out of that capture's spread.
+**Evidence only, not in the floor: the jackknife** (:func:`jackknife_spread`, JSON ``ident``): every
+fold's model predicts capture ``k``; ``sqrt(sum_j ||y_j - mean y||^2) / ||y_k||`` estimates the
+identification's whole scatter (frequencies, damping, shapes, the impulses through whatever weights
+the identification gives them). It was the first estimate tried (session 19) and it is honest for a
+class that holds the truth, but a class that misses a real effect identifies differently from
+different blow sets: on session 13's 16 + 5 kg chain with a 5 % cubic coupling
+(``tests/station/test_mdof_weak_within_allowance.py``, 9.6-28 N blows, ``u`` 0.05 %) even the
+smaller of the two kinds' spreads (0.010 / 0.011) raised the floors 15-50 % and the coupling was no
+longer named (excess gain 0.43 < 0.5). It is reported beside the floor.
 """
 
 from __future__ import annotations
@@ -45,6 +55,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+#: The blows' impulse errors as realized are counted up to this many times their uncertainty
+#: ``sigma_k`` (:func:`realized_scale`): a scale error within what the force noise leaves undetermined.
+IMPULSE_SIGMAS = 3.0
+
 
 @dataclass(frozen=True)
 class FoldFloors:
@@ -53,28 +67,32 @@ class FoldFloors:
     Attributes
     ----------
     noise, impulse, ident : ndarray, shape (n_records, n_channels)
-        Nrmse of each part (module notes).
+        The acceleration noise, the blows' expected impulse part and the jackknife spread (evidence,
+        not in the floor); module notes.
+    realized : ndarray, shape (n_records, n_channels), or None
+        The blows' impulse part as realized (capped).
     """
 
     noise: np.ndarray
     impulse: np.ndarray
     ident: np.ndarray
+    realized: np.ndarray | None = None
+
+    @property
+    def blow(self) -> np.ndarray:
+        """The blows' part: the expected ``impulse`` or the ``realized`` one, the larger."""
+        return self.impulse if self.realized is None else np.maximum(self.impulse, self.realized)
 
     @property
     def total(self) -> np.ndarray:
-        """``sqrt(noise^2 + impulse^2 + ident^2)`` per capture and channel."""
-        return np.sqrt(self.noise**2 + self.impulse**2 + self.ident**2)
+        """``sqrt(noise^2 + blow^2)`` per capture and channel."""
+        return np.hypot(self.noise, self.blow)
 
     def take(self, rows: Sequence[int]) -> "FoldFloors":
         """The captures ``rows`` only (e.g. the folds on which the baseline ran)."""
         idx = list(rows)
-        return FoldFloors(self.noise[idx], self.impulse[idx], self.ident[idx])
-
-    def training_floors(self, names: Sequence[str], least: float) -> dict[str, float]:
-        """Per channel the mean over the captures of ``sqrt(noise^2 + impulse^2)``, at least ``least``:
-        what the true equations leave on a capture the model was fitted on (no identification part)."""
-        tot = np.hypot(self.noise, self.impulse)
-        return {c: max(least, float(np.mean(tot[:, k]))) for k, c in enumerate(names)}
+        return FoldFloors(self.noise[idx], self.impulse[idx], self.ident[idx],
+                          None if self.realized is None else self.realized[idx])
 
     def channel_floors(self, names: Sequence[str], least: float) -> dict[str, float]:
         """Per channel the mean over the captures of :attr:`total`, at least ``least``."""
@@ -89,7 +107,7 @@ class FoldFloors:
     def parts(self, names: Sequence[str]) -> dict[str, dict[str, float]]:
         """Mean over the captures of each part, per channel (the JSON evidence)."""
         return {part: {c: float(np.mean(getattr(self, part)[:, k])) for k, c in enumerate(names)}
-                for part in ("noise", "impulse", "ident")}
+                for part in ("noise", "impulse", "realized", "blow", "ident") if getattr(self, part) is not None}
 
 
 def jackknife_spread(simulated: Sequence[np.ndarray], measured: np.ndarray) -> np.ndarray:
@@ -106,32 +124,72 @@ def jackknife_spread(simulated: Sequence[np.ndarray], measured: np.ndarray) -> n
     return np.sqrt(dev) / np.maximum(np.linalg.norm(measured, axis=1), 1e-300)
 
 
-def capture_floor(models: Sequence, k: int, record) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The three parts for held-out capture ``k`` (``models[j]``: fold ``j``'s model, ``models[k]`` the
-    one that did not see ``record``)."""
-    from eddi.mdof.validate import force_floor, noise_floor, validate_mdof
+def realized_scale(simulated: np.ndarray, measured: np.ndarray, sigma: float) -> np.ndarray:
+    """The blows' impulse error as realized (module notes): the least-squares scale error ``s`` of the
+    prediction over every channel (``measured ~ (1 + s) simulated``), at most :data:`IMPULSE_SIGMAS` x
+    ``sigma`` (the impulses' relative uncertainty), as the nrmse it leaves on each channel. Zeros
+    without ``sigma`` or a finite prediction."""
+    y, p = np.asarray(measured, float), np.asarray(simulated, float)
+    den = float(np.sum(p * p))
+    if not (sigma > 0 and np.all(np.isfinite(p)) and den > 0):
+        return np.zeros(y.shape[0])
+    g = min(abs(float(np.sum(y * p)) / den - 1.0), IMPULSE_SIGMAS * float(sigma))
+    return g * np.linalg.norm(p, axis=1) / np.maximum(np.linalg.norm(y, axis=1), 1e-300)
+
+
+def blow_sigma(u: Sequence[float], k: int) -> float:
+    """``sqrt(u_k^2 + sum_{j != k} u_j^2 / (N-1)^2)``: the held-out blow's impulse uncertainty and the
+    training blows' mean one (module notes)."""
+    u = np.asarray(u, float)
+    others = np.delete(u, k)
+    train = float(np.sum(others**2)) / max(others.size, 1) ** 2
+    return float(np.sqrt(u[k] ** 2 + train))
+
+
+def capture_floor(models: Sequence, k: int, record, sigma: float) -> tuple[np.ndarray, ...]:
+    """The parts for held-out capture ``k`` (``models[j]``: fold ``j``'s model, ``models[k]`` the one
+    that did not see ``record``; ``sigma``: :func:`blow_sigma`): noise, expected impulse, jackknife,
+    realized impulse."""
+    from eddi.mdof.validate import force_floor, impulse_floor, noise_floor, validate_mdof
 
     noise = np.nan_to_num(np.asarray(noise_floor(record), float), nan=0.0)
+    u = impulse_floor(record)
     try:
         imp = np.nan_to_num(np.asarray(force_floor(models[k], record), float), nan=0.0, posinf=0.0)
+        imp = imp * (sigma / u if u > 0 else 0.0)
     except (ValueError, FloatingPointError, np.linalg.LinAlgError):
         imp = np.zeros_like(noise)
-    sims = []
-    for m in models:
+    sims, own = [], None
+    for j, m in enumerate(models):
         try:
             v = validate_mdof(m, record)
         except (ValueError, FloatingPointError, np.linalg.LinAlgError):
             continue
         if not v.diverged:
             sims.append(v.simulated)
+            own = v.simulated if j == k else own
     w0, w1 = record.window
-    ident = jackknife_spread(sims, record.x[:, w0:w1])
-    return noise, imp, ident
+    y = record.x[:, w0:w1]
+    ident = jackknife_spread(sims, y)
+    real = realized_scale(own, y, sigma) if own is not None else np.zeros_like(noise)
+    return noise, imp, ident, real
 
 
 def fold_floor(models: Sequence, records: Sequence, mapper=None) -> FoldFloors:
     """:class:`FoldFloors` of the held-out folds (``models[k]``: the model identified without
     ``records[k]``); ``mapper(fn, items)`` may run the captures in forked workers."""
+    from eddi.mdof.validate import impulse_floor
+
     mapper = mapper if mapper is not None else (lambda fn, items: [fn(x) for x in items])
-    got = mapper(lambda k: capture_floor(models, k, records[k]), list(range(len(records))))
-    return FoldFloors(*(np.array([g[i] for g in got]) for i in range(3)))
+    u = [impulse_floor(r) for r in records]
+    got = mapper(lambda k: capture_floor(models, k, records[k], blow_sigma(u, k)), list(range(len(records))))
+    return FoldFloors(*(np.array([g[i] for g in got]) for i in range(4)))
+
+
+def joint_floors(by_kind: dict[str, FoldFloors]) -> dict[str, FoldFloors]:
+    """Each kind's floors with the realized impulse part (and the jackknife evidence) of the kind that
+    meets the impulses best: per capture and channel the smaller over the kinds. A class that misses a
+    real effect also misses in scale; the class that holds the truth misses by the impulses alone."""
+    least = np.min([f.ident for f in by_kind.values()], axis=0)
+    real = np.min([f.realized if f.realized is not None else np.zeros_like(f.noise) for f in by_kind.values()], axis=0)
+    return {kind: FoldFloors(f.noise, f.impulse, least, real) for kind, f in by_kind.items()}
