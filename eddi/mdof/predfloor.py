@@ -33,9 +33,8 @@ leave on average. Two things were missing, measured on linear nulls of
   ``3 sigma_k`` (0.1-3 % on the benches' blows) stays above the floor.
 
 The floor of a channel over the folds is the mean of ``P_kc`` (the held-out figure is the mean of the
-folds' nrmse), at least :data:`eddi.mdof.verdict.MDOF_MIN_FLOOR`. Between kinds (baseline, coupled)
-the realized part is the smaller of the two folds' (:func:`joint_floors`): the class that holds the
-truth meets the impulse errors only.
+folds' nrmse), at least :data:`eddi.mdof.verdict.MDOF_MIN_FLOOR`; each kind (baseline, coupled) with
+its own folds' realized part.
 
 **Evidence only, not in the floor: the jackknife** (:func:`jackknife_spread`, JSON ``ident``): every
 fold's model predicts capture ``k``; ``sqrt(sum_j ||y_j - mean y||^2) / ||y_k||`` estimates the
@@ -187,9 +186,8 @@ def fold_floor(models: Sequence, records: Sequence, mapper=None) -> FoldFloors:
 
 
 def joint_floors(by_kind: dict[str, FoldFloors]) -> dict[str, FoldFloors]:
-    """Each kind's floors with the realized impulse part (and the jackknife evidence) of the kind that
-    meets the impulses best: per capture and channel the smaller over the kinds. A class that misses a
-    real effect also misses in scale; the class that holds the truth misses by the impulses alone."""
+    """Each kind's floors (its own blows' part: the model judged meets the impulses as it meets them;
+    the cap at :data:`IMPULSE_SIGMAS` ``sigma_k`` bounds what a missing effect can hide there) with the
+    jackknife evidence of the better-determined kind: per capture and channel the smaller spread."""
     least = np.min([f.ident for f in by_kind.values()], axis=0)
-    real = np.min([f.realized if f.realized is not None else np.zeros_like(f.noise) for f in by_kind.values()], axis=0)
-    return {kind: FoldFloors(f.noise, f.impulse, least, real) for kind, f in by_kind.items()}
+    return {kind: FoldFloors(f.noise, f.impulse, least, f.realized) for kind, f in by_kind.items()}
