@@ -12,10 +12,11 @@ holds that evidence (:func:`eddi.mdof.identify.modal_evidence`) and no coupling 
 physical channels explains it held out, ``unexplained`` when the tail resolves fewer
 modes than channels and no coupling wins (a mode the records cannot resolve is not named).
 ``modal_coupling`` needs a nonlinear term between coordinates in the model (a better fit of
-linear springs is not a coupling). The verdict is then earned per channel against the noise
-floor (:mod:`eddi.mdof.verdict`), per mode against the records' frequency and damping at every
-amplitude the ring-downs sweep (:mod:`eddi.mdof.amplitude`), and says how far the captures'
-blow sizes tested extrapolation in amplitude.
+linear springs is not a coupling). The verdict is then earned per channel against the
+prediction floor of the held-out folds (:mod:`eddi.mdof.verdict`, :mod:`eddi.mdof.predfloor`), per
+mode against the records' frequency and damping at every amplitude the ring-downs sweep
+(:mod:`eddi.mdof.amplitude`), and says how far the captures' blow sizes tested extrapolation in
+amplitude.
 """
 
 from __future__ import annotations
@@ -212,9 +213,9 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
 
 
 def _uncertain_none(obj: dict[str, Any], delivered: str) -> None:
-    """A ``none`` whose delivered model sits above a channel's noise floor held out (within the
-    ``NONE_FACTOR`` allowed) is said to be uncertain, as the one-coordinate loop says it
-    (``Cause: none (uncertain)``): JSON ``uncertain`` true and a note with the worst channel and
+    """A ``none`` whose delivered model sits above a channel's prediction floor held out
+    (:mod:`eddi.mdof.predfloor`; within the ``NONE_FACTOR`` allowed) is said to be uncertain, as the
+    one-coordinate loop says it (``Cause: none (uncertain)``): JSON ``uncertain`` true and a note with the worst channel and
     how the coupled model fared (better on how many folds, its gain against the margin). Never a
     plain ``none`` above the floor."""
     obj["uncertain"] = False

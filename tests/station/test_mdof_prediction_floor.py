@@ -1,5 +1,5 @@
 """A linear null's ``none`` is judged against what the true equations leave, not the noise alone
-(session 18, :func:`station.mdof_verdict.prediction_floor`).
+(session 18; since session 19 the folds' floor of :mod:`eddi.mdof.predfloor`).
 
 t13-nulln of ``benchmarks/bench_mdof_nulls.py --set tuning`` (a linear 0.78 + 0.29 kg chain, 4.06 / 9.83 Hz,
 36 dB, four acceleration captures, no mass given): on main (fa3f89a) ``none (uncertain)``, the baseline
