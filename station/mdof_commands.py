@@ -215,9 +215,9 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
 def _uncertain_none(obj: dict[str, Any], delivered: str) -> None:
     """A ``none`` whose delivered model sits above a channel's prediction floor held out
     (:mod:`eddi.mdof.predfloor`; within the ``NONE_FACTOR`` allowed) is said to be uncertain, as the
-    one-coordinate loop says it (``Cause: none (uncertain)``): JSON ``uncertain`` true and a note with the worst channel and
-    how the coupled model fared (better on how many folds, its gain against the margin). Never a
-    plain ``none`` above the floor."""
+    one-coordinate loop says it (``Cause: none (uncertain)``): JSON ``uncertain`` true and a note with
+    the worst channel and how the coupled model fared (better on how many folds, its gain against the
+    margin). Never a plain ``none`` above the floor."""
     obj["uncertain"] = False
     if obj["cause"] != "none":
         return
