@@ -182,6 +182,15 @@ def run(job: tuple[str, int, str, bool]) -> dict:
                folds_b=[round(f, 4) for f in obj["baseline"]["folds"]],
                folds_c=[round(f, 4) for f in obj["coupled"]["folds"]],
                floor={c: round(v, 4) for c, v in obj["noise_floor"].items()},
+               pfloor={c: round(v, 4) for c, v in (obj.get("prediction_floor") or obj["noise_floor"]).items()},
+               floor_parts=obj.get("floor_parts"),
+               # the session-18 floor (noise and the held-out blow's impulse, no identification part), from the parts
+               ratio_s18=(round(max(obj["coupled" if obj["cause"] == "modal_coupling" else "baseline"]["channel_nrmse"][c]
+                                    / max(0.01, float(np.hypot(obj["floor_parts"]["noise"][c],
+                                                               obj["floor_parts"]["impulse"][c])))
+                                    for c in obj["channels"]), 3) if obj.get("floor_parts") else None),
+               ratio=round(max(obj["coupled" if obj["cause"] == "modal_coupling" else "baseline"]["channel_nrmse"][c]
+                               / v for c, v in (obj.get("prediction_floor") or obj["noise_floor"]).items()), 3),
                coupling_z=round(max((x for e in z for x in e), default=0.0), 2),
                terms=obj["coupling_terms"], notes=[n[:200] for n in obj["notes"]],
                uncertain=obj.get("uncertain"), short_coupling=obj.get("short_coupling"))
@@ -196,13 +205,13 @@ def show(row: dict) -> None:
     if "cause" not in row:
         return
     ok = "FALSE CLAIM" if false_claim(row) else ("OK" if row["cause"] == expected(row["kind"]) else "miss")
-    print(f"    -> {row['cause']} ({ok})", end="", flush=True)
+    print(f"    -> {row['cause']}{' (uncertain)' if row.get('uncertain') else ''} ({ok})", end="", flush=True)
     if "baseline" not in row:
         print(flush=True)
         return
     a = row.get("allowance") or {}
     print(f" gain {100 * row['gain']:.0f} % raw {100 * row['raw_gain']:.0f} % base {row['baseline']} cpl {row['coupled']} "
-          f"floor {row['floor']} | allowance: base_over {a.get('base_over', float('nan')):.2f} coupled_over "
+          f"floor {row['floor']} pred {row.get('pfloor')} ratio {row.get('ratio')} (s18 floor {row.get('ratio_s18')}) | allowance: base_over {a.get('base_over', float('nan')):.2f} coupled_over "
           f"{a.get('coupled_over', float('nan')):.2f} excess {a.get('excess_gain', float('nan')):.2f} "
           f"worse folds {a.get('worse_folds')} | z {row['coupling_z']} | CPU {row['cpu_s']} s", flush=True)
     m = row.get("modes") or {}

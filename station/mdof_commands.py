@@ -12,10 +12,11 @@ holds that evidence (:func:`eddi.mdof.identify.modal_evidence`) and no coupling 
 physical channels explains it held out, ``unexplained`` when the tail resolves fewer
 modes than channels and no coupling wins (a mode the records cannot resolve is not named).
 ``modal_coupling`` needs a nonlinear term between coordinates in the model (a better fit of
-linear springs is not a coupling). The verdict is then earned per channel against the noise
-floor (:mod:`eddi.mdof.verdict`), per mode against the records' frequency and damping at every
-amplitude the ring-downs sweep (:mod:`eddi.mdof.amplitude`), and says how far the captures'
-blow sizes tested extrapolation in amplitude.
+linear springs is not a coupling). The verdict is then earned per channel against the
+prediction floor of the held-out folds (:mod:`eddi.mdof.verdict`, :mod:`eddi.mdof.predfloor`), per
+mode against the records' frequency and damping at every amplitude the ring-downs sweep
+(:mod:`eddi.mdof.amplitude`), and says how far the captures' blow sizes tested extrapolation in
+amplitude.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from eddi.mdof.collocation import check_driving_point
 from eddi.mdof.identify import identify_mdof
 from eddi.mdof.model import MdofModel
 from eddi.mdof.validate import validate_mdof
-from eddi.mdof.verdict import held_out_gain
+from eddi.mdof.verdict import MDOF_MIN_FLOOR, channel_floor, held_out_gain
 from station.errors import InputFileError
 from station.mdof_data import condition_all, driving_point_how, reduce_rate
 from station.mdof_fitcheck import fit_warnings
@@ -42,7 +43,7 @@ from station.mdof_floor import add_floors, mode_lines, modes_judged
 from station.mdof_folds import PROGRESS_S, _final_baseline, _held_out_folds, nonlinear_coupling_terms
 from station.mdof_mechanism import add_mechanisms, mechanism_lines
 from station.mdof_polish import polish_tag
-from station.mdof_verdict import coupling_short, prediction_floor
+from station.mdof_verdict import coupling_short
 from station.output_safety import write_text_atomic
 
 
@@ -125,10 +126,11 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     fold_terms = folds.pop("coupling_terms")
     mode_folds = folds.pop("modes")
     computed = folds.pop("ahead")
+    fold_floors = folds.pop("floors")  # per kind, eddi.mdof.predfloor.FoldFloors
     base = float(np.mean(folds["baseline"]))
     cpl = float(np.mean(folds["coupled"]))
     raw_gain = held_out_gain(folds["baseline"], folds["coupled"])  # per fold (eddi.mdof.verdict)
-    wins, gain, allowance = _coupling_earned(folds, per_channel, records, names, margin)
+    wins, gain, allowance = _coupling_earned(folds, per_channel, names, margin, fold_floors["baseline"])
     by_mode = modes_judged(mode_folds, folds["baseline"], folds["coupled"], margin)
     in_mode = bool(not wins and by_mode is not None and by_mode.earned)  # a coupling that lives in a weak mode
     if in_mode:
@@ -154,9 +156,10 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
                      f"held out (better on every fold; raw gain {100 * raw_gain:.0f} %, margin {100 * margin:.0f} %), "
                      "and the baseline is not within its allowance")
     cause = _first_cause(final, gain, margin, len(names), notes, fold_terms,
-                         _baseline_complete(per_channel["baseline"], records, names))
-    verdict, amp, modes, amp_span = _earned(cause, per_channel["coupled" if wins else "baseline"], records,
-                                        names, model, dp)
+                         _baseline_complete(per_channel["baseline"], fold_floors["baseline"], names))
+    delivered = "coupled" if wins else "baseline"
+    floors = fold_floors[delivered].channel_floors(names, MDOF_MIN_FLOOR)  # the floor every rule below judges on
+    verdict, amp, modes, amp_span = _earned(cause, per_channel[delivered], records, names, model, dp, floors)
     # the measurement chain (clipping, double hit, base motion) is heard on the captures as recorded
     verdict = _chain_heard(verdict, raw, records if rate_note is None else condition_all(raw, dp)[0], names, dp,
                            model)
@@ -177,7 +180,8 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         "gain": gain, "raw_gain": raw_gain, "margin": margin, "cause": cause, "coordinates": final.coordinates,
         "allowance": allowance.as_dict() if allowance is not None else None,
         "modes": dict(by_mode.as_dict(), decided=in_mode) if by_mode is not None else None,
-        "noise_floor": verdict.noise_floor, "symptoms": symptoms,
+        "noise_floor": channel_floor(records, names), "prediction_floor": verdict.noise_floor,
+        "floor_parts": fold_floors[delivered].parts(names), "symptoms": symptoms,
         "amplitude": {"span": amp_span.as_dict(), "backbones": backbone_json(modes)},
         "span_residual": final.span_residual,
         "linear_modes_hz": final.modes.frequencies_hz.tolist(),
@@ -193,9 +197,8 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     }
     _coupling_determined(obj)
     # a none above the floor that the coupled model consistently improves (station.mdof_verdict)
-    coupling_short(obj, "coupled" if wins else "baseline", fold_terms)
-    obj["prediction_floor"] = prediction_floor(model, records, names)  # the floor a none is judged on
-    _uncertain_none(obj, "coupled" if wins else "baseline")
+    coupling_short(obj, delivered, fold_terms)
+    _uncertain_none(obj, delivered)
     add_mechanisms(obj, final)
     obj["warnings"] = _model_flags(model, folds["coupled" if wins else "baseline"])
     obj["unstable"] = bool(obj["warnings"])
@@ -210,11 +213,11 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
 
 
 def _uncertain_none(obj: dict[str, Any], delivered: str) -> None:
-    """A ``none`` whose delivered model sits above a channel's noise floor held out (within the
-    ``NONE_FACTOR`` allowed) is said to be uncertain, as the one-coordinate loop says it
-    (``Cause: none (uncertain)``): JSON ``uncertain`` true and a note with the worst channel and
-    how the coupled model fared (better on how many folds, its gain against the margin). Never a
-    plain ``none`` above the floor."""
+    """A ``none`` whose delivered model sits above a channel's prediction floor held out
+    (:mod:`eddi.mdof.predfloor`; within the ``NONE_FACTOR`` allowed) is said to be uncertain, as the
+    one-coordinate loop says it (``Cause: none (uncertain)``): JSON ``uncertain`` true and a note with
+    the worst channel and how the coupled model fared (better on how many folds, its gain against the
+    margin). Never a plain ``none`` above the floor."""
     obj["uncertain"] = False
     if obj["cause"] != "none":
         return
@@ -234,31 +237,30 @@ def _uncertain_none(obj: dict[str, Any], delivered: str) -> None:
         f"{100 * obj['gain']:.0f} % against a margin of {100 * obj['margin']:.0f} %)")
 
 
-def _coupling_earned(folds: dict[str, list], per_channel: dict[str, dict[str, list]], records: Sequence[Any],
-                     names: tuple[str, ...], margin: float) -> tuple[bool, float, Any]:
+def _coupling_earned(folds: dict[str, list], per_channel: dict[str, dict[str, list]], names: tuple[str, ...],
+                     margin: float, floors: Any) -> tuple[bool, float, Any]:
     """:func:`eddi.mdof.verdict.coupling_earned` on the folds (each fold's floor: the mean over the
     channels of its held-out capture's, at least the least floor), else the within-allowance rule
     (:func:`eddi.mdof.allowance.within_allowance`; its evidence, None when the first rule won).
     Only the folds on which the baseline ran count (:func:`eddi.mdof.verdict.baseline_ran`);
     none: not earned, gain 0."""
     from eddi.mdof.allowance import within_allowance
-    from eddi.mdof.validate import noise_floor
-    from eddi.mdof.verdict import MDOF_MIN_FLOOR, baseline_ran, channel_floor, coupling_earned
+    from eddi.mdof.verdict import baseline_ran, coupling_earned
 
     # judged on the folds where the baseline ran (a diverged baseline is no measured error)
     ran = [k for k, ok in enumerate(baseline_ran(folds["baseline"])) if ok]
     if not ran:
         return False, 0.0, None
     fb, fc = ([folds[kind][k] for k in ran] for kind in ("baseline", "coupled"))
-    fold_floors = [float(np.mean(np.maximum(np.nan_to_num(noise_floor(records[k]), nan=MDOF_MIN_FLOOR),
-                                            MDOF_MIN_FLOOR))) for k in ran]
+    kept = floors.take(ran)
+    fold_floors = kept.fold_floors(MDOF_MIN_FLOOR)
     base_ch, cpl_ch = ({c: float(np.mean([v[k] for k in ran])) for c, v in per_channel[kind].items()}
                        for kind in ("baseline", "coupled"))
-    floors = channel_floor(records, names)
-    wins, gain = coupling_earned(fb, fc, fold_floors, base_ch, floors, margin)
+    chan = kept.channel_floors(names, MDOF_MIN_FLOOR)
+    wins, gain = coupling_earned(fb, fc, fold_floors, base_ch, chan, margin)
     if wins:
         return wins, gain, None
-    ev = within_allowance(fb, fc, fold_floors, base_ch, cpl_ch, floors, margin)
+    ev = within_allowance(fb, fc, fold_floors, base_ch, cpl_ch, chan, margin)
     return ev.earned, (ev.excess_gain if ev.earned else gain), ev
 
 
@@ -336,13 +338,12 @@ def _model_flags(model: Any, folds: Sequence[float]) -> list[str]:
     return out
 
 
-def _baseline_complete(per_channel: dict[str, list], records: Sequence[Any], names: tuple[str, ...]) -> bool:
-    """Whether the baseline's held-out error is within ``NONE_FACTOR`` x the floor on every channel
-    (the allowance a ``none`` needs, :mod:`eddi.mdof.verdict`)."""
+def _baseline_complete(per_channel: dict[str, list], fold_floors: Any, names: tuple[str, ...]) -> bool:
+    """Whether the baseline's held-out error is within ``NONE_FACTOR`` x its prediction floor on every
+    channel (the allowance a ``none`` needs, :mod:`eddi.mdof.verdict`)."""
     from eddi.diagnosis.settings import NONE_FACTOR
-    from eddi.mdof.verdict import channel_floor
 
-    floors = channel_floor(records, names)
+    floors = fold_floors.channel_floors(names, MDOF_MIN_FLOOR)
     held = {c: float(np.mean(v)) for c, v in per_channel.items()}
     return all(math.isfinite(held[c]) and held[c] <= NONE_FACTOR * floors[c] for c in names)
 
@@ -405,18 +406,19 @@ def _amplitude_heard(cause: str, amp: list[dict], span: Any, notes: list[str]) -
 
 
 def _earned(cause: str, per_channel: dict[str, list], records: Sequence[Any], names: tuple[str, ...],
-            model: MdofModel, dp: str):
-    """The cause checked against each channel's noise floor (:mod:`eddi.mdof.verdict`), and the
+            model: MdofModel, dp: str, floors: dict[str, float]):
+    """The cause checked against each channel's prediction floor ``floors`` (:mod:`eddi.mdof.verdict`,
+    :mod:`eddi.mdof.predfloor`), and the
     model's backbone against the records' at every amplitude the ring-downs sweep
     (:mod:`eddi.mdof.amplitude`, allowed the same factor of the floor): the verdict, the
     amplitude symptoms, the backbones and the captures' span."""
     from eddi.diagnosis.settings import NAMED_FACTOR, NONE_FACTOR
     from eddi.mdof.amplitude import amplitude_symptoms, backbones, capture_span
-    from eddi.mdof.verdict import channel_floor, earned_verdict
+    from eddi.mdof.verdict import earned_verdict
 
     held = {c: float(np.mean(v)) for c, v in per_channel.items()}
     vals = [validate_mdof(model, r) for r in records]
-    verdict = earned_verdict(cause, held, channel_floor(records, names), vals,
+    verdict = earned_verdict(cause, held, floors, vals,
                              [float(f) for f in model.natural_frequencies_hz()])
     modes = backbones(model, records, vals)
     factor = NAMED_FACTOR if cause == "modal_coupling" else NONE_FACTOR
@@ -474,9 +476,14 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
                  for i, eq in enumerate(obj["coupling_coefficients"])),
              f"Model: {obj['model']}"]
     lines.append("Noise floor per channel (nrmse): " + "  ".join(f"{c} {v:.3g}" for c, v in obj["noise_floor"].items()))
-    if obj.get("prediction_floor"):  # noise and the impulse's uncertainty: what a none is judged on
-        lines.append("Prediction floor per channel (nrmse; noise and the measured impulse's uncertainty): "
-                     + "  ".join(f"{c} {v:.3g}" for c, v in obj["prediction_floor"].items()))
+    if obj.get("prediction_floor"):  # what every rule judges on (eddi.mdof.predfloor)
+        parts = obj.get("floor_parts") or {}
+        lines.append("Prediction floor per channel (nrmse, what a model identified from the other captures leaves "
+                     "held out by the noise and the blows' impulse errors; the floor every verdict rule judges on): "
+                     + "  ".join(f"{c} {v:.3g}" + (f" (noise {parts['noise'][c]:.2g}, blows' impulses {parts['blow'][c]:.2g};"
+                                                   f" the folds' jackknife spread {parts['ident'][c]:.2g}, not counted)"
+                                                   if parts else "")
+                                 for c, v in obj["prediction_floor"].items()))
     lines += mode_lines(obj)
     lines += [f"Symptom: {s['text']}." for s in obj["symptoms"]]
     lines += [f"Note: {n}." for n in obj["notes"]]

@@ -17,6 +17,7 @@ import numpy as np
 from eddi.errors import IdentificationError
 from eddi.mdof.identify import identify_mdof
 from eddi.mdof.model import MdofModel
+from eddi.mdof.predfloor import fold_floor, joint_floors
 from eddi.mdof.validate import validate_mdof
 from station.errors import InputFileError
 from station.mdof_floor import folds_in_modes
@@ -58,7 +59,8 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, ref
 
     Returns per kind (``baseline``, ``coupled``) the fold nrmse, the per-channel and per-mode
     errors, and the largest span residual of the tail's shapes (``folds["polished"]``: per kind,
-    which folds were polished). With ``refine`` the folds' models are polished on their
+    which folds were polished; ``folds["floors"]``: per kind the folds' prediction floors,
+    :class:`eddi.mdof.predfloor.FoldFloors`). With ``refine`` the folds' models are polished on their
     training records (:func:`eddi.mdof.refine.refine_identified`) before they predict the
     held-out capture, where the polish can change the verdict (:func:`station.mdof_polish.polish_folds`). The folds
     are independent: ``mapper(fn, items)`` (default in turn; :class:`station.forkmap.ForkMap` runs
@@ -103,6 +105,10 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, ref
     # per fold: whether the coupled model that was judged holds a nonlinear term between coordinates
     folds["coupling_terms"] = [bool(nonlinear_coupling_terms(fit["coupled"][1].model)) for fit in fits]
     folds["modes"] = folds_in_modes(fits, records)  # per mode, in the tail's basis (station.mdof_floor)
+    # per kind, what a model identified from the other captures is expected to leave on each held-out
+    # one: noise, the blow's impulse, the identification's own scatter (eddi.mdof.predfloor.joint_floors)
+    folds["floors"] = joint_floors({kind: fold_floor([fit[kind][1].model for fit in fits], records, mapper)
+                                    for kind in ("baseline", "coupled")})
     folds["ahead"] = first
     return folds, per_channel, per_mode, span
 

@@ -47,8 +47,14 @@ from typing import Any
 SHORT_EXCESS = 0.2
 
 
+def _floors(obj: dict[str, Any]) -> tuple[dict[str, float], str]:
+    """The floor the rule judges on: the prediction floor when the diagnosis has one
+    (:mod:`eddi.mdof.predfloor`, session 19), else the noise floor; and its name."""
+    return (obj["prediction_floor"], "prediction") if obj.get("prediction_floor") else (obj["noise_floor"], "noise")
+
+
 def _ratios(obj: dict[str, Any], delivered: str) -> dict[str, float]:
-    held, floors = obj[delivered]["channel_nrmse"], obj["noise_floor"]
+    held, floors = obj[delivered]["channel_nrmse"], _floors(obj)[0]
     return {c: held[c] / floors[c] for c in held
             if c in floors and floors[c] > 0 and math.isfinite(held[c])}
 
@@ -95,7 +101,8 @@ def coupling_short(obj: dict[str, Any], delivered: str = "baseline", fold_terms:
         for m, x in enumerate(ev["mode_excess_gain"]))
     terms = (f"; the folds' coupled models hold a nonlinear term between coordinates on {ev['coupling_terms_folds']} "
              f"of {len(fold_terms)} folds" if fold_terms else "")
-    text = (f"the delivered model's held-out error is {ev['ratio']:.1f}x the noise floor on channel {ev['channel']}, "
+    text = (f"the delivered model's held-out error is {ev['ratio']:.1f}x the {_floors(obj)[1]} floor on channel "
+            f"{ev['channel']}, "
             f"and the coupled model removes {100 * ev['excess_gain']:.0f} % of the error above the floor held out "
             f"(better on {ev['better_folds']} of {ev['folds']} folds; raw gain {100 * ev['raw_gain']:.0f} %, margin "
             f"{100 * ev['margin']:.0f} %{modes}{terms})")
@@ -106,34 +113,3 @@ def coupling_short(obj: dict[str, Any], delivered: str = "baseline", fold_terms:
     obj["symptoms"].append({"kind": "coupled_gain_short", "text": "coupled model better above the floor: " + text,
                             **{k: v for k, v in ev.items() if k != "mode_better_folds"}})
     return True
-
-
-def prediction_floor(model: Any, records: Sequence[Any], names: Sequence[str]) -> dict[str, float]:
-    """Per channel, what the true equations are expected to leave held out, the floor a ``none`` is
-    judged against (:func:`station.mdof_commands._uncertain_none`): the acceleration noise through the
-    drift high-pass (:func:`eddi.mdof.validate.noise_floor`) and the measured impulse's uncertainty
-    carried through the delivered model (:func:`eddi.mdof.validate.force_floor`) in quadrature, median
-    over the records, at least :data:`eddi.mdof.verdict.MDOF_MIN_FLOOR` - as ``station validate``
-    counts it (:func:`station.mdof_floor.add_floors`).
-
-    Why (session 18): the verdict's channel floor counts the noise alone. On linear nulls of
-    ``bench_mdof_nulls.py`` (t6, t11, t13-nulln) the true equations left 1.19-1.32x that floor on their
-    own captures, and the same on noise-free ones: the impulse part (0.011-0.028 per capture against a
-    noise part of 0.003-0.005) is what they miss. A ``none`` there was printed "uncertain" for an
-    error no model can remove.
-    """
-    import numpy as np
-
-    from eddi.mdof.validate import force_floor, noise_floor
-    from eddi.mdof.verdict import MDOF_MIN_FLOOR
-
-    per = []
-    for r in records:
-        acc = np.nan_to_num(np.asarray(noise_floor(r), float), nan=0.0)
-        try:
-            frc = np.nan_to_num(np.asarray(force_floor(model, r), float), nan=0.0)
-        except (ValueError, FloatingPointError, np.linalg.LinAlgError):
-            frc = np.zeros_like(acc)
-        per.append(np.hypot(acc, frc))
-    med = np.median(np.array(per), axis=0)
-    return {c: max(MDOF_MIN_FLOOR, float(med[k])) for k, c in enumerate(names)}

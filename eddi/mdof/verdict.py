@@ -209,7 +209,7 @@ def earned_verdict(cause: str, channel_nrmse: Mapping[str, float], floors: Mappi
         if not (np.isfinite(e) and e <= NONE_FACTOR * fl):
             f, share = residual_peak(validations, k)
             at_mode = any(abs(f - m) <= NEAR_MODE * m for m in model_hz) if np.isfinite(f) else False
-            text = (f"channel {c}: held-out nrmse {e:.3g} is {e / fl:.1f}x its noise floor {fl:.3g}"
+            text = (f"channel {c}: held-out nrmse {e:.3g} is {e / fl:.1f}x its floor {fl:.3g}"
                     if np.isfinite(e) else f"channel {c}: the held-out simulation diverges")
             if np.isfinite(f):
                 text += (f"; residual peak at {f:.4g} Hz ({100 * share:.0f} % of the residual power), "
@@ -223,7 +223,7 @@ def earned_verdict(cause: str, channel_nrmse: Mapping[str, float], floors: Mappi
     if cause in ("none", "modal_coupling") and worst > factor:
         partial = "" if cause == "none" else " (modal coupling is the best partial explanation)"
         note = (f"unexplained: the {'coupled' if cause == 'modal_coupling' else 'baseline'} model leaves a "
-                f"channel {worst:.1f}x above its noise floor (allowed {factor:g}x){partial}")
+                f"channel {worst:.1f}x above its floor (allowed {factor:g}x){partial}")
         cause = "unexplained"
     return MdofVerdict(cause, dict(floors), tuple(symptoms), note)
 

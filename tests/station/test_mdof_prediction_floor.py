@@ -1,5 +1,5 @@
 """A linear null's ``none`` is judged against what the true equations leave, not the noise alone
-(session 18, :func:`station.mdof_verdict.prediction_floor`).
+(session 18; since session 19 the folds' floor of :mod:`eddi.mdof.predfloor`).
 
 t13-nulln of ``benchmarks/bench_mdof_nulls.py --set tuning`` (a linear 0.78 + 0.29 kg chain, 4.06 / 9.83 Hz,
 36 dB, four acceleration captures, no mass given): on main (fa3f89a) ``none (uncertain)``, the baseline
@@ -35,5 +35,5 @@ def test_a_linear_null_within_its_prediction_floor_is_a_plain_none(tmp_path: Pat
     assert max(base[c] / noise[c] for c in base) > 1.0  # above the noise floor alone
     assert all(pred[c] > 1.5 * noise[c] for c in pred)  # the impulse part counted
     assert all(base[c] < pred[c] for c in base)
-    assert "Prediction floor per channel (nrmse; noise and the measured impulse's uncertainty): acc1 " in \
-        diagnose_mdof_text(obj)
+    assert "Prediction floor per channel (nrmse, what a model identified from the other captures leaves held out " \
+        "by the noise and the blows' impulse errors; the floor every verdict rule judges on): acc1 " in diagnose_mdof_text(obj)
