@@ -17,7 +17,7 @@ from eddi.conditioning.equilibrium import EquilibriumIntegral, _equilibrium_note
 from eddi.conditioning.kinematics import (
     _drift_spline, _drift_spline_eval, _sg_derivative, _sg_derivative_modes, anchor_residual,
 )
-from eddi.conditioning.levels import _envelope_stop, _onset, _pulse_end, crossings, noise_rms
+from eddi.conditioning.levels import _envelope_stop, _onset, _pulse_end, crossings, noise_rms, pre_motion
 from eddi.errors import SignalError
 from eddi.peaks import first_abs_above, peak_abs, peak_abs_at
 
@@ -208,6 +208,17 @@ def _onset_and_rest(w: _Work, pretrigger_samples: int | None) -> None:
         quiet = resp[:start]
         if np.std(quiet) > 0.02 * peak_abs_at(resp, float(np.mean(quiet)))[1]:
             rest = False
+    # a stated pre-trigger that moves far more than the record's quiet end is no rest either: struck
+    # before the last ring-down died (session 19: the README tour's 3 s hold-off); the record is
+    # then treated as starting in motion, its noise read off the end
+    moving = pre_motion(resp, max(0, start - w.margin)) if rest else None
+    if moving:
+        rest = False
+        w.notes.append(f"WARNING: not at rest before the blow: the pre-trigger's RMS {moving[0]:.3g} is "
+                       f"{moving[0] / moving[1]:.1f}x the record's quiet end ({moving[1]:.3g}): struck before "
+                       "the last ring-down died (or a disturbance); the free response starts from a state the "
+                       "blow did not set (treated as a record that starts in motion) - wait longer between "
+                       "blows (the bench config's hold-off)")
     w.start = start if rest else 0
     w.rest = rest
     w.noise_stop = max(0, w.start - w.margin) if rest else 0

@@ -26,6 +26,26 @@ def noise_rms(y: np.ndarray, rest_stop: int) -> float:
 
 
 
+#: A rest whose RMS is this many times the record's quiet end is not a rest: the structure was
+#: still moving when it was struck (a blow before the last ring-down died, a knock on the bench).
+#: Both RMS are read the same way (mean removed), so the sensor's own noise, white or coloured by
+#: its anti-alias filter, and a tone that runs through the whole record cancel in the ratio.
+PRE_MOTION_FACTOR = 4.0
+
+
+def pre_motion(y: np.ndarray, rest_stop: int) -> tuple[float, float] | None:
+    """``(rest RMS, end RMS)`` of ``y`` when its rest part ``y[:rest_stop]`` moves more than
+    :data:`PRE_MOTION_FACTOR` times its quiet end (the last ``max(32, min(rest_stop, n // 10))``
+    samples), else None. A record whose end still rings has a larger end RMS: no claim."""
+    y = np.asarray(y, float)
+    if rest_stop < 32 or y.size < 4 * rest_stop:
+        return None
+    rest = y[:rest_stop]
+    end = y[-max(32, min(rest_stop, y.size // 10)):]
+    r, e = float(np.std(rest - np.mean(rest))), float(np.std(end - np.mean(end)))
+    return (r, e) if r > PRE_MOTION_FACTOR * e else None
+
+
 #: Samples per block when :func:`crossings` maps its flips back to sample indices.
 CROSSING_BLOCK = 1 << 16
 
