@@ -123,28 +123,30 @@ def _lsq(t: np.ndarray, y: np.ndarray, f: float, seg: np.ndarray, w: np.ndarray 
          extra: Sequence[float] = ()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Coefficients, residual and the unscaled covariance of (cos, sin) of a (weighted) fit."""
     X = _design(t, f, seg, extra)
-    if w is None:
-        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-        g = np.linalg.pinv(X.T @ X)
-        return coef, y - X @ coef, g[:2, :2]
-    Xw = X * w[:, None]
-    coef, *_ = np.linalg.lstsq(Xw, y * w, rcond=None)
+    Xw = X if w is None else X * w[:, None]
+    # normal equations of a few well-scaled columns (lstsq's SVD was 30x slower)
     g = np.linalg.pinv(Xw.T @ Xw)
-    # sandwich: the weighted estimate's covariance under white noise of unit variance
-    cov = g @ (Xw.T @ (Xw * w[:, None])) @ g
+    coef = g @ (Xw.T @ (y if w is None else y * w))
+    # weighted: the estimate's covariance under white noise of unit variance (sandwich)
+    cov = g if w is None else g @ (Xw.T @ (Xw * w[:, None])) @ g
     return coef, y - X @ coef, cov[:2, :2]
 
 
 def _refine(t: np.ndarray, y: np.ndarray, w: np.ndarray, f0: float) -> float:
     """The frequency within ``GRID_TOL`` of ``f0`` of the largest phase-continuous fit: the
     weighted (``w``: 1 on the pre-trigger, the Hann taper on the tail) demodulation of ``y``
-    (offsets removed per segment) over a grid of an eighth of the span's resolution, the peak
+    (offsets removed per segment) over a grid of a quarter of the span's resolution, the peak
     refined by a parabola."""
     span = float(t[-1] - t[0]) or 1.0
     lo, hi = f0 * (1 - GRID_TOL), f0 * (1 + GRID_TOL)
-    n = max(5, int(math.ceil((hi - lo) * span * 8)) + 1)
+    n = max(5, int(math.ceil((hi - lo) * span * 4)) + 1)
     grid = np.linspace(lo, hi, n)
-    p = np.abs(np.exp(-2j * math.pi * np.outer(grid, t)) @ (w * y)) ** 2
+    z = (w * y) * np.exp(-2j * math.pi * lo * t)
+    step = np.exp(-2j * math.pi * (grid[1] - grid[0]) * t)
+    p = np.empty(n)
+    for i in range(n):  # phasors by recursion: a product per point instead of an exponential
+        p[i] = abs(complex(np.sum(z))) ** 2
+        z = z * step
     k = int(np.argmax(p))
     if 0 < k < n - 1 and p[k - 1] + p[k + 1] - 2 * p[k] < 0:
         d = 0.5 * (p[k - 1] - p[k + 1]) / (p[k - 1] + p[k + 1] - 2 * p[k])
