@@ -522,7 +522,7 @@ def inspect(records: Sequence[Record], mass: float | None, f1: float, measured_f
 
 def record_tones(r: Record):
     """The line tones (:func:`eddi.diagnosis.mains.line_tones`) on a record's measured
-    acceleration: the pre-trigger up to the blow, the last part of the free response."""
+    acceleration: the pre-trigger up to the blow, the last part of the record after it."""
     from eddi.diagnosis.mains import line_tones, tail_of
 
     if r.response != "acc" or not r.pretrigger_samples:
@@ -533,7 +533,9 @@ def record_tones(r: Record):
         rest = min(rest, int(pulses[0][0]))
     if r.impact_start > 0:
         rest = min(rest, int(r.impact_start))
-    return line_tones(r.t, r.a, rest, tail_of(r.free_start, r.free_stop))
+    # the record's end, not the free response's (the conditioning may end that where the ring-down
+    # meets the noise: a 30 Hz record's free response ended at 0.3 s of 1 s, its tail still ringing)
+    return line_tones(r.t, r.a, rest, tail_of(r.free_start, r.t.size))
 
 
 def line_tone_symptoms(records: Sequence[Record]) -> list[Symptom]:
