@@ -275,4 +275,4 @@ def tone_text(where: str, tones: Sequence[LineTone], captures: int = 1, of: int 
     seen = f" in {captures} of {of} captures" if of > 1 else ""
     return (f"{where}: a persistent line tone{seen} at " + "; ".join(parts)
             + ": mains interference (present before the blow at the amplitude it keeps in the tail, "
-              "unlike a mode); it is part of the noise floor")
+              "unlike a mode)")

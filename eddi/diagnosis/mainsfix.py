@@ -61,18 +61,24 @@ def cleaned(records: Sequence[Record]) -> tuple[list[Record], list[list]] | None
 def judged(d0: Diagnosis, d1: Diagnosis) -> tuple[list[float], list[float]] | None:
     """Per held-out part: the first diagnosis' baseline and the corrected diagnosis' delivered
     model, both against the records as measured (the corrected one's simulation plus the tone's
-    displacement); None when the two diagnoses' parts differ."""
+    displacement), over the samples both judge; None when the two diagnoses' parts differ in
+    record or end."""
     if len(d0.held_out) != len(d1.held_out):
         return None
     e0, e1 = [], []
     for h0, h1 in zip(d0.held_out, d1.held_out):
         p0, p1 = h0.part, h1.part
-        if (p0.record, p0.start, p0.stop) != (p1.record, p1.start, p1.stop):
+        if (p0.record, p0.stop) != (p1.record, p1.stop):
             return None
+        # a capture beyond the others' amplitude is judged from where it enters their range, which
+        # moves a little with the tone removed: the samples both judge
+        s = max(p0.start, p1.start)
+        a0, a1 = s - p0.start, s - p1.start
         x1 = h1.x_extended if d1.cause not in ("none", "unexplained") else h1.x_baseline
-        tone = h0.x_measured - h1.x_measured
-        e0.append(nrmse(h0.x_baseline, h0.x_measured))
-        e1.append(nrmse(x1 + tone, h0.x_measured))
+        meas = h0.x_measured[a0:]
+        tone = meas - h1.x_measured[a1:]
+        e0.append(nrmse(h0.x_baseline[a0:], meas))
+        e1.append(nrmse(x1[a1:] + tone, meas))
     return e0, e1
 
 
