@@ -525,10 +525,12 @@ def record_tones(r: Record):
     acceleration: the pre-trigger up to the blow, the last part of the record after it."""
     from eddi.diagnosis.mains import line_tones, tail_of
 
-    if r.response != "acc" or not r.pretrigger_samples:
+    if r.response != "acc":
         return []
-    rest = int(r.pretrigger_samples)
+    # the samples before the blow: the pre-trigger as given, else those before t = 0 (a CSV's
+    # time starts negative; station diagnose passes no count then), else up to the first pulse
     pulses = _record_pulses(r) if r.force is not None else ()
+    rest = int(r.pretrigger_samples or 0) or int(np.sum(r.t < 0)) or (int(pulses[0][0]) if pulses else 0)
     if pulses:
         rest = min(rest, int(pulses[0][0]))
     if r.impact_start > 0:
