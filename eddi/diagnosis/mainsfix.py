@@ -13,6 +13,10 @@ measured (:func:`judged`). ``mains_interference`` is named when
 * the corrected model reproduces every held-out part as measured better than the baseline
   fitted to the records with the tone (the tone is what that baseline was missing).
 
+The named diagnosis keeps the first one's baseline, candidates and symptoms (judged on the records
+as measured); its extended model is the corrected baseline, its held-out views and noise floor
+the corrected records' (figures show the records with the tone removed).
+
 When the corrected diagnosis names a physical mechanism, that name stands (said to be found with
 the tone removed); when it is ``unexplained`` the first diagnosis stands with a note. When the
 first diagnosis is ``none``, the tone is reported (a ``line_tone`` symptom) and nothing is re-run.
@@ -108,7 +112,7 @@ def verdict(d0: Diagnosis, d1: Diagnosis | None) -> Diagnosis:
         ext = dataclasses.replace(d1.baseline, nrmse=e1, fold_nrmse=tuple(errs[1]))
         return dataclasses.replace(d1, cause=NAME, verdict=text, extended=ext,
                                    gain=float(1.0 - e1 / e0) if e0 > 0 else 0.0,
-                                   baseline=d0.baseline,
+                                   baseline=d0.baseline, candidates=tuple(d0.candidates),
                                    symptoms=tuple(d0.symptoms),
                                    notes=tuple(d0.notes) + ("the delivered model is the baseline fitted on the "
                                                             "records with the mains tone removed",))
