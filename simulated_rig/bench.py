@@ -27,7 +27,7 @@ from eddi.model import Effect, EquationOfMotion
 from eddi.simulate import SimulationResult, simulate
 from simulated_rig.errors import ScenarioError
 from simulated_rig.hammer import HammerSpec, hammer_force
-from simulated_rig.sensors import SensorSpec, ac_couple, accelerometer, force_sensor
+from simulated_rig.sensors import SensorSpec, ac_couple, accelerometer, force_sensor, mains_tone
 from simulated_rig.systems import system_info
 
 
@@ -338,6 +338,8 @@ def _finish(eom: EquationOfMotion, t: np.ndarray, force: np.ndarray, x: np.ndarr
         ac_couple(a if a_meas is None else a_meas, sensors[1].iepe_highpass_hz, rate_hz),
     ])
     resolved = tuple(s.resolved(clean[:, j], n_pre) for j, s in enumerate(sensors))
+    # mains pick-up after the sensor (cable, conditioner): not in the SNR's or the range's reference
+    clean = clean + np.column_stack([mains_tone(s, t, seed) for s in resolved])
     normals = np.random.default_rng(seed).standard_normal((t.shape[0], 2))
     counts, channels, clipped = measure(resolved, clean, normals)
     return ImpactRecord(

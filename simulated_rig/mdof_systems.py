@@ -43,7 +43,7 @@ from eddi.mdof.terms import monomial
 from simulated_rig.bench import measure
 from simulated_rig.errors import ScenarioError
 from simulated_rig.hammer import HammerSpec, hammer_force
-from simulated_rig.sensors import SensorSpec, ac_couple, accelerometer, force_sensor
+from simulated_rig.sensors import SensorSpec, ac_couple, accelerometer, force_sensor, mains_tone
 
 #: Folder of the built-in MDOF system files.
 MDOF_DIR = Path(__file__).with_name("mdof")
@@ -234,7 +234,7 @@ class MdofRecord:
 
 def mdof_impact_test(system: str | MdofSystem, peak_force_n: float, *, snr_db: float | None = 45.0,
                      seed: int = 0, record_s: float | None = None, rate_hz: float | None = None,
-                     model: MdofModel | None = None) -> MdofRecord:
+                     model: MdofModel | None = None, mains: dict | None = None) -> MdofRecord:
     """Hit the driving mass once; measure force and every mass's acceleration.
 
     Parameters
@@ -249,6 +249,10 @@ def mdof_impact_test(system: str | MdofSystem, peak_force_n: float, *, snr_db: f
         Override the system's.
     model : MdofModel, optional
         Physics to use instead of the system's (e.g. an identified model loaded in the rig).
+    mains : dict, optional
+        A mains tone on every accelerometer: :class:`simulated_rig.sensors.SensorSpec`'s
+        ``mains_si`` [m/s^2], ``mains_hz``, ``mains_phase_rad``, ``mains_harmonics`` (one pick-up:
+        the same phase on every channel).
 
     Raises
     ------
@@ -269,10 +273,11 @@ def mdof_impact_test(system: str | MdofSystem, peak_force_n: float, *, snr_db: f
     if sim.diverged:
         raise ScenarioError(f"impacts: {sys_.name} diverges under a {peak_force_n:.4g} N blow")
     acc_true = eom.phi @ sim.a
-    sensors = (force_sensor(),) + tuple(accelerometer(name=c, snr_db=snr_db) for c in eom.channels)
+    sensors = (force_sensor(),) + tuple(accelerometer(name=c, snr_db=snr_db, **(mains or {})) for c in eom.channels)
     clean = np.column_stack([ac_couple(force, sensors[0].iepe_highpass_hz, rate)]
                             + [ac_couple(a, s.iepe_highpass_hz, rate) for a, s in zip(acc_true, sensors[1:])])
     resolved = tuple(s.resolved(clean[:, j], n_pre) for j, s in enumerate(sensors))
+    clean = clean + np.column_stack([mains_tone(s, t, seed) for s in resolved])  # after the sensor
     normals = np.random.default_rng(seed).standard_normal((n, len(sensors)))
     counts, infos, _clipped = measure(resolved, clean, normals)
     si = np.column_stack([infos[j].to_si(counts[:, j]) for j in range(len(infos))])

@@ -36,7 +36,9 @@ hidden effects, the time base and the impacts. Example (all keys but ``system`` 
     damping_ratio = 0.05
 
 Measurement-chain effects are scenario data too: ``[sensors.acc] iepe_highpass_hz`` (an
-AC-coupled accelerometer), ``range_si`` (clipping when exceeded), ``double_hit = true``.
+AC-coupled accelerometer), ``range_si`` (clipping when exceeded), ``double_hit = true``,
+``mains_si = 0.05``, ``mains_hz = 50.0`` (``mains_phase_rad``, ``mains_harmonics = [0.3]``): a
+mains tone on the channel (:func:`simulated_rig.sensors.mains_tone`).
 
 Bad values are refused by :func:`load_scenario` with a one-line :class:`ScenarioError` that
 names the file, the field and the limit (``scenario x.toml: rate_hz: Input should be less
@@ -102,6 +104,10 @@ class SensorConfig(_Strict):
     range_headroom: float = Field(1.5, ge=1.0, le=100.0)
     adc_bits: Literal[16, 24] = 24
     iepe_highpass_hz: float | None = Field(None, gt=0.0, le=100.0)
+    mains_si: float = Field(0.0, ge=0.0)
+    mains_hz: float = Field(50.0, gt=0.0, le=1000.0)
+    mains_phase_rad: float | None = None
+    mains_harmonics: tuple[float, ...] = ()
 
     def spec(self, name: str, quantity: str) -> SensorSpec:
         """As a :class:`SensorSpec` of that channel."""

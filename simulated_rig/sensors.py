@@ -5,8 +5,12 @@ What a channel measures, in this order:
 1. the true signal (force [N] or acceleration [m/s^2]);
 2. IEPE AC coupling, when enabled: a first-order high-pass at ``iepe_highpass_hz``
    (bilinear transform of ``s / (s + 2 pi f_c)``, starting from rest);
-3. additive white Gaussian noise of standard deviation ``sigma``;
-4. the ADC: ``counts = round(value / scale)`` with ``scale = range_si / 2^(adc_bits - 1)``,
+3. mains interference, when enabled (``mains_si`` > 0): a tone picked up by the cable or the
+   conditioner, ``mains_si cos(2 pi mains_hz t + phase)`` plus harmonics ``k mains_hz`` of
+   relative amplitudes ``mains_harmonics`` (k = 2, 3, ...), phase-continuous over the whole
+   capture, pre-trigger included (:func:`mains_tone`);
+4. additive white Gaussian noise of standard deviation ``sigma``;
+5. the ADC: ``counts = round(value / scale)`` with ``scale = range_si / 2^(adc_bits - 1)``,
    clipped to ``[-2^(bits-1), 2^(bits-1) - 1]``; a value beyond the range *clips*.
 
 Noise level. Either absolute (``noise_rms_si``), or as a signal-to-noise ratio::
@@ -64,6 +68,16 @@ class SensorSpec:
         16 or 24.
     iepe_highpass_hz : float or None
         Corner of the IEPE AC coupling [Hz]; None for DC coupling.
+    mains_si : float
+        Amplitude (peak) of a mains tone on the channel [SI]; 0 for none.
+    mains_hz : float
+        Its frequency [Hz] (the grid's 50 or 60 Hz, or a drifted value).
+    mains_phase_rad : float or None
+        Its phase at t = 0 (the trigger); None: drawn from the capture's seed (the grid is not
+        synchronous with the blow).
+    mains_harmonics : tuple of float
+        Amplitudes of harmonics 2, 3, ... relative to the fundamental (each at a phase of its own
+        drawn from the seed, or ``k`` times the fundamental's when that is given).
     """
 
     name: str
@@ -76,6 +90,10 @@ class SensorSpec:
     range_headroom: float = 1.5
     adc_bits: int = 24
     iepe_highpass_hz: float | None = None
+    mains_si: float = 0.0
+    mains_hz: float = 50.0
+    mains_phase_rad: float | None = None
+    mains_harmonics: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         where = f"sensors.{self.name}"
@@ -95,6 +113,14 @@ class SensorSpec:
         if self.iepe_highpass_hz is not None and not (0.0 < self.iepe_highpass_hz <= 100.0):
             raise ScenarioError(f"{where}.iepe_highpass_hz: must be in (0, 100] Hz, "
                                 f"got {self.iepe_highpass_hz}")
+        if not (self.mains_si >= 0 and math.isfinite(self.mains_si)):
+            raise ScenarioError(f"{where}.mains_si: must be >= 0, got {self.mains_si}")
+        if not (0.0 < self.mains_hz <= 1000.0):
+            raise ScenarioError(f"{where}.mains_hz: must be in (0, 1000] Hz, got {self.mains_hz}")
+        if not all(math.isfinite(h) and h >= 0 for h in self.mains_harmonics):
+            raise ScenarioError(f"{where}.mains_harmonics: must be >= 0, got {self.mains_harmonics}")
+        if self.mains_phase_rad is not None and not math.isfinite(self.mains_phase_rad):
+            raise ScenarioError(f"{where}.mains_phase_rad: must be finite, got {self.mains_phase_rad}")
         if not (self.sensitivity > 0):
             raise ScenarioError(f"{where}.sensitivity: must be > 0, got {self.sensitivity}")
 
@@ -197,6 +223,23 @@ def active_rms(clean: np.ndarray, fraction: float = ACTIVE_ENERGY_FRACTION) -> f
         return 0.0
     c = np.asarray(clean[:n], dtype=float)
     return float(np.sqrt(np.mean(c**2)))
+
+
+def mains_tone(spec: SensorSpec, t: np.ndarray, seed: int = 0) -> np.ndarray:
+    """The mains tone a channel picks up [SI], shape of ``t`` [s] (0 without one): the
+    fundamental at ``spec.mains_hz`` and its harmonics (module docstring, step 3)."""
+    t = np.asarray(t, dtype=float)
+    if not spec.mains_si > 0:
+        return np.zeros_like(t)
+    # a stream of its own: the noise draws of a capture do not change with the tone
+    rng = np.random.default_rng([int(seed), 5060])
+    draws = rng.uniform(0.0, 2 * math.pi, 1 + len(spec.mains_harmonics))
+    phase = spec.mains_phase_rad
+    out = np.zeros_like(t)
+    for k, rel in enumerate((1.0,) + tuple(spec.mains_harmonics), start=1):
+        ph = float(draws[k - 1]) if phase is None else k * float(phase)
+        out += spec.mains_si * rel * np.cos(2 * math.pi * k * spec.mains_hz * t + ph)
+    return out
 
 
 def iepe_filter(cutoff_hz: float, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:

@@ -31,6 +31,7 @@ import numpy as np
 
 from eddi.errors import IdentificationError
 from eddi.mdof.amplitude import backbone_json
+from station.mdof_mains import line_tone_symptoms, split_amplitude, tone_note
 from eddi.mdof.collocation import check_driving_point
 from eddi.mdof.identify import identify_mdof
 from eddi.mdof.model import MdofModel
@@ -163,9 +164,14 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     # the measurement chain (clipping, double hit, base motion) is heard on the captures as recorded
     verdict = _chain_heard(verdict, raw, records if rate_note is None else condition_all(raw, dp)[0], names, dp,
                            model)
-    cause, symptoms = verdict.cause, list(verdict.symptoms) + amp
+    # mains interference: a line tone in the tail is read as a mode ringing there (station.mdof_mains)
+    tones = line_tone_symptoms(raw, names)
+    amp, by_tone = split_amplitude(amp, tones)
+    cause, symptoms = verdict.cause, list(verdict.symptoms) + amp + by_tone + tones
     if verdict.note:
         notes.append(verdict.note)
+    if tones:
+        notes.append(tone_note(tones, by_tone))
     cause = _amplitude_heard(cause, amp, amp_span, notes)
     obj: dict[str, Any] = {
         "captures": [r.label for r in records], "channels": list(names), "driving_point": dp,

@@ -8,7 +8,8 @@
   below the structure's), a response that lags the force (a filter on one channel:
   :mod:`eddi.diagnosis.lag`), and a mass that disagrees with the hammer impulse (impulse of
   the measured force against the momentum the measured acceleration gives, over a window
-  widened by a claimed lag).
+  widened by a claimed lag), and mains interference (a persistent line tone at 50/60 Hz or a
+  harmonic, before the blow and in the tail alike: :mod:`eddi.diagnosis.mains`, :func:`line_tone_symptoms`).
 """
 
 from __future__ import annotations
@@ -502,6 +503,7 @@ def inspect(records: Sequence[Record], mass: float | None, f1: float, measured_f
             if s is not None:
                 out.append(Symptom(s.kind, s.text, {**s.values, "record": float(i)}))
     out += _short_clipping(records, clipped)
+    out += line_tone_symptoms(records)
     # a clipped capture's momentum is short by the flat top (not a mass error): not weighed
     weighed = [r for i, r in enumerate(records) if i not in clipped]
     m = impulse_mass_ratio(weighed, mass, f1) if mass is not None and weighed else None
@@ -515,4 +517,44 @@ def inspect(records: Sequence[Record], mass: float | None, f1: float, measured_f
                 "the force sensitivity or the accelerometer sensitivity is off (or the sensor loads the "
                 "structure)", {"impulse_mass_kg": m_imp, "mass_kg": mass, "mismatch_pct": 100 * (med - 1),
                                "spread_pct": 100 * spread, "captures": float(n)}))
+    return out
+
+
+def record_tones(r: Record):
+    """The line tones (:func:`eddi.diagnosis.mains.line_tones`) on a record's measured
+    acceleration: the pre-trigger up to the blow, the last part of the record after it."""
+    from eddi.diagnosis.mains import line_tones, tail_of
+
+    if r.response != "acc":
+        return []
+    # the samples before the blow: the pre-trigger as given, else those before t = 0 (a CSV's
+    # time starts negative; station diagnose passes no count then), else up to the first pulse
+    pulses = _record_pulses(r) if r.force is not None else ()
+    rest = int(r.pretrigger_samples or 0) or int(np.sum(r.t < 0)) or (int(pulses[0][0]) if pulses else 0)
+    if pulses:
+        rest = min(rest, int(pulses[0][0]))
+    if r.impact_start > 0:
+        rest = min(rest, int(r.impact_start))
+    # the record's end, not the free response's (the conditioning may end that where the ring-down
+    # meets the noise: a 30 Hz record's free response ended at 0.3 s of 1 s, its tail still ringing)
+    return line_tones(r.t, r.a, rest, tail_of(r.free_start, r.t.size))
+
+
+def line_tone_symptoms(records: Sequence[Record]) -> list[Symptom]:
+    """One ``line_tone`` symptom per grid frequency seen on the records' acceleration
+    (:mod:`eddi.diagnosis.mains`): the frequency, amplitude [m/s^2] and share of the power at
+    rest as the median over the captures it stands in."""
+    from eddi.diagnosis.mains import tone_text
+
+    seen: dict[float, list] = {}
+    for r in records:
+        for tn in record_tones(r):
+            seen.setdefault(tn.nominal_hz, []).append(tn)
+    out = []
+    for nominal, tones in sorted(seen.items()):
+        mid = tones[int(np.argsort([tn.amplitude for tn in tones])[len(tones) // 2])]
+        out.append(Symptom("line_tone", tone_text("acceleration", [mid], len(tones), len(records)),
+                           {"frequency_hz": mid.frequency_hz, "nominal_hz": nominal,
+                            "amplitude_m_s2": mid.amplitude, "share_pct": 100 * mid.power_share,
+                            "noise_rms_m_s2": mid.noise_rms, "captures": float(len(tones))}))
     return out

@@ -22,7 +22,7 @@ from typing import Sequence
 import numpy as np
 
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
-from eddi.diagnosis import chainfix, smallamp
+from eddi.diagnosis import chainfix, mainsfix, smallamp
 from eddi.diagnosis.align import NAME as LAG_NAME
 from eddi.diagnosis.lowpass import NAME as LOWPASS_NAME
 from eddi.diagnosis.chain import inspect, measured_frequency
@@ -72,6 +72,7 @@ def diagnose(
     pipeline: PipelineBaseline | None = None,
     mapper: Mapper | None = None,
     chain: ChainTolerance | None = ChainTolerance(),
+    line_tones: bool = True,
 ) -> Diagnosis:
     """Find what the baseline model gets wrong, name the mechanism, extend and measure the gain.
 
@@ -117,6 +118,10 @@ def diagnose(
         How far the captures' measurement chains may differ (sensor gain, sample clock):
         the noise floor gains the held-out simulations' change under those differences
         (:mod:`eddi.diagnosis.tolerance`); None for none.
+    line_tones : bool
+        When the chain finds a mains tone (``line_tone``) and the verdict is not ``none``, remove
+        the tones, diagnose the corrected records again and name ``mains_interference`` when that
+        earns it (:mod:`eddi.diagnosis.mainsfix`); False: the records as given only.
 
     Returns
     -------
@@ -158,8 +163,22 @@ def diagnose(
             skipped = {name: why for name in [*skipped, "sensor_highpass"]}
         candidates, observed, chain_sims, notes, symptoms = _name(
             shown, cat, chosen, skipped, consistency, modal_damping, modal_stiffness)
-        return _conclude(shown, candidates, observed, chain_sims, notes, symptoms,
-                         (margin, none_factor, named_factor, strong_margin), pipeline)
+        d0 = _conclude(shown, candidates, observed, chain_sims, notes, symptoms,
+                       (margin, none_factor, named_factor, strong_margin), pipeline)
+    if not line_tones or d0.cause == "none" or not any(s.kind == "line_tone" for s in d0.symptoms):
+        return d0
+    fixed = mainsfix.cleaned(records)
+    if fixed is None:
+        return d0
+    try:
+        d1 = diagnose(fixed[0], mass, damping=damping, stiffness=stiffness, base=base, mechanisms=mechanisms,
+                      margin=margin, consistency=consistency, n_bands=n_bands, fit=fit,
+                      modal_damping=modal_damping, modal_stiffness=modal_stiffness, none_factor=none_factor,
+                      named_factor=named_factor, strong_margin=strong_margin, pipeline=None, mapper=mapper,
+                      chain=chain, line_tones=False)
+    except (SignalError, ModelError):
+        return d0
+    return mainsfix.verdict(d0, d1)
 
 
 @dataclass(frozen=True)

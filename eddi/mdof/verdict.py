@@ -254,7 +254,8 @@ def chain_checked(verdict: MdofVerdict, dp_records: Sequence, lowest_hz: float, 
     from eddi.diagnosis.chain import inspect
     from eddi.diagnosis.earn import CHAIN_REASON, overturns
 
-    found = inspect(dp_records, None, lowest_hz, measured_f1=False)
+    # line tones are reported per channel on the captures as read (station.mdof_mains), not twice
+    found = [s for s in inspect(dp_records, None, lowest_hz, measured_f1=False) if s.kind != "line_tone"]
     if not found:
         return verdict
     symptoms = verdict.symptoms + tuple({"kind": s.kind, "channel": channel, **s.values, "text": s.text}
