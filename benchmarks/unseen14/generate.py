@@ -198,7 +198,7 @@ def d_cases():
     def hum(rng):
         s = draw_sdof(rng, 0.5, 5, 65, 95)
         return s, {**base_chain(rng), "hum": 0.02, "mains": float(rng.choice([50.0, 60.0]))}, \
-            ["mains_interference", "none"], "mains hum 2 % of peak + harmonics", [], False, None
+            ["mains_interference"], "mains hum 2 % of peak + harmonics", [], False, None
 
     def quant(rng):
         s = draw_sdof(rng, 0.1, 1, 100, 400)
@@ -223,7 +223,7 @@ def d_cases():
         ("cat-mode2", "cat", mode2), ("cat-drag-light", "cat", drag_light), ("cat-fric-light", "cat", fric_light),
         ("null-soft", "null", null(10, 40, 8, 20, "k3 -0.1, x^2 v", k3=-0.1, cxxv=0.6)),
         ("chain-double", "chain", double),
-        ("chain-aa", "chain", aa_acc), ("noisy-jitter", "noisy", jitter), ("noisy-quant", "noisy", quant),
+        ("chain-aa", "cat", aa_acc), ("noisy-jitter", "noisy", jitter), ("noisy-quant", "noisy", quant),
         ("hum-mains", "hum", hum),
     ]
 

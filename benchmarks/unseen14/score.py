@@ -149,7 +149,7 @@ def score_diag(case, run):
     elif cause == "unexplained":
         v = "ok" if rule in ("hid", "chain", "noisy") else "UNEXPLAINED-ON-KNOWN"
     elif cause == "none":
-        v = "ok" if rule == "noisy" or within else "NONE-ABOVE-FLOOR"
+        v = "ok" if within else "NONE-ABOVE-FLOOR"
     else:
         v = "WRONG-NAME"
     return {**res, "verdict": v}
