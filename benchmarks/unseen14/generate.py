@@ -274,7 +274,7 @@ M_CASES = [  # id, masses, cubic link (x its linear spring at the top relative s
     # mass range [kg], first spring's frequency range [Hz]
     ("mdof-lin2", 2, 0.0, 1, False, (0.3, 3), (25, 80)), ("mdof-cubic2", 2, 0.5, 1, False, (0.3, 3), (25, 80)),
     ("mdof-lin3", 3, 0.0, 2, False, (0.3, 3), (25, 80)), ("mdof-dead", 2, 0.0, 1, True, (0.3, 3), (25, 80)),
-    ("mdof-heavy2", 2, 0.0, 1, False, (8, 40), (6, 15)),
+    ("mdof-heavy2", 2, 0.0, 1, False, (8, 40), (6, 15)), ("mdof-cubic3", 3, 0.5, 2, False, (0.2, 2), (30, 90)),
 ]
 
 
