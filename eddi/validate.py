@@ -115,15 +115,20 @@ def validate(
     SignalError
         On bad signals or window.
     """
-    t, sig = check_series(t, {"x": x, "v": v, "force": force}, min_samples=2)
+    # the driven simulation's scales, read first: a finite peak says the array is finite, so
+    # check_series skips that array's finite pass (a NaN or inf gives a NaN or inf peak: checked
+    # there as before, with its message)
+    amps = {name: peak_abs(y) for name, y in (("x", x), ("v", v)) if _plain(y, t)} if force is not None else {}
+    t, sig = check_series(t, {"x": x, "v": v, "force": force}, min_samples=2,
+                          finite=tuple(name for name, amp in amps.items() if math.isfinite(amp)))
     x = sig["x"]
     v = sig["v"]
     f = sig["force"]
     n = t.size
     w0, w1 = sample_window(window, n, 2)
     if f is not None:
-        x_amp = peak_abs(x)
-        v_amp = peak_abs(v) if v is not None else 0.0
+        x_amp = amps["x"] if "x" in amps else peak_abs(x)
+        v_amp = (amps["v"] if "v" in amps else peak_abs(v)) if v is not None else 0.0
         x0f, v0f = 0.0 if x0 is None else float(x0), 0.0 if v0 is None else float(v0)
         every = max(1, int(every))
         if x_amp > 0 and v_amp > 0:
@@ -169,6 +174,12 @@ def validate(
         v_measured=vm, v_simulated=vs, window=(w0, w1), diverged=bool(div) or bool(warnings),
         warnings=warnings, every=every,
     )
+
+
+def _plain(y: np.ndarray | None, t: np.ndarray) -> bool:
+    """``y`` is a 1-D float64 array of >= 2 samples as long as ``t`` (what :func:`validate` reads unchanged)."""
+    return (isinstance(y, np.ndarray) and y.dtype == np.float64 and y.ndim == 1 and y.size >= 2
+            and y.shape == np.shape(t))
 
 
 def spectra(t: np.ndarray, x_measured: np.ndarray, x_simulated: np.ndarray) -> dict[str, np.ndarray]:

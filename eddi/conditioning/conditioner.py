@@ -447,9 +447,13 @@ def _anchor_means(w: _Work, x_int: np.ndarray, v_int: np.ndarray, acc: np.ndarra
     centres = centres[(centres - hr > max(first, w.start)) & (centres + hr < stop)]
     tail = np.arange(stop + hr, w.n - hr, run * step)
     centres = np.unique(np.concatenate((centres, tail)))  # sorted; a shared centre once
-    idx = centres[:, None] + np.arange(-hr, hr + 1)[None, :]
-    xa = x_int[idx].mean(axis=1)
-    local = -np.column_stack((acc[idx].mean(axis=1), v_int[idx].mean(axis=1)))
+    # each run's mean as numpy's mean of the gathered (centres, run) table, without the table
+    # (eddi.refine_grid.window_means: bit for bit; local: refine_grid imports the model)
+    from eddi.refine_grid import window_means
+
+    lo = centres - hr
+    xa = window_means(x_int, lo, run)
+    local = -np.column_stack((window_means(acc, lo, run), window_means(v_int, lo, run)))
     return w.t[centres], xa, local
 
 
