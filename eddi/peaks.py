@@ -11,12 +11,16 @@ passes that stop where the answer is), with numpy's results bit for bit:
   largest bit pattern with the sign cleared (a non-negative double orders as its bits; the
   integer maximum vectorises where a float maximum does not without fast-math);
 * :func:`first_abs_above`, :func:`last_nonzero`: first / last hits in chunks of 16k samples;
+* :func:`varies`: ``np.ptp(y) > 0`` from the first sample that differs;
+* :func:`finite`: ``np.all(np.isfinite(y))`` from :func:`peak_abs`;
 * :func:`misfit_sums`: a validation's ``sum (a - b)^2`` and ``sum |c - d|`` in one pass (not bit
   for bit: eight running sums in place of BLAS's dot and numpy's pairwise sum, a change at
   rounding level, ~1e-15 of the sums).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -148,6 +152,30 @@ def _peak_abs_at(y, c):  # pragma: no cover - compiled
         if abs(y[i] - c) == peak:
             return i
     return -1
+
+
+def finite(y: np.ndarray) -> bool:
+    """``bool(np.all(np.isfinite(y)))`` of a float array: its largest ``|y|`` (:func:`peak_abs`: one
+    pass, no boolean temporary) is finite exactly when every value is (a NaN or inf peaks as one)."""
+    y = np.asarray(y)
+    if y.dtype != np.float64 or y.ndim != 1:
+        return bool(np.all(np.isfinite(y)))
+    return y.size == 0 or math.isfinite(peak_abs(y))
+
+
+def varies(y: np.ndarray) -> bool:
+    """``np.ptp(y) > 0`` of a finite 1-D array (two whole passes, max and min) as ``y != y[0]``
+    somewhere, in chunks of :data:`SCAN_CHUNK` from the start (a blow's record differs at once)."""
+    y = np.asarray(y)
+    if y.ndim != 1 or y.size == 0 or y.dtype != np.float64 or not math.isfinite(float(y[0])):
+        return bool(np.ptp(y) > 0)
+    y0 = y[0]
+    for s in range(0, y.size, SCAN_CHUNK):
+        seg = y[s:s + SCAN_CHUNK]
+        if (seg != y0).any():
+            # a NaN differs from y0, and np.ptp(y) is then NaN (not > 0): numpy decides
+            return bool(np.ptp(y) > 0) if not math.isfinite(peak_abs(seg)) else True
+    return False
 
 
 def misfit_sums(a: np.ndarray, b: np.ndarray, c: np.ndarray | None = None,

@@ -17,10 +17,12 @@ meaningful score of a good model (it says how far a wrong one went).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from eddi.model import EquationOfMotion
-from eddi.peaks import peak_abs
+from eddi.peaks import finite, peak_abs
 
 #: A simulation whose peak exceeds the measured peak by this factor has diverged.
 PEAK_RATIO = 2.0
@@ -62,11 +64,11 @@ def response_warnings(x_measured: np.ndarray, x_simulated: np.ndarray, blew_up: 
     """
     xs = np.asarray(x_simulated, dtype=float)
     xm = np.asarray(x_measured, dtype=float)
-    if blew_up or not np.all(np.isfinite(xs)):
+    peak_s = peak_abs(xs) if xs.size else 0.0  # NaN or inf exactly when xs holds one
+    if blew_up or not math.isfinite(peak_s):
         return ("the simulated response blows up (non-finite or runaway)",)
     out: list[str] = []
     peak_m = peak_abs(xm) if xm.size else 0.0
-    peak_s = peak_abs(xs) if xs.size else 0.0
     if peak_m > 0 and peak_s > PEAK_RATIO * peak_m:
         out.append(f"the simulated response reaches {peak_s / peak_m:.3g}x the measured peak")
     rm, rs = envelope_ratio(xm), envelope_ratio(xs)
@@ -127,7 +129,7 @@ def model_warnings(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> tuple
     x = np.asarray(x, dtype=float)
     v = np.asarray(v, dtype=float)
     out: list[str] = []
-    if x.size < 4 or not (np.all(np.isfinite(x)) and np.all(np.isfinite(v))):
+    if x.size < 4 or not (finite(x) and finite(v)):
         return ()
     k1 = eom.linear_stiffness()
     if k1 < 0:

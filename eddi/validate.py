@@ -24,7 +24,7 @@ import numpy as np
 from eddi.energy import check_series, sample_window
 from eddi.errors import SignalError
 from eddi.model import EquationOfMotion
-from eddi.peaks import misfit_sums, peak_abs
+from eddi.peaks import finite, misfit_sums, peak_abs
 from eddi.simulate import simulate, simulate_dense
 from eddi.stability import response_warnings
 
@@ -158,7 +158,7 @@ def validate(
     vm = v[w0:w1:every] if v is not None else None
     warnings = response_warnings(xm, xs, blew_up=bool(div))
     denom = float(np.linalg.norm(xm)) or 1.0
-    if div or not np.all(np.isfinite(xs)):
+    if div or not finite(xs):
         nrmse = float("inf")
         nmte = float("inf") if vm is not None else None
     else:

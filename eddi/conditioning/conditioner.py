@@ -19,7 +19,7 @@ from eddi.conditioning.kinematics import (
 )
 from eddi.conditioning.levels import _envelope_stop, _onset, _pulse_end, crossings, noise_rms, pre_motion
 from eddi.errors import SignalError
-from eddi.peaks import first_abs_above, peak_abs, peak_abs_at
+from eddi.peaks import first_abs_above, peak_abs, peak_abs_at, varies
 
 
 #: e.g. dry friction that sticks after a cycle, is data; fewer hold nothing to anchor the drift).
@@ -187,7 +187,7 @@ def _onset_and_rest(w: _Work, pretrigger_samples: int | None) -> None:
         # another noise estimate and window than read as CSV (None), and another verdict
         pretrigger_samples = None
     head = max(8, min(pretrigger_samples or n // 20, n // 5))
-    struck = w.force is not None and np.ptp(w.force) > 0  # a force channel that shows a blow
+    struck = w.force is not None and varies(w.force)  # a force channel that shows a blow
     if struck:
         onset, _ = _onset(w.force, head, float(np.median(w.force[:head])))
     else:
@@ -286,7 +286,7 @@ def _uncoupled(inverted: np.ndarray, t: np.ndarray, tau: float) -> np.ndarray:
 def _impact_end_from_force(w: _Work) -> None:
     """End of the impact where the force returns within its noise of zero (force measured)."""
     f = w.force
-    if f is None or not np.ptp(f) > 0:
+    if f is None or not varies(f):
         return  # decided after integration (first extremum of x)
     w.f_sigma = noise_rms(f, w.noise_stop)
     f_peak_i = _first_blow_peak(f, w.rate)
