@@ -517,8 +517,12 @@ def _integrate_acceleration(w: _Work, eq: EquilibriumIntegral | None, noise_fact
     assert a is not None
     w.a = a
     if eq is None:
-        v_int = np.zeros(w.n)
-        x_int = np.zeros(w.n)
+        # integrate() writes every sample of its out: only the samples before the start are set
+        # here (np.zeros would clear the whole record first: a pass over 7 MB each)
+        v_int = np.empty(w.n)
+        x_int = np.empty(w.n)
+        v_int[:start] = 0.0
+        x_int[:start] = 0.0
         # 4th-order integration (the trapezoid loses (w h)^2 / 12 a pass: eddi.calculus),
         # trapezoid over the impact (a pulse is not smooth)
         smooth = _pulse_end(a, start, w.impact_end) - start
