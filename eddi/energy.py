@@ -263,7 +263,8 @@ def cumulative_energy(t: np.ndarray, power: np.ndarray) -> Spline:
     return interpolate(t, power, SPLINE_DEGREE).antiderivative()
 
 
-def check_series(t: np.ndarray, named: dict[str, np.ndarray | None], min_samples: int = 4) -> tuple[np.ndarray, dict[str, np.ndarray | None]]:
+def check_series(t: np.ndarray, named: dict[str, np.ndarray | None], min_samples: int = 4,
+                 finite: tuple[str, ...] = ()) -> tuple[np.ndarray, dict[str, np.ndarray | None]]:
     """Check a time base and the signals sampled on it.
 
     Parameters
@@ -274,6 +275,9 @@ def check_series(t: np.ndarray, named: dict[str, np.ndarray | None], min_samples
         Signals by name, each of shape (n,) and finite; ``None`` entries are passed through.
     min_samples : int
         Fewest samples accepted.
+    finite : tuple of str
+        Names of float64 arrays the caller has already found finite (e.g. by a finite
+        :func:`eddi.peaks.peak_abs`, which is NaN or inf otherwise): their finite pass is skipped.
 
     Returns
     -------
@@ -310,7 +314,7 @@ def check_series(t: np.ndarray, named: dict[str, np.ndarray | None], min_samples
         arr = np.asarray(arr, dtype=float)
         if arr.shape != t.shape:
             raise SignalError(f"{name} has shape {arr.shape}; expected {t.shape} like t")
-        if not all_finite(arr):
+        if not (name in finite and arr is named[name]) and not all_finite(arr):
             bad = int(np.sum(~np.isfinite(arr)))
             raise SignalError(f"{name} contains {bad} NaN or infinite values (first at index {int(np.flatnonzero(~np.isfinite(arr))[0])})")
         out[name] = arr

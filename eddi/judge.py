@@ -52,6 +52,7 @@ import numpy as np
 from eddi.driven_validation import fused_impact_force, validate_conditioned
 from eddi.energy import noise_level
 from eddi.model import EquationOfMotion
+from eddi.peaks import finite
 
 if TYPE_CHECKING:
     from eddi.conditioning import ConditionedSignal
@@ -132,7 +133,7 @@ def _simulated(eom: EquationOfMotion, cond: "ConditionedSignal", scale: float, k
     if val is None or scale != 1.0 or (val.every > 1 and (k % val.every or kv)):
         val, _ = validate_conditioned(eom, cond, drive_scale=scale, fitted_free_state=cond.impact_force is None)
     sub = k // val.every  # every k-th sample of the window in val's arrays
-    if not math.isfinite(val.nrmse) or not np.all(np.isfinite(val.x_simulated)):
+    if not math.isfinite(val.nrmse) or not finite(val.x_simulated):
         return np.full(val.x_simulated[::sub].size, np.inf)
     channel = CHANNEL[cond.response]
     step = 1 if kv else sub  # the DAQ's kernel needs neighbouring samples

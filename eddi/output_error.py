@@ -19,7 +19,7 @@ import numpy as np
 from eddi.intervals import noise_covariance_of_fit, normal_pinv, sampling_curvature, sampling_quartic, through_sampling
 from eddi.model import EquationOfMotion
 from eddi.peaks import peak_abs
-from eddi.refine_grid import block_means, block_size, local_substeps, smooth_model
+from eddi.refine_grid import block_means, block_means_abs, block_size, local_substeps, smooth_model
 from eddi.secant_jacobian import secant_jacobian, switching_model
 from eddi.simulate import MAX_SUBSTEPS, local_angular_frequency, simulate
 
@@ -93,8 +93,8 @@ class OutputErrorProblem:
         self.omega = omega
         self.substeps = (min(MAX_SUBSTEPS, max(1, math.ceil(dt * self.block * omega / 0.1)))
                          if math.isfinite(omega) else MAX_SUBSTEPS)
-        self.steps = local_substeps(eom, dt * self.block, block_means(np.abs(x), self.block) if self.block > 1
-                                    else np.abs(x), block_means(np.abs(v), self.block) if self.block > 1
+        self.steps = local_substeps(eom, dt * self.block, block_means_abs(x, self.block) if self.block > 1
+                                    else np.abs(x), block_means_abs(v, self.block) if self.block > 1
                                     else np.abs(v), self.substeps)
         self.count = 0
         self.diverged = False

@@ -10,10 +10,17 @@ passes that stop where the answer is), with numpy's results bit for bit:
 * :func:`peak_abs`, :func:`peak_abs_at`, :func:`block_peaks`: the largest ``|y|`` read as the
   largest bit pattern with the sign cleared (a non-negative double orders as its bits; the
   integer maximum vectorises where a float maximum does not without fast-math);
-* :func:`first_abs_above`, :func:`last_nonzero`: first / last hits in chunks of 16k samples.
+* :func:`first_abs_above`, :func:`last_nonzero`: first / last hits in chunks of 16k samples;
+* :func:`varies`: ``np.ptp(y) > 0`` from the first sample that differs;
+* :func:`finite`: ``np.all(np.isfinite(y))`` from :func:`peak_abs`;
+* :func:`misfit_sums`: a validation's ``sum (a - b)^2`` and ``sum |c - d|`` in one pass (not bit
+  for bit: eight running sums in place of BLAS's dot and numpy's pairwise sum, a change at
+  rounding level, ~1e-15 of the sums).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -147,6 +154,75 @@ def _peak_abs_at(y, c):  # pragma: no cover - compiled
     return -1
 
 
+def finite(y: np.ndarray) -> bool:
+    """``bool(np.all(np.isfinite(y)))`` of a float array: its largest ``|y|`` (:func:`peak_abs`: one
+    pass, no boolean temporary) is finite exactly when every value is (a NaN or inf peaks as one)."""
+    y = np.asarray(y)
+    if y.dtype != np.float64 or y.ndim != 1:
+        return bool(np.all(np.isfinite(y)))
+    return y.size == 0 or math.isfinite(peak_abs(y))
+
+
+def varies(y: np.ndarray) -> bool:
+    """``np.ptp(y) > 0`` of a finite 1-D array (two whole passes, max and min) as ``y != y[0]``
+    somewhere, in chunks of :data:`SCAN_CHUNK` from the start (a blow's record differs at once)."""
+    y = np.asarray(y)
+    if y.ndim != 1 or y.size == 0 or y.dtype != np.float64 or not math.isfinite(float(y[0])):
+        return bool(np.ptp(y) > 0)
+    y0 = y[0]
+    for s in range(0, y.size, SCAN_CHUNK):
+        seg = y[s:s + SCAN_CHUNK]
+        if (seg != y0).any():
+            # a NaN differs from y0, and np.ptp(y) is then NaN (not > 0): numpy decides
+            return bool(np.ptp(y) > 0) if not math.isfinite(peak_abs(seg)) else True
+    return False
+
+
+def misfit_sums(a: np.ndarray, b: np.ndarray, c: np.ndarray | None = None,
+                d: np.ndarray | None = None) -> tuple[float, float] | None:
+    """``(sum((a - b)**2), sum(|c - d|))`` (the second 0.0 without ``c, d``) in one pass.
+
+    A validation's ``||x_sim - x||`` and ``mean |v_sim - v|`` over the window without the two
+    record-length differences and the ``abs`` (3.7 MB each on a 24 s free response at 19.2 kHz).
+    Eight running sums per quantity, added pairwise at the end: the same sums as numpy's to
+    rounding (numpy: BLAS's ``dot`` for the norm, a pairwise sum for the mean), not bit for bit.
+    None (the caller's numpy then) for arrays that are not contiguous float64 of one length, or
+    shorter than :data:`PEAK_ABS_MIN`.
+    """
+    arrs = (a, b) if c is None else (a, b, c, d)
+    n = a.size if isinstance(a, np.ndarray) else -1
+    if n < PEAK_ABS_MIN or not all(isinstance(y, np.ndarray) and y.ndim == 1 and y.dtype == np.float64
+                                   and y.flags.c_contiguous and y.size == n for y in arrs):
+        return None
+    out = np.empty(2)
+    _KERNELS._misfit_sums(a, b, a if c is None else c, a if d is None else d, int(c is not None), out)
+    return float(out[0]), float(out[1])
+
+
+def _misfit_sums(a, b, c, d, both, out):  # pragma: no cover - compiled
+    """:func:`misfit_sums`: eight running sums of ``(a - b)^2`` (and ``|c - d|``), added pairwise."""
+    n = a.shape[0]
+    s = np.zeros(8)
+    r = np.zeros(8)
+    m = n - n % 8
+    for i in range(0, m, 8):
+        for j in range(8):
+            e = a[i + j] - b[i + j]
+            s[j] += e * e
+            if both:
+                r[j] += abs(c[i + j] - d[i + j])
+    sq = ((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]))
+    ab = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    for i in range(m, n):
+        e = a[i] - b[i]
+        sq += e * e
+        if both:
+            ab += abs(c[i] - d[i])
+    out[0] = sq
+    out[1] = ab
+
+
 #: The compiled kernels (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
 _KERNELS = Kernels(globals(), {"_peak_abs": ["f8(f8[::1])"], "_peak_abs_at": ["i8(f8[::1], f8)"],
-                               "_block_peaks": ["void(f8[::1], i8, i8[::1])"]})
+                               "_block_peaks": ["void(f8[::1], i8, i8[::1])"],
+                               "_misfit_sums": ["void(f8[::1], f8[::1], f8[::1], f8[::1], i8, f8[::1])"]})

@@ -92,7 +92,85 @@ def block_means(y: np.ndarray, block: int) -> np.ndarray:
     if block <= 1:
         return np.asarray(y, dtype=float)
     nb = y.size // block
+    if 1 < block <= PAIRWISE_BLOCK and isinstance(y, np.ndarray) and y.dtype == np.float64 and y.ndim == 1 \
+            and y.flags.c_contiguous and nb > 0:
+        out = np.empty(nb)
+        _KERNELS._block_means(y, block, 0, out)
+        return out
     return np.asarray(y[: nb * block], dtype=float).reshape(nb, block).mean(axis=1)
+
+
+def block_means_abs(y: np.ndarray, block: int) -> np.ndarray:
+    """``block_means(np.abs(y), block)``, the same doubles, without the ``|y|`` temporary."""
+    if 1 < block <= PAIRWISE_BLOCK and isinstance(y, np.ndarray) and y.dtype == np.float64 and y.ndim == 1 \
+            and y.flags.c_contiguous and y.size >= block:
+        out = np.empty(y.size // block)
+        _KERNELS._block_means(y, block, 1, out)
+        return out
+    return block_means(np.abs(y), block)
+
+
+def window_means(y: np.ndarray, first: np.ndarray, run: int) -> np.ndarray:
+    """``y[first[:, None] + np.arange(run)].mean(axis=1)``, the same doubles, without the gathered
+    ``(first.size, run)`` table (each window summed in place as numpy sums a row)."""
+    first = np.asarray(first)
+    if 1 < run <= PAIRWISE_BLOCK and isinstance(y, np.ndarray) and y.dtype == np.float64 and y.ndim == 1 \
+            and y.flags.c_contiguous and first.ndim == 1 and first.size \
+            and 0 <= int(first.min()) and int(first.max()) + run <= y.size:
+        out = np.empty(first.size)
+        _KERNELS._window_means(y, first.astype(np.int64), run, out)
+        return out
+    return y[first[:, None] + np.arange(run)[None, :]].mean(axis=1)
+
+
+def _window_means(y, first, run, out):  # pragma: no cover - compiled
+    """:func:`window_means`: :func:`_block_means`' sums over ``y[first[k]:first[k] + run]``."""
+    r = np.empty(8)
+    for k in range(out.shape[0]):
+        base = first[k]
+        if run < 8:
+            s = 0.0
+            for j in range(run):
+                s += y[base + j]
+        else:
+            for j in range(8):
+                r[j] = y[base + j]
+            m = run - run % 8
+            for i in range(8, m, 8):
+                for j in range(8):
+                    r[j] += y[base + i + j]
+            s = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+            for i in range(m, run):
+                s += y[base + i]
+        out[k] = (0.0 + s) / run
+
+
+#: Longest block :func:`_block_means` sums as numpy does (numpy's pairwise sum splits longer rows).
+PAIRWISE_BLOCK = 128
+
+
+def _block_means(y, block, absolute, out):  # pragma: no cover - compiled
+    """:func:`block_means` (of ``|y|`` with ``absolute``): each row of the ``(nb, block)`` view
+    summed as numpy's pairwise sum sums a row of up to 128 (fewer than 8: in turn; else eight
+    running sums, added pairwise, then the rest in turn), plus numpy's initial 0.0, over ``block``."""
+    r = np.empty(8)
+    for k in range(out.shape[0]):
+        base = k * block
+        if block < 8:
+            s = 0.0
+            for j in range(block):
+                s += abs(y[base + j]) if absolute else y[base + j]
+        else:
+            for j in range(8):
+                r[j] = abs(y[base + j]) if absolute else y[base + j]
+            m = block - block % 8
+            for i in range(8, m, 8):
+                for j in range(8):
+                    r[j] += abs(y[base + i + j]) if absolute else y[base + i + j]
+            s = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+            for i in range(m, block):
+                s += abs(y[base + i]) if absolute else y[base + i]
+        out[k] = (0.0 + s) / block
 
 
 def smooth_model(eom: EquationOfMotion) -> bool:
@@ -141,5 +219,7 @@ def _through_sampling(y, c, q, use_q, out):  # pragma: no cover - compiled
                 out[i, j] = y[i, j] + c * out[i, j]
 
 
-#: The compiled kernel (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
-_KERNELS = Kernels(globals(), {"_through_sampling": ["void(f8[:, ::1], f8, f8, i8, f8[:, ::1])"]})
+#: The compiled kernels (:mod:`eddi.kernels`: built ahead of time, else numba's JIT).
+_KERNELS = Kernels(globals(), {"_through_sampling": ["void(f8[:, ::1], f8, f8, i8, f8[:, ::1])"],
+                               "_block_means": ["void(f8[::1], i8, i8, f8[::1])"],
+                               "_window_means": ["void(f8[::1], i8[::1], i8, f8[::1])"]})

@@ -25,7 +25,7 @@ from eddi.model import EquationOfMotion
 from eddi.local_frequency import _polynomial_force as _polynomial_force  # re-exported (tests)
 from eddi.local_frequency import local_angular_frequencies as local_angular_frequencies  # re-exported
 from eddi.local_frequency import local_angular_frequency, max_angular_frequency
-from eddi.peaks import last_nonzero, peak_abs
+from eddi.peaks import finite, last_nonzero, peak_abs
 from eddi.terms import exponent_table
 
 # Layout of the effect parameter vector handed to the kernel.
@@ -493,7 +493,7 @@ def simulate_dense(eom: EquationOfMotion, t: np.ndarray, *, force: np.ndarray | 
         h = int(np.searchsorted(at, last))
         x[:h], v[:h], a[:h] = head.x[at[:h]], head.v[at[:h]], head.a[at[:h]]
     diverged, steps0 = _dense_tail(eom, dt, last, q, omega, xs0, vs0, x, v, a, n, at)
-    diverged = bool(diverged or not np.all(np.isfinite(x)))
+    diverged = bool(diverged or not finite(x))
     return SimulationResult(t=t if at is None else t[at], x=x, v=v, a=a, y=None, diverged=diverged,
                             substeps=sub or steps0)
 

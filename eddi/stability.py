@@ -17,10 +17,12 @@ meaningful score of a good model (it says how far a wrong one went).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from eddi.model import EquationOfMotion
-from eddi.peaks import peak_abs
+from eddi.peaks import finite, peak_abs
 
 #: A simulation whose peak exceeds the measured peak by this factor has diverged.
 PEAK_RATIO = 2.0
@@ -62,11 +64,11 @@ def response_warnings(x_measured: np.ndarray, x_simulated: np.ndarray, blew_up: 
     """
     xs = np.asarray(x_simulated, dtype=float)
     xm = np.asarray(x_measured, dtype=float)
-    if blew_up or not np.all(np.isfinite(xs)):
+    peak_s = peak_abs(xs) if xs.size else 0.0  # NaN or inf exactly when xs holds one
+    if blew_up or not math.isfinite(peak_s):
         return ("the simulated response blows up (non-finite or runaway)",)
     out: list[str] = []
     peak_m = peak_abs(xm) if xm.size else 0.0
-    peak_s = peak_abs(xs) if xs.size else 0.0
     if peak_m > 0 and peak_s > PEAK_RATIO * peak_m:
         out.append(f"the simulated response reaches {peak_s / peak_m:.3g}x the measured peak")
     rm, rs = envelope_ratio(xm), envelope_ratio(xs)
@@ -127,7 +129,7 @@ def model_warnings(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> tuple
     x = np.asarray(x, dtype=float)
     v = np.asarray(v, dtype=float)
     out: list[str] = []
-    if x.size < 4 or not (np.all(np.isfinite(x)) and np.all(np.isfinite(v))):
+    if x.size < 4 or not (finite(x) and finite(v)):
         return ()
     k1 = eom.linear_stiffness()
     if k1 < 0:
@@ -143,12 +145,11 @@ def model_warnings(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> tuple
         bad = grid[secant < 0]
         out.append(f"negative stiffness K(x)/x < 0 at x = {float(bad[np.argmax(np.abs(bad))]):.3g} (the record "
                    f"spans {grid[0]:.3g} .. {grid[-1]:.3g}): the restoring force pushes away from equilibrium")
-    power = _damping_force(eom, x, v) * v
     neg = np.signbit(x)
     edges = np.flatnonzero(neg[1:] != neg[:-1]) + 1
     starts = np.concatenate(([0], edges))
     sizes = np.diff(np.concatenate((starts, [x.size])))
-    sums = np.add.reduceat(power, starts)[sizes > 1]
+    sums = _half_cycle_power(eom, x, v, starts)[sizes > 1]
     scale = peak_abs(sums) if sums.size else 0.0
     if scale > 0 and np.any(sums < -1e-6 * scale):
         out.append(f"negative damping: the model feeds energy in over {int(np.sum(sums < -1e-6 * scale))} of "
@@ -195,6 +196,28 @@ def self_excited_amplitude(eom: EquationOfMotion, x_max: float) -> float | None:
     if not gains[0]:
         return None
     return float(amps[np.argmin(gains)]) if not gains.all() else float(x_max)
+
+
+#: Samples per piece of :func:`_half_cycle_power` (0.5 MB an array: the pieces stay in cache).
+POWER_CHUNK = 65536
+
+
+def _half_cycle_power(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """``np.add.reduceat(_damping_force(eom, x, v) * v, starts)``, the same doubles, in pieces
+    of about :data:`POWER_CHUNK` samples that begin and end at ``starts`` (each sum reads its own
+    half cycle alone, and the force is formed sample by sample: bit for bit), so the force, the
+    power and their temporaries stay in cache instead of being record-length arrays."""
+    n = x.size
+    sums = np.empty(starts.size)
+    i = 0
+    while i < starts.size:
+        lo = int(starts[i])
+        j = max(i + 1, int(np.searchsorted(starts, lo + POWER_CHUNK, side="right")) - 1)
+        hi = int(starts[j]) if j < starts.size else n
+        xs, vs = x[lo:hi], v[lo:hi]
+        sums[i:j] = np.add.reduceat(_damping_force(eom, xs, vs) * vs, starts[i:j] - lo)
+        i = j
+    return sums
 
 
 def _damping_force(eom: EquationOfMotion, x: np.ndarray, v: np.ndarray) -> np.ndarray:

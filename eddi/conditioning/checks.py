@@ -8,6 +8,7 @@ import numpy as np
 
 from eddi.errors import SignalError
 from eddi.kernels import Kernels
+from eddi.peaks import peak_abs
 
 
 
@@ -196,7 +197,7 @@ def dropout_runs(y: np.ndarray, max_run: int = 8) -> list[tuple[int, int]]:
 
     noise = median(np.abs(np.diff(y, 3))) / 0.6745 / math.sqrt(20.0)
     count = _smallest_step(y)
-    level = max(10.0 * noise, 2.0 * count, 1e-12 * float(np.max(np.abs(y))))
+    level = max(10.0 * noise, 2.0 * count, 1e-12 * peak_abs(y))
     edges = np.diff(np.concatenate(([0], zero.astype(np.int8), [0])))
     moving = []
     for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):

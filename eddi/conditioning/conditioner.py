@@ -19,7 +19,7 @@ from eddi.conditioning.kinematics import (
 )
 from eddi.conditioning.levels import _envelope_stop, _onset, _pulse_end, crossings, noise_rms, pre_motion
 from eddi.errors import SignalError
-from eddi.peaks import first_abs_above, peak_abs, peak_abs_at
+from eddi.peaks import first_abs_above, peak_abs, peak_abs_at, varies
 
 
 #: e.g. dry friction that sticks after a cycle, is data; fewer hold nothing to anchor the drift).
@@ -187,7 +187,7 @@ def _onset_and_rest(w: _Work, pretrigger_samples: int | None) -> None:
         # another noise estimate and window than read as CSV (None), and another verdict
         pretrigger_samples = None
     head = max(8, min(pretrigger_samples or n // 20, n // 5))
-    struck = w.force is not None and np.ptp(w.force) > 0  # a force channel that shows a blow
+    struck = w.force is not None and varies(w.force)  # a force channel that shows a blow
     if struck:
         onset, _ = _onset(w.force, head, float(np.median(w.force[:head])))
     else:
@@ -286,7 +286,7 @@ def _uncoupled(inverted: np.ndarray, t: np.ndarray, tau: float) -> np.ndarray:
 def _impact_end_from_force(w: _Work) -> None:
     """End of the impact where the force returns within its noise of zero (force measured)."""
     f = w.force
-    if f is None or not np.ptp(f) > 0:
+    if f is None or not varies(f):
         return  # decided after integration (first extremum of x)
     w.f_sigma = noise_rms(f, w.noise_stop)
     f_peak_i = _first_blow_peak(f, w.rate)
@@ -447,9 +447,13 @@ def _anchor_means(w: _Work, x_int: np.ndarray, v_int: np.ndarray, acc: np.ndarra
     centres = centres[(centres - hr > max(first, w.start)) & (centres + hr < stop)]
     tail = np.arange(stop + hr, w.n - hr, run * step)
     centres = np.unique(np.concatenate((centres, tail)))  # sorted; a shared centre once
-    idx = centres[:, None] + np.arange(-hr, hr + 1)[None, :]
-    xa = x_int[idx].mean(axis=1)
-    local = -np.column_stack((acc[idx].mean(axis=1), v_int[idx].mean(axis=1)))
+    # each run's mean as numpy's mean of the gathered (centres, run) table, without the table
+    # (eddi.refine_grid.window_means: bit for bit; local: refine_grid imports the model)
+    from eddi.refine_grid import window_means
+
+    lo = centres - hr
+    xa = window_means(x_int, lo, run)
+    local = -np.column_stack((window_means(acc, lo, run), window_means(v_int, lo, run)))
     return w.t[centres], xa, local
 
 
@@ -513,8 +517,12 @@ def _integrate_acceleration(w: _Work, eq: EquilibriumIntegral | None, noise_fact
     assert a is not None
     w.a = a
     if eq is None:
-        v_int = np.zeros(w.n)
-        x_int = np.zeros(w.n)
+        # integrate() writes every sample of its out: only the samples before the start are set
+        # here (np.zeros would clear the whole record first: a pass over 7 MB each)
+        v_int = np.empty(w.n)
+        x_int = np.empty(w.n)
+        v_int[:start] = 0.0
+        x_int[:start] = 0.0
         # 4th-order integration (the trapezoid loses (w h)^2 / 12 a pass: eddi.calculus),
         # trapezoid over the impact (a pulse is not smooth)
         smooth = _pulse_end(a, start, w.impact_end) - start
