@@ -115,5 +115,7 @@ def below_floor_note(cause: str, symptoms: Sequence[Symptom], data_ratio: float)
     sig = amplitude_signature(symptoms) if cause == "none" and data_ratio <= 1.0 else None
     if sig is None:
         return ""
-    return (f" A remark, not a verdict: {signature_text(sig)}; but it moves the held-out prediction less than the "
-            f"noise does (the baseline is {data_ratio:.2f}x the floor), so the verdict stays none.")
+    return (f" A remark, not a verdict (the energy per cycle says more than the held-out comparison): "
+            f"{signature_text(sig)}; the held-out prediction is within the noise (the baseline is {data_ratio:.2f}x "
+            "the floor), so the verdict stays none: no mechanism is missing that the prediction can show, and "
+            "longer records or more cycles at small amplitude would test this one.")
