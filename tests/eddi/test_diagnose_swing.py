@@ -1,5 +1,5 @@
-"""A baseline whose refit swings with the noise in every held-out part is not ``none (uncertain)``
-above the floor of the data (session 20, s20onedof; :mod:`eddi.diagnosis.swing`), and the below-floor
+"""A baseline whose refit swings with the noise in every held-out part is said with the symptoms and never
+turns a verdict (session 20, s20onedof; :mod:`eddi.diagnosis.swing`), and the below-floor
 policy of the small-amplitude signature (the verdict stays ``none``, with a remark;
 :func:`eddi.diagnosis.smallamp.below_floor_note`).
 
@@ -15,6 +15,7 @@ from eddi.diagnosis.earn import earn
 from eddi.diagnosis.results import NoiseFloor, Symptom
 from eddi.diagnosis.smallamp import below_floor_note
 from eddi.diagnosis.swing import SWING, refit_swing
+from eddi.diagnosis.symptoms import notable
 
 COND = (0.0342, 0.0273, 0.0259)
 CHAIN = (0.005, 0.005, 0.005)
@@ -42,13 +43,14 @@ def test_swing_needs_every_part() -> None:
     assert refit_swing(_floor((0.0948, 0.0447, 0.0497), chain=())) is not None
 
 
-def test_swing_turns_none_above_the_floor_only() -> None:
+def test_swing_is_said_but_never_turns_a_verdict() -> None:
+    # not null-safe as a verdict: the 0.3 kg, 9 Hz null of test_diagnose_earned (library call) swings
+    # 1.8-7.4x at 2.4x the floor; so earn leaves `none` (and a name) as the held-out comparison gives them
     s = refit_swing(_floor((0.0948, 0.0447, 0.0497)))
-    assert s is not None
-    dec = earn(NONE, 1.1, [s], data_ratio=1.22)
-    assert dec.cause == "unexplained" and "do not determine the baseline" in dec.reason and "1.2x" in dec.reason
-    assert earn(NONE, 0.9, [s], data_ratio=0.95).cause == "none"  # at or below the floor: none stands
-    # a name is not overturned by it
+    assert s is not None and "do not determine the baseline" in s.text
+    assert notable(s)  # listed with the symptoms of a `none (uncertain)`
+    assert earn(NONE, 1.1, [s], data_ratio=1.22).cause == "none"
+    assert earn(NONE, 2.4, [s], data_ratio=2.4).cause == "none"
     named = Decision("coulomb_friction", None, None, False, "")
     assert earn(named, 1.5, [s], data_ratio=1.5).cause == "coulomb_friction"
 
