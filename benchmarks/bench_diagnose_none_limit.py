@@ -95,7 +95,7 @@ def case(args: tuple[int, str]) -> dict:
     except Exception as exc:  # a set the rig, the conditioning or the loop refuses is reported, not hidden
         return {"seed": seed, "family": family, "error": f"{type(exc).__name__}: {exc}"}
     keep = {k: row.get(k) for k in ("ratio", "baseline_nrmse", "data_floor", "floor", "pipeline_nrmse",
-                                     "causes", "partial", "symptoms")}
+                                     "causes", "partial", "symptoms", "floor_parts")}
     keep["judged_ratio"] = row["baseline_nrmse"] / row["data_floor"]
     return {"seed": seed, "family": family, **info, **keep, "cpu_s": cpu}
 

@@ -87,8 +87,7 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
     within = within_floor(base_fold, floor, none_factor) and not departs
     unsure = "" if departs else ill_determined(base_fold, floor, none_factor)
     tried = [c for c in candidates if not c.skipped and c.model is not None]
-    helpful = [c for c in tried if c.wins_every_part and c.gain > 0 and not c.contradicted]
-    partial = helpful[0] if helpful else None
+    partial = best_partial(tried, base_fold)
     if within and strong_margin is None:
         return Decision("none", None, None, True, "within the noise floor")
     why = []
@@ -156,6 +155,34 @@ def decide(candidates: Sequence[Candidate], base_fold: Sequence[float], floor: N
 #: Candidates whose held-out figures are not the records as measured (re-conditioned or
 #: time-shifted records): they do not show that the baseline misses the records.
 CORRECTIONS = ("sensor_highpass", "response_lag")
+
+
+def best_partial(tried: Sequence[Candidate], base_fold: Sequence[float]) -> Candidate | None:
+    """The best partial explanation: of the candidates that beat their reference on every held-out
+    part, are not contradicted by the records and **measurably help the held-out records as judged**
+    (mean held-out nrmse below the judged baseline's ``base_fold`` and no part worse than it), the one
+    that cuts the judged baseline's error most; ``None`` when none helps (session 20, s20onedof).
+
+    A candidate's ``gain`` is over its own reference, which need not be the records as measured: a
+    measurement-chain correction (:data:`CORRECTIONS`, a coupling cut) is refitted on re-conditioned
+    records, its reference the baseline refitted there. Ranked by that gain (before session 20),
+    ``sensor_highpass`` was the partial explanation of a one-DOF set with a hidden Stribeck-like
+    friction (s19small's smooth2 2 / 6) at a held-out nrmse 4.4x the judged baseline's (0.154
+    against 0.035: "-343 % less"), while ``coulomb_friction`` cut it 38 % on every part. A chain
+    correction must moreover show that the coupling itself helps its fold models on the records as
+    measured (``coupling_cut`` > 0)."""
+    base = float(np.mean(base_fold)) if len(base_fold) else float("nan")
+    ok = []
+    for c in tried:
+        if not (c.wins_every_part and c.gain > 0 and not c.contradicted and c.nrmse < base):
+            continue
+        if len(c.fold_nrmse) == len(base_fold) and any(not e <= b for e, b in zip(c.fold_nrmse, base_fold)
+                                                       if np.isfinite(b)):
+            continue  # worse than the judged baseline on some held-out part: not a help there
+        if (c.name in CORRECTIONS or COUPLING_CUT in c.params) and not c.params.get(COUPLING_CUT, 0.0) > 0.0:
+            continue  # the records as measured show no coupling (eddi.diagnosis.highpass)
+        ok.append(c)
+    return min(ok, key=lambda c: c.nrmse, default=None)
 
 
 def _untested(tried: Sequence[Candidate], base_fold: Sequence[float], eddi: float, floor: NoiseFloor,

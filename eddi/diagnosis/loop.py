@@ -23,6 +23,7 @@ import numpy as np
 
 from eddi.diagnosis.catalogue import ALL_NAMES, Mechanism, catalogue
 from eddi.diagnosis import chainfix, mainsfix, smallamp
+from eddi.diagnosis.swing import refit_swing
 from eddi.diagnosis.align import NAME as LAG_NAME
 from eddi.diagnosis.lowpass import NAME as LOWPASS_NAME
 from eddi.diagnosis.chain import inspect, measured_frequency
@@ -383,6 +384,7 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
                                      res.base_sims, res.cand_sims[dec.winner.name], sh.setup.mass,
                                      floor.part_conditioning_nrmse)
     symptoms = _impulse_through_coupling(dec, records, sh.setup.mass, f1, symptoms)
+    symptoms = symptoms + [s for s in (refit_swing(floor),) if s is not None]  # session 20
     symptoms = chainfix.impulse_through_lowpass(dec, records, sh.setup.mass, f1, symptoms)
     # a chain that cannot be trusted earns neither silence nor a name (eddi.diagnosis.earn); the band
     # rule's "above the floor" is against the full floor, as calibrated: against the floor of the
@@ -395,7 +397,8 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
                baseline.nrmse / floor.data_nrmse if floor.data_nrmse > 0 else math.inf)
     verdict, symptom = _texts(dec, baseline, floor, candidates, symptoms, margin, none_factor,
                               named_factor)
-    verdict += reported_text(symptoms)
+    verdict += reported_text(symptoms) + smallamp.below_floor_note(dec.cause, symptoms, baseline.nrmse / floor.data_nrmse
+                                                                   if floor.data_nrmse > 0 else math.inf)
     if lag_ok is not None and dec.cause == "none":
         verdict += chainfix.immaterial_text(lag_ok, symptoms, floor.data_nrmse)
     else:

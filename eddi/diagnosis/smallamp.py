@@ -100,3 +100,22 @@ def named(dec: Decision, symptoms: Sequence[Symptom], ratio: float, redecide: Ca
         return dec
     alt = redecide()
     return alt if alt.winner is not None else dec
+
+
+def below_floor_note(cause: str, symptoms: Sequence[Symptom], data_ratio: float) -> str:
+    """A sentence for a ``none`` at or below the floor of the data whose energy shows the signature
+    (session 20, s20onedof; '' otherwise). The policy: the verdict stays ``none``. Below the floor the
+    model predicts every held-out part as well as the noise lets one tell, so a missing mechanism there
+    changes no prediction the records can check, and ``none`` is what the held-out comparison says
+    (turning it would move the calibration ladders' ``none`` rungs, not a null: the signature held on
+    none of 58 nulls and on 12 hidden-loss sets below the floor, s19small). But the energy per cycle
+    measures one physical quantity beyond its own standard errors in every part, which the noise does
+    not make: the verdict says so, in numbers, as a remark, so the user can test it (longer records,
+    more blows at small amplitude)."""
+    sig = amplitude_signature(symptoms) if cause == "none" and data_ratio <= 1.0 else None
+    if sig is None:
+        return ""
+    return (f" A remark, not a verdict (the energy per cycle says more than the held-out comparison): "
+            f"{signature_text(sig)}; the held-out prediction is within the noise (the baseline is {data_ratio:.2f}x "
+            "the floor), so the verdict stays none: no mechanism is missing that the prediction can show, and "
+            "longer records or more cycles at small amplitude would test this one.")
