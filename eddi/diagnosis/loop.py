@@ -314,8 +314,10 @@ def _symptoms(sh: _Shown) -> list[Symptom]:
 PIPELINE_DEPARTS = "the pipeline's model"
 
 
-def _pipeline_check(pipeline: PipelineBaseline | None, sh: _Shown, none_factor: float) -> str:
-    """Why the pipeline's model is not within the floor on the records it did not fit ('' if it is)."""
+def _pipeline_check(pipeline: PipelineBaseline | None, sh: _Shown, none_factor: float, drift: bool = False) -> str:
+    """Why the pipeline's model is not within the floor on the records it did not fit ('' if it is);
+    ``drift``: the captures differ from each other (a ``capture_drift`` symptom), so a model fitted
+    on one capture cannot hold on the others whatever its fit."""
     if pipeline is None or not pipeline.held_out:
         return ""
     floors = [f for p, f in zip(sh.parts, records_share(sh.floor) or sh.floor.data_fold_nrmse or sh.floor.fold_nrmse)
@@ -326,7 +328,9 @@ def _pipeline_check(pipeline: PipelineBaseline | None, sh: _Shown, none_factor: 
     return (f"{PIPELINE_DEPARTS} (as station identify gives it, fitted on {sh.records[pipeline.fit_record].label or 'one record'}) "
             f"departs from the records it did not fit (held-out nrmse {pipeline.nrmse:.3g}, "
             f"{pipeline.nrmse / floor:.1f}x the records' own share of the floor {floor:.3g}, the noise and the chain without the folds' refit spread)"
-            + (" although the baseline fitted the pipeline's way on the other records of each fold stays "
+            + (": the captures differ from each other (below), and a model fitted on one of them does not "
+               "hold on the others" if drift else
+               " although the baseline fitted the pipeline's way on the other records of each fold stays "
                "within it: the pipeline's fit, not a missing mechanism"
                if within_floor(sh.res.base_fold, sh.floor, none_factor) else ""))
 
@@ -376,7 +380,7 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     margin, none_factor, named_factor, strong_margin = rules
     records, res, baseline, floor = sh.records, sh.res, sh.baseline, sh.floor
     f1 = _frequency(sh.bfit_all.eom)
-    departs = _pipeline_check(pipeline, sh, none_factor)
+    departs = _pipeline_check(pipeline, sh, none_factor, any(s.kind == "capture_drift" for s in symptoms))
     dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor, strong_margin=strong_margin,
                  eddi_fold=res.ref_fold, departs=departs)
     dec = chainfix.named(dec, candidates, res.base_fold, floor, rules, res.ref_fold)
@@ -590,7 +594,7 @@ def _texts(dec: Decision, baseline: Score, floor: NoiseFloor, candidates: Sequen
         verdict = (f"Cause: unexplained. The baseline fitted per fold on the training captures follows the "
                    f"held-out measurements (nrmse {b:.3g}, {b / f:.1f}x the noise floor {f:.3g}, within the "
                    f"{none_factor:g}x allowed) and no mechanism of the catalogue earns its place (needs a "
-                   f"{100 * margin:.0f} % cut on every part and {named_factor:g}x the floor), but the model "
+                   f"{100 * margin:.0f} % cut on every part and {named_factor:g}x the floor); the model "
                    "delivered is the pipeline's one-record fit")
     else:
         verdict = (f"Cause: unexplained. The baseline departs from the held-out measurements (nrmse {b:.3g}, "
@@ -601,7 +605,7 @@ def _texts(dec: Decision, baseline: Score, floor: NoiseFloor, candidates: Sequen
         verdict += (f". Best partial explanation: {p.name} (nrmse {p.nrmse:.3g}, {100 * (1 - p.nrmse / b):.0f} % "
                     f"less, still {p.nrmse / f:.1f}x the floor)")
     if not dec.reason.startswith(CHAIN_REASON):
-        verdict += f". {dec.reason}." if dec.reason else "."
+        verdict += f". {dec.reason[:1].upper()}{dec.reason[1:]}." if dec.reason else "."
     else:
         verdict += "."
     symptom = "; ".join(said) if said else (f"the baseline's simulation departs from the held-out "
