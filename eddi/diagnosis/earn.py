@@ -133,10 +133,11 @@ def overturns(s: Symptom) -> bool:
 def reported_text(symptoms: Sequence[Symptom]) -> str:
     """A sentence for the verdict on the findings reported without overturning it
     (:data:`REPORTED_KINDS`), '' when there are none."""
+    drift = "".join(f" Warning: {s.text}." for s in symptoms if s.kind == "capture_drift")
     found = [s for s in symptoms if s.kind in REPORTED_KINDS and not _inside(s)]
     if not found:
-        return ""
-    return (" The hammer bounced (" + "; ".join(s.text for s in found) + "): the free response "
+        return drift
+    return drift + (" The hammer bounced (" + "; ".join(s.text for s in found) + "): the free response "
             "compared starts after the last blow the force channel recorded, so the bounce does not "
             "bear on the verdict (a clean single blow is still the better capture).")
 

@@ -285,7 +285,12 @@ def baseline_symptoms(records: Sequence[Record], parts: Sequence[Part], sims: Se
         if np.isfinite(g) and g > THRESHOLDS["growth_ratio"]:
             words += " (it decays too slowly or grows)"
         out.append(Symptom("growth", words, {"ratio": g}))
-    return out
+    from eddi.diagnosis.drift import capture_drift
+
+    drift = capture_drift(rows, [p.record for p in parts], [records[p.record].label or f"capture {p.record + 1}"
+                                                             for p in parts],
+                          [float(np.max(np.abs(records[p.record].x[p.start:p.stop]))) for p in parts])
+    return out + ([drift] if drift is not None else [])
 
 
 def part_energy_z(rows: Sequence[dict[str, float]]) -> dict[str, float]:

@@ -346,6 +346,10 @@ def diagnosis_object(read: list[Any], args: argparse.Namespace) -> tuple[Diagnos
     reason = str(baseline.choices.get("refinement_reason", "")) if baseline is not None else ""
     if reason.startswith(TOO_SHORT_TO_REFINE):  # a warning, not a flag: EDDI's estimate stands
         obj["warnings"].append(f"the pipeline's model: {reason}")
+    from eddi.diagnosis.pipeline_base import first_sample_warning
+
+    if first_sample_warning(diag.pipeline):  # identify's held-out figure is its start state's (session 20)
+        obj["warnings"].append(f"the pipeline's model: {first_sample_warning(diag.pipeline)}")
     if (session is not None and args.sensor_highpass is None and diag.cause in ("none", "unexplained", "sensor_highpass")
             and not any(m.metadata.get("ac_coupling_s") for m in measurements)):
         # after `unstable`: a warning, not a flag. Not when the held-out judgement named another
