@@ -124,3 +124,28 @@ def test_held_out_verdict_case_names_mains_interference() -> None:
                     forces=(30.0, 44.0, 60.0))
     d = diagnose(recs, 0.6, damping="v,v^3", stiffness="x,x^3")
     assert d.cause == "mains_interference" and d.extended.nrmse < 0.2 * d.baseline.nrmse
+
+
+def test_the_tones_are_searched_once_and_not_again_on_the_corrected_records(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Session 20: the search ran three times a record when the tone was corrected (the chain's
+    symptoms, :func:`eddi.diagnosis.mainsfix.cleaned`, the re-run's symptoms on records whose tones
+    were removed): ~16 % of the whole diagnosis' CPU on the held-out case. Once now; the verdict
+    and its figures as before. The multi-channel chain check drops the 1-DOF tone symptoms (tones
+    are reported per channel): it does not search either."""
+    from eddi.diagnosis import chain
+    from eddi.diagnosis.loop import diagnose
+    from eddi.mdof.verdict import MdofVerdict, chain_checked
+
+    calls = []
+    real = chain.record_tones
+    monkeypatch.setattr(chain, "record_tones", lambda r: calls.append(r) or real(r))
+    monkeypatch.setattr("eddi.diagnosis.loop.record_tones", chain.record_tones)
+    recs = _records(_system(0.6, 42.0, 0.015), 8, dict(mains_si=0.15, mains_hz=49.9), rate=4096.0, snr=50.0,
+                    forces=(30.0, 44.0, 60.0))
+    d = diagnose(recs, 0.6, damping="v,v^3", stiffness="x,x^3")
+    assert d.cause == "mains_interference" and d.extended.nrmse < 0.2 * d.baseline.nrmse
+    assert len(calls) == len(recs)
+    assert len([s for s in d.symptoms if s.kind == "line_tone"]) == 1
+    calls.clear()
+    v = chain_checked(MdofVerdict("none", {"acc1": 0.01}, (), None), recs, 42.0, "acc1")
+    assert calls == [] and not any(s["kind"] == "line_tone" for s in v.symptoms)
