@@ -169,9 +169,9 @@ def line_tones(t: np.ndarray, y: np.ndarray, rest: int, tail: tuple[int, int]) -
     do not tell 50 from 60 Hz: a 0.3 m/s^2 tone at 50 Hz read 0.2 m/s^2 at 59.4 Hz beside it)."""
     t = np.asarray(t, float)
     y = np.asarray(y, float)
-    rate = 1.0 / float(t[1] - t[0])
-    if rest < 16 or tail[1] - tail[0] < 64:
+    if rest < 16 or tail[1] - tail[0] < 64 or t.size < 2:
         return []
+    rate = 1.0 / float(t[1] - t[0])
     cands = sorted({round(h * b, 6) for b in LINE_HZ for h in range(1, MAX_HARMONIC + 1)
                     if h * b <= 0.4 * rate and rest >= MIN_CYCLES * rate / (h * b * (1 - GRID_TOL))})
     found: list[LineTone] = []
