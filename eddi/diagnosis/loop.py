@@ -469,7 +469,8 @@ def _impulse_through_coupling(dec: Decision, records: Sequence[Record], mass: fl
     fixed = [recondition(r, fc) for r in records] if fc > 0 else []
     if not fixed or any(r is None for r in fixed):
         return symptoms
-    again = [s for s in inspect(fixed, mass, f1) if s.kind == "impulse_mass"]  # type: ignore[arg-type]
+    # the impulse mass only: no line-tone search (~30 ms a record) for symptoms dropped
+    again = [s for s in inspect(fixed, mass, f1, tones=[[] for _ in fixed]) if s.kind == "impulse_mass"]  # type: ignore[arg-type]
     return [s for s in symptoms if s.kind != "impulse_mass"] + again
 
 
