@@ -127,8 +127,10 @@ def _lsq(t: np.ndarray, y: np.ndarray, f: float, seg: np.ndarray, w: np.ndarray 
     # normal equations of a few well-scaled columns (lstsq's SVD was 30x slower)
     g = np.linalg.pinv(Xw.T @ Xw)
     coef = g @ (Xw.T @ (y if w is None else y * w))
-    # weighted: the estimate's covariance under white noise of unit variance (sandwich)
-    cov = g if w is None else g @ (Xw.T @ (Xw * w[:, None])) @ g
+    # weighted: the estimate's covariance under white noise of unit variance (sandwich): the
+    # estimate is g X'W^2 y, so g X'W^4 X g (session 19 had X'W^3 X: the Hann-tapered tail's
+    # variance 14 % high, its standard error 7 %; session 20, tests/eddi/test_diagnose_mains.py)
+    cov = g if w is None else g @ (Xw.T @ (Xw * (w * w)[:, None])) @ g
     return coef, y - X @ coef, cov[:2, :2]
 
 
