@@ -125,7 +125,9 @@ def _session19_files(d: Path, fx: dict[str, Path]) -> dict[str, Path]:
         pass
     files["h5_plain"] = d / "h5_plain.h5"
     (d / "utf16.csv").write_bytes(fx["csv"].read_text()[:20000].encode("utf-16"))
-    files["csv_utf16"] = d / "utf16.csv"
+    files["csv_utf16"] = d / "utf16.csv"  # read since session 20 (its mark); this one holds no blow
+    (d / "utf16_nobom.csv").write_bytes(fx["csv"].read_text().encode("utf-16-le"))
+    files["csv_utf16_nobom"] = d / "utf16_nobom.csv"  # refused: which byte order, not said
     (d / "bom_only.csv").write_bytes(b"\xef\xbb\xbf")
     files["csv_bom_only"] = d / "bom_only.csv"
     imp.unlink()

@@ -290,7 +290,23 @@ def _internal_error(command: str, exc: Exception) -> int:
 
 
 def run() -> None:  # pragma: no cover - console-script entry
-    sys.exit(main(whole_process=True))
+    code = main(whole_process=True)
+    # the command has ended and said so (its one line when interrupted). A Ctrl-C from here on, in
+    # the interpreter's teardown (exit handlers, modules cleared), ended the process killed by
+    # SIGINT (-2) with no line and the command's code lost: ignored, the code stands (session 20:
+    # `station import` at its first teardown line). And an interrupted command that had printed its
+    # line still ended -2 when the Ctrl-C came while a module was importing (the interpreter
+    # remembers an interrupt that escaped a module's own code run, and re-raises SIGINT at exit):
+    # its with-blocks have closed what it wrote, so it ends at once with 130 (the sweep's
+    # `validate` once in 44, session 19; `import` at `eddi.conditioning`, session 20).
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if code == EXIT_INTERRUPTED:
+        from station.process import end_now
+
+        end_now(code)
+    sys.exit(code)
 
 
 if __name__ == "__main__":  # pragma: no cover

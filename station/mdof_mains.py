@@ -32,15 +32,24 @@ TONE_FREQUENCY_REL = 0.02
 
 
 def _blow_start(force: np.ndarray | None, rest: int) -> int:
-    """The first sample of the blow (force above 5 % of its peak), at most ``rest``."""
+    """The sample before the blow (force above 5 % of its peak, its offset the pre-trigger's median,
+    or the whole channel's when no pre-trigger is known: a blow is a few samples), at most ``rest``
+    when that is known (> 0). A capture whose time starts at 0 with no pre-trigger count (a lab's
+    CSV) has its rest up to the blow, as the one-coordinate search has (``chain.record_tones``;
+    before session 20 no tone was looked for on such captures here)."""
+    from eddi.peaks import first_abs_above, peak_abs
+
     if force is None:
         return rest
-    f = np.asarray(force, float) - (float(np.median(force[:rest])) if rest > 8 else 0.0)
-    peak = float(np.max(np.abs(f))) if f.size else 0.0
+    force = np.asarray(force, float)
+    f = force - float(np.median(force[:rest] if rest > 8 else force))
+    peak = peak_abs(f) if f.size else 0.0
     if not peak > 0:
         return rest
-    hit = np.flatnonzero(np.abs(f) > 0.05 * peak)
-    return min(rest, int(hit[0]) - 1) if hit.size else rest
+    hit = first_abs_above(f, 0.05 * peak)
+    if hit < 0:
+        return rest
+    return min(rest, hit - 1) if rest > 0 else max(0, hit - 1)
 
 
 def line_tone_symptoms(meas: Sequence[Any], names: Sequence[str]) -> list[dict]:

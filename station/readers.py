@@ -197,17 +197,19 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
     path = Path(path)
     if capture is not None:
         raise InputFileError(f"{path}: a CSV file holds one record; got capture {capture!r}")
+    enc = text_encoding(path)
     try:
-        with open(path, encoding="utf-8-sig") as fh:
+        with open(path, encoding=enc) as fh:
             head = [fh.readline() for _ in range(HEADER_LINES)]
         hdr = parse_header(head, str(path))
         names = list(hdr.names)
         _check_header(path, names, hdr.ignored)
-        columns = _plain_columns(path, hdr)
+        columns = _plain_columns(path, hdr, enc)
         if columns is None:
-            columns = _loadtxt_columns(path, hdr, names)
+            columns = _loadtxt_columns(path, hdr, names, enc)
     except UnicodeDecodeError:
-        raise InputFileError(f"{path}: not a text CSV file") from None
+        what = "UTF-8" if enc == "utf-8-sig" else f"{enc.upper()} (its byte-order mark says so)"
+        raise InputFileError(f"{path}: not a text CSV file (not valid {what} text)") from None
     cols = dict(zip(names, columns))
     for name, scale in zip(names, hdr.scales):
         if scale != 1.0:  # a unit the header names (csv_header.UNITS); SI columns stay untouched
@@ -223,7 +225,35 @@ def read_csv(path: str | Path, capture: str | None = None) -> Measurement:
                                lambda i: f"from line {i + skip + 1}", meta)
 
 
-def _plain_columns(path: Path, hdr: Header) -> np.ndarray | None:
+#: Byte-order marks of the Unicode texts a CSV is read in besides UTF-8 (Excel's "Unicode text" export
+#: is UTF-16 LE with its mark, tab-separated): the longer marks first (UTF-32 LE's starts as UTF-16 LE's).
+UNICODE_BOMS = ((b"\xff\xfe\x00\x00", "utf-32"), (b"\x00\x00\xfe\xff", "utf-32"),
+                (b"\xff\xfe", "utf-16"), (b"\xfe\xff", "utf-16"))
+
+
+def text_encoding(path: Path) -> str:
+    """The encoding a CSV is read in: UTF-16 or UTF-32 when the file starts with their byte-order
+    mark, else UTF-8 (with or without its mark).
+
+    Raises
+    ------
+    InputFileError
+        UTF-16 without a byte-order mark (a zero byte beside each of the first characters): which
+        byte order it is cannot be told for sure, said in one line.
+    """
+    with open(path, "rb") as fh:
+        head = fh.read(8)
+    for bom, enc in UNICODE_BOMS:
+        if head.startswith(bom):
+            return enc
+    text = set(range(32, 127)) | {9, 10, 13}
+    if len(head) == 8 and any(not any(head[z::2]) and set(head[1 - z::2]) <= text for z in (0, 1)):
+        raise InputFileError(f"{path}: looks like UTF-16 text without a byte-order mark; save it as UTF-8 "
+                             "(or as Unicode text, which starts with the mark)")
+    return "utf-8-sig"
+
+
+def _plain_columns(path: Path, hdr: Header, enc: str = "utf-8-sig") -> np.ndarray | None:
     """The data rows as an array of shape (columns, rows) by one compiled pass over the file's
     bytes (:func:`eddi.decimal_text.parse_columns`: the same float64 values as ``numpy.loadtxt``,
     bit for bit, in about half its CPU), or None when the file is not plain numbers between one
@@ -238,11 +268,13 @@ def _plain_columns(path: Path, hdr: Header) -> np.ndarray | None:
     from eddi.decimal_text import data_start, parse_columns
 
     raw = path.read_bytes()
+    if enc != "utf-8-sig":  # UTF-16/32 (text_encoding): the same text in UTF-8, whose bytes the pass reads
+        raw = raw.decode(enc).encode("utf-8")
     start = data_start(raw, hdr.skiprows)
     return None if start is None else parse_columns(raw, start, hdr.delimiter, len(hdr.names))
 
 
-def _loadtxt_columns(path: Path, hdr: Header, names: list[str]) -> np.ndarray:
+def _loadtxt_columns(path: Path, hdr: Header, names: list[str], enc: str = "utf-8-sig") -> np.ndarray:
     """The data rows by ``numpy.loadtxt``, as an array of shape (columns, rows) (each column
     contiguous), for any text the header allows.
 
@@ -251,7 +283,7 @@ def _loadtxt_columns(path: Path, hdr: Header, names: list[str]) -> np.ndarray:
     InputFileError
         No data rows, a row of another length, text in a number (the line named).
     UnicodeDecodeError
-        Not UTF-8 text.
+        Not text in ``enc`` (:func:`text_encoding`).
     """
     try:  # numpy's C reader, given the path (~20 % faster than a file object): correctly rounded,
         # ~0.18 s for 2.6 M numbers (numba's compile of the hand-written parser it replaces cost
@@ -260,11 +292,11 @@ def _loadtxt_columns(path: Path, hdr: Header, names: list[str]) -> np.ndarray:
             warnings.simplefilter("ignore", UserWarning)
             source: Any = path
             if hdr.decimal_comma:  # rare: a spreadsheet export; one copy of the text
-                source = io.StringIO(path.read_text(encoding="utf-8-sig").replace(",", "."))
+                source = io.StringIO(path.read_text(encoding=enc).replace(",", "."))
             data = np.loadtxt(source, delimiter=hdr.delimiter, ndmin=2, dtype=float, skiprows=hdr.skiprows,
-                              encoding="utf-8-sig", quotechar='"', usecols=hdr.usecols if hdr.ignored else None)
+                              encoding=enc, quotechar='"', usecols=hdr.usecols if hdr.ignored else None)
     except ValueError as exc:
-        raise InputFileError(f"{path}: {_row_problem(path, len(hdr.cells), exc, hdr)}") from None
+        raise InputFileError(f"{path}: {_row_problem(path, len(hdr.cells), exc, hdr, enc)}") from None
     if data.size == 0:
         raise InputFileError(f"{path}: no data rows after the header")
     if data.shape[1] != len(names):
@@ -548,9 +580,9 @@ def _check_header(path: Path, names: list[str], ignored: Sequence[str] = ()) -> 
         )
 
 
-def _row_problem(path: Path, n_cols: int, exc: ValueError, hdr: Header) -> str:
+def _row_problem(path: Path, n_cols: int, exc: ValueError, hdr: Header, enc: str = "utf-8-sig") -> str:
     """Find the first bad data row (slow path, only on error)."""
-    with open(path, encoding="utf-8-sig") as fh:
+    with open(path, encoding=enc) as fh:
         for _ in range(hdr.skiprows):
             fh.readline()
         for line_no, line in enumerate(fh, start=hdr.skiprows + 1):

@@ -36,14 +36,16 @@ PRE_MOTION_FACTOR = 4.0
 def pre_motion(y: np.ndarray, rest_stop: int) -> tuple[float, float] | None:
     """``(rest RMS, end RMS)`` of ``y`` when its rest part ``y[:rest_stop]`` moves more than
     :data:`PRE_MOTION_FACTOR` times its quiet end (the last ``max(32, min(rest_stop, n // 10))``
-    samples), else None. A record whose end still rings has a larger end RMS: no claim."""
+    samples), else None. A record whose end still rings has a larger end RMS: no claim; nor one
+    whose end does not move at all (a logger's zero padding or held last value: no noise measured
+    there, and the ratio divided by zero, session 20)."""
     y = np.asarray(y, float)
     if rest_stop < 32 or y.size < 4 * rest_stop:
         return None
     rest = y[:rest_stop]
     end = y[-max(32, min(rest_stop, y.size // 10)):]
     r, e = float(np.std(rest - np.mean(rest))), float(np.std(end - np.mean(end)))
-    return (r, e) if r > PRE_MOTION_FACTOR * e else None
+    return (r, e) if e > 0 and r > PRE_MOTION_FACTOR * e else None
 
 
 #: Samples per block when :func:`crossings` maps its flips back to sample indices.

@@ -534,7 +534,8 @@ def capture_ratios(records: Sequence[Record], mass: float, f1: float | None = No
     return out
 
 
-def inspect(records: Sequence[Record], mass: float | None, f1: float, measured_f1: bool = True) -> list[Symptom]:
+def inspect(records: Sequence[Record], mass: float | None, f1: float, measured_f1: bool = True,
+            tones: Sequence[Sequence] | None = None) -> list[Symptom]:
     """Measurement-chain findings (module notes), one symptom per finding.
 
     ``mass`` [kg] is the mass the model is given (None: no impulse-mass check, e.g. the
@@ -543,7 +544,9 @@ def inspect(records: Sequence[Record], mass: float | None, f1: float, measured_f
     resonance (:func:`measured_frequency`) when there is one: a baseline fitted to records
     with a moving base can have any frequency (0.3 f1 in a case of my own, where the slow
     motion then fell outside the band searched and was never said). ``measured_f1=False``:
-    ``f1`` as given (several modes: the lowest one; the strongest peak may be a higher one)."""
+    ``f1`` as given (several modes: the lowest one; the strongest peak may be a higher one).
+    ``tones``: per record its line tones when already known (:func:`record_tones`; empty lists: not
+    looked for), else None: searched here."""
     out: list[Symptom] = []
     f_meas = measured_frequency(records) if measured_f1 else 0.0
     f1 = f_meas if f_meas > 0 else f1
@@ -559,7 +562,7 @@ def inspect(records: Sequence[Record], mass: float | None, f1: float, measured_f
             if s is not None:
                 out.append(Symptom(s.kind, s.text, {**s.values, "record": float(i)}))
     out += _short_clipping(records, clipped)
-    out += line_tone_symptoms(records)
+    out += line_tone_symptoms(records, tones)
     # a clipped capture's momentum is short by the flat top (not a mass error): not weighed
     weighed = [r for i, r in enumerate(records) if i not in clipped]
     m = impulse_mass_ratio(weighed, mass, f1) if mass is not None and weighed else None
@@ -602,15 +605,16 @@ def record_tones(r: Record):
     return line_tones(r.t, r.a, rest, tail_of(r.free_start, r.t.size))
 
 
-def line_tone_symptoms(records: Sequence[Record]) -> list[Symptom]:
+def line_tone_symptoms(records: Sequence[Record], tones: Sequence[Sequence] | None = None) -> list[Symptom]:
     """One ``line_tone`` symptom per grid frequency seen on the records' acceleration
     (:mod:`eddi.diagnosis.mains`): the frequency, amplitude [m/s^2] and share of the power at
-    rest as the median over the captures it stands in."""
+    rest as the median over the captures it stands in. ``tones``: per record :func:`record_tones`
+    when already known (None: searched here)."""
     from eddi.diagnosis.mains import tone_text
 
     seen: dict[float, list] = {}
-    for r in records:
-        for tn in record_tones(r):
+    for r, found in zip(records, tones if tones is not None else [record_tones(r) for r in records]):
+        for tn in found:
             seen.setdefault(tn.nominal_hz, []).append(tn)
     out = []
     for nominal, tones in sorted(seen.items()):

@@ -148,5 +148,6 @@ def impulse_through_lowpass(dec: Decision, records, mass: float | None, f1: floa
     b, a = ba_of(p, records[0].rate_hz)
     late = _settle(b, a)
     fixed = [filtered(r, b, a, late) for r in records]
-    again = [s for s in inspect(fixed, mass, f1) if s.kind == "impulse_mass"]
+    # the impulse mass only: no line-tone search (~30 ms a record) for symptoms dropped
+    again = [s for s in inspect(fixed, mass, f1, tones=[[] for _ in fixed]) if s.kind == "impulse_mass"]
     return [s for s in symptoms if s.kind != "impulse_mass"] + again

@@ -27,7 +27,7 @@ from eddi.diagnosis.swing import refit_swing
 from eddi.diagnosis.align import NAME as LAG_NAME
 from eddi.diagnosis.lowpass import NAME as LOWPASS_NAME
 from eddi.diagnosis.pipeline_base import pipeline_text, rejudged
-from eddi.diagnosis.chain import inspect, measured_frequency
+from eddi.diagnosis.chain import inspect, measured_frequency, record_tones
 from eddi.diagnosis.conservative import stiffness_over_damping
 from eddi.diagnosis.highpass import recondition, sensor_highpass
 from eddi.diagnosis.earn import CHAIN_REASON, earn, reported_text
@@ -75,6 +75,7 @@ def diagnose(
     mapper: Mapper | None = None,
     chain: ChainTolerance | None = ChainTolerance(),
     line_tones: bool = True,
+    tones: Sequence[Sequence] | None = None,
 ) -> Diagnosis:
     """Find what the baseline model gets wrong, name the mechanism, extend and measure the gain.
 
@@ -124,6 +125,10 @@ def diagnose(
         When the chain finds a mains tone (``line_tone``) and the verdict is not ``none``, remove
         the tones, diagnose the corrected records again and name ``mains_interference`` when that
         earns it (:mod:`eddi.diagnosis.mainsfix`); False: the records as given only.
+    tones : sequence of sequences, optional
+        Per record its line tones when already known (:func:`eddi.diagnosis.chain.record_tones`;
+        the re-run on the corrected records passes empty lists: their tones were removed); None:
+        searched once here, for the symptoms and the correction alike.
 
     Returns
     -------
@@ -159,8 +164,10 @@ def diagnose(
         effects = tuple(e.name for e in base.effects) if base is not None else ()
         skipped = {m.name: m.skip_reason(setup.damping, setup.stiffness, effects) for m in cat}
         check_trainable(records)
+        # the line tones, searched once: the chain's symptoms and the correction below read them
+        tones = [list(tn) for tn in tones] if tones is not None else [record_tones(r) for r in records]
         shown = _show(records, setup, n_bands, none_factor, strong_margin,
-                      pipeline is not None and pipeline.choices.get("refinement") == "kept", mapper, chain)
+                      pipeline is not None and pipeline.choices.get("refinement") == "kept", mapper, chain, tones)
         if shown.quiet:
             # nothing to explain: no candidate can change the verdict, none is fitted
             why = f"not tried: the baseline is within {none_factor:g}x the noise floor"
@@ -171,7 +178,7 @@ def diagnose(
                        (margin, none_factor, named_factor, strong_margin), pipeline)
     if not line_tones or d0.cause == "none" or not any(s.kind == "line_tone" for s in d0.symptoms):
         return d0
-    fixed = mainsfix.cleaned(records)
+    fixed = mainsfix.cleaned(records, tones)
     if fixed is None:
         return d0
     try:
@@ -179,7 +186,7 @@ def diagnose(
                       margin=margin, consistency=consistency, n_bands=n_bands, fit=fit,
                       modal_damping=modal_damping, modal_stiffness=modal_stiffness, none_factor=none_factor,
                       named_factor=named_factor, strong_margin=strong_margin, pipeline=None, mapper=mapper,
-                      chain=chain, line_tones=False)
+                      chain=chain, line_tones=False, tones=[[] for _ in fixed[0]])
     except (SignalError, ModelError):
         return d0
     return mainsfix.verdict(d0, d1)
@@ -203,11 +210,12 @@ class _Shown:
     floor: NoiseFloor
     quiet: bool
     refine: bool = False  # the per-fold baseline refined as the pipeline refines
+    tones: Sequence[Sequence] | None = None  # per record its line tones (chain.record_tones), None: searched
 
 
 def _show(records: list[Record], setup: Setup, n_bands: int, none_factor: float,
           strong_margin: float | None, refine: bool = False, mapper: Mapper | None = None,
-          chain: ChainTolerance | None = None) -> _Shown:
+          chain: ChainTolerance | None = None, tones: Sequence[Sequence] | None = None) -> _Shown:
     """Show and measure: per fold, the baseline judged on the held-out part (refined as the
     pipeline refines when ``refine``); the floor (by the same procedure)."""
     scheme, parts, fold_masks = split(records, n_bands)
@@ -223,7 +231,7 @@ def _show(records: list[Record], setup: Setup, n_bands: int, none_factor: float,
                         chain=_chain_component(records, setup, parts, res, chain, fitter.map))
     return _Shown(records, setup, scheme, parts, fold_masks, fitter, res, fold_fits, fit_all, bfit_all,
                   baseline, floor, strong_margin is None and within_floor(res.base_fold, floor, none_factor),
-                  refine)
+                  refine, tones)
 
 
 def _chain_component(records: list[Record], setup: Setup, parts: list[Part], res: FoldResults,
@@ -308,7 +316,7 @@ def _symptoms(sh: _Shown) -> list[Symptom]:
     :func:`~eddi.diagnosis.chain.inspect`)."""
     symptoms = baseline_symptoms(sh.records, sh.parts, sh.res.base_sims, sh.res.base_vsims, sh.setup.mass,
                                  sh.floor.part_conditioning_nrmse)
-    return symptoms + inspect(sh.records, sh.setup.mass, _frequency(sh.bfit_all.eom))
+    return symptoms + inspect(sh.records, sh.setup.mass, _frequency(sh.bfit_all.eom), tones=sh.tones)
 
 
 #: How the reason :func:`_pipeline_check` gives begins (the verdict's text tells it by this).
@@ -472,7 +480,8 @@ def _impulse_through_coupling(dec: Decision, records: Sequence[Record], mass: fl
     fixed = [recondition(r, fc) for r in records] if fc > 0 else []
     if not fixed or any(r is None for r in fixed):
         return symptoms
-    again = [s for s in inspect(fixed, mass, f1) if s.kind == "impulse_mass"]  # type: ignore[arg-type]
+    # the impulse mass only: no line-tone search (~30 ms a record) for symptoms dropped
+    again = [s for s in inspect(fixed, mass, f1, tones=[[] for _ in fixed]) if s.kind == "impulse_mass"]  # type: ignore[arg-type]
     return [s for s in symptoms if s.kind != "impulse_mass"] + again
 
 

@@ -127,8 +127,10 @@ def _lsq(t: np.ndarray, y: np.ndarray, f: float, seg: np.ndarray, w: np.ndarray 
     # normal equations of a few well-scaled columns (lstsq's SVD was 30x slower)
     g = np.linalg.pinv(Xw.T @ Xw)
     coef = g @ (Xw.T @ (y if w is None else y * w))
-    # weighted: the estimate's covariance under white noise of unit variance (sandwich)
-    cov = g if w is None else g @ (Xw.T @ (Xw * w[:, None])) @ g
+    # weighted: the estimate's covariance under white noise of unit variance (sandwich): the
+    # estimate is g X'W^2 y, so g X'W^4 X g (session 19 had X'W^3 X: the Hann-tapered tail's
+    # variance 14 % high, its standard error 7 %; session 20, tests/eddi/test_diagnose_mains.py)
+    cov = g if w is None else g @ (Xw.T @ (Xw * (w * w)[:, None])) @ g
     return coef, y - X @ coef, cov[:2, :2]
 
 
@@ -169,9 +171,9 @@ def line_tones(t: np.ndarray, y: np.ndarray, rest: int, tail: tuple[int, int]) -
     do not tell 50 from 60 Hz: a 0.3 m/s^2 tone at 50 Hz read 0.2 m/s^2 at 59.4 Hz beside it)."""
     t = np.asarray(t, float)
     y = np.asarray(y, float)
-    rate = 1.0 / float(t[1] - t[0])
-    if rest < 16 or tail[1] - tail[0] < 64:
+    if rest < 16 or tail[1] - tail[0] < 64 or t.size < 2:
         return []
+    rate = 1.0 / float(t[1] - t[0])
     cands = sorted({round(h * b, 6) for b in LINE_HZ for h in range(1, MAX_HARMONIC + 1)
                     if h * b <= 0.4 * rate and rest >= MIN_CYCLES * rate / (h * b * (1 - GRID_TOL))})
     found: list[LineTone] = []

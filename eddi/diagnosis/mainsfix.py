@@ -37,14 +37,17 @@ from eddi.errors import EddiError
 NAME = "mains_interference"
 
 
-def cleaned(records: Sequence[Record]) -> tuple[list[Record], list[list]] | None:
+def cleaned(records: Sequence[Record], tones: Sequence[Sequence] | None = None
+            ) -> tuple[list[Record], list[list]] | None:
     """The records with their line tones removed and conditioned again, and the tones per
-    record; None when no record holds a tone or a record cannot be conditioned again."""
+    record; None when no record holds a tone or a record cannot be conditioned again.
+    ``tones``: per record :func:`eddi.diagnosis.chain.record_tones` when already found (the
+    diagnosis found them for its symptoms; None: searched here)."""
     from eddi.conditioning import condition
     from eddi.diagnosis.chain import record_tones
     from eddi.diagnosis.mains import remove_tones
 
-    tones = [record_tones(r) for r in records]
+    tones = [list(tn) for tn in tones] if tones is not None else [record_tones(r) for r in records]
     if not any(tones):
         return None
     out = []

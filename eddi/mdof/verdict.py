@@ -255,7 +255,8 @@ def chain_checked(verdict: MdofVerdict, dp_records: Sequence, lowest_hz: float, 
     from eddi.diagnosis.earn import CHAIN_REASON, overturns
 
     # line tones are reported per channel on the captures as read (station.mdof_mains), not twice
-    found = [s for s in inspect(dp_records, None, lowest_hz, measured_f1=False) if s.kind != "line_tone"]
+    # (not looked for here: the search cost ~30 ms a capture for symptoms dropped)
+    found = inspect(dp_records, None, lowest_hz, measured_f1=False, tones=[[] for _ in dp_records])
     if not found:
         return verdict
     symptoms = verdict.symptoms + tuple({"kind": s.kind, "channel": channel, **s.values, "text": s.text}

@@ -46,3 +46,15 @@ def test_a_capture_from_rest_is_not(system: str, snr_db: float) -> None:
     for pre in (r.pretrigger_samples, None):
         c = condition(r.t, acc=r.acc, force=r.force, pretrigger_samples=pre)
         assert not [w for w in cond_warnings(c) if "not at rest" in w], cond_warnings(c)
+
+
+@pytest.mark.parametrize("end", ["zeros", "held"])
+def test_a_record_whose_end_does_not_move_is_conditioned_without_the_claim(end: str) -> None:
+    """A logger's zero padding or held last value at the end measures no noise: no claim (session
+    20: the warning's ratio divided by zero, ZeroDivisionError out of the conditioning)."""
+    r = impact_record("paper_do", snr_db=40.0, seed=4)
+    acc = r.acc.copy()
+    k = acc.size - acc.size // 8
+    acc[k:] = 0.0 if end == "zeros" else acc[k]
+    c = condition(r.t, acc=acc, force=r.force, pretrigger_samples=r.pretrigger_samples)
+    assert not [w for w in cond_warnings(c) if "not at rest" in w], cond_warnings(c)

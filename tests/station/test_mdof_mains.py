@@ -53,3 +53,22 @@ def test_an_amplitude_symptom_at_the_tone_is_the_tones() -> None:
     keep, by_tone = split_amplitude([at_tone, a_mode, big, other], [tone])
     assert keep == [a_mode, big, other]
     assert len(by_tone) == 1 and by_tone[0]["explained_by"] == "line_tone" and "line tone" in by_tone[0]["text"]
+
+
+def test_a_tone_is_found_on_captures_whose_time_starts_at_the_first_sample(tmp_path) -> None:
+    """A lab's CSV: time from 0, no pre-trigger count; the rest is what comes before the blow (as
+    for one coordinate). Session 20: before, such captures were not searched (rest 0)."""
+    import numpy as np
+
+    files = _files(_plate(), tmp_path, "t0", dict(mains_si=0.1, mains_hz=49.97))
+    for f in files:
+        rows = np.loadtxt(f, delimiter=",", skiprows=1)
+        head = open(f).readline().strip()
+        assert rows[0, 0] < 0  # the rig writes its pre-trigger at negative times
+        rows[:, 0] -= rows[0, 0]
+        np.savetxt(f, rows, delimiter=",", header=head, comments="", fmt="%.17g")
+    meas = _read(files)
+    assert all(not m.pretrigger_samples and m.t[0] == 0 for m in meas)
+    found = line_tone_symptoms(meas, ("acc1", "acc2"))
+    assert sorted(s["channel"] for s in found) == ["acc1", "acc2"]
+    assert all(s["frequency_hz"] == pytest.approx(49.97, rel=3e-3) for s in found)
