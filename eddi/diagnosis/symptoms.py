@@ -26,7 +26,7 @@ import numpy as np
 
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.results import Symptom
-from eddi.diagnosis.show import backbone, energy_per_cycle, spectrum
+from eddi.diagnosis.show import backbone, cycle_energies, spectrum
 
 #: A symptom is worth a sentence beyond these values.
 THRESHOLDS = {"frequency_bias_pct": 0.5, "energy_mismatch_pct": 15.0, "low_frequency_drift_pct": 5.0,
@@ -140,12 +140,14 @@ def _energy_numbers(t: np.ndarray, xm: np.ndarray, vm: np.ndarray, xs: np.ndarra
     a frequency does: on lightly damped nulls it read -22..-37 % at small amplitude, s13noisy).
     The crossings' dead band and the amplitude guard as the frequency's (``noise``: :func:`part_noise`)."""
     out: dict[str, float] = {}
-    e_m_amp, de_m = energy_per_cycle(t, xm, vm, mass, CROSSING_DEADBAND_SD * noise)
-    e_s_amp, de_s = energy_per_cycle(t, xs, vs, mass)
-    if e_m_amp.size < 6 or e_s_amp.size < 3:
+    e_m_amp, e_m_level, de_m = cycle_energies(t, xm, vm, mass, CROSSING_DEADBAND_SD * noise, noise)
+    _amp, e_s_level, de_s = cycle_energies(t, xs, vs, mass)
+    if e_m_amp.size < 6 or e_s_level.size < 3:
         return out
     hi, lo = _thirds(e_m_amp)
-    ds_at = _interp_loglog(e_m_amp, e_s_amp, de_s)
+    # the model's loss at the measured cycle's RMS level, not at its largest |x| (biased up by the
+    # noise near the peak: show.cycle_energies; session 20, s20strong)
+    ds_at = _interp_loglog(e_m_level, e_s_level, de_s)
     above = e_m_amp >= NOISE_AMPLITUDE * noise
     for key, sel in (("high", hi), ("low", lo)):
         used = sel & above & np.isfinite(ds_at)
