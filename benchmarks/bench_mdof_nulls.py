@@ -175,7 +175,7 @@ def run(job: tuple[str, int, str, bool]) -> dict:
             return row
         row["cpu_s"] = round(time.process_time() - c0, 1)
     z = [[abs(v) / h for t, (v, h) in eq.items() if ("^" in t or "*" in t) and h] for eq in obj["coupling_coefficients"]]
-    row.update(cause=obj["cause"], gain=round(obj["gain"], 3), raw_gain=round(obj["raw_gain"], 3),
+    row.update(cause=obj["cause"], gain=round(obj["gain"], 3), agreement=obj.get("coupling_agreement"), raw_gain=round(obj["raw_gain"], 3),
                coordinates=obj["coordinates"], allowance=obj.get("allowance"), modes=obj.get("modes"),
                baseline={c: round(v, 4) for c, v in obj["baseline"]["channel_nrmse"].items()},
                coupled={c: round(v, 4) for c, v in obj["coupled"]["channel_nrmse"].items()},
@@ -213,7 +213,7 @@ def show(row: dict) -> None:
     print(f" gain {100 * row['gain']:.0f} % raw {100 * row['raw_gain']:.0f} % base {row['baseline']} cpl {row['coupled']} "
           f"floor {row['floor']} pred {row.get('pfloor')} ratio {row.get('ratio')} (s18 floor {row.get('ratio_s18')}) | allowance: base_over {a.get('base_over', float('nan')):.2f} coupled_over "
           f"{a.get('coupled_over', float('nan')):.2f} excess {a.get('excess_gain', float('nan')):.2f} "
-          f"worse folds {a.get('worse_folds')} | z {row['coupling_z']} | CPU {row['cpu_s']} s", flush=True)
+          f"worse folds {a.get('worse_folds')} | z {row['coupling_z']} agree {row.get('agreement')} | CPU {row['cpu_s']} s", flush=True)
     m = row.get("modes") or {}
     if m:  # per mode (eddi.mdof.modefloor): baseline -> coupled, floor, excess gain, folds better
         print("    modes: " + "; ".join(f"q{i + 1} {b:.3g}->{c:.3g} floor {f:.3g} excess {e:.2f} better {n}/{m['folds']}"
