@@ -45,7 +45,7 @@ from station.mdof_floor import add_floors, mode_lines, modes_judged
 from station.mdof_folds import PROGRESS_S, _final_baseline, _held_out_folds, nonlinear_coupling_terms
 from station.mdof_mechanism import add_mechanisms, mechanism_lines
 from station.mdof_polish import polish_tag
-from station.mdof_verdict import coupling_short
+from station.mdof_verdict import coupling_short, refit_floor
 from station.output_safety import write_text_atomic
 
 
@@ -127,6 +127,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     polished = folds.pop("polished")
     fold_terms = folds.pop("coupling_terms")
     agreement = folds.pop("agreement")
+    fits = folds.pop("fits")
     mode_folds = folds.pop("modes")
     computed = folds.pop("ahead")
     fold_floors = folds.pop("floors")  # per kind, eddi.mdof.predfloor.FoldFloors
@@ -206,6 +207,8 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     _coupling_determined(obj)
     # a none above the floor that the coupled model consistently improves (station.mdof_verdict)
     coupling_short(obj, delivered, fold_terms)
+    # a none above the floor: the identification's scatter from the noise measured and counted (session 20)
+    refit_floor(obj, delivered, fits, records, fold_floors[delivered], dp, mapper)
     _uncertain_none(obj, delivered)
     add_mechanisms(obj, final)
     obj["warnings"] = _model_flags(model, folds["coupled" if wins else "baseline"])
@@ -499,7 +502,9 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
         lines.append("Prediction floor per channel (nrmse, what a model identified from the other captures leaves "
                      "held out by the noise and the blows' impulse errors; the floor every verdict rule judges on): "
                      + "  ".join(f"{c} {v:.3g}" + (f" (noise {parts['noise'][c]:.2g}, blows' impulses {parts['blow'][c]:.2g}, "
-                                                   f"the noise's chance {parts.get('chance', {}).get(c, 0.0):.2g};"
+                                                   f"the noise's chance {parts.get('chance', {}).get(c, 0.0):.2g}"
+                                                   + (f", refit on noisier captures {parts['refit'][c]:.2g}" if 'refit' in parts else "")
+                                                   + ";"
                                                    f" the folds' jackknife spread {parts['ident'][c]:.2g}, not counted)"
                                                    if parts else "")
                                  for c, v in obj["prediction_floor"].items()))

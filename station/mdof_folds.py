@@ -113,6 +113,7 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, ref
     folds["floors"] = joint_floors({kind: fold_floor([fit[kind][1].model for fit in fits], records, mapper)
                                     for kind in ("baseline", "coupled")})
     folds["ahead"] = first
+    folds["fits"] = fits  # per fold and kind: (validation, identification, training captures)
     return folds, per_channel, per_mode, span
 
 

@@ -46,6 +46,18 @@ different blow sets: on session 13's 16 + 5 kg chain with a 5 % cubic coupling
 smaller of the two kinds' spreads (0.010 / 0.011) raised the floors 15-50 % and the coupling was no
 longer named (excess gain 0.43 < 0.5). It is reported beside the floor.
 
+**The noise's chance** (session 20, :func:`noise_spread`, JSON ``chance``): ``noise_kc`` is the
+EXPECTED nrmse of the noise; the draw in a held-out capture is not. The acceleration noise integrated
+twice through the drift high-pass lives in a band of 1.45 ``f_c`` just above the cut-off, so a window of
+``T`` seconds holds ``nu = 2.9 f_c T`` independent values (4-13 at ``f_c`` 1.5 Hz, 1-3 s) and its RMS
+spreads by ``0.5 sqrt(2 / nu)`` (20-34 %). A channel's floor is the folds' mean of ``P_kc`` plus
+:data:`NOISE_SIGMAS` standard deviations of that mean (each capture's noise independent: ``sqrt(sum_k
+(noise_kc^2 / P_kc * sd_k)^2) / N``). Unlike the jackknife it does not grow with a missing effect (the
+noise, the cut-off and the window only). Only the channel floors carry it (the ``none`` / named
+allowances, the within-allowance rule's ``BASE_OVER`` / ``COUPLED_WITHIN``, ``none (uncertain)``); the
+per-fold floors of the excess gain do not (a chance above the expectation in one fold is no part of
+what a model can remove in another).
+
 Limits: the parts are of the fold models as identified; with ``--refine`` (the CLI's default) the
 polished fold models are judged, and their realized scale error is not the one measured here (the
 session-19 runs were ``--no-refine``).
@@ -81,6 +93,9 @@ class FoldFloors:
     noise_sd : ndarray, shape (n_records,), or None
         The relative standard deviation of each held-out capture's noise nrmse about ``noise``
         (:func:`noise_spread`; session 20). None: not counted (the floor of session 19).
+    refit : ndarray, shape (n_records, n_channels), or None
+        The identification's scatter from the training captures' noise (:mod:`eddi.mdof.refitspread`,
+        session 20); None: not measured.
     """
 
     noise: np.ndarray
@@ -88,6 +103,7 @@ class FoldFloors:
     ident: np.ndarray
     realized: np.ndarray | None = None
     noise_sd: np.ndarray | None = None
+    refit: np.ndarray | None = None
 
     @property
     def blow(self) -> np.ndarray:
@@ -96,15 +112,17 @@ class FoldFloors:
 
     @property
     def total(self) -> np.ndarray:
-        """``sqrt(noise^2 + blow^2)`` per capture and channel."""
-        return np.hypot(self.noise, self.blow)
+        """``sqrt(noise^2 + blow^2 (+ refit^2))`` per capture and channel."""
+        tot = np.hypot(self.noise, self.blow)
+        return tot if self.refit is None else np.hypot(tot, self.refit)
 
     def take(self, rows: Sequence[int]) -> "FoldFloors":
         """The captures ``rows`` only (e.g. the folds on which the baseline ran)."""
         idx = list(rows)
         return FoldFloors(self.noise[idx], self.impulse[idx], self.ident[idx],
                           None if self.realized is None else self.realized[idx],
-                          None if self.noise_sd is None else self.noise_sd[idx])
+                          None if self.noise_sd is None else self.noise_sd[idx],
+                          None if self.refit is None else self.refit[idx])
 
     @property
     def chance(self) -> np.ndarray:
@@ -133,9 +151,10 @@ class FoldFloors:
     def parts(self, names: Sequence[str]) -> dict[str, dict[str, float]]:
         """Mean over the captures of each part, per channel (the JSON evidence)."""
         out = {part: {c: float(np.mean(getattr(self, part)[:, k])) for k, c in enumerate(names)}
-               for part in ("noise", "impulse", "realized", "blow", "ident") if getattr(self, part) is not None}
-        ch, n = self.chance, max(self.noise.shape[0], 1)
-        out["chance"] = {c: float(NOISE_SIGMAS * np.sqrt(np.sum(ch[:, k] ** 2)) / n) for k, c in enumerate(names)}
+               for part in ("noise", "impulse", "realized", "blow", "ident", "refit") if getattr(self, part) is not None}
+        if self.noise_sd is not None:  # what the noise's chance adds to each channel's floor
+            ch, n = self.chance, max(self.noise.shape[0], 1)
+            out["chance"] = {c: float(NOISE_SIGMAS * np.sqrt(np.sum(ch[:, k] ** 2)) / n) for k, c in enumerate(names)}
         return out
 
 
