@@ -19,7 +19,8 @@ Masses 0.05-50 kg (ratios 0.2-5), first mode 4-80 Hz, the highest at most 8x the
 stiffness-proportional damping 0.3-2 % on the first mode, rates 1-20 kHz (at least 8x the
 highest mode), 30-50 dB, 3-4 blows of 30-100 % of the largest (~1 mm at the struck mass), records
 1-4 s, pre-trigger 20-200 ms, struck at m1 or m2. Sets: ``--set tuning`` and ``--set heldout`` draw
-from different generators (the held-out one was not run while the rule's thresholds were chosen).
+from different generators (the held-out one was not run while the rule's thresholds were chosen);
+``--set own20`` (session 20, helper s20mnull) a third generator, run once on the final code only.
 Each case is diagnosed in-process as ``station diagnose FILES --margin 0.5 --no-refine
 --driving-point accK`` (``--refine`` for the CLI's default polish); the row keeps the evidence of
 the within-allowance rule (``allowance``) and the coupling coefficients' value / half-width.
@@ -44,7 +45,7 @@ import numpy as np
 from simulated_rig.mdof_systems import Element, MdofSystem, mdof_impact_test
 
 KINDS = ("lin2", "lin3", "ground", "weak2", "weak3", "weakn", "nulln")
-SET_TAG = {"tuning": 1301, "heldout": 1302}
+SET_TAG = {"tuning": 1301, "heldout": 1302, "own20": 2001}
 
 
 def _log(g, lo, hi):
@@ -175,7 +176,8 @@ def run(job: tuple[str, int, str, bool]) -> dict:
             return row
         row["cpu_s"] = round(time.process_time() - c0, 1)
     z = [[abs(v) / h for t, (v, h) in eq.items() if ("^" in t or "*" in t) and h] for eq in obj["coupling_coefficients"]]
-    row.update(cause=obj["cause"], gain=round(obj["gain"], 3), raw_gain=round(obj["raw_gain"], 3),
+    row.update(cause=obj["cause"], gain=round(obj["gain"], 3), agreement=obj.get("coupling_agreement"),
+               refit=obj.get("refit_checked"), pfloor_before_refit=obj.get("prediction_floor_before_refit"), raw_gain=round(obj["raw_gain"], 3),
                coordinates=obj["coordinates"], allowance=obj.get("allowance"), modes=obj.get("modes"),
                baseline={c: round(v, 4) for c, v in obj["baseline"]["channel_nrmse"].items()},
                coupled={c: round(v, 4) for c, v in obj["coupled"]["channel_nrmse"].items()},
@@ -213,7 +215,7 @@ def show(row: dict) -> None:
     print(f" gain {100 * row['gain']:.0f} % raw {100 * row['raw_gain']:.0f} % base {row['baseline']} cpl {row['coupled']} "
           f"floor {row['floor']} pred {row.get('pfloor')} ratio {row.get('ratio')} (s18 floor {row.get('ratio_s18')}) | allowance: base_over {a.get('base_over', float('nan')):.2f} coupled_over "
           f"{a.get('coupled_over', float('nan')):.2f} excess {a.get('excess_gain', float('nan')):.2f} "
-          f"worse folds {a.get('worse_folds')} | z {row['coupling_z']} | CPU {row['cpu_s']} s", flush=True)
+          f"worse folds {a.get('worse_folds')} | z {row['coupling_z']} agree {row.get('agreement')} refit {row.get('refit')} (floor before {row.get('pfloor_before_refit')}) | CPU {row['cpu_s']} s", flush=True)
     m = row.get("modes") or {}
     if m:  # per mode (eddi.mdof.modefloor): baseline -> coupled, floor, excess gain, folds better
         print("    modes: " + "; ".join(f"q{i + 1} {b:.3g}->{c:.3g} floor {f:.3g} excess {e:.2f} better {n}/{m['folds']}"

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from eddi.errors import IdentificationError
+from eddi.mdof.agreement import AGREEMENT_LEAST
 from eddi.mdof.amplitude import backbone_json
 from station.mdof_mains import line_tone_symptoms, split_amplitude, tone_note
 from eddi.mdof.collocation import check_driving_point
@@ -44,7 +45,7 @@ from station.mdof_floor import add_floors, mode_lines, modes_judged
 from station.mdof_folds import PROGRESS_S, _final_baseline, _held_out_folds, nonlinear_coupling_terms
 from station.mdof_mechanism import add_mechanisms, mechanism_lines
 from station.mdof_polish import polish_tag
-from station.mdof_verdict import coupling_short
+from station.mdof_verdict import coupling_short, refit_floor
 from station.output_safety import write_text_atomic
 
 
@@ -125,6 +126,8 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
               file=sys.stderr, flush=True)
     polished = folds.pop("polished")
     fold_terms = folds.pop("coupling_terms")
+    agreement = folds.pop("agreement")
+    fits = folds.pop("fits")
     mode_folds = folds.pop("modes")
     computed = folds.pop("ahead")
     fold_floors = folds.pop("floors")  # per kind, eddi.mdof.predfloor.FoldFloors
@@ -157,7 +160,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
                      f"held out (better on every fold; raw gain {100 * raw_gain:.0f} %, margin {100 * margin:.0f} %), "
                      "and the baseline is not within its allowance")
     cause = _first_cause(final, gain, margin, len(names), notes, fold_terms,
-                         _baseline_complete(per_channel["baseline"], fold_floors["baseline"], names))
+                         _baseline_complete(per_channel["baseline"], fold_floors["baseline"], names), agreement)
     delivered = "coupled" if wins else "baseline"
     floors = fold_floors[delivered].channel_floors(names, MDOF_MIN_FLOOR)  # the floor every rule below judges on
     verdict, amp, modes, amp_span = _earned(cause, per_channel[delivered], records, names, model, dp, floors)
@@ -183,7 +186,7 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
         "coupled": {"nrmse": cpl, "folds": folds["coupled"],
                     "channel_nrmse": {c: float(np.mean(v)) for c, v in per_channel["coupled"].items()},
                     "mode_nrmse": fold_mean_per_mode(per_mode["coupled"])},
-        "gain": gain, "raw_gain": raw_gain, "margin": margin, "cause": cause, "coordinates": final.coordinates,
+        "gain": gain, "raw_gain": raw_gain, "margin": margin, "cause": cause, "coupling_agreement": agreement, "coordinates": final.coordinates,
         "allowance": allowance.as_dict() if allowance is not None else None,
         "modes": dict(by_mode.as_dict(), decided=in_mode) if by_mode is not None else None,
         "noise_floor": channel_floor(records, names), "prediction_floor": verdict.noise_floor,
@@ -204,6 +207,8 @@ def diagnose_mdof_object(specs: Sequence[str], *, driving_point: str | None = No
     _coupling_determined(obj)
     # a none above the floor that the coupled model consistently improves (station.mdof_verdict)
     coupling_short(obj, delivered, fold_terms)
+    # a none above the floor: the identification's scatter from the noise measured and counted (session 20)
+    refit_floor(obj, delivered, fits, records, fold_floors[delivered], dp, mapper)
     _uncertain_none(obj, delivered)
     add_mechanisms(obj, final)
     obj["warnings"] = _model_flags(model, folds["coupled" if wins else "baseline"])
@@ -355,13 +360,15 @@ def _baseline_complete(per_channel: dict[str, list], fold_floors: Any, names: tu
 
 
 def _first_cause(final: Any, gain: float, margin: float, n_channels: int, notes: list[str],
-                 fold_terms: Sequence[bool] = (), complete: bool = False) -> str:
+                 fold_terms: Sequence[bool] = (), complete: bool = False, agreement: float = float("nan")) -> str:
     """The cause from the held-out gain and the tail's modal evidence (module docstring); the
     reason appended to ``notes``. ``fold_terms``: per held-out fold, whether its coupled model
     holds a nonlinear term between coordinates (the evidence must be of what is named).
     ``complete``: the baseline is within its allowance on every channel held out; a mode the tail
     does not resolve is then no reason for ``unexplained`` (session 14: a linear three-mass chain
-    whose linear lumped baseline predicts every channel within its floor, tail resolving two modes)."""
+    whose linear lumped baseline predicts every channel within its floor, tail resolving two modes).
+    ``agreement``: the common share of the folds' coupling force (:mod:`eddi.mdof.agreement`); a coupling
+    the folds do not agree on is not named (NaN: not judged)."""
     if not final.modal_basis and gain <= margin:
         cause = "missing_mode"
         notes.append("missing mode: the linear modes of the low-amplitude tail do not describe the motion - "
@@ -393,6 +400,14 @@ def _first_cause(final: Any, gain: float, margin: float, n_channels: int, notes:
         notes.append(f"no coupling named: the coupled models that win held out (gain {100 * gain:.0f} %) hold a "
                      f"nonlinear term between coordinates on {sum(fold_terms)} of {len(fold_terms)} folds only: "
                      "the gain is not evidence of the coupling in the final model")
+    elif cause == "modal_coupling" and agreement < AGREEMENT_LEAST:
+        # the folds' coupled models win held out with coupling forces that disagree (session 20, h3-lin2:
+        # cubic terms absorbing a biased linear part, their signs changing from fold to fold)
+        cause = "none"
+        notes.append(f"no coupling named: the coupled models win held out (gain {100 * gain:.0f} %) but the "
+                     f"coupling force they identify is not reproduced from fold to fold (common share "
+                     f"{100 * agreement:.0f} % of its power, at least {100 * AGREEMENT_LEAST:.0f} % needed): the gain "
+                     "is not evidence of one coupling")
     return cause
 
 
@@ -486,7 +501,10 @@ def diagnose_mdof_text(obj: dict[str, Any]) -> str:
         parts = obj.get("floor_parts") or {}
         lines.append("Prediction floor per channel (nrmse, what a model identified from the other captures leaves "
                      "held out by the noise and the blows' impulse errors; the floor every verdict rule judges on): "
-                     + "  ".join(f"{c} {v:.3g}" + (f" (noise {parts['noise'][c]:.2g}, blows' impulses {parts['blow'][c]:.2g};"
+                     + "  ".join(f"{c} {v:.3g}" + (f" (noise {parts['noise'][c]:.2g}, blows' impulses {parts['blow'][c]:.2g}, "
+                                                   f"the noise's chance {parts.get('chance', {}).get(c, 0.0):.2g}"
+                                                   + (f", refit on noisier captures {parts['refit'][c]:.2g}" if 'refit' in parts else "")
+                                                   + ";"
                                                    f" the folds' jackknife spread {parts['ident'][c]:.2g}, not counted)"
                                                    if parts else "")
                                  for c, v in obj["prediction_floor"].items()))

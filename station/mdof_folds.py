@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from eddi.errors import IdentificationError
+from eddi.mdof.agreement import coupling_agreement
 from eddi.mdof.identify import identify_mdof
 from eddi.mdof.model import MdofModel
 from eddi.mdof.predfloor import fold_floor, joint_floors
@@ -104,12 +105,15 @@ def _held_out_folds(records: Sequence[Any], names: tuple[str, ...], dp: str, ref
     folds["polished"] = polished
     # per fold: whether the coupled model that was judged holds a nonlinear term between coordinates
     folds["coupling_terms"] = [bool(nonlinear_coupling_terms(fit["coupled"][1].model)) for fit in fits]
+    # how far the folds' coupled models agree on the coupling force they identify (eddi.mdof.agreement)
+    folds["agreement"] = coupling_agreement([fit["coupled"][1].model for fit in fits], records)
     folds["modes"] = folds_in_modes(fits, records)  # per mode, in the tail's basis (station.mdof_floor)
     # per kind, what a model identified from the other captures is expected to leave on each held-out
     # one: noise, the blow's impulse, the identification's own scatter (eddi.mdof.predfloor.joint_floors)
     folds["floors"] = joint_floors({kind: fold_floor([fit[kind][1].model for fit in fits], records, mapper)
                                     for kind in ("baseline", "coupled")})
     folds["ahead"] = first
+    folds["fits"] = fits  # per fold and kind: (validation, identification, training captures)
     return folds, per_channel, per_mode, span
 
 

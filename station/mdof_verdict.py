@@ -113,3 +113,33 @@ def coupling_short(obj: dict[str, Any], delivered: str = "baseline", fold_terms:
     obj["symptoms"].append({"kind": "coupled_gain_short", "text": "coupled model better above the floor: " + text,
                             **{k: v for k, v in ev.items() if k != "mode_better_folds"}})
     return True
+
+
+def refit_floor(obj: dict[str, Any], delivered: str, fits: Sequence[dict], records: Sequence[Any],
+                floors: Any, dp: str, mapper: Any = None) -> None:
+    """A ``none`` above the prediction floor judged again with the identification's scatter from the
+    noise counted (:mod:`eddi.mdof.refitspread`, session 20): each fold's delivered model identified
+    again on noisier copies of its training captures; the change of its held-out prediction is a part
+    of the floor (``floor_parts.refit``). Only where the cause is ``none`` and a channel is above the
+    floor (the refits cost ``REFIT_DRAWS`` identifications per fold); ``prediction_floor`` and
+    ``floor_parts`` are replaced in place (``prediction_floor_before_refit`` kept), ``refit_checked`` says it ran. Nothing else is re-judged:
+    a ``none`` can lose its ``(uncertain)``, never become a name or leave ``unexplained``."""
+    import numpy as np
+
+    from eddi.mdof.predfloor import FoldFloors
+    from eddi.mdof.refitspread import refit_spread
+    from eddi.mdof.verdict import MDOF_MIN_FLOOR
+
+    obj["refit_checked"] = False
+    ratios = _ratios(obj, delivered)
+    if obj["cause"] != "none" or not ratios or max(ratios.values()) <= 1.0 or not obj.get("prediction_floor"):
+        return
+    names = list(obj["channels"])
+    mapper = mapper if mapper is not None else (lambda fn, items: [fn(x) for x in items])
+    got = mapper(lambda k: refit_spread(fits[k][delivered][1], fits[k][delivered][2], records[k], names, dp, seed=k),
+                 list(range(len(fits))))
+    new = FoldFloors(floors.noise, floors.impulse, floors.ident, floors.realized, floors.noise_sd, np.array(got))
+    obj["prediction_floor_before_refit"] = dict(obj["prediction_floor"])
+    obj["prediction_floor"] = new.channel_floors(names, MDOF_MIN_FLOOR)
+    obj["floor_parts"] = new.parts(names)
+    obj["refit_checked"] = True

@@ -46,6 +46,18 @@ different blow sets: on session 13's 16 + 5 kg chain with a 5 % cubic coupling
 smaller of the two kinds' spreads (0.010 / 0.011) raised the floors 15-50 % and the coupling was no
 longer named (excess gain 0.43 < 0.5). It is reported beside the floor.
 
+**The noise's chance** (session 20, :func:`noise_spread`, JSON ``chance``): ``noise_kc`` is the
+EXPECTED nrmse of the noise; the draw in a held-out capture is not. The acceleration noise integrated
+twice through the drift high-pass lives in a band of 1.45 ``f_c`` just above the cut-off, so a window of
+``T`` seconds holds ``nu = 2.9 f_c T`` independent values (4-13 at ``f_c`` 1.5 Hz, 1-3 s) and its RMS
+spreads by ``0.5 sqrt(2 / nu)`` (20-34 %). A channel's floor is the folds' mean of ``P_kc`` plus
+:data:`NOISE_SIGMAS` standard deviations of that mean (each capture's noise independent: ``sqrt(sum_k
+(noise_kc^2 / P_kc * sd_k)^2) / N``). Unlike the jackknife it does not grow with a missing effect (the
+noise, the cut-off and the window only). Only the channel floors carry it (the ``none`` / named
+allowances, the within-allowance rule's ``BASE_OVER`` / ``COUPLED_WITHIN``, ``none (uncertain)``); the
+per-fold floors of the excess gain do not (a chance above the expectation in one fold is no part of
+what a model can remove in another).
+
 Limits: the parts are of the fold models as identified; with ``--refine`` (the CLI's default) the
 polished fold models are judged, and their realized scale error is not the one measured here (the
 session-19 runs were ``--no-refine``).
@@ -62,6 +74,10 @@ import numpy as np
 #: ``sigma_k`` (:func:`realized_scale`): a scale error within what the force noise leaves undetermined.
 IMPULSE_SIGMAS = 3.0
 
+#: The noise's own chance fluctuation is allowed up to this many of its standard deviations in a
+#: channel's floor (:meth:`FoldFloors.channel_floors`, :func:`noise_spread`; session 20): the usual 2.
+NOISE_SIGMAS = 2.0
+
 
 @dataclass(frozen=True)
 class FoldFloors:
@@ -74,12 +90,20 @@ class FoldFloors:
         not in the floor); module notes.
     realized : ndarray, shape (n_records, n_channels), or None
         The blows' impulse part as realized (capped).
+    noise_sd : ndarray, shape (n_records,), or None
+        The relative standard deviation of each held-out capture's noise nrmse about ``noise``
+        (:func:`noise_spread`; session 20). None: not counted (the floor of session 19).
+    refit : ndarray, shape (n_records, n_channels), or None
+        The identification's scatter from the training captures' noise (:mod:`eddi.mdof.refitspread`,
+        session 20); None: not measured.
     """
 
     noise: np.ndarray
     impulse: np.ndarray
     ident: np.ndarray
     realized: np.ndarray | None = None
+    noise_sd: np.ndarray | None = None
+    refit: np.ndarray | None = None
 
     @property
     def blow(self) -> np.ndarray:
@@ -88,19 +112,36 @@ class FoldFloors:
 
     @property
     def total(self) -> np.ndarray:
-        """``sqrt(noise^2 + blow^2)`` per capture and channel."""
-        return np.hypot(self.noise, self.blow)
+        """``sqrt(noise^2 + blow^2 (+ refit^2))`` per capture and channel."""
+        tot = np.hypot(self.noise, self.blow)
+        return tot if self.refit is None else np.hypot(tot, self.refit)
 
     def take(self, rows: Sequence[int]) -> "FoldFloors":
         """The captures ``rows`` only (e.g. the folds on which the baseline ran)."""
         idx = list(rows)
         return FoldFloors(self.noise[idx], self.impulse[idx], self.ident[idx],
-                          None if self.realized is None else self.realized[idx])
+                          None if self.realized is None else self.realized[idx],
+                          None if self.noise_sd is None else self.noise_sd[idx],
+                          None if self.refit is None else self.refit[idx])
+
+    @property
+    def chance(self) -> np.ndarray:
+        """Per capture and channel the standard deviation of the held-out nrmse that the noise's chance
+        fluctuation alone leaves about :attr:`total` (``d total / d noise`` times the noise's own
+        spread: ``noise^2 / total * noise_sd``); zeros when ``noise_sd`` is not counted."""
+        if self.noise_sd is None:
+            return np.zeros_like(self.noise)
+        tot = np.maximum(self.total, 1e-300)
+        return self.noise**2 / tot * np.asarray(self.noise_sd, float)[:, None]
 
     def channel_floors(self, names: Sequence[str], least: float) -> dict[str, float]:
-        """Per channel the mean over the captures of :attr:`total`, at least ``least``."""
-        tot = self.total
-        return {c: max(least, float(np.mean(tot[:, k]))) for k, c in enumerate(names)}
+        """Per channel the mean over the captures of :attr:`total` plus :data:`NOISE_SIGMAS` standard
+        deviations of that mean from the noise's chance fluctuation (:attr:`chance`, independent from
+        capture to capture: ``sqrt(sum_k chance_k^2) / N``), at least ``least``."""
+        tot, ch = self.total, self.chance
+        n = max(tot.shape[0], 1)
+        return {c: max(least, float(np.mean(tot[:, k]) + NOISE_SIGMAS * np.sqrt(np.sum(ch[:, k] ** 2)) / n))
+                for k, c in enumerate(names)}
 
     def fold_floors(self, least: float) -> list[float]:
         """Per held-out capture the mean over the channels of :attr:`total`, each at least ``least``
@@ -109,8 +150,38 @@ class FoldFloors:
 
     def parts(self, names: Sequence[str]) -> dict[str, dict[str, float]]:
         """Mean over the captures of each part, per channel (the JSON evidence)."""
-        return {part: {c: float(np.mean(getattr(self, part)[:, k])) for k, c in enumerate(names)}
-                for part in ("noise", "impulse", "realized", "blow", "ident") if getattr(self, part) is not None}
+        out = {part: {c: float(np.mean(getattr(self, part)[:, k])) for k, c in enumerate(names)}
+               for part in ("noise", "impulse", "realized", "blow", "ident", "refit") if getattr(self, part) is not None}
+        if self.noise_sd is not None:  # what the noise's chance adds to each channel's floor
+            ch, n = self.chance, max(self.noise.shape[0], 1)
+            out["chance"] = {c: float(NOISE_SIGMAS * np.sqrt(np.sum(ch[:, k] ** 2)) / n) for k, c in enumerate(names)}
+        return out
+
+
+def noise_spread(record) -> float:
+    """The relative standard deviation of the nrmse that the measurement noise leaves on a held-out
+    capture, about its expectation :func:`eddi.mdof.validate.noise_floor` (session 20).
+
+    The noise is white in acceleration, integrated twice through the zero-phase drift high-pass:
+    its displacement power sits in a narrow band just above the cut-off ``f_c`` (power gain
+    ``G(f) = (2 pi f)^-4 (1 + (f_c / f)^8)^-4``), so over the free window ``T`` it has few independent
+    values: ``nu = 2 B T`` degrees of freedom with the equivalent bandwidth ``B = (int G)^2 / int G^2``
+    (``B`` = 1.45 ``f_c``). Its mean square then has the relative spread ``sqrt(2 / nu)`` and its
+    RMS (the nrmse) half that. With ``f_c`` 1.5 Hz and a 1-3 s window: ``nu`` 4-13, 20-34 % (a floor
+    of the expectation alone is exceeded by one draw in two). Nothing here grows with a missing effect:
+    the noise, the cut-off and the window only."""
+    from scipy.integrate import trapezoid
+
+    w0, w1 = record.window
+    dt = float(record.t[1] - record.t[0])
+    fc = float(record.highpass_hz)
+    if not (fc > 0 and w1 > w0 and dt > 0):
+        return 0.0
+    f = np.geomspace(0.05 * fc, 0.5 / dt, 4000)
+    g = (2 * np.pi * f) ** -4 * (1 + (fc / f) ** 8) ** -4
+    band = trapezoid(g, f) ** 2 / trapezoid(g * g, f)
+    nu = max(2.0 * band * (w1 - w0) * dt, 1.0)
+    return float(0.5 * np.sqrt(2.0 / nu))
 
 
 def jackknife_spread(simulated: Sequence[np.ndarray], measured: np.ndarray) -> np.ndarray:
@@ -186,7 +257,8 @@ def fold_floor(models: Sequence, records: Sequence, mapper=None) -> FoldFloors:
     mapper = mapper if mapper is not None else (lambda fn, items: [fn(x) for x in items])
     u = [impulse_floor(r) for r in records]
     got = mapper(lambda k: capture_floor(models, k, records[k], blow_sigma(u, k)), list(range(len(records))))
-    return FoldFloors(*(np.array([g[i] for g in got]) for i in range(4)))
+    return FoldFloors(*(np.array([g[i] for g in got]) for i in range(4)),
+                      noise_sd=np.array([noise_spread(r) for r in records]))
 
 
 def joint_floors(by_kind: dict[str, FoldFloors]) -> dict[str, FoldFloors]:
@@ -194,4 +266,4 @@ def joint_floors(by_kind: dict[str, FoldFloors]) -> dict[str, FoldFloors]:
     the cap at :data:`IMPULSE_SIGMAS` ``sigma_k`` bounds what a missing effect can hide there) with the
     jackknife evidence of the better-determined kind: per capture and channel the smaller spread."""
     least = np.min([f.ident for f in by_kind.values()], axis=0)
-    return {kind: FoldFloors(f.noise, f.impulse, least, f.realized) for kind, f in by_kind.items()}
+    return {kind: FoldFloors(f.noise, f.impulse, least, f.realized, f.noise_sd) for kind, f in by_kind.items()}

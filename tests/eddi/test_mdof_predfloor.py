@@ -65,3 +65,42 @@ def test_the_realized_impulse_error_counts_within_three_of_its_uncertainty() -> 
     joint = joint_floors({"baseline": FoldFloors(z, z, z + 0.013, z + 0.02),
                           "coupled": FoldFloors(z, z, z + 0.007, z + 0.01)})
     assert np.allclose(joint["baseline"].ident, 0.007) and np.allclose(joint["baseline"].realized, 0.02)
+
+
+def test_the_noise_spread_counts_the_few_values_of_integrated_noise() -> None:
+    """Session 20: the doubly integrated, high-passed acceleration noise has the equivalent bandwidth
+    1.45 f_c, so a window of T seconds holds nu = 2.9 f_c T independent values; its RMS spreads by
+    0.5 sqrt(2 / nu) about the expectation."""
+    from types import SimpleNamespace
+
+    from eddi.mdof.predfloor import noise_spread
+
+    t = np.arange(0.0, 4.0, 1 / 2048)
+    rec = SimpleNamespace(t=t, window=(200, 200 + 3 * 2048), highpass_hz=1.5)
+    nu = 2 * 1.4489 * 1.5 * 3.0
+    assert np.isclose(noise_spread(rec), 0.5 * np.sqrt(2 / nu), rtol=2e-3)
+    # a longer window or a higher cut-off: more independent values, less spread
+    assert noise_spread(SimpleNamespace(t=t, window=(0, 8000), highpass_hz=6.0)) < noise_spread(rec)
+    assert noise_spread(SimpleNamespace(t=t, window=(10, 10), highpass_hz=1.5)) == 0.0
+
+
+def test_the_noise_chance_raises_the_channel_floor_not_the_fold_floors() -> None:
+    """The floor of a channel: the folds' mean plus NOISE_SIGMAS standard deviations of that mean
+    (each capture's noise spread through d total / d noise = noise / total); the per-fold floors of the
+    excess gain are unchanged."""
+    from eddi.mdof.predfloor import NOISE_SIGMAS
+
+    noise = np.array([[0.03, 0.004], [0.03, 0.004], [0.03, 0.004], [0.03, 0.004]])
+    imp = np.array([[0.0, 0.003]] * 4)
+    sd = np.array([0.2, 0.2, 0.3, 0.1])
+    fl = FoldFloors(noise, imp, np.zeros_like(noise), noise_sd=sd)
+    got = fl.channel_floors(("a", "b"), 0.001)
+    # channel a: noise alone, total 0.03, chance 0.03 sd_k; channel b: 0.004^2 / 0.005 sd_k
+    assert np.isclose(got["a"], 0.03 + NOISE_SIGMAS * 0.03 * np.sqrt(np.sum(sd**2)) / 4, rtol=1e-12)
+    assert np.isclose(got["b"], 0.005 + NOISE_SIGMAS * 0.0032 * np.sqrt(np.sum(sd**2)) / 4, rtol=1e-12)
+    # session 19's floor (no spread counted): the mean alone
+    assert np.allclose(list(FoldFloors(noise, imp, np.zeros_like(noise)).channel_floors(("a", "b"), 0.001).values()),
+                       [0.03, 0.005])
+    assert np.allclose(fl.fold_floors(0.001), [0.0175] * 4)
+    assert np.isclose(fl.parts(("a", "b"))["chance"]["a"], got["a"] - 0.03)
+    assert fl.take([0, 2]).noise_sd.tolist() == [0.2, 0.3]
