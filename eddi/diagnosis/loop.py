@@ -26,7 +26,8 @@ from eddi.diagnosis import chainfix, mainsfix, smallamp
 from eddi.diagnosis.swing import refit_swing
 from eddi.diagnosis.align import NAME as LAG_NAME
 from eddi.diagnosis.lowpass import NAME as LOWPASS_NAME
-from eddi.diagnosis.pipeline_base import pipeline_text, rejudged
+from eddi.diagnosis.pipeline_base import (PIPELINE_DEPARTS, pipeline_departs, pipeline_text, records_share,  # noqa: F401
+                                          rejudged)
 from eddi.diagnosis.chain import inspect, measured_frequency, record_tones
 from eddi.diagnosis.conservative import stiffness_over_damping
 from eddi.diagnosis.highpass import recondition, sensor_highpass
@@ -47,7 +48,7 @@ from eddi.diagnosis.records import Part, Record, split
 from eddi.diagnosis.results import Candidate, Diagnosis, HeldOut, NoiseFloor, PipelineBaseline, Score, Symptom
 from eddi.diagnosis.settings import (
     DEFAULT_CONSISTENCY, DEFAULT_MARGIN, FITS, MIN_FLOOR, MODAL_DIAGNOSE_STIFFNESS, NAMED_FACTOR, NONE_LIMIT,
-    PIPELINE_NONE_LIMIT, PRED_CAP, STRONG_MARGIN,
+    PRED_CAP, STRONG_MARGIN,
 )
 from eddi.diagnosis.symptoms import baseline_symptoms, notable
 from eddi.diagnosis.tolerance import ChainTolerance, chain_floor, chain_text
@@ -319,48 +320,6 @@ def _symptoms(sh: _Shown) -> list[Symptom]:
     return symptoms + inspect(sh.records, sh.setup.mass, _frequency(sh.bfit_all.eom), tones=sh.tones)
 
 
-#: How the reason :func:`_pipeline_check` gives begins (the verdict's text tells it by this).
-PIPELINE_DEPARTS = "the pipeline's model"
-
-
-def _pipeline_check(pipeline: PipelineBaseline | None, sh: _Shown, none_factor: float, drift: bool = False) -> str:
-    """Why the pipeline's model is not within the floor on the records it did not fit ('' if it is);
-    ``drift``: the captures differ from each other (a ``capture_drift`` symptom), so a model fitted
-    on one capture cannot hold on the others whatever its fit."""
-    if pipeline is None or not pipeline.held_out:
-        return ""
-    floors = [f for p, f in zip(sh.parts, records_share(sh.floor) or sh.floor.data_fold_nrmse or sh.floor.fold_nrmse)
-              if p.record in pipeline.held_out]
-    floor = float(np.mean(floors)) if floors else sh.floor.data_nrmse
-    if pipeline.nrmse <= max(none_factor, PIPELINE_NONE_LIMIT) * floor:  # what nulls reach (session 18)
-        return ""
-    return (f"{PIPELINE_DEPARTS} (as station identify gives it, fitted on {sh.records[pipeline.fit_record].label or 'one record'}) "
-            f"departs from the records it did not fit (held-out nrmse {pipeline.nrmse:.3g}, "
-            f"{pipeline.nrmse / floor:.1f}x the records' own share of the floor {floor:.3g}, the noise and the chain without the folds' refit spread)"
-            + (": the captures differ from each other (below), and a model fitted on one of them does not "
-               "hold on the others" if drift else
-               " although the baseline fitted the pipeline's way on the other records of each fold stays "
-               "within it: the pipeline's fit, not a missing mechanism"
-               if within_floor(sh.res.base_fold, sh.floor, none_factor) else ""))
-
-
-def records_share(floor: NoiseFloor) -> tuple[float, ...]:
-    """Per part, the records' own share of the floor: ``max(MIN_FLOOR, sqrt(d_cond^2 + d_chain^2))``,
-    without ``d_pred`` (``()`` when ``d_cond`` was not measured).
-
-    The pipeline's model is one fit, judged on the records it did not fit: the per-fold
-    procedure's refit spread (``d_pred``) is that procedure's, not the noise's cost to this model,
-    and an ill-determined fold procedure inflated it (session 15: a 775 kg clearance set whose
-    pipeline model missed its held-out records by 0.37 read `none (uncertain)` against a floor of
-    0.14 made mostly of d_pred; the records' own share was 0.07)."""
-    cond = floor.part_conditioning_nrmse
-    if not cond or len(cond) != len(floor.fold_nrmse):
-        return ()
-    chain = floor.chain_nrmse if len(floor.chain_nrmse) == len(cond) else (0.0,) * len(cond)
-    return tuple(max(MIN_FLOOR, float(np.hypot(c, h))) if np.isfinite(c) else f
-                 for c, h, f in zip(cond, chain, floor.fold_nrmse))
-
-
 def _floor_note(dec: Decision, candidates: Sequence[Candidate], floor: NoiseFloor, base: float,
                 margin: float) -> list[str]:
     """A warning when ``none`` rests on a floor that is mostly the baseline's own sensitivity
@@ -389,7 +348,8 @@ def _conclude(sh: _Shown, candidates: list[Candidate], observed: Observed | None
     margin, none_factor, named_factor, strong_margin = rules
     records, res, baseline, floor = sh.records, sh.res, sh.baseline, sh.floor
     f1 = _frequency(sh.bfit_all.eom)
-    departs = _pipeline_check(pipeline, sh, none_factor, any(s.kind == "capture_drift" for s in symptoms))
+    departs = pipeline_departs(pipeline, sh.records, sh.parts, sh.floor, sh.res.base_fold, none_factor,
+                               any(s.kind == "capture_drift" for s in symptoms))
     dec = decide(candidates, res.base_fold, floor, margin, none_factor, named_factor, strong_margin=strong_margin,
                  eddi_fold=res.ref_fold, departs=departs)
     dec = chainfix.named(dec, candidates, res.base_fold, floor, rules, res.ref_fold)

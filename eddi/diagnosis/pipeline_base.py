@@ -16,8 +16,10 @@ from typing import Sequence
 import numpy as np
 
 from eddi.conditioning import ConditionedSignal
-from eddi.diagnosis.records import Record
-from eddi.diagnosis.results import PipelineBaseline
+from eddi.diagnosis.decide import within_floor
+from eddi.diagnosis.records import Part, Record
+from eddi.diagnosis.results import NoiseFloor, PipelineBaseline
+from eddi.diagnosis.settings import MIN_FLOOR, PIPELINE_NONE_LIMIT
 from eddi.terms import DEFAULT_DAMPING, DEFAULT_STIFFNESS
 
 
@@ -120,3 +122,47 @@ def pipeline_text(pipeline: PipelineBaseline, base: float) -> str:
             "needs both within the factor.")
     warn = first_sample_warning(pipeline)
     return text + (f" Warning: {warn}." if warn else "")
+
+
+#: How the reason :func:`pipeline_departs` gives begins (the verdict's text tells it by this).
+PIPELINE_DEPARTS = "the pipeline's model"
+
+
+def pipeline_departs(pipeline: PipelineBaseline | None, records: Sequence[Record], parts: Sequence[Part],
+                     floor_all: NoiseFloor, base_fold: Sequence[float], none_factor: float,
+                     drift: bool = False) -> str:
+    """Why the pipeline's model is not within the floor on the records it did not fit ('' if it is);
+    ``drift``: the captures differ from each other (a ``capture_drift`` symptom), so a model fitted
+    on one capture cannot hold on the others whatever its fit."""
+    if pipeline is None or not pipeline.held_out:
+        return ""
+    floors = [f for p, f in zip(parts, records_share(floor_all) or floor_all.data_fold_nrmse or floor_all.fold_nrmse)
+              if p.record in pipeline.held_out]
+    floor = float(np.mean(floors)) if floors else floor_all.data_nrmse
+    if pipeline.nrmse <= max(none_factor, PIPELINE_NONE_LIMIT) * floor:  # what nulls reach (session 18)
+        return ""
+    return (f"{PIPELINE_DEPARTS} (as station identify gives it, fitted on {records[pipeline.fit_record].label or 'one record'}) "
+            f"departs from the records it did not fit (held-out nrmse {pipeline.nrmse:.3g}, "
+            f"{pipeline.nrmse / floor:.1f}x the records' own share of the floor {floor:.3g}, the noise and the chain without the folds' refit spread)"
+            + (": the captures differ from each other (below), and a model fitted on one of them does not "
+               "hold on the others" if drift else
+               " although the baseline fitted the pipeline's way on the other records of each fold stays "
+               "within it: the pipeline's fit, not a missing mechanism"
+               if within_floor(base_fold, floor_all, none_factor) else ""))
+
+
+def records_share(floor: NoiseFloor) -> tuple[float, ...]:
+    """Per part, the records' own share of the floor: ``max(MIN_FLOOR, sqrt(d_cond^2 + d_chain^2))``,
+    without ``d_pred`` (``()`` when ``d_cond`` was not measured).
+
+    The pipeline's model is one fit, judged on the records it did not fit: the per-fold
+    procedure's refit spread (``d_pred``) is that procedure's, not the noise's cost to this model,
+    and an ill-determined fold procedure inflated it (session 15: a 775 kg clearance set whose
+    pipeline model missed its held-out records by 0.37 read `none (uncertain)` against a floor of
+    0.14 made mostly of d_pred; the records' own share was 0.07)."""
+    cond = floor.part_conditioning_nrmse
+    if not cond or len(cond) != len(floor.fold_nrmse):
+        return ()
+    chain = floor.chain_nrmse if len(floor.chain_nrmse) == len(cond) else (0.0,) * len(cond)
+    return tuple(max(MIN_FLOOR, float(np.hypot(c, h))) if np.isfinite(c) else f
+                 for c, h, f in zip(cond, chain, floor.fold_nrmse))

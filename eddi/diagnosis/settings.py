@@ -72,7 +72,7 @@ NONE_FACTOR = 3.5
 NONE_LIMIT = 2.5
 #: The pipeline's model (one record's fit, judged on the records it did not fit) must be within
 #: ``max(none_factor, this)`` of its records' own share of the floor for ``none``
-#: (``loop._pipeline_check``). Its null distribution is not the judged baseline's: on the
+#: (``pipeline_base.pipeline_departs``). Its null distribution is not the judged baseline's: on the
 #: chain-difference nulls (captures from several acquisition sessions,
 #: ``bench_diagnose_calibration.py --only chainnulls``, seeds 6000-6029) it reached 2.04x (seed 6024,
 #: the judged baseline 1.12x there), the judged baseline at most 1.36x; 2.5 is 2.04 rounded up
