@@ -24,6 +24,7 @@ from typing import Sequence
 
 import numpy as np
 
+from eddi.diagnosis.drift import capture_drift
 from eddi.diagnosis.records import Part, Record
 from eddi.diagnosis.results import Symptom
 from eddi.diagnosis.show import backbone, cycle_energies, spectrum
@@ -287,8 +288,6 @@ def baseline_symptoms(records: Sequence[Record], parts: Sequence[Part], sims: Se
         if np.isfinite(g) and g > THRESHOLDS["growth_ratio"]:
             words += " (it decays too slowly or grows)"
         out.append(Symptom("growth", words, {"ratio": g}))
-    from eddi.diagnosis.drift import capture_drift
-
     drift = capture_drift(rows, [p.record for p in parts], [records[p.record].label or f"capture {p.record + 1}"
                                                              for p in parts],
                           [float(np.max(np.abs(records[p.record].x[p.start:p.stop]))) for p in parts])

@@ -64,16 +64,14 @@ def acc_sigma(record) -> np.ndarray:
 def noisier(record, rng: np.random.Generator):
     """``record`` with a fresh draw of its accelerometers' noise added from the impact on, integrated
     and high-passed as the conditioning does (:func:`eddi.mdof.signals.kinematics`)."""
-    from eddi.calculus import integrate
-    from eddi.mdof.signals import _filtfilt_from_rest
+    from eddi.mdof.signals import motion_from_acc
 
     dt = float(record.t[1] - record.t[0])
     a = np.array(record.a, float)
     start = int(record.impact[0]) if record.impact[1] > 0 else 0
     a[:, start:] += acc_sigma(record)[:, None] * rng.standard_normal((a.shape[0], a.shape[1] - start))
     sos = signal.butter(4, record.highpass_hz, btype="highpass", fs=1.0 / dt, output="sos")
-    v = _filtfilt_from_rest(sos, np.array([integrate(c, dt) for c in a]))
-    x = _filtfilt_from_rest(sos, np.array([integrate(c, dt) for c in v]))
+    v, x = motion_from_acc(a, dt, sos)
     return replace(record, x=x, v=v, a=a)
 
 

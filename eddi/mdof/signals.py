@@ -203,6 +203,14 @@ def impact_window(force: np.ndarray, rest: int, force_sigmas: float = 8.0) -> tu
     return max(start - 1, 0), min(end + 1, f.size)
 
 
+def motion_from_acc(a: np.ndarray, dt: float, sos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity and displacement of every acceleration channel ``a`` (n_channels, n): each integral
+    high-passed zero-phase from rest by ``sos`` (the drift removal of :func:`kinematics`)."""
+    v = _filtfilt_from_rest(sos, np.array([integrate(c, dt) for c in a]))
+    x = _filtfilt_from_rest(sos, np.array([integrate(c, dt) for c in v]))
+    return v, x
+
+
 def kinematics(t: np.ndarray, y: np.ndarray, quantity: str, *, force: np.ndarray | None = None,
                rest: int = 0, highpass_hz: float | None = None, noise_factor: float = 10.0,
                period_s: float = 0.05) -> Kinematics:
@@ -242,8 +250,7 @@ def kinematics(t: np.ndarray, y: np.ndarray, quantity: str, *, force: np.ndarray
         y0[:, :start] = 0.0
     if quantity == "acc":
         a = y0
-        v = _filtfilt_from_rest(sos, np.array([integrate(c, dt) for c in a]))
-        x = _filtfilt_from_rest(sos, np.array([integrate(c, dt) for c in v]))
+        v, x = motion_from_acc(a, dt, sos)
     elif quantity == "vel":
         v = _filtfilt_from_rest(sos, y0)
         x = _filtfilt_from_rest(sos, np.array([integrate(c, dt) for c in v]))
